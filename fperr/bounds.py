@@ -1,0 +1,80 @@
+"""Error bounds of a Tracked quantity, exact and in the paper's integer form.
+
+Section 2: a valid quantity with magnitude c·L^p and relative error 1 + aε + bε² has
+absolute error E ≤ c·L^p·(aε + bε²); when r holds its error is relative to itself and
+R ≤ aε + bε². The paper reports each bound as an integer K ("E ≤ 19εL"): the smallest
+integer with K ≥ c·(a + b·ε) for every ε ≤ 1e-5 (the ε² term is absorbed). Since
+a, b, c ≥ 0 the worst case is ε = 1e-5, so K = ⌈c·(a + b·10⁻⁵)⌉, computed exactly.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy
+
+from .symbols import EPS_MAX, L, eps
+from .tracked import InvalidBound, Tracked
+
+
+@dataclass(frozen=True)
+class Bounds:
+    """``E`` and ``R`` as sympy expressions (``R`` None unless r); ``E_int``/``R_int``
+    the paper's integers (None when not applicable: invalid, or c depends on ε)."""
+
+    valid: bool
+    power: sympy.Rational | None
+    E: sympy.Expr | None
+    R: sympy.Expr | None
+    E_int: int | None
+    R_int: int | None
+    relative: bool
+
+    def E_at(self, epsilon, scale=1):
+        """E evaluated at a numeric ε and L (exact sympy number)."""
+        return self.E.subs({eps: sympy.nsimplify(epsilon), L: sympy.nsimplify(scale)})
+
+    def R_at(self, epsilon):
+        return None if self.R is None else self.R.subs(eps, sympy.nsimplify(epsilon))
+
+    def text(self) -> str:
+        if not self.valid:
+            return "invalid"
+        parts = []
+        if self.R_int is not None:
+            parts.append(f"R ≤ {self.R_int}ε")
+        if self.E_int is not None:
+            parts.append(f"E ≤ {self.E_int}ε{_lpow(self.power)}")
+        return ", ".join(parts) or f"E ≤ {self.E}"
+
+
+def _lpow(p) -> str:
+    return "" if p == 0 else ("L" if p == 1 else f"L^{p}")
+
+
+def paper_integer(coefficient: sympy.Expr, b_term: sympy.Expr = sympy.Integer(0)) -> int | None:
+    """Smallest integer K ≥ coefficient + b_term·ε for all 0 < ε ≤ 1e-5 (None if symbolic)."""
+    val = sympy.nsimplify(coefficient + b_term * EPS_MAX)
+    if val.free_symbols:
+        return None
+    return int(sympy.ceiling(val))
+
+
+def bounds(x: Tracked, strict: bool = False) -> Bounds:
+    """The bounds of ``x``. For an invalid ``x``: ``valid`` False and no bound, or
+    :class:`InvalidBound` when ``strict`` (use that wherever a bound is needed)."""
+    if not x.v:
+        if strict:
+            raise InvalidBound(f"no error bound for {x.label}: {x.why}")
+        return Bounds(False, None, None, None, None, None, False)
+    st = x.state
+    rel = st.a * eps + st.b * eps**2
+    E = sympy.expand(st.c * L**st.p * rel)
+    R = sympy.expand(rel) if st.r else None
+    E_int = paper_integer(st.c * st.a, st.c * st.b)
+    R_int = paper_integer(st.a, st.b) if st.r else None
+    return Bounds(True, st.p, E, R, E_int, R_int, st.r)
+
+
+def error(x: Tracked) -> sympy.Expr:
+    """E[x] as an exact expression; raises :class:`InvalidBound` when x is invalid."""
+    return bounds(x, strict=True).E

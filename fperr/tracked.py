@@ -1,0 +1,275 @@
+"""``Tracked``: a number whose state is the paper's (s, c, p, n, a, b, r, v).
+
+Operators apply rules A–K (section 2, see :mod:`fperr.rules`). State arithmetic is
+exact (sympy); ε appears as a symbol only where a magnitude depends on it
+(tolerances). Comparisons do not decide anything: they return a
+:class:`fperr.checks.Check` record, and ``bool()`` of a Tracked or a Check raises, so a
+predicate cannot branch on a Tracked behind its context's back.
+"""
+from __future__ import annotations
+
+from fractions import Fraction
+from typing import Iterator
+
+import sympy
+
+from . import rules
+from .exact import is_exact, to_fraction
+from .rules import NoRule, State
+
+
+class InvalidBound(ValueError):
+    """A bound was requested for a quantity whose estimate is not valid (v = 0)."""
+
+
+class Tracked:
+    """A quantity with the paper's floating-point error state.
+
+    Attributes: ``s`` (canonical string of the computation), ``state`` (c, p, n, a, b,
+    r; None when invalid), ``v`` (valid), ``rule`` (the rule ID that produced it),
+    ``args`` (operands), ``why`` (reason when invalid), ``inv`` (a quotient whose c = 1
+    holds only once it is multiplied into a normalised quantity: rule G's "*").
+    """
+
+    __slots__ = ("s", "state", "rule", "args", "why", "inv", "name")
+    __array_priority__ = 1000  # so numpy scalars defer to our reflected operators
+
+    def __init__(self, s: str, state: State | None, rule: str, args: tuple = (),
+                 why: str = "", inv: bool = False, name: str | None = None):
+        self.s = s
+        self.state = state
+        self.rule = rule
+        self.args = args
+        self.why = why
+        self.inv = inv
+        self.name = name
+
+    # -- the paper's fields -------------------------------------------------
+    @property
+    def v(self) -> bool:
+        return self.state is not None
+
+    def _field(self, f):
+        if self.state is None:
+            raise InvalidBound(f"{self.label} is invalid: {self.why}")
+        return getattr(self.state, f)
+
+    c = property(lambda self: self._field("c"))
+    p = property(lambda self: self._field("p"))
+    n = property(lambda self: self._field("n"))
+    a = property(lambda self: self._field("a"))
+    b = property(lambda self: self._field("b"))
+    r = property(lambda self: self._field("r"))
+
+    @property
+    def label(self) -> str:
+        return self.name or self.s
+
+    # -- construction ---------------------------------------------------------
+    @staticmethod
+    def _invalid(s, rule, args, why) -> "Tracked":
+        return Tracked(s, None, rule, args, why)
+
+    @staticmethod
+    def _apply(s: str, candidates, args, fn_args) -> "Tracked":
+        bad = [x for x in args if not x.v]
+        if bad:
+            return Tracked._invalid(s, candidates[0], args, f"operand {bad[0].label} is invalid")
+        errors = []
+        for rid in candidates:
+            try:
+                st = getattr(rules, "rule_" + rid)(*fn_args)
+            except NoRule as e:
+                errors.append(str(e))
+                continue
+            return Tracked(s, _simplify(st), rid, args)
+        return Tracked._invalid(s, candidates[-1], args, "; ".join(errors))
+
+    # -- operators -------------------------------------------------------------
+    def __neg__(self) -> "Tracked":
+        if self.inv:
+            return self._invalid(f"(-{self.s})", "A", (self,), _INV_MSG)
+        return self._apply(f"(-{self.s})", ("A",), (self,), (self.state,))
+
+    def __pos__(self) -> "Tracked":
+        return self
+
+    def __abs__(self) -> "Tracked":
+        if self.inv:
+            return self._invalid(f"|{self.s}|", "I", (self,), _INV_MSG)
+        return self._apply(f"|{self.s}|", ("I",), (self,), (self.state,))
+
+    def _binary(self, other, op: str, reflected: bool = False) -> "Tracked":
+        other = _lift(other)
+        if other is NotImplemented:
+            return NotImplemented
+        x, y = (other, self) if reflected else (self, other)
+        s = f"({x.s}{op}{y.s})"
+        if op in "+-":
+            if x.inv or y.inv:
+                return self._invalid(s, rules.BINARY[op][-1], (x, y), _INV_MSG)
+            return self._apply(s, rules.BINARY[op], (x, y), (x.state, y.state))
+        if op == "*":
+            out = self._apply(s, ("F",), (x, y), (x.state, y.state, x.s == y.s))
+            if out.v and (x.inv or y.inv):
+                # Rule G's "*": the product of a quotient is a normalised quantity, c = 1.
+                st = out.state
+                out.state = State(sympy.Integer(1), st.p, st.n, st.a, st.b, st.r)
+            return out
+        if op == "/":
+            if x.inv or y.inv:
+                return self._invalid(s, "G", (x, y), _INV_MSG)
+            out = self._apply(s, ("G",), (x, y), (x.state, y.state))
+            out.inv = out.v
+            return out
+        raise AssertionError(op)
+
+    def __add__(self, o): return self._binary(o, "+")
+    def __radd__(self, o): return self._binary(o, "+", True)
+    def __sub__(self, o): return self._binary(o, "-")
+    def __rsub__(self, o): return self._binary(o, "-", True)
+    def __mul__(self, o): return self._binary(o, "*")
+    def __rmul__(self, o): return self._binary(o, "*", True)
+    def __truediv__(self, o): return self._binary(o, "/")
+    def __rtruediv__(self, o): return self._binary(o, "/", True)
+
+    def __pow__(self, k):
+        """x**k for an integer k ≥ 1 is evaluated as repeated multiplication, left to right."""
+        if not isinstance(k, int) or isinstance(k, bool) or k < 1:
+            raise TypeError("Tracked ** k needs an integer k >= 1 (written as products)")
+        out = self
+        for _ in range(k - 1):
+            out = out * self
+        return out
+
+    # -- comparisons: records, not decisions -------------------------------------
+    def _check(self, other, rel):
+        from .checks import Check
+        other = _lift(other)
+        if other is NotImplemented:
+            return NotImplemented
+        return Check(self, other, rel)
+
+    def __le__(self, o): return self._check(o, "<=")
+    def __lt__(self, o): return self._check(o, "<")
+    def __ge__(self, o): return self._check(o, ">=")
+    def __gt__(self, o): return self._check(o, ">")
+
+    def __bool__(self):
+        raise TypeError(f"the truth value of Tracked {self.label} is undecided; "
+                        "route decisions through a predicate context")
+
+    __hash__ = object.__hash__
+
+    # -- display ----------------------------------------------------------------
+    def __repr__(self) -> str:
+        if not self.v:
+            return f"Tracked({self.label!r}, invalid: {self.why})"
+        st = self.state
+        flags = "".join(f for f, on in (("n", st.n), ("r", st.r)) if on)
+        return (f"Tracked({self.label!r}, rule {self.rule}, c={st.c}, p={st.p}, "
+                f"a={st.a}, b={st.b}, flags={flags or '-'})")
+
+    def walk(self) -> Iterator["Tracked"]:
+        """Every quantity this one was computed from, operands first, each once."""
+        seen: set[int] = set()
+        stack = [(self, False)]
+        while stack:
+            x, done = stack.pop()
+            if id(x) in seen:
+                continue
+            if done or not x.args:
+                seen.add(id(x))
+                yield x
+            else:
+                stack.append((x, True))
+                stack.extend((a, False) for a in reversed(x.args) if id(a) not in seen)
+
+    def derivation(self) -> str:
+        """One line per step: which rule produced which state (a readable proof trace)."""
+        lines = []
+        for x in self.walk():
+            if not x.v:
+                body = f"invalid ({x.why})"
+            else:
+                st = x.state
+                body = (f"c={st.c}  p={st.p}  a={st.a}  b={st.b}  "
+                        f"n={int(st.n)} r={int(st.r)}" + ("  [c=1*]" if x.inv else ""))
+            lines.append(f"[{x.rule}] {x.label} : {body}")
+        return "\n".join(lines)
+
+
+_INV_MSG = "a quotient (rule G, c = 1*) may only be multiplied into a normalised quantity"
+
+
+def _simplify(st: State) -> State:
+    f = lambda e: sympy.nsimplify(e) if isinstance(e, sympy.Float) else sympy.radsimp(e)
+    return State(f(st.c), sympy.nsimplify(st.p), st.n, f(st.a), f(st.b), st.r)
+
+
+def _lift(x):
+    if isinstance(x, Tracked):
+        return x
+    try:
+        return const(x)
+    except (TypeError, ValueError):
+        return NotImplemented
+
+
+def coord(name: str) -> Tracked:
+    """Rule K: an input coordinate, exact, magnitude L/2."""
+    return Tracked(name, rules.rule_K(), "K")
+
+
+def exact_input(name: str, c=1, p=1, nonnegative: bool = False) -> Tracked:
+    """An exact input of magnitude c·L^p (rule K generalised: e.g. the scale L itself)."""
+    st = State(sympy.sympify(c), sympy.sympify(p), nonnegative,
+               sympy.Integer(0), sympy.Integer(0), True)
+    return Tracked(name, st, "K")
+
+
+def const(x, exact: bool | None = None, name: str | None = None) -> Tracked:
+    """Rule J: a numeric constant.
+
+    ``x`` may be an int, Fraction, float, decimal string ("0.1"), or a sympy expression
+    (possibly in ``eps``: ``const(21*eps)``). It is exact when every format the analysis
+    covers (significand ≥ 17 bits) holds it (see :mod:`fperr.exact`); otherwise it is
+    rounded once on entry and carries a = 1. ``exact=True`` refuses an inexact constant
+    instead; ``exact=False`` forces the rounding error.
+    """
+    value = sympy.sympify(x) if not isinstance(x, (int, float, Fraction, str)) else None
+    if value is None:
+        q = to_fraction(x)
+        value = sympy.Rational(q.numerator, q.denominator)
+    representable = _representable(value)
+    if exact and not representable:
+        raise ValueError(f"constant {x!r} is not exactly representable in a 17-bit format")
+    use_exact = representable if exact is None else (exact and representable)
+    s = name or _const_string(value)
+    return Tracked(s, rules.rule_J(value, use_exact), "J")
+
+
+def _representable(value: sympy.Expr) -> bool:
+    """Exact when value = q·ε^k with q a short dyadic and k an integer (ε is a power of 2)."""
+    from .symbols import eps
+    coeff, rest = value.as_coeff_Mul()
+    if rest == 1:
+        q = to_fraction(coeff)
+        return q is not None and is_exact(q)
+    powers = rest.as_powers_dict()
+    if set(powers) != {eps} or not sympy.sympify(powers[eps]).is_integer:
+        return False
+    q = to_fraction(coeff)
+    return q is not None and is_exact(q)
+
+
+def _const_string(v: sympy.Expr) -> str:
+    return str(v) if v.is_Atom else f"[{v}]"
+
+
+def sqrt(x) -> Tracked:
+    """Rule H: the square root of a non-negative quantity with relative error."""
+    x = _lift(x)
+    if x.v and x.inv:
+        return Tracked._invalid(f"sqrt({x.s})", "H", (x,), _INV_MSG)
+    return Tracked._apply(f"sqrt({x.s})", ("H",), (x,), (x.state,))
