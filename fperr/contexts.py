@@ -4,7 +4,8 @@ A predicate is written once against a context ``ctx`` (the mpmath ``ctx`` idiom;
 docs/design.md). Decisions go through the context, never through ``if`` on a number:
 
 * ``ctx.reject(cond, line)`` — True when the caller must return ``ctx.miss()`` now;
-* ``ctx.any(*conds)``, ``ctx.same_sign(x, y)`` — combine conditions;
+* ``ctx.any(*conds)``, ``ctx.same_sign(x, y)``, ``ctx.differ_sign(x, y)`` — combine
+  conditions (sign tests compare against zero);
 * ``ctx.hit(weights)`` / ``ctx.miss()`` — the predicate's result;
 * ``ctx.sqrt``, ``ctx.const``, ``ctx.name(label, x)`` — arithmetic and labelling.
 
@@ -89,6 +90,9 @@ class FloatContext(Context):
     def same_sign(self, x, y):
         return (x > 0) == (y > 0)
 
+    def differ_sign(self, x, y):
+        return (x > 0) != (y > 0)
+
     def hit(self, weights):
         return True, tuple(weights)
 
@@ -129,7 +133,7 @@ class MpContext(FloatContext):
             m = mpmath.mpf(v)
             if not mpmath.isfinite(m):
                 raise ValueError(f"point {label} has a non-finite coordinate")
-            if _mp_to_fraction(m) != _to_fraction_any(v):
+            if mp_to_fraction(m) != _to_fraction_any(v):
                 raise ValueError(f"coordinate {v!r} of {label} is not representable with "
                                  f"{self.prec} bits; round the inputs first (the analysis "
                                  "assumes exact coordinates)")
@@ -140,14 +144,17 @@ class MpContext(FloatContext):
         return False, (mpmath.mpf(0),) * self.n_weights
 
 
-def _mp_to_fraction(m) -> Fraction:
-    man, exp = mpmath.mpf(m).man_exp
-    return Fraction(man) * (Fraction(2) ** exp)
+def mp_to_fraction(m) -> Fraction:
+    """The exact value of an mpmath mpf (``man_exp`` drops the sign)."""
+    m = mpmath.mpf(m)
+    man, exp = m.man_exp
+    q = Fraction(man) * (Fraction(2) ** exp)
+    return -q if m < 0 else q
 
 
 def _to_fraction_any(v) -> Fraction:
     if isinstance(v, mpmath.mpf):
-        return _mp_to_fraction(v)
+        return mp_to_fraction(v)
     if isinstance(v, (np.floating, np.integer)):
         return Fraction(v.item())
     return Fraction(v)
@@ -200,6 +207,9 @@ class NumpyContext(Context):
 
     def same_sign(self, x, y):
         return (x > 0) == (y > 0)
+
+    def differ_sign(self, x, y):
+        return (x > 0) != (y > 0)
 
     def hit(self, weights):
         n = self.active.shape[0]
@@ -269,6 +279,8 @@ class TrackedContext(Context):
     def same_sign(self, x, y):
         zero = _t.const(0)
         return [Check(x, zero, ">", label="sign"), Check(y, zero, ">", label="sign")]
+
+    differ_sign = same_sign  # the same two sign tests are recorded
 
     def hit(self, weights):
         self.weights = tuple(weights)

@@ -1,0 +1,136 @@
+"""One predicate source, four number systems.
+
+A predicate is a plain function ``f(ctx, A, B, ..., tol)`` written against a
+:class:`fperr.Context`. :class:`Predicate` wraps it into the public callable
+``f(A, B, ..., tol, ctx=None)`` that picks the number system from the inputs
+(Tracked → instrumented, numpy arrays → batch, mpmath → mpmath, else Python floats),
+validates and converts the points, and runs the body in the context's session.
+"""
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+
+import mpmath
+import numpy as np
+
+import fperr
+from fperr import MpContext, NumpyContext, TrackedContext
+
+from .tolerances import Tolerances, tracked_tolerances
+
+
+@dataclass(frozen=True)
+class Instrumented:
+    """Result of an instrumented run: named quantities, recorded checks, weights."""
+
+    algorithm: str
+    dim: int
+    quantities: dict
+    checks: list
+    weights: tuple
+
+
+class Predicate:
+    """A predicate of the paper, callable in every number system (see module doc)."""
+
+    def __init__(self, fn, dim: int, points: str, weights: tuple, algorithm: int):
+        self.fn = fn
+        self.dim = dim
+        self.points = tuple(points)
+        self.weight_names = tuple(weights)
+        self.algorithm = algorithm
+        self.name = fn.__name__
+        functools.update_wrapper(self, fn)
+
+    def __repr__(self):
+        return f"<predicate {self.dim}D {self.name}({', '.join(self.points)}, tol)>"
+
+    def __call__(self, *args, ctx: fperr.Context | None = None):
+        if len(args) != len(self.points) + 1:
+            raise TypeError(f"{self.name} takes points {', '.join(self.points)} and tol "
+                            f"({len(self.points) + 1} arguments), got {len(args)}")
+        *pts, tol = args
+        if not isinstance(tol, Tolerances) or tol.dim != self.dim:
+            raise TypeError(f"{self.name}: tol must be {self.dim}D Tolerances "
+                            "(predicates.tolerances(...))")
+        ctx = ctx if ctx is not None else fperr.context_for(*pts)
+        lanes = None
+        if isinstance(ctx, NumpyContext):
+            pts, lanes = self._batch_points(pts, ctx)
+        elif not isinstance(ctx, TrackedContext):
+            self._check_scalar_points(pts)
+        run = ctx.fresh(len(self.weight_names), lanes)
+        tol_values = self._tolerances_for(tol, run)
+        with run.session():
+            coords = [run.coords(p, lbl) for p, lbl in zip(pts, self.points)]
+            return self.fn(run, *coords, tol_values)
+
+    # -- input handling ------------------------------------------------------------
+    def _check_scalar_points(self, pts):
+        for p, lbl in zip(pts, self.points):
+            if np.ndim(p) != 1 or len(p) != self.dim:
+                raise ValueError(f"{self.name}: point {lbl} must have {self.dim} "
+                                 f"coordinates, got {p!r}")
+
+    def _batch_points(self, pts, ctx):
+        arrs = [np.asarray(p) for p in pts]
+        for a, lbl in zip(arrs, self.points):
+            if a.ndim not in (1, 2) or a.shape[-1] != self.dim:
+                raise ValueError(f"{self.name}: {lbl} must have shape (n, {self.dim}) or "
+                                 f"({self.dim},), got {a.shape}")
+            if a.dtype != ctx.dtype:
+                raise TypeError(f"{self.name}: {lbl} has dtype {a.dtype}; all points must "
+                                f"be {ctx.dtype} (convert explicitly: rounding changes the "
+                                "geometry)")
+        try:
+            arrs = np.broadcast_arrays(*[a.reshape(-1, self.dim) for a in arrs])
+        except ValueError as e:
+            raise ValueError(f"{self.name}: point arrays have different lengths") from e
+        return arrs, arrs[0].shape[0]
+
+    def _tolerances_for(self, tol: Tolerances, run):
+        if isinstance(run, TrackedContext):
+            if isinstance(tol.ctx, TrackedContext):
+                return tol
+            raise TypeError("instrumented inputs need predicates.tracked_tolerances(dim)")
+        if isinstance(tol.ctx, TrackedContext):
+            raise TypeError("tracked tolerances can only be used with Tracked points")
+        if float(tol.eps) < float(run.eps):
+            raise ValueError(f"{self.name}: tolerances were computed for ε = {float(tol.eps)!r}"
+                             f" but the arithmetic has ε = {float(run.eps)!r}; compute them "
+                             "for this format (predicates.tolerances(..., dtype=...))")
+        if isinstance(run, NumpyContext):
+            vals = {k: run.dtype.type(v) for k, v in tol.values.items()}
+        elif isinstance(run, MpContext):
+            with mpmath.workprec(run.prec):
+                vals = {k: mpmath.mpf(v) for k, v in tol.values.items()}
+        else:
+            vals = {k: float(v) for k, v in tol.values.items()}
+        return Tolerances(tol.dim, tol.L, tol.eps, run, vals)
+
+    # -- instrumented run --------------------------------------------------------------
+    def instrumented(self) -> Instrumented:
+        """Run the predicate on Tracked coordinates (rule K) and tracked tolerances."""
+        return _instrumented(self)
+
+
+@functools.lru_cache(maxsize=None)
+def _instrumented(pred: Predicate) -> Instrumented:
+    axes = "xyz"[: pred.dim]
+    pts = [tuple(fperr.coord(f"{p}.{a}") for a in axes) for p in pred.points]
+    run = TrackedContext().fresh(len(pred.weight_names))
+    tol = tracked_tolerances(pred.dim)
+    coords = [run.coords(p, lbl) for p, lbl in zip(pts, pred.points)]
+    pred.fn(run, *coords, tol)
+    for name, w in zip(pred.weight_names, run.weights):
+        w.name = name
+    return Instrumented(pred.name, pred.dim, dict(run.quantities), list(run.checks),
+                        run.weights)
+
+
+def predicate(dim: int, points: str, weights: tuple = (), algorithm: int = 0):
+    """Decorator: register ``fn(ctx, *points, tol)`` as a :class:`Predicate`."""
+    def wrap(fn):
+        return Predicate(fn, dim, points, weights, algorithm)
+    return wrap

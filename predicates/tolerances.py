@@ -1,0 +1,195 @@
+"""Tolerance computation (Algorithms 1 and 6, sections 4.1 and 5.1).
+
+L is computed as the paper does, in the working precision,
+L = (1 + 5ε)/(1 − 7ε^g)·(L_a + L_b) (g = 1/2 in 2D, 1/4 in 3D), and then rounded *up* to
+⌊prec/4⌋ significant bits. Rounding up keeps L an upper bound of L̂ (the only property
+the proofs use, F[L] > L̂); the short significand makes L², L³, L⁴ exact in the working
+precision (13 bits in binary64: L grows by at most 2^-12 ≈ 0.02%; 6 bits in binary32:
+at most 3%). Each tolerance T = C·ε^q·L^p is then computed as
+
+    T = root_k(C^k·ε^(qk)) · L^p,     k = denominator of q (1, 2 or 4),
+
+where C^k·ε^(qk) is an exact constant (rule J: C^k fits 17 bits, ε is a power of two),
+root_k is k = 2: one sqrt (rule H), k = 4: two, and one product (rule F). The same
+function runs instrumented and derives R[T] ≤ 3ε for every tolerance (paper: ≤ 4ε).
+Evaluated literally, Algorithm 6 cannot reach 4ε for λ, φ, ν, ζ under rules A–K
+(L⁴ alone costs a = 3, the constant product one more): see docs/errata.md.
+
+ε is the unit roundoff of the format (binary64: 2^-53, binary32: 2^-24, a p-bit mpmath
+context: 2^-p): the standard model |F[x∘y] − x∘y| ≤ u·|x∘y| holds with u, and using the
+machine epsilon 2u would only widen every tolerance by √2 or 2^(1/4) for no benefit.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from fractions import Fraction
+
+import mpmath
+import numpy as np
+import sympy
+
+import fperr
+from fperr.contexts import mp_to_fraction
+from fperr import FloatContext, MpContext, NumpyContext, TrackedContext
+
+from .tolerance_table import L_ROOT, L_SIGMA_PLUS, TABLES
+
+NAMES_2D = ("sigma", "tau", "sigma_hat", "kappa")
+NAMES_3D = ("sigma", "tau", "delta", "gamma", "sigma_hat", "lam", "phi", "nu", "zeta",
+            "mu", "xi", "rho")
+
+
+@dataclass
+class Tolerances:
+    """Every tolerance of Figure 1 (dim 2) or Figure 5 (dim 3) in the working format.
+
+    ``values[name]`` is also reachable as an attribute (``tol.sigma``); ``L`` and
+    ``eps`` are the scale and unit roundoff they were computed for; ``ctx`` is the
+    number system (a :class:`fperr.Context`).
+    """
+
+    dim: int
+    L: object
+    eps: object
+    ctx: object
+    values: dict = field(default_factory=dict)
+
+    def __getattr__(self, name):
+        try:
+            return self.__dict__["values"][name]
+        except KeyError:
+            raise AttributeError(name) from None
+
+    def names(self):
+        return tuple(self.values)
+
+    def as_floats(self) -> dict:
+        return {"L": float(self.L), "eps": float(self.eps),
+                **{k: float(v) for k, v in self.values.items()}}
+
+    def scaled(self, factor) -> "Tolerances":
+        """The same tolerances times ``factor`` (0 gives the naive zero-tolerance run)."""
+        vals = {k: v * factor for k, v in self.values.items()}
+        return Tolerances(self.dim, self.L, self.eps, self.ctx, vals)
+
+
+def _precision(ctx) -> int:
+    if isinstance(ctx, NumpyContext):
+        return np.finfo(ctx.dtype).nmant + 1
+    if isinstance(ctx, MpContext):
+        return ctx.prec
+    return 53
+
+
+def round_up_bits(x: Fraction, bits: int) -> Fraction:
+    """The smallest number ≥ x (x > 0) with a ``bits``-bit significand."""
+    if x <= 0:
+        raise ValueError("L must be positive")
+    e = math.floor(math.log2(x.numerator) - math.log2(x.denominator)) - bits + 1
+    while Fraction(2) ** (e + bits - 1) > x:  # fix float log2 rounding
+        e -= 1
+    while Fraction(2) ** (e + bits) <= x:
+        e += 1
+    unit = Fraction(2) ** e
+    return math.ceil(x / unit) * unit
+
+
+def compute_L(dim: int, L_a, L_b, ctx) -> object:
+    """L of Algorithms 1/6, in the working precision, rounded up to ⌊prec/4⌋ bits."""
+    with ctx.session():
+        eps = ctx.const(ctx.eps)
+        root = ctx.sqrt(eps)
+        if dim == 3:
+            root = ctx.sqrt(root)
+        L = (ctx.const(1) + ctx.const(5) * eps) / (ctx.const(1) - ctx.const(L_SIGMA_PLUS) * root) \
+            * (ctx.const(L_a) + ctx.const(L_b))
+        q = _fraction(L)
+        return ctx.const(_exact_value(round_up_bits(q, _precision(ctx) // 4), ctx))
+
+
+def _fraction(x) -> Fraction:
+    if isinstance(x, mpmath.mpf):
+        return mp_to_fraction(x)
+    return Fraction(float(x))
+
+
+def _exact_value(q: Fraction, ctx):
+    """q as a number of the working format (q is representable by construction)."""
+    if isinstance(ctx, MpContext):
+        with mpmath.workprec(ctx.prec):
+            v = mpmath.mpf(q.numerator) / q.denominator
+        return v
+    return float(q)
+
+
+def tolerance_values(dim: int, L_power, ctx) -> dict:
+    """Every tolerance T = root_k(C^k ε^(qk))·L^p of Figure 1/5 (see module docstring).
+
+    ``L_power(p)`` returns L^p in the working format (exact). One source for every
+    number system: with a :class:`fperr.TrackedContext` it derives R[T].
+    """
+    out = {}
+    for name, spec in TABLES[dim].items():
+        k = int(spec.q.q)  # denominator of q: 1, 2 or 4
+        power = int(spec.q * k)
+        C = Fraction(int(spec.mid.p), int(spec.mid.q)) ** k
+        x = ctx.const(_eps_constant(C, power, ctx))
+        while k > 1:
+            x, k = ctx.sqrt(x), k // 2
+        out[name] = ctx.name(name, x * L_power(spec.p))
+    return out
+
+
+def _eps_constant(C: Fraction, power: int, ctx):
+    if isinstance(ctx, TrackedContext):
+        return sympy.Rational(C.numerator, C.denominator) * fperr.eps ** power
+    if isinstance(ctx, MpContext):
+        with mpmath.workprec(ctx.prec):
+            return mpmath.mpf(C.numerator) / C.denominator * ctx.eps ** power
+    return float(C * Fraction(ctx.eps) ** power)
+
+
+def _context(dtype) -> object:
+    if isinstance(dtype, fperr.Context):
+        return dtype
+    if dtype is None or dtype is float:
+        return FloatContext()
+    if isinstance(dtype, str) and dtype.startswith("mp"):
+        return MpContext(int(dtype[2:]))
+    return NumpyContext(dtype)
+
+
+def tolerances(dim: int, L_a, L_b, dtype=np.float64) -> Tolerances:
+    """Tolerances for meshes whose primitives' largest bounding-box edges are L_a, L_b.
+
+    ``dtype``: numpy.float64 / numpy.float32 (values are numpy scalars of that type),
+    ``float`` (Python floats, binary64), ``"mp17"`` or an :class:`fperr.MpContext`.
+    """
+    if dim not in (2, 3):
+        raise ValueError(f"dim must be 2 or 3, not {dim!r}")
+    for name, v in (("L_a", L_a), ("L_b", L_b)):
+        if not (math.isfinite(float(v)) and float(v) >= 0):
+            raise ValueError(f"{name} must be finite and non-negative, got {v!r}")
+    if float(L_a) + float(L_b) <= 0:
+        raise ValueError("L_a + L_b must be positive (both meshes are single points?)")
+    ctx = _context(dtype)
+    L = compute_L(dim, L_a, L_b, ctx)
+    with ctx.session():
+        powers = {p: L ** p for p in (1, 2, 3, 4)}
+        for p, v in powers.items():
+            if _fraction(v) != _fraction(L) ** p:
+                raise ArithmeticError(f"L^{p} is not exact (overflow or underflow: L = {L})")
+        values = tolerance_values(dim, powers.__getitem__, ctx)
+    return Tolerances(dim, L, ctx.eps, ctx, values)
+
+
+def tracked_tolerances(dim: int) -> Tolerances:
+    """The tolerances as :class:`fperr.Tracked` (instrumented run of the same code)."""
+    ctx = TrackedContext()
+    powers = {p: fperr.exact_input("L" if p == 1 else f"L^{p}", 1, p, nonnegative=True)
+              for p in (1, 2, 3, 4)}
+    values = tolerance_values(dim, powers.__getitem__, ctx)
+    for name, t in values.items():  # keep the paper's short names in check records
+        t.s = name
+    return Tolerances(dim, powers[1], fperr.eps, ctx, values)
