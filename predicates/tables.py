@@ -1,0 +1,115 @@
+"""``fperr tables``: the derived error bound of every quantity the paper names.
+
+Every figure comes from running the predicates (and the tolerance computation)
+instrumented with :class:`fperr.Tracked`; nothing is typed in from the paper. Kinds:
+``E`` (absolute, coefficient·ε·L^power), ``R`` (relative, coefficient·ε) and ``M`` (the
+magnitude bound c·L^power, e.g. the paper's "m² ≤ 12L⁴"). Coefficients are the paper's
+integer form (see :func:`fperr.paper_integer`); ``exact`` is the exact sympy expression.
+"""
+from __future__ import annotations
+
+import json
+
+import sympy
+
+import fperr
+
+from . import ALL
+from .tolerances import tracked_tolerances
+
+
+def records(dims=(2, 3)) -> list[dict]:
+    """One record per (quantity, kind) for every algorithm of the given dimensions."""
+    out = []
+    for dim in dims:
+        for name, t in tracked_tolerances(dim).values.items():
+            b = fperr.bounds(t)
+            out.append(_rec(dim, "tolerances", name, "R", b.R_int, 0, b.R))
+        for pred in ALL[dim]:
+            ins = pred.instrumented()
+            for q, x in ins.quantities.items():
+                b = fperr.bounds(x)
+                if not b.valid:
+                    continue
+                out.append(_rec(dim, pred.name, q, "E", b.E_int, b.power, b.E))
+                if b.R is not None:
+                    out.append(_rec(dim, pred.name, q, "R", b.R_int, 0, b.R))
+                c = x.state.c
+                if not c.free_symbols:
+                    out.append(_rec(dim, pred.name, q, "M", fperr.paper_integer(c), b.power,
+                                    c * fperr.L ** b.power))
+    return out
+
+
+def _rec(dim, alg, q, kind, coef, power, exact):
+    return {"dim": dim, "algorithm": alg, "quantity": q, "kind": kind,
+            "coefficient": coef, "power": _num(power), "exact": str(exact)}
+
+
+def _num(p):
+    p = sympy.nsimplify(p)
+    return int(p) if p.is_integer else float(p)
+
+
+def _lp(power) -> str:
+    return {0: "", 1: "L"}.get(power, f"L^{power}")
+
+
+def _text(r) -> str:
+    sym = {"E": "E", "R": "R", "M": r"\|x\|"}[r["kind"]]
+    eps = "" if r["kind"] == "M" else "ε"
+    return f"{sym} ≤ {r['coefficient']}{eps}{_lp(r['power'])}"
+
+
+def render(recs: list[dict], fmt: str) -> str:
+    if fmt == "json":
+        return json.dumps(recs, indent=1, ensure_ascii=False)
+    if fmt == "latex":
+        rows = [r"\begin{tabular}{rllll}", r"dim & algorithm & quantity & bound & exact \\ \hline"]
+        for r in recs:
+            rows.append(f"{r['dim']} & {r['algorithm'].replace('_', ' ')} & "
+                        f"${_latex_name(r['quantity'])}$ & ${_latex_bound(r)}$ & "
+                        f"${_latex_expr(r['exact'])}$ \\\\")
+        rows.append(r"\end{tabular}")
+        return "\n".join(rows)
+    lines = ["| dim | algorithm | quantity | bound | exact |", "|---|---|---|---|---|"]
+    for r in recs:
+        lines.append(f"| {r['dim']} | {r['algorithm']} | {r['quantity']} | {_text(r)} | "
+                     f"`{r['exact']}` |")
+    return "\n".join(lines)
+
+
+_SYMS = {"eps": fperr.eps, "L": fperr.L}
+
+
+def _latex_expr(text: str) -> str:
+    return sympy.latex(sympy.sympify(text, locals=_SYMS), symbol_names={fperr.eps: r"\epsilon"})
+
+
+def _latex_name(q: str) -> str:
+    base, _, sub = q.partition("_")
+    greek = {"sigma": r"\sigma", "tau": r"\tau", "kappa": r"\kappa", "delta": r"\delta",
+             "gamma": r"\gamma", "lam": r"\lambda", "phi": r"\phi", "nu": r"\nu",
+             "zeta": r"\zeta", "mu": r"\mu", "xi": r"\xi", "rho": r"\rho"}
+    if q.endswith("_hat") or q.endswith("_bar"):
+        acc = r"\hat" if q.endswith("_hat") else r"\bar"
+        core = q[:-4]
+        return f"{acc}{{{greek.get(core, core)}}}"
+    return greek.get(base, base) + (f"_{{{sub}}}" if sub else "")
+
+
+def _latex_bound(r) -> str:
+    sym = {"E": r"\mathcal{E}", "R": r"\mathcal{R}", "M": "|x|"}[r["kind"]]
+    eps = "" if r["kind"] == "M" else r"\epsilon "
+    return f"{sym} \\le {r['coefficient']}{eps}{_lp(r['power'])}"
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("--dim", type=int, choices=(2, 3), help="only this dimension")
+    parser.add_argument("--format", choices=("md", "latex", "json"), default="md")
+
+
+def run(args) -> int:
+    dims = (args.dim,) if args.dim else (2, 3)
+    print(render(records(dims), args.format))
+    return 0

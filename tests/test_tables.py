@@ -1,0 +1,85 @@
+"""`fperr tables` reproduces every "Floating point:" figure of sections 4 and 5.
+
+The expectations below are typed in from the paper (it is the test oracle); the library
+derives its figures by running each predicate instrumented.
+"""
+import json
+
+import pytest
+
+from predicates.tables import records, render
+from proofs.cli import main
+
+# (dim, algorithm, quantity, kind) -> coefficient, power; from the paper's
+# "Floating point:" lines (sections 4.2-4.5, 5.2-5.7).
+PAPER = {
+    (2, "vertex_vertex", "d2", "R"): (5, 0), (2, "vertex_vertex", "d2", "E"): (9, 2),
+    (2, "edge_vertex", "m", "R"): (4, 0), (2, "edge_vertex", "m", "E"): (5, 1),
+    (2, "edge_vertex", "d", "E"): (19, 1), (2, "edge_vertex", "a_hat", "E"): (19, 1),
+    (2, "edge_vertex", "a_bar", "E"): (26, 1),
+    **{(2, "edge_edge", q, "E"): (9, 2) for q in ("a_P", "a_Q", "a_A", "a_B")},
+    **{(2, "triangle_vertex", q, "E"): (9, 2) for q in ("a_A", "a_B", "a_C")},
+    (3, "vertex_vertex", "d2", "R"): (6, 0), (3, "vertex_vertex", "d2", "E"): (16, 2),
+    (3, "edge_vertex", "m", "R"): (4, 0), (3, "edge_vertex", "m", "E"): (7, 1),
+    (3, "edge_vertex", "d2", "E"): (261, 2), (3, "edge_vertex", "a_hat", "E"): (31, 1),
+    (3, "edge_vertex", "a_bar", "E"): (42, 1),
+    (3, "edge_edge", "m2", "E"): (129, 4), (3, "edge_edge", "d_hat", "E"): (47, 3),
+    (3, "edge_edge", "d_hat2", "E"): (589, 6), (3, "edge_edge", "a_hat", "E"): (129, 4),
+    (3, "edge_edge", "b_hat", "E"): (129, 4), (3, "edge_edge", "a_bar", "E"): (281, 4),
+    (3, "edge_edge", "b_bar", "E"): (281, 4), (3, "edge_edge", "m2", "M"): (12, 4),
+    (3, "triangle_vertex", "m2", "E"): (129, 4), (3, "triangle_vertex", "d_hat", "E"): (47, 3),
+    (3, "triangle_vertex", "a_hat", "E"): (445, 4),
+    (3, "triangle_vertex", "b_hat", "E"): (129, 4),
+    (3, "triangle_vertex", "c_hat", "E"): (129, 4),
+    **{(3, "triangle_edge", q, "E"): (47, 3) for q in ("v_A", "v_B", "v_C", "v_P", "v_Q")},
+    **{(3, "tetrahedron_vertex", q, "E"): (47, 3) for q in ("v_A", "v_B", "v_C", "v_D")},
+}
+# Figures 1 and 5: R[T] <= 4 eps for every tolerance.
+TOLERANCES = {2: ("sigma", "tau", "sigma_hat", "kappa"),
+              3: ("sigma", "tau", "delta", "gamma", "sigma_hat", "lam", "phi", "nu",
+                  "zeta", "mu", "xi", "rho")}
+
+
+@pytest.fixture(scope="module")
+def derived():
+    recs = json.loads(render(records(), "json"))
+    table = {}
+    for r in recs:
+        key = (r["dim"], r["algorithm"], r["quantity"], r["kind"])
+        assert key not in table, f"duplicate record {key}"
+        table[key] = r
+    return table
+
+
+@pytest.mark.parametrize("key", sorted(PAPER), ids=lambda k: "-".join(map(str, k)))
+def test_paper_floating_point_figure(derived, key):
+    coef, power = PAPER[key]
+    assert key in derived, f"no derived record for {key}"
+    assert (derived[key]["coefficient"], derived[key]["power"]) == (coef, power)
+
+
+@pytest.mark.parametrize("dim", (2, 3))
+def test_tolerances_relative_error_within_four_eps(derived, dim):
+    for name in TOLERANCES[dim]:
+        r = derived[(dim, "tolerances", name, "R")]
+        assert r["coefficient"] <= 4, (name, r)
+
+
+def test_every_named_quantity_has_a_valid_bound(derived):
+    """Every quantity in the JSON schema's list that an algorithm computes gets E."""
+    for (dim, alg, q, kind) in PAPER:
+        assert (dim, alg, q, "E") in derived
+
+
+def test_json_record_schema(derived):
+    rec = derived[(2, "edge_vertex", "a_hat", "E")]
+    assert rec == {"dim": 2, "algorithm": "edge_vertex", "quantity": "a_hat", "kind": "E",
+                   "coefficient": 19, "power": 1, "exact": rec["exact"]}
+    assert "eps" in rec["exact"]
+
+
+@pytest.mark.parametrize("fmt", ("md", "latex", "json"))
+def test_cli_formats(capsys, fmt):
+    assert main(["tables", "--dim", "2", "--format", fmt]) == 0
+    out = capsys.readouterr().out
+    assert ("19" in out) and ("a_hat" in out or r"\hat{a}" in out)
