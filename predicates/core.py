@@ -55,16 +55,42 @@ class Predicate:
             raise TypeError(f"{self.name}: tol must be {self.dim}D Tolerances "
                             "(predicates.tolerances(...))")
         ctx = ctx if ctx is not None else fperr.context_for(*pts)
-        lanes = None
         if isinstance(ctx, NumpyContext):
-            pts, lanes = self._batch_points(pts, ctx)
-        elif not isinstance(ctx, TrackedContext):
+            return self._batch(pts, tol, ctx)
+        if not isinstance(ctx, TrackedContext):
             self._check_scalar_points(pts)
-        run = ctx.fresh(len(self.weight_names), lanes)
+        run = ctx.fresh(len(self.weight_names))
         tol_values = self._tolerances_for(tol, run)
         with run.session():
             coords = [run.coords(p, lbl) for p, lbl in zip(pts, self.points)]
             return self.fn(run, *coords, tol_values)
+
+    #: Lanes per block in batch mode: temporaries of one block stay in cache, and a
+    #: block whose lanes are all rejected stops early.
+    BLOCK = 1 << 15
+
+    def _batch(self, pts, tol, ctx):
+        arrs, n = self._batch_points(pts, ctx)
+        for a, lbl in zip(arrs, self.points):
+            if not np.isfinite(a).all():
+                raise ValueError(f"{self.name}: point {lbl} has non-finite coordinates")
+        # Coordinates as contiguous rows: cols[i][k] is coordinate k of point i.
+        cols = [np.ascontiguousarray(a.T) for a in arrs]
+        k = len(self.weight_names)
+        hit = np.zeros(n, dtype=bool)
+        weights = np.zeros((n, k), dtype=ctx.dtype)
+        tol_values = None
+        for start in range(0, n, self.BLOCK):
+            stop = min(n, start + self.BLOCK)
+            run = ctx.fresh(k, stop - start)
+            if tol_values is None:
+                tol_values = self._tolerances_for(tol, run)
+            with run.session():
+                coords = [tuple(c[j, start:stop] for j in range(self.dim)) for c in cols]
+                h, w = self.fn(run, *coords, tol_values)
+            hit[start:stop] = h
+            weights[start:stop] = w
+        return hit, weights
 
     # -- input handling ------------------------------------------------------------
     def _check_scalar_points(self, pts):
