@@ -186,16 +186,31 @@ class Tracked:
                 stack.extend((a, False) for a in reversed(x.args) if id(a) not in seen)
 
     def derivation(self) -> str:
-        """One line per step: which rule produced which state (a readable proof trace)."""
+        """One line per step, operands first: ``t3 = t1 - t2  [E] c=1 p=1 a=1 b=0 r``.
+
+        Inputs show their name; named quantities (``ctx.name``) show it after the step.
+        """
+        ids: dict[int, str] = {}
         lines = []
+        sym = {"A": "-{0}", "I": "|{0}|", "H": "sqrt({0})"}
         for x in self.walk():
+            tag = ids[id(x)] = f"t{len(ids) + 1}"
+            if not x.args:
+                expr = x.s
+            elif len(x.args) == 1:
+                expr = sym.get(x.rule, "{0}").format(ids[id(x.args[0])])
+            else:
+                op = x.s[len(x.args[0].s) + 1]
+                expr = f"{ids[id(x.args[0])]} {op} {ids[id(x.args[1])]}"
             if not x.v:
-                body = f"invalid ({x.why})"
+                body = f"invalid: {x.why}"
             else:
                 st = x.state
-                body = (f"c={st.c}  p={st.p}  a={st.a}  b={st.b}  "
-                        f"n={int(st.n)} r={int(st.r)}" + ("  [c=1*]" if x.inv else ""))
-            lines.append(f"[{x.rule}] {x.label} : {body}")
+                flags = " ".join(f for f, on in (("n", st.n), ("r", st.r)) if on)
+                body = f"c={st.c} p={st.p} a={st.a} b={st.b} {flags}".rstrip()
+                body += "  [c=1*]" if x.inv else ""
+            named = f"  ({x.name})" if x.name and x.args else ""
+            lines.append(f"{tag} = {expr:<18} [{x.rule}] {body}{named}")
         return "\n".join(lines)
 
 

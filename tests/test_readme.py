@@ -1,0 +1,24 @@
+"""The README's code runs as written (so it cannot rot)."""
+import pathlib
+import re
+
+README = pathlib.Path(__file__).resolve().parents[1] / "README.md"
+
+
+def test_readme_python_blocks_run(capsys):
+    blocks = re.findall(r"```python\n(.*?)```", README.read_text(), re.S)
+    assert blocks
+    env: dict = {}
+    for code in blocks:
+        exec(compile(code, str(README), "exec"), env)
+    out = capsys.readouterr().out
+    assert "R ≤ 5ε, E ≤ 9εL^2" in out
+    assert env["hit"].shape == (10**6,) and env["w"].shape == (10**6, 4)
+
+
+def test_readme_quick_start_matches_ci():
+    text = README.read_text()
+    ci = (README.parent / ".ci" / "run").read_text()
+    test_line = "python3 -m pip install -e '.[test]' && python3 -m pytest -q"
+    assert test_line in text
+    assert test_line in ci
