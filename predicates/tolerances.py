@@ -96,16 +96,38 @@ def round_up_bits(x: Fraction, bits: int) -> Fraction:
 
 
 def compute_L(dim: int, L_a, L_b, ctx) -> object:
-    """L of Algorithms 1/6, in the working precision, rounded up to ⌊prec/4⌋ bits."""
+    """L of Algorithms 1/6, in the working precision, rounded up to ⌊prec/4⌋ bits.
+
+    The paper's factor 1 + 5ε is meant to absorb the roundings of line 5 so that
+    F[L] ≥ L̂ = (L_a + L_b)/(1 − 7ε^g); that holds for binary64, binary32 and 17-bit
+    arithmetic with ≥ 3ε to spare, but only by the constants' luck (1 + 5ε itself is not
+    representable in binary64). So F[L] ≥ L̂ is then checked exactly and, if it ever
+    failed, L is raised until it holds: soundness by construction, not by argument.
+    """
+    g = int(L_ROOT[dim].q)
     with ctx.session():
         eps = ctx.const(ctx.eps)
         root = ctx.sqrt(eps)
         if dim == 3:
             root = ctx.sqrt(root)
+        La, Lb = ctx.const(L_a), ctx.const(L_b)
+        if _fraction(La) != _fraction(L_a) or _fraction(Lb) != _fraction(L_b):
+            raise ValueError(f"L_a = {L_a!r} and L_b = {L_b!r} must be exact in the working "
+                             "format (round them up first)")
         L = (ctx.const(1) + ctx.const(5) * eps) / (ctx.const(1) - ctx.const(L_SIGMA_PLUS) * root) \
-            * (ctx.const(L_a) + ctx.const(L_b))
-        q = _fraction(L)
-        return ctx.const(_exact_value(round_up_bits(q, _precision(ctx) // 4), ctx))
+            * (La + Lb)
+    bits = _precision(ctx) // 4
+    S, e = _fraction(La) + _fraction(Lb), _fraction(ctx.eps)
+    q = round_up_bits(_fraction(L), bits)
+    while not bounds_L_hat(q, S, e, g):
+        q = round_up_bits(q * (1 + Fraction(1, 2**bits)), bits)
+    return ctx.const(_exact_value(q, ctx))
+
+
+def bounds_L_hat(L: Fraction, S: Fraction, eps: Fraction, g: int) -> bool:
+    """Exactly: L ≥ S/(1 − 7·ε^(1/g)), i.e. ((L − S)/(7L))^g ≥ ε with L − S ≥ 0."""
+    x = (L - S) / (L_SIGMA_PLUS * L)
+    return x >= 0 and x**g >= eps
 
 
 def _fraction(x) -> Fraction:
