@@ -110,10 +110,9 @@ def compute_L(dim: int, L_a, L_b, ctx) -> object:
         root = ctx.sqrt(eps)
         if dim == 3:
             root = ctx.sqrt(root)
-        La, Lb = ctx.const(L_a), ctx.const(L_b)
-        if _fraction(La) != _fraction(L_a) or _fraction(Lb) != _fraction(L_b):
-            raise ValueError(f"L_a = {L_a!r} and L_b = {L_b!r} must be exact in the working "
-                             "format (round them up first)")
+        # L_a, L_b enter rounded *up* to the working format (they are upper bounds).
+        La, Lb = (ctx.const(_exact_value(round_up_bits(_fraction_any(x), _precision(ctx)), ctx))
+                  if x else ctx.const(0) for x in (L_a, L_b))
         L = (ctx.const(1) + ctx.const(5) * eps) / (ctx.const(1) - ctx.const(L_SIGMA_PLUS) * root) \
             * (La + Lb)
     bits = _precision(ctx) // 4
@@ -134,6 +133,14 @@ def _fraction(x) -> Fraction:
     if isinstance(x, mpmath.mpf):
         return mp_to_fraction(x)
     return Fraction(float(x))
+
+
+def _fraction_any(x) -> Fraction:
+    if isinstance(x, mpmath.mpf):
+        return mp_to_fraction(x)
+    if isinstance(x, (np.floating, np.integer)):
+        return Fraction(x.item())
+    return Fraction(x)
 
 
 def _exact_value(q: Fraction, ctx):
