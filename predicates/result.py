@@ -1,0 +1,188 @@
+"""The result of :func:`predicates.intersect`: registered pairs per kind, summary, export."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["IntersectionResult", "KindPairs"]
+
+
+@dataclass
+class KindPairs:
+    """The registered pairs of one kind (e.g. ``"edge_triangle"``).
+
+    ``sim`` (m, i+1) and ``cut`` (m, j+1): vertex ids (rows of the input point arrays)
+    of the simulation and cutting primitives; ``sim_weights`` / ``cut_weights``: the
+    barycentric weights of the intersection point on each primitive, column by column
+    for the ids beside them (a vertex has weight [1]). Within a primitive, vertices are
+    listed in lexicographic order of their coordinates (the order the predicate saw
+    them), rows are sorted by ids.
+
+    ``candidates``: pairs proposed by the broad phase; ``suppressed``: of those, pairs
+    skipped because a sub-pair was registered at a lower level; the rest were tested.
+    """
+
+    kind: str
+    sim: np.ndarray
+    cut: np.ndarray
+    sim_weights: np.ndarray
+    cut_weights: np.ndarray
+    candidates: int = 0
+    suppressed: int = 0
+
+    def __len__(self):
+        return len(self.sim)
+
+    @property
+    def tested(self) -> int:
+        return self.candidates - self.suppressed
+
+    def keys(self) -> set:
+        """The pairs as a set of (sorted sim ids, sorted cut ids) tuples."""
+        s, c = np.sort(self.sim, axis=1), np.sort(self.cut, axis=1)
+        return {(tuple(a), tuple(b)) for a, b in zip(s.tolist(), c.tolist())}
+
+    def points(self, sim_points: np.ndarray, side: str = "sim") -> np.ndarray:
+        """Intersection points Σ wᵢ·xᵢ on the simulation (``side="sim"``) or cutting
+        primitive, in float64, from the given point array."""
+        ids, w = (self.sim, self.sim_weights) if side == "sim" else (self.cut, self.cut_weights)
+        X = np.asarray(sim_points, dtype=np.float64)[ids]
+        return np.einsum("mk,mkd->md", w.astype(np.float64), X)
+
+
+@dataclass
+class IntersectionResult:
+    """Registered intersections of a simulation mesh with a cutting mesh.
+
+    ``res.kinds``: kind names in registration order; ``res[kind]``: a
+    :class:`KindPairs`; ``res.counts``: {kind: number registered};
+    ``res.tolerances``: the :class:`predicates.Tolerances` used (for the coordinates
+    multiplied by ``2**-res.scale_exponent``, an exact power-of-two scaling);
+    ``res.tolerances_input_units()``: the same in the input's units. ``str(res)`` is a
+    readable summary, ``res.to_meshio()`` the intersection points for ParaView.
+    """
+
+    dim: int
+    dtype: np.dtype
+    kinds: tuple
+    pairs: dict
+    tolerances: object
+    scale_exponent: int
+    tolerance_scale: float
+    L_a: float
+    L_b: float
+    sim_points: np.ndarray
+    sim_cells: np.ndarray
+    cut_points: np.ndarray
+    cut_cells: np.ndarray
+    rounded_inputs: bool = False
+    timings: dict = field(default_factory=dict)
+
+    def __getitem__(self, kind: str) -> KindPairs:
+        try:
+            return self.pairs[kind]
+        except KeyError:
+            raise KeyError(f"no kind {kind!r} in {self.dim}D; kinds: {', '.join(self.kinds)}") \
+                from None
+
+    def __iter__(self):
+        return iter(self.kinds)
+
+    @property
+    def counts(self) -> dict:
+        return {k: len(self.pairs[k]) for k in self.kinds}
+
+    @property
+    def total(self) -> int:
+        return sum(self.counts.values())
+
+    def tolerances_input_units(self) -> dict:
+        """Every tolerance (and L) in the input's units: T·2^(e·p) (inf/0 if that
+        overflows/underflows binary64; the registration itself never does)."""
+        from .tolerance_table import TABLES
+
+        e = self.scale_exponent
+        out = {"L": float(np.ldexp(np.float64(self.tolerances.L), e))}
+        with np.errstate(all="ignore"):
+            for name, spec in TABLES[self.dim].items():
+                out[name] = float(np.ldexp(np.float64(self.tolerances.values[name]),
+                                           e * spec.p))
+        return out
+
+    def location_counts(self, side: str = "cut") -> np.ndarray:
+        """For every point of the ``side`` mesh ("cut" or "sim"): in how many registered
+        pairs that vertex is itself the primitive (vertex_vertex, edge_vertex,
+        triangle_vertex, ... for "cut"; vertex_* for "sim"). In a consistent registration
+        a cutting vertex inside the simulation mesh is located exactly once."""
+        n = len(self.cut_points if side == "cut" else self.sim_points)
+        counts = np.zeros(n, dtype=np.int64)
+        for k in self.kinds:
+            p = self.pairs[k]
+            ids = p.cut if side == "cut" else p.sim
+            if ids.shape[1] == 1:
+                np.add.at(counts, ids[:, 0], 1)
+        return counts
+
+    def to_meshio(self):
+        """The intersection points as a ``meshio.Mesh`` of vertex cells, with point data
+        ``kind`` (index into ``res.kinds``), ``sim_ids`` / ``cut_ids`` (vertex ids of the
+        pair's primitives, −1 padded) and ``sim_weights`` / ``cut_weights``. Points are
+        Σ wᵢ·xᵢ on the simulation primitive, in 3D (z = 0 for 2D meshes)."""
+        import meshio
+
+        pts, kind, sid, cid, sw, cw = [], [], [], [], [], []
+        ws, wc = self.dim + 1, self.dim
+        for code, k in enumerate(self.kinds):
+            p = self.pairs[k]
+            m = len(p)
+            pts.append(p.points(self.sim_points, "sim"))
+            kind.append(np.full(m, code, dtype=np.int32))
+            sid.append(_pad(p.sim, ws, -1))
+            cid.append(_pad(p.cut, wc, -1))
+            sw.append(_pad(p.sim_weights.astype(np.float64), ws, 0.0))
+            cw.append(_pad(p.cut_weights.astype(np.float64), wc, 0.0))
+        X = np.concatenate(pts) if pts else np.zeros((0, self.dim))
+        if X.shape[1] == 2:
+            X = np.column_stack([X, np.zeros(len(X))])
+        cells = [("vertex", np.arange(len(X), dtype=np.int64)[:, None])]
+        data = {"kind": np.concatenate(kind), "sim_ids": np.concatenate(sid),
+                "cut_ids": np.concatenate(cid), "sim_weights": np.concatenate(sw),
+                "cut_weights": np.concatenate(cw)}
+        return meshio.Mesh(X, cells, point_data=data)
+
+    def summary(self) -> str:
+        return str(self)
+
+    def __str__(self):
+        dt = "binary64" if self.dtype == np.float64 else "binary32"
+        cellname = {2: ("triangles", "segments"), 3: ("tetrahedra", "triangles")}[self.dim]
+        lines = [f"{self.dim}D registration ({dt}): simulation mesh {len(self.sim_cells)} "
+                 f"{cellname[0]}, cutting mesh {len(self.cut_cells)} {cellname[1]}"]
+        if self.tolerance_scale != 1:
+            lines.append(f"NAIVE BASELINE: tolerances × {self.tolerance_scale:g}")
+        if self.rounded_inputs:
+            lines.append(f"note: input coordinates were rounded to {self.dtype}")
+        tu = self.tolerances_input_units()
+        lines.append(f"L_a = {self.L_a:.6g}, L_b = {self.L_b:.6g}, L = {tu['L']:.6g}; "
+                     f"coordinates scaled by 2^{-self.scale_exponent} (exact)")
+        names = [n for n in tu if n != "L"]
+        lines.append("tolerances (input units): " + ", ".join(
+            f"{n} = {tu[n] * self.tolerance_scale:.4g}" for n in names))
+        w = max(len(k) for k in self.kinds)
+        lines.append(f"{'kind':<{w}}  {'candidates':>10}  {'suppressed':>10}  "
+                     f"{'tested':>10}  {'registered':>10}")
+        for k in self.kinds:
+            p = self.pairs[k]
+            lines.append(f"{k:<{w}}  {p.candidates:>10}  {p.suppressed:>10}  {p.tested:>10}  "
+                         f"{len(p):>10}")
+        lines.append(f"{'total':<{w}}  {'':>10}  {'':>10}  {'':>10}  {self.total:>10}")
+        if "total" in self.timings:
+            lines.append(f"time: {self.timings['total']:.3f} s")
+        return "\n".join(lines)
+
+
+def _pad(a, width, fill):
+    out = np.full((len(a), width), fill, dtype=a.dtype)
+    out[:, : a.shape[1]] = a
+    return out
