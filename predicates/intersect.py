@@ -57,6 +57,7 @@ from math import comb
 import numpy as np
 
 from . import d2, d3
+from . import meshes as _meshes  # noqa: F401  (predicates.meshes after import predicates)
 from .broadphase import box_pairs
 from .mesh_input import from_meshio, validate_pair
 from .result import IntersectionResult, KindPairs
