@@ -152,14 +152,16 @@ def _exact_value(q: Fraction, ctx):
     return float(q)
 
 
-def tolerance_values(dim: int, L_power, ctx) -> dict:
+def tolerance_values(dim: int, L_power, ctx, table: dict | None = None) -> dict:
     """Every tolerance T = root_k(C^k ε^(qk))·L^p of Figure 1/5 (see module docstring).
 
     ``L_power(p)`` returns L^p in the working format (exact). One source for every
-    number system: with a :class:`fperr.TrackedContext` it derives R[T].
+    number system: with a :class:`fperr.TrackedContext` it derives R[T]. ``table``
+    (name → ToleranceSpec, default ``TABLES[dim]``) lets the proofs try other
+    coefficients (``fperr verify --tolerances``); every ``mid`` must be rational.
     """
     out = {}
-    for name, spec in TABLES[dim].items():
+    for name, spec in (TABLES[dim] if table is None else table).items():
         k = int(spec.q.q)  # denominator of q: 1, 2 or 4
         power = int(spec.q * k)
         C = Fraction(int(spec.mid.p), int(spec.mid.q)) ** k
@@ -213,12 +215,15 @@ def tolerances(dim: int, L_a, L_b, dtype=np.float64) -> Tolerances:
     return Tolerances(dim, L, ctx.eps, ctx, values)
 
 
-def tracked_tolerances(dim: int) -> Tolerances:
-    """The tolerances as :class:`fperr.Tracked` (instrumented run of the same code)."""
+def tracked_tolerances(dim: int, table: dict | None = None) -> Tolerances:
+    """The tolerances as :class:`fperr.Tracked` (instrumented run of the same code).
+
+    ``table``: optional replacement of ``TABLES[dim]`` (see :func:`tolerance_values`).
+    """
     ctx = TrackedContext()
     powers = {p: fperr.exact_input("L" if p == 1 else f"L^{p}", 1, p, nonnegative=True)
               for p in (1, 2, 3, 4)}
-    values = tolerance_values(dim, powers.__getitem__, ctx)
+    values = tolerance_values(dim, powers.__getitem__, ctx, table)
     for name, t in values.items():  # keep the paper's short names in check records
         t.s = name
     return Tolerances(dim, powers[1], fperr.eps, ctx, values)

@@ -1,0 +1,156 @@
+"""The tolerance table the proofs run on: Figure 1 / Figure 5, optionally overridden.
+
+Values come from :mod:`predicates.tolerance_table` (exact sympy data). A tolerance T
+with spec (lo, mid, hi, q, p) stands for T− = lo·ε^q·L^p, T = mid·ε^q·L^p,
+T+ = hi·ε^q·L^p.
+
+Override files (``fperr verify --tolerances FILE``) replace coefficients. JSON::
+
+    {"3": {"phi": {"lo": 200}}, "2": {"kappa": {"mid": 9.5}}}
+
+or TOML (same structure)::
+
+    [3.phi]
+    lo = 200
+
+    [2.kappa]
+    mid = 9.5
+
+Top-level keys are the dimension ("2"/"3", also "2d"/"3d"); then the tolerance name as in
+the tables (2D: sigma, tau, sigma_hat, kappa; 3D: sigma, tau, delta, gamma, sigma_hat,
+lam, phi, nu, zeta, mu, xi, rho); then any of ``lo`` (T−), ``mid`` (T), ``hi`` (T+)
+(aliases ``T-``/``minus``, ``T``, ``T+``/``plus``). A value is the coefficient of
+ε^q·L^p: an integer, a decimal (read exactly: 9.5 = 19/2, 0.1 = 1/10) or a string
+holding an exact expression ("12*sqrt(3)*1521/16"). ``mid`` must be rational (the code
+computes T from it); it is also re-run through the instrumented tolerance computation,
+so its derived R[T] is that of the new constant.
+"""
+from __future__ import annotations
+
+import json
+import tomllib
+from dataclasses import replace
+from pathlib import Path
+
+import sympy
+
+from fperr.symbols import L, eps
+from predicates.tolerance_table import TABLES, ToleranceSpec
+
+FIELDS = {"lo": "lo", "t-": "lo", "minus": "lo", "mid": "mid", "t": "mid",
+          "hi": "hi", "t+": "hi", "plus": "hi"}
+
+
+class ToleranceFileError(ValueError):
+    """An override file that cannot be used (unknown name, bad value, ...)."""
+
+
+def _coefficient(v, where: str) -> sympy.Expr:
+    if isinstance(v, bool):
+        raise ToleranceFileError(f"{where}: a boolean is not a coefficient")
+    if isinstance(v, int):
+        x = sympy.Integer(v)
+    elif isinstance(v, float):
+        x = sympy.Rational(repr(v))  # the decimal the user wrote, exactly
+    elif isinstance(v, str):
+        try:
+            x = sympy.sympify(v, rational=True)
+        except (sympy.SympifyError, SyntaxError, TypeError) as e:
+            raise ToleranceFileError(f"{where}: cannot read {v!r}: {e}") from None
+    else:
+        raise ToleranceFileError(f"{where}: expected a number or a string, got {v!r}")
+    if x.free_symbols or not x.is_real or not x.is_positive:
+        raise ToleranceFileError(f"{where}: coefficient must be a positive constant, "
+                                 f"got {v!r}")
+    return x
+
+
+def parse_overrides(data: dict) -> dict[int, dict[str, dict[str, sympy.Expr]]]:
+    """Validate the structure of an override mapping (see module docstring)."""
+    if not isinstance(data, dict):
+        raise ToleranceFileError("top level must be a table/object keyed by dimension")
+    out: dict[int, dict[str, dict[str, sympy.Expr]]] = {}
+    for dkey, entries in data.items():
+        d = str(dkey).lower().removesuffix("d")
+        if d not in ("2", "3"):
+            raise ToleranceFileError(f"unknown dimension {dkey!r} (use \"2\" or \"3\")")
+        dim = int(d)
+        if not isinstance(entries, dict):
+            raise ToleranceFileError(f"[{dkey}] must map tolerance names to fields")
+        for name, fields in entries.items():
+            if name not in TABLES[dim]:
+                raise ToleranceFileError(
+                    f"unknown {dim}D tolerance {name!r}; known: {', '.join(TABLES[dim])}")
+            if not isinstance(fields, dict):
+                raise ToleranceFileError(f"[{dkey}.{name}] must map lo/mid/hi to values")
+            for fkey, v in fields.items():
+                f = FIELDS.get(str(fkey).lower())
+                if f is None:
+                    raise ToleranceFileError(
+                        f"[{dkey}.{name}]: unknown field {fkey!r} (use lo, mid, hi)")
+                x = _coefficient(v, f"{dim}D {name}.{f}")
+                if f == "mid" and not x.is_Rational:
+                    raise ToleranceFileError(f"{dim}D {name}.mid must be rational "
+                                             f"(the code computes T from it), got {v!r}")
+                out.setdefault(dim, {}).setdefault(name, {})[f] = x
+    return out
+
+
+def load_overrides(path: str | Path) -> dict[int, dict[str, dict[str, sympy.Expr]]]:
+    """Read a TOML (``.toml``) or JSON file of coefficient overrides."""
+    p = Path(path)
+    try:
+        raw = p.read_bytes()
+    except OSError as e:
+        raise ToleranceFileError(f"cannot read {path}: {e}") from None
+    try:
+        if p.suffix.lower() == ".toml":
+            data = tomllib.loads(raw.decode())
+        elif p.suffix.lower() == ".json":
+            data = json.loads(raw)
+        else:  # sniff
+            try:
+                data = json.loads(raw)
+            except ValueError:
+                data = tomllib.loads(raw.decode())
+    except (ValueError, tomllib.TOMLDecodeError) as e:
+        raise ToleranceFileError(f"{path}: not valid TOML/JSON: {e}") from None
+    return parse_overrides(data)
+
+
+def table(dim: int, overrides: dict | None = None) -> dict[str, ToleranceSpec]:
+    """Figure 1 (dim 2) / Figure 5 (dim 3), with ``overrides[dim]`` applied."""
+    base = dict(TABLES[dim])
+    for name, fields in ((overrides or {}).get(dim) or {}).items():
+        base[name] = replace(base[name], **fields)
+    return base
+
+
+def is_default(tab: dict, dim: int) -> bool:
+    return all(tab[k] == TABLES[dim][k] for k in TABLES[dim])
+
+
+class Values:
+    """T−, T, T+ of a table as exact expressions in ε and L."""
+
+    def __init__(self, tab: dict[str, ToleranceSpec]):
+        self.tab = tab
+
+    def _v(self, name, coeff):
+        spec = self.tab[name]
+        return coeff * eps**spec.q * L**spec.p
+
+    def lo(self, name):
+        return self._v(name, self.tab[name].lo)
+
+    def mid(self, name):
+        return self._v(name, self.tab[name].mid)
+
+    def hi(self, name):
+        return self._v(name, self.tab[name].hi)
+
+    def all(self, name):
+        return self.lo(name), self.mid(name), self.hi(name)
+
+    def __contains__(self, name):
+        return name in self.tab

@@ -1,0 +1,348 @@
+"""fperr verify: every tolerance constraint of the paper, decided for all ε ≤ 1e-5.
+
+For each algorithm of section 4 (2D) and 5 (3D) the constraints are (see
+:mod:`proofs.constraints`): the geometric facts of the proofs (declared, exact), the
+tolerance windows and sign-test protections generated from the instrumented run of the
+predicate (errors derived by :mod:`fperr`, never typed in), and the special argument of
+section 5.4.4. Each is decided for EVERY unit roundoff ε in (0, 1e-5] by
+:mod:`proofs.decide` (ε = s⁴, L = 1 by homogeneity, exact root isolation / rigorous
+interval bounds; no sampling). The margin shown is at binary64's ε = 2^-53, L = 1:
+lhs − rhs and lhs/rhs of the tightest inequality of the constraint.
+
+Usage::
+
+    fperr verify                  # 2D and 3D
+    fperr verify --dim 3 -v       # with the derived errors and argument steps
+    fperr verify --tolerances my.toml
+    fperr verify --report docs/error-bounds.md   # also write the report
+
+``--tolerances FILE`` (TOML or JSON) replaces coefficients of T−, T, T+; e.g.::
+
+    [3.phi]
+    lo = 200
+
+(format: :mod:`proofs.tables`). A constraint the new table breaks is printed as FAIL
+with its name and the ε-range where it fails. Exit status: 0 when every constraint
+holds, 1 when any fails, 2 for an unusable tolerance file.
+
+``--require-paper-argument`` additionally requires the paper's own argument of
+section 5.4.4 to hold (by default a constraint with several encoded arguments holds
+when one of them is proven for every ε; see docs/proofs.md).
+
+Python API: :func:`verify` accepts predicates or instrumented runs, so a modified
+predicate can be checked without touching the built-in ones.
+"""
+from __future__ import annotations
+
+import argparse
+import functools
+import sys
+import time
+from dataclasses import dataclass, field
+
+import sympy
+
+import fperr
+import predicates
+from fperr import TrackedContext
+from predicates.core import Instrumented, Predicate
+
+from . import tables
+from .constraints import (Constraint, fmt, geometric_constraints, run_constraints,
+                          table_constraints)
+from .decide import Decision, NotHomogeneous, decide
+
+
+@dataclass
+class Outcome:
+    """A decided constraint. ``holds``; per-inequality decisions; for arguments, the
+    decisions of every step; ``established_by`` names the argument that proves it."""
+
+    constraint: Constraint
+    holds: bool
+    decisions: list = field(default_factory=list)
+    arguments: list = field(default_factory=list)   # [(Argument, [[Decision]], holds)]
+    established_by: str | None = None
+    reason: str = ""
+
+    @property
+    def id(self):
+        return self.constraint.id
+
+    def tightest(self) -> Decision | None:
+        """The decision with the smallest lhs/rhs at binary64 among those that count."""
+        ds = list(self.decisions)
+        for arg, steps, ok in self.arguments:
+            if self.established_by in (None, arg.name) or not self.holds:
+                ds += [d for st in steps for d in st]
+        ds = [d for d in ds if d.at64[0] is not None]
+        if not ds:
+            return None
+        failing = [d for d in ds if not d.holds]
+        pool = failing or ds
+        return min(pool, key=lambda d: (d.at64[1] if d.at64[1] is not None else float("inf"),
+                                        d.at64[0]))
+
+    def fails_on(self):
+        out = []
+        for d in self.decisions:
+            out += list(d.fails_on)
+        if self.arguments and not self.holds:
+            for arg, steps, ok in self.arguments:
+                for st in steps:
+                    for d in st:
+                        out += list(d.fails_on)
+        return sorted(set(out))
+
+
+@dataclass
+class Report:
+    dim: int
+    outcomes: list
+    seconds: float
+    table: dict
+
+    @property
+    def ok(self) -> bool:
+        return all(o.holds for o in self.outcomes)
+
+    @property
+    def failures(self) -> list:
+        return [o for o in self.outcomes if not o.holds]
+
+    def by_id(self, cid: str) -> Outcome:
+        for o in self.outcomes:
+            if o.id == cid:
+                return o
+        raise KeyError(cid)
+
+
+# -- instrumented runs ------------------------------------------------------------------
+
+def instrument(pred: Predicate, table: dict | None = None) -> Instrumented:
+    """The instrumented run of ``pred`` with the tolerances of ``table`` (cached)."""
+    if table is None or tables.is_default(table, pred.dim):
+        return pred.instrumented()
+    return _instrument_cached(pred, _freeze(table))
+
+
+def _freeze(table):
+    return tuple(sorted((k, v) for k, v in table.items()))
+
+
+@functools.lru_cache(maxsize=64)
+def _instrument_cached(pred: Predicate, frozen) -> Instrumented:
+    table = dict(frozen)
+    axes = "xyz"[: pred.dim]
+    pts = [tuple(fperr.coord(f"{p}.{a}") for a in axes) for p in pred.points]
+    run = TrackedContext().fresh(len(pred.weight_names))
+    tol = predicates.tracked_tolerances(pred.dim, table)
+    coords = [run.coords(p, lbl) for p, lbl in zip(pts, pred.points)]
+    pred.fn(run, *coords, tol)
+    for name, w in zip(pred.weight_names, run.weights):
+        w.name = name
+    return Instrumented(pred.name, pred.dim, dict(run.quantities), list(run.checks),
+                        run.weights)
+
+
+# -- deciding ---------------------------------------------------------------------------
+
+def decide_constraint(c: Constraint, require_paper_argument: bool = False) -> Outcome:
+    if c.error:
+        return Outcome(c, False, reason=c.error)
+    try:
+        ds = [decide(i.lhs, i.rhs, i.strict) for i in c.inequalities]
+        args = []
+        for a in c.arguments:
+            steps = [[decide(i.lhs, i.rhs, i.strict) for i in st.inequalities]
+                     for st in a.steps]
+            args.append((a, steps, all(d.holds for st in steps for d in st)))
+    except NotHomogeneous as e:
+        return Outcome(c, False, reason=f"not homogeneous in L: {e}")
+    holds = all(d.holds for d in ds)
+    by = None
+    if args:
+        proven = [a.name for a, _, ok in args if ok]
+        if require_paper_argument:
+            paper = [ok for a, _, ok in args if a.name.startswith("paper")]
+            holds = holds and all(paper)
+            by = args[0][0].name if holds else None
+        else:
+            holds = holds and bool(proven)
+            by = proven[0] if proven else None
+    reason = ""
+    if not holds:
+        fr = [r for d in ds for r in d.fails_on]
+        reason = _ranges_text(fr) if fr else ""
+        if args and not reason:
+            reason = "no encoded argument holds for every ε"
+    return Outcome(c, holds, ds, args, by, reason)
+
+
+def _ranges_text(ranges) -> str:
+    if not ranges:
+        return ""
+    parts = []
+    for lo, hi in ranges:
+        parts.append(f"ε ∈ ({lo:.4g}, {hi:.4g}]" if lo > 0 else f"ε ∈ (0, {hi:.4g}]")
+    return "fails for " + ", ".join(parts)
+
+
+def _as_runs(dim, runs, table):
+    """Normalise the ``runs`` argument to [(algorithm name, Instrumented)]."""
+    if runs is None:
+        runs = predicates.ALL[dim]
+    items = runs.items() if isinstance(runs, dict) else [(None, r) for r in runs]
+    out = []
+    for name, r in items:
+        if isinstance(r, Predicate):
+            if r.dim != dim:
+                raise ValueError(f"{r!r} is not a {dim}D predicate")
+            ins = instrument(r, table)
+        elif isinstance(r, Instrumented):
+            if r.dim != dim:
+                raise ValueError(f"instrumented run {r.algorithm} is not {dim}D")
+            ins = r
+        else:
+            raise TypeError(f"expected a Predicate or an Instrumented run, got {r!r}")
+        out.append((name or ins.algorithm, ins))
+    return out
+
+
+def constraints(dim: int, overrides: dict | None = None, runs=None) -> list[Constraint]:
+    """Every constraint of ``dim`` (table facts, then per algorithm: geometric facts
+    and the constraints generated from its instrumented run)."""
+    tab = tables.table(dim, overrides)
+    v = tables.Values(tab)
+    out = table_constraints(dim, v)
+    for alg, ins in _as_runs(dim, runs, tab):
+        out += geometric_constraints(dim, alg, v)
+        out += run_constraints(ins, v, alg)
+    return out
+
+
+def verify(dim: int, overrides: dict | None = None, runs=None,
+           require_paper_argument: bool = False) -> Report:
+    """Decide every constraint of ``dim`` for every ε ∈ (0, 1e-5].
+
+    ``overrides``: coefficient overrides ({dim: {name: {"lo"|"mid"|"hi": value}}}, see
+    :mod:`proofs.tables`). ``runs``: predicates and/or :class:`Instrumented` runs to
+    verify instead of ``predicates.ALL[dim]`` (a list, or a dict keyed by the paper
+    algorithm whose declared facts apply, e.g. {"edge_vertex": my_variant}). An
+    Instrumented run is used as given (its tolerance errors are those it was run with);
+    a Predicate is re-run with the overridden tolerances.
+    """
+    t0 = time.perf_counter()
+    tab = tables.table(dim, overrides)
+    cs = constraints(dim, overrides, runs)
+    outs = [decide_constraint(c, require_paper_argument) for c in cs]
+    return Report(dim, outs, time.perf_counter() - t0, tab)
+
+
+# -- CLI -----------------------------------------------------------------------------------
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--dim", type=int, choices=(2, 3), action="append",
+                        help="dimension to verify (default: both)")
+    parser.add_argument("--tolerances", metavar="FILE",
+                        help="TOML/JSON file replacing coefficients of T−, T, T+")
+    parser.add_argument("-v", "--verbose", action="store_true",
+                        help="show derived errors, inequalities and argument steps")
+    parser.add_argument("--require-paper-argument", action="store_true",
+                        help="fail when the paper's own 5.4.4 argument does not hold "
+                             "for every ε (even if another encoded argument does)")
+    parser.add_argument("--report", metavar="PATH", nargs="?", const="docs/error-bounds.md",
+                        help="also write the generated report (default path: "
+                             "docs/error-bounds.md)")
+
+
+def _margin_text(o: Outcome) -> str:
+    d = o.tightest()
+    if d is None:
+        return ""
+    diff, ratio = d.at64
+    r = f"×{ratio:.4g}" if ratio is not None else ""
+    return f"{diff:+.3e} {r}".strip()
+
+
+def format_outcome(o: Outcome, verbose: bool = False) -> str:
+    c = o.constraint
+    status = "pass" if o.holds else "FAIL"
+    lines = [f"  {status}  {c.id}"]
+    sec = f"[{c.section}]" if c.section else ""
+    lines.append(f"        {sec} {c.statement}")
+    m = _margin_text(o)
+    if m:
+        lines.append(f"        margin at binary64 (L = 1, tightest: lhs − rhs, lhs/rhs): {m}")
+    if o.established_by and len(c.arguments) > 1:
+        lines.append(f"        established by: {o.established_by}")
+    for a, steps, ok in o.arguments:
+        if not ok:
+            bad = [(st, ds) for st, ds in zip(a.steps, steps) if not all(d.holds for d in ds)]
+            head = "note: not relied on, " if o.holds else ""
+            for st, ds in bad[:3]:
+                fr = [r for d in ds for r in d.fails_on]
+                lines.append(f"        {head}{a.name} does not hold: step '{st.title}' "
+                             f"{_ranges_text(fr) or 'fails'}")
+    if not o.holds:
+        lines.append(f"        -> {o.reason or 'fails'}")
+    if verbose:
+        if c.detail:
+            lines.append(f"        derived: {c.detail}")
+        for i, d in zip(c.inequalities, o.decisions):
+            lines.append(f"        {'ok ' if d.holds else 'NO '} {i.label or 'lhs > rhs'}: "
+                         f"{fmt(i.lhs)} {'>' if i.strict else '≥'} {fmt(i.rhs)}  "
+                         f"[{d.method}]")
+        for a, steps, ok in o.arguments:
+            lines.append(f"        argument: {a.name}: {'holds' if ok else 'does not hold'}")
+            for st, ds in zip(a.steps, steps):
+                okst = all(d.holds for d in ds)
+                lines.append(f"          {'ok ' if okst else 'NO '} {st.title}")
+    return "\n".join(lines)
+
+
+def run(args) -> int:
+    try:
+        overrides = tables.load_overrides(args.tolerances) if args.tolerances else None
+    except tables.ToleranceFileError as e:
+        print(f"fperr verify: {e}", file=sys.stderr)
+        return 2
+    dims = sorted(set(args.dim or [2, 3]))
+    ok = True
+    reports = {}
+    for dim in dims:
+        try:
+            rep = verify(dim, overrides, require_paper_argument=args.require_paper_argument)
+        except (ValueError, TypeError) as e:
+            print(f"fperr verify: {dim}D: {e}", file=sys.stderr)
+            return 2
+        reports[dim] = rep
+        src = "paper's Figure 1" if dim == 2 else "paper's Figure 5"
+        if overrides and dim in overrides:
+            src += f" with overrides from {args.tolerances}"
+        print(f"{dim}D constraints ({src}), decided for every ε in (0, 1e-5]:")
+        for o in rep.outcomes:
+            print(format_outcome(o, args.verbose))
+        n = len(rep.outcomes)
+        nf = len(rep.failures)
+        print(f"{dim}D: {n} constraints, {n - nf} hold, {nf} fail  ({rep.seconds:.1f} s)")
+        if nf:
+            print(f"{dim}D FAILED: " + ", ".join(o.id for o in rep.failures))
+        print()
+        ok = ok and rep.ok
+    if args.report:
+        from .report import write_report
+        write_report(args.report)
+        print(f"report written to {args.report}")
+    return 0 if ok else 1
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(prog="fperr verify", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    add_arguments(p)
+    return run(p.parse_args(argv))
+
+
+if __name__ == "__main__":
+    sys.exit(main())
