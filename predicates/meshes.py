@@ -79,17 +79,21 @@ def diagonal_cut(n: int, step: int = 1):
     return _polyline(np.stack([x, x], 1))
 
 
-def zigzag_cut(n: int, dx: int = 1, dy: int = 1, j0: int | None = None):
+def zigzag_cut(n: int, dx: int = 1, dy: int = 1, j0: int | None = None,
+               offset: bool = False):
     """A zig-zag through grid vertices: x index 0, dx, 2dx, ..., y index alternating
-    j0, j0 + dy. With gcd(dx, dy) > 1 each segment also passes through grid vertices."""
+    j0, j0 + dy. With gcd(dx, dy) > 1 each segment also passes through grid vertices.
+    ``offset=True`` moves every vertex half a cell along x, onto the midpoints of the
+    grid's horizontal edges (cut vertices exactly on simulation edges)."""
     n, dx, dy = _positive(n, "n"), _positive(dx, "dx"), _positive(dy, "dy")
     j0 = (n - dy) // 2 if j0 is None else int(j0)
     if j0 < 0 or j0 + dy > n:
         raise ValueError(f"zig-zag rows {j0}..{j0 + dy} leave the {n}×{n} grid")
-    x = grid_coordinates(n)
-    ii = np.arange(0, n + 1, dx)
+    y = grid_coordinates(n)
+    ii = np.arange(0, n + (0 if offset else 1), dx)
+    x = (2 * ii + 1) / (2 * n) if offset else y[ii]
     jj = np.where(np.arange(len(ii)) % 2 == 0, j0, j0 + dy)
-    return _polyline(np.stack([x[ii], x[jj]], 1))
+    return _polyline(np.stack([x, y[jj]], 1))
 
 
 # -- 3D -------------------------------------------------------------------------------
@@ -192,7 +196,7 @@ def example(name: str, n: int = 8, **kw):
     """A named example: ``{"sim": (points, cells), "cut": (points, cells), "dim": d}``.
 
     2D: ``"circle"`` (``segments=``), ``"diagonal"`` (``step=``), ``"zigzag"`` (``dx=``,
-    ``dy=``); 3D: ``"sphere"`` (``subdivisions=``), ``"plane"`` (``k=``),
+    ``dy=``, ``offset=``); 3D: ``"sphere"`` (``subdivisions=``), ``"plane"`` (``k=``),
     ``"plane_offset"`` (``k=``).
     """
     if name not in EXAMPLES:
@@ -204,7 +208,8 @@ def example(name: str, n: int = 8, **kw):
 EXAMPLES = {
     "circle": (2, square_grid, lambda n, segments=64, **kw: circle_polygon(segments, **kw)),
     "diagonal": (2, square_grid, lambda n, step=1: diagonal_cut(n, step)),
-    "zigzag": (2, square_grid, lambda n, dx=1, dy=1, j0=None: zigzag_cut(n, dx, dy, j0)),
+    "zigzag": (2, square_grid,
+               lambda n, dx=1, dy=1, j0=None, offset=False: zigzag_cut(n, dx, dy, j0, offset)),
     "sphere": (3, cube_grid, lambda n, subdivisions=2, **kw: icosphere(subdivisions, **kw)),
     "plane": (3, cube_grid, lambda n, k=None: grid_plane(n, k, offset=False)),
     "plane_offset": (3, cube_grid, lambda n, k=None: grid_plane(n, k, offset=True)),
