@@ -3,8 +3,8 @@
 1. 2D: an n×n grid of squares (two triangles each) cut by a circle polygon;
 2. 3D: the unit cube as n/2 × n/2 × n/2 cubes of six tetrahedra cut by an icosphere;
 3. degenerate cases, robust registration against the naive zero-tolerance baseline:
-   cuts lying on mesh edges, through mesh vertices and on mesh faces, also rotated (so
-   that "on" holds only to rounding). Inconsistencies: cutting vertices inside the
+   cuts lying on mesh edges, through mesh vertices and on mesh faces, also under ten
+   fixed rotations (so that "on" holds only to rounding; counts summed). Inconsistencies: cutting vertices inside the
    simulation mesh not located exactly once (IntersectionResult.mislocated), plus
    cutting edges whose events are not a walk through the mesh
    (IntersectionResult.broken_walks).
@@ -38,26 +38,38 @@ def rotation(dim, seed=1):
     return q * np.sign(np.diag(r))
 
 
+ROTATIONS = 10
+
+
 def degenerate_cases(n):
-    """(name, example dict, inside mask of the cutting vertices, rotate?)."""
+    """[(name, [(sim, cut), ...] variants, inside mask of the cutting vertices)]:
+    rotated cases come as ROTATIONS fixed rotations (their counts are summed)."""
     from .meshes import example
 
     n3 = max(2, n // 2)
+    m = max(7, n)
     cases = [("2D diagonal on mesh edges", example("diagonal", n), False),
              ("2D zig-zag on edge midpoints", example("zigzag", n, offset=True), False),
              ("2D zig-zag on edge midpoints, rotated", example("zigzag", n, offset=True), True),
+             ("2D zig-zag through vertices, slope 3, rotated",
+              example("zigzag", m + m % 2, dx=2, dy=6), True),
              ("3D plane on grid vertices", example("plane", n3), False),
+             ("3D plane on grid vertices, rotated", example("plane", n3), True),
              ("3D plane offset half a cell", example("plane_offset", n3), False),
              ("3D plane offset half a cell, rotated", example("plane_offset", n3), True)]
     out = []
     for name, ex, rot in cases:
         cp = ex["cut"][0]
         inside = np.all((cp > 0) & (cp < 1), axis=1)  # strictly inside the unit square/cube
+        variants = [(ex["sim"], ex["cut"])]
         if rot:
-            R = rotation(ex["dim"])
-            ex = dict(ex, sim=(ex["sim"][0] @ R.T, ex["sim"][1]),
-                      cut=(ex["cut"][0] @ R.T, ex["cut"][1]))
-        out.append((name, ex, inside))
+            name = f"{name} ×{ROTATIONS}"
+            variants = []
+            for seed in range(ROTATIONS):
+                R = rotation(ex["dim"], seed)
+                variants.append(((ex["sim"][0] @ R.T, ex["sim"][1]),
+                                 (ex["cut"][0] @ R.T, ex["cut"][1])))
+        out.append((name, variants, inside))
     return out
 
 
@@ -107,11 +119,13 @@ def run(args):
     print("inconsistencies = cutting vertices inside the mesh not located exactly once\n"
           "                + cutting edges whose events are not a walk through the mesh")
     rows = []
-    for name, ex, inside in degenerate_cases(n):
-        r = intersect(*ex["sim"], *ex["cut"], dtype=dtype)
-        z = intersect(*ex["sim"], *ex["cut"], dtype=dtype, tolerance_scale=0)
-        rows.append((name, r.total, r.inconsistencies(inside), z.total,
-                     z.inconsistencies(inside)))
+    for name, variants, inside in degenerate_cases(n):
+        row = np.zeros(4, dtype=np.int64)
+        for sim, cut in variants:
+            r = intersect(*sim, *cut, dtype=dtype)
+            z = intersect(*sim, *cut, dtype=dtype, tolerance_scale=0)
+            row += (r.total, r.inconsistencies(inside), z.total, z.inconsistencies(inside))
+        rows.append((name, *row.tolist()))
     w = max(len(r[0]) for r in rows)
     print(f"{'case':<{w}}  {'robust pairs':>12}  {'inconsist.':>10}  {'naive pairs':>11}  "
           f"{'inconsist.':>10}")
