@@ -164,11 +164,14 @@ def from_meshio(sim, cut):
 
 def read_mesh(path):
     """Read a mesh file with meshio (any format it knows), with a clear error."""
+    import os
+
     import meshio
 
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"no such mesh file: {path}")
     try:
-        return meshio.read(path)
-    except FileNotFoundError:
-        raise FileNotFoundError(f"no such mesh file: {path}") from None
+        with np.errstate(all="ignore"):  # meshio's STL reader overflows harmlessly
+            return meshio.read(path)
     except meshio.ReadError as e:
         raise ValueError(f"cannot read {path}: {e}") from None
