@@ -192,6 +192,12 @@ class PredicateSpec:
                               _lower_fraction_of(q.R.subs(fperr.eps, e)))
 
 
+@lru_cache(maxsize=None)
+def spec_for(pred) -> PredicateSpec:
+    """The (cached) audit spec of a predicate with the derived bounds."""
+    return PredicateSpec(pred)
+
+
 def _rhs_label(t):
     if t.name:
         return t.name
@@ -368,6 +374,7 @@ class Outcome:
     ratios: dict = field(default_factory=dict)      # quantity -> E ratio (float)
     rratios: dict = field(default_factory=dict)     # quantity -> R ratio (float)
     stress: dict = field(default_factory=dict)      # check index -> stress (float)
+    flip: dict = field(default_factory=dict)        # bracket check -> closeness to a flip
     mid: dict = field(default_factory=dict)         # bracket check -> exact decision at T
     zone: set = field(default_factory=set)          # check indices with exact x in [T-, T+]
     checks: set = field(default_factory=set)        # check indices evaluated
@@ -492,14 +499,24 @@ def _bracket(c, cs, d, out):
         out.zone.add(c.index)
     # stress: share of the gap consumed by rounding, in the direction that could flip
     Fl, Fr = c.lhs.working_fraction, c.rhs.working_fraction
-    delta = _sub_exact(_sub_exact(Fl, Fr), _sub_exact(c.lhs.x, c.rhs.x))
+    dx = _sub_exact(c.lhs.x, c.rhs.x)                  # x − T, exact
+    delta = _sub_exact(_sub_exact(Fl, Fr), dx)         # what rounding added to it
     g_lo = lower_fraction(_sub_exact(c.rhs.x, c.rhs.lo))
     g_hi = lower_fraction(_sub_exact(c.rhs.hi, c.rhs.x))
-    dpos = upper_fraction(delta) if _sgn(delta) > 0 else Fraction(0)
-    dneg = upper_fraction(delta) if _sgn(delta) < 0 else Fraction(0)
+    sd = _sgn(delta) if compare(delta, Fraction(0)) else 0
+    dpos = upper_fraction(delta) if sd > 0 else Fraction(0)
+    dneg = upper_fraction(delta) if sd < 0 else Fraction(0)
     st = max(float(dpos / g_lo) if g_lo else math.inf * bool(dpos),
              float(dneg / g_hi) if g_hi else math.inf * bool(dneg))
     out.stress[c.index] = st
+    # closeness to a flip: rounding pushing x − T toward the other side, relative to the
+    # distance it would have to cover (at least the gap: flips inside [T−, T+] are allowed).
+    sx = compare(dx, Fraction(0))
+    if sd and sx is not None and sd != sx:
+        need = max(lower_fraction(dx), g_lo if sd > 0 else g_hi)
+        out.flip[c.index] = float(upper_fraction(delta) / need) if need else math.inf
+    else:
+        out.flip[c.index] = 0.0
     # the forbidden disagreements (section 3, (1))
     if c.rel in ("<=", "<"):
         bad = (lo and not d) or (d and not hi)
@@ -663,11 +680,11 @@ class Generator:
         out = []
         line = self.d == 3 and self.rng.random() < 0.3
         m = self._unit()
+        T = self._tol(info, self.rng.choice(names))  # one scale for the whole sample
         for p in pts:
             q = p - ((p - o) @ n) * n
             if line:
                 q = q - ((q - o) @ m) * m
-            T = self._tol(info, self.rng.choice(names))
             q = q + n * self.rng.choice((-1, 1)) * self._k() * T * (self.rng.random() < 0.9)
             out.append(q)
         return out
@@ -780,6 +797,15 @@ class Stat:
     premise_failed: int = 0
     violations: int = 0
     seeds: list = field(default_factory=list)   # (value, Config), best first
+    flip: float = 0.0
+    flip_seeds: list = field(default_factory=list)
+
+    def add_flip(self, value, cfg, keep=3):
+        self.flip = max(self.flip, value)
+        if value > 0 and (len(self.flip_seeds) < keep or value > self.flip_seeds[-1][0]):
+            self.flip_seeds.append((value, cfg))
+            self.flip_seeds.sort(key=lambda t: -t[0])
+            del self.flip_seeds[keep:]
 
     def add(self, value, cfg, keep=3):
         self.count += 1
@@ -804,7 +830,8 @@ class Audit:
                  progress=None, brackets: tuple = (), zone_pairs: int = 2, zone_steps: int = 72,
                  audit_tolerances: bool = True):
         preds = preds if preds is not None else [p for d in (2, 3) for p in predicates.ALL[d]]
-        self.specs = [p if isinstance(p, PredicateSpec) else PredicateSpec(p, bound_fn)
+        self.specs = [p if isinstance(p, PredicateSpec) else
+                      (spec_for(p) if bound_fn is None else PredicateSpec(p, bound_fn))
                       for p in preds]
         self.formats = tuple(formats)
         self.samples = samples
@@ -836,6 +863,8 @@ class Audit:
             st = self.c.setdefault((spec.key, fmt, k), Stat())
             if k in out.stress:
                 st.add(out.stress[k], cfg)
+            if k in out.flip:
+                st.add_flip(out.flip[k], cfg)
             st.evaluated += 1
             st.zone += k in out.zone
             st.undecided += k in out.undecided
@@ -917,27 +946,31 @@ class Audit:
                         t1 = t
 
     def search(self, spec, fmt, gen: Generator):
-        """Hill climbing from the worst samples of every quantity and every check."""
+        """Hill climbing from the worst samples of every quantity (error ratio), every
+        sign test (stress) and every bracket check (closeness to a forbidden flip)."""
         targets = []
         for (key, f, name), st in list(self.q.items()):
             if key == spec.key and f == fmt:
-                targets.append(("q", name, st))
-        for (key, f, k), st in list(self.c.items()):
-            if key == spec.key and f == fmt:
-                targets.append(("c", k, st))
+                targets.append(("q", name, st.seeds))
         seen_labels = set()
-        for kind, name, st in targets:
-            if kind == "c":  # duplicate sign leaves (same line, same test) share a search
-                lab = (spec.checks[name].line, spec.checks[name].label)
-                if lab in seen_labels:
-                    continue
-                seen_labels.add(lab)
-            for value, cfg in list(st.seeds[:2]):
+        for (key, f, k), st in list(self.c.items()):
+            if key != spec.key or f != fmt:
+                continue
+            lab = (spec.checks[k].line, spec.checks[k].label)
+            if lab in seen_labels:  # duplicate sign leaves share a search
+                continue
+            seen_labels.add(lab)
+            if spec.checks[k].kind == "bracket":
+                targets.append(("flip", k, st.flip_seeds))
+            else:
+                targets.append(("stress", k, st.seeds))
+        for kind, name, seeds in targets:
+            for value, cfg in list(seeds[:2]):
                 cur, cur_v = cfg, value
                 for _ in range(self.search_steps):
                     cand = gen.perturb(cur)
                     out = self._eval(spec, fmt, cand)
-                    v = (out.ratios.get(name) if kind == "q" else out.stress.get(name))
+                    v = {"q": out.ratios, "stress": out.stress, "flip": out.flip}[kind].get(name)
                     if v is None:
                         continue
                     if v >= cur_v:
@@ -1005,6 +1038,7 @@ class Audit:
                         "evaluated": max(s.evaluated for s in sts),
                         "in_zone": sum(s.zone for s in sts),
                         "max_stress": best.worst,
+                        "max_flip": max(s.flip for s in sts),
                         "violations": sum(s.violations for s in sts),
                         "undecided": sum(s.undecided for s in sts),
                         "premise_failed": sum(s.premise_failed for s in sts),
@@ -1054,10 +1088,15 @@ def render_markdown(s: dict) -> str:
             rr = f" ({_fmt_ratio(d['max_relative_ratio'])})" if d["max_relative_ratio"] is not None else ""
             cells.append(f"{_fmt_ratio(d['max_ratio'])}{rr} | {d['samples']}")
         out.append(f"| {r['predicate']} | {r['quantity']} | {r['bound']} | " + " | ".join(cells) + " |")
-    out += ["", "## Checks: max stress (share of the T−/T+ gap consumed), samples in the "
-            "T−..T+ zone, violations", "",
+    out += ["", "## Checks", "",
+            "stress: the largest share of the bracket gap (T − T−, T+ − T; for a sign test, "
+            "of |x|) that rounding consumed in the direction that could flip the decision; "
+            "flip: the closest approach to a forbidden flip (rounding error over the distance "
+            "x would have to cross, at least the gap; ≥ 1 outside [T−, T+] is a violation); "
+            "zone: samples whose exact value lay between T− and T+; n: evaluations; "
+            "viol.: forbidden disagreements (premise holding).", "",
             "| predicate | line | check | kind | " + " | ".join(
-                f"{f} stress / zone / n / viol." for f in fm) + " |",
+                f"{f} stress / flip / zone / n / viol." for f in fm) + " |",
             "|---|---|---|---|" + "---|" * len(fm)]
     for r in s["checks"]:
         cells = []
@@ -1071,8 +1110,9 @@ def render_markdown(s: dict) -> str:
                 extra += f" ({d['premise_failed']} w/o premise)"
             if d["undecided"]:
                 extra += f" ({d['undecided']} undecided)"
-            cells.append(f"{_fmt_ratio(d['max_stress'])} / {d['in_zone']} / {d['evaluated']} / "
-                         f"**{d['violations']}**{extra}")
+            flip = _fmt_ratio(d["max_flip"]) if r["kind"] == "bracket" else "—"
+            cells.append(f"{_fmt_ratio(d['max_stress'])} / {flip} / {d['in_zone']} / "
+                         f"{d['evaluated']} / **{d['violations']}**{extra}")
         out.append(f"| {r['predicate']} | {r['line']} | `{r['check']}` | {r['kind']} | "
                    + " | ".join(cells) + " |")
     out += ["", "## Tolerances: max |F[T] − T| / (R[T]·T)", "",
@@ -1098,7 +1138,7 @@ def replay(violation_or_worst: dict, predicate_key: str | None = None):
     cfgd = violation_or_worst.get("config", violation_or_worst)
     dim = int(key[0])
     pred = next(p for p in predicates.ALL[dim] if p.name == key.split()[1])
-    spec = PredicateSpec(pred)
+    spec = spec_for(pred)
     cfg = Config.from_json(dim, cfgd)
     spec.bound_coefficients(cfg.fmt_name)
     return spec, cfg, run_shadow(spec, cfg), evaluate(spec, cfg)
