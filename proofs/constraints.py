@@ -41,7 +41,8 @@ from typing import Callable
 import sympy
 
 import fperr
-from fperr import InvalidBound, Tracked, bounds
+from fperr import InvalidBound, Tracked
+from fperr import bounds as _fperr_bounds
 from fperr.symbols import L, eps
 from predicates.tolerance_table import L_SIGMA_PLUS
 
@@ -61,6 +62,21 @@ LENGTHS = {2: ("sigma", "tau", "sigma_hat"),
 
 def g(name: str, which: str = "") -> str:
     return GREEK.get(name, name) + {"lo": "−", "hi": "+", "": ""}[which]
+
+
+_BOUNDS_MEMO: dict[int, tuple] = {}
+
+
+def bounds(t: Tracked, strict: bool = False):
+    """:func:`fperr.bounds`, memoised per Tracked object (its state never changes;
+    the memo keeps a reference so ids are not reused)."""
+    hit = _BOUNDS_MEMO.get(id(t))
+    if hit is None or hit[0] is not t:
+        hit = _BOUNDS_MEMO[id(t)] = (t, _fperr_bounds(t))
+    b = hit[1]
+    if strict and not b.valid:
+        return _fperr_bounds(t, strict=True)  # raises InvalidBound with the reason
+    return b
 
 
 # -- data model -----------------------------------------------------------------------
@@ -362,6 +378,11 @@ def _monomial_in(gexpr: sympy.Expr, T: sympy.Symbol):
     return c, k
 
 
+def _ids(labels) -> str:
+    """Quantity labels as they appear in constraint ids (no '|', no spaces)."""
+    return ",".join(x.replace("|", "").replace(" ", "") for x in labels)
+
+
 def fmt(e) -> str:
     """Compact display of an expression in ε and L."""
     if isinstance(e, str):
@@ -409,7 +430,7 @@ def _window_constraint(dim, alg, w: _Window, v: Values) -> Constraint:
                 f"E[x] + E[{gtxt}]")
         detail = f"E[x] + E[{gtxt}] = {fmt(up_err)} for x ∈ {{{what}}}"
     c = Constraint(
-        f"{dim}D.{alg}.window.{w.tol}[{','.join(w.labels)}]", dim, alg,
+        f"{dim}D.{alg}.window.{w.tol}[{_ids(w.labels)}]", dim, alg,
         "3", "window", stmt,
         [Inequality(gh - gm, up_err, label=f"{gsym('hi')} − {gtxt} (upper window)"),
          Inequality(gm - gl, lo_err, label=f"{gtxt} − {gsym('lo')} (lower window)")],
@@ -566,7 +587,7 @@ def run_constraints(ins, v: Values, algorithm: str | None = None) -> list[Constr
         tols = tolerance_nodes(chk.rhs, names)
         lab = label(chk.lhs)
         if len(tols) != 1:
-            fail(f"check[{lab}]", str(chk),
+            fail(f"check[{_ids([lab])}]", str(chk),
                  f"comparison against {len(tols)} tolerances is not supported", [chk.line])
             continue
         T = tols[0]
@@ -576,7 +597,7 @@ def run_constraints(ins, v: Values, algorithm: str | None = None) -> list[Constr
         except _Impure:
             sp = _special_pattern(chk, T, names)
             if sp is None:
-                fail(f"check[{lab}]", str(chk), "the right-hand side depends on the "
+                fail(f"check[{_ids([lab])}]", str(chk), "the right-hand side depends on the "
                      "inputs and is not of the form T²·q handled by section 5.4.4",
                      [chk.line])
                 continue
@@ -594,16 +615,16 @@ def run_constraints(ins, v: Values, algorithm: str | None = None) -> list[Constr
             continue
         mono = _monomial_in(sympy.expand(gexpr), Tsym)
         if mono is None:
-            fail(f"check[{lab}]", str(chk), f"{gexpr} is not c·T^k", [chk.line])
+            fail(f"check[{_ids([lab])}]", str(chk), f"{gexpr} is not c·T^k", [chk.line])
             continue
         try:
             bl = bounds(chk.lhs, strict=True)
             br = bounds(chk.rhs, strict=True)
         except InvalidBound as e:
-            fail(f"window.{T}[{lab}]", str(chk), f"no error bound: {e}", [chk.line])
+            fail(f"window.{T}[{_ids([lab])}]", str(chk), f"no error bound: {e}", [chk.line])
             continue
         if bl.power != br.power:
-            fail(f"window.{T}[{lab}]", str(chk),
+            fail(f"window.{T}[{_ids([lab])}]", str(chk),
                  f"compares L^{bl.power} with L^{br.power}", [chk.line])
             continue
         rel = bl.R is not None
@@ -631,7 +652,7 @@ def run_constraints(ins, v: Values, algorithm: str | None = None) -> list[Constr
         try:
             bx = bounds(x, strict=True)
         except InvalidBound as e:
-            fail(f"sign[{lab}]", str(chk), f"no error bound: {e}", [chk.line])
+            fail(f"sign[{_ids([lab])}]", str(chk), f"no error bound: {e}", [chk.line])
             continue
         prot = protected_by_check.get(id(x))
         if bx.R is not None:
@@ -655,7 +676,7 @@ def run_constraints(ins, v: Values, algorithm: str | None = None) -> list[Constr
                                            "B": bexpr, "E": bx.E,
                                            "why": f"|x| > {b.text}", "section": b.section})
         else:
-            fail(f"sign[{lab}]", str(chk),
+            fail(f"sign[{_ids([lab])}]", str(chk),
                  "unprotected sign test: no '|x| ≤ T' rejection before it and no declared "
                  "geometric lower bound on |x|", [chk.line])
             continue
@@ -663,7 +684,7 @@ def run_constraints(ins, v: Values, algorithm: str | None = None) -> list[Constr
             entry["labels"].append(lab)
         entry["lines"].append(chk.line)
     for e in signs.values():
-        labs = ",".join(e["labels"])
+        labs = _ids(e["labels"])
         if e["kind"] == "relative":
             out.append(Constraint(
                 f"{dim}D.{alg}.sign[{labs}]", dim, alg, "3", "sign",

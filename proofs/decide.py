@@ -253,7 +253,7 @@ def _value_at(expr: sympy.Expr, epsilon: sympy.Rational) -> float:
 
 def _display(lhs, rhs, epsilon):
     lv, rv = _value_at(lhs, epsilon), _value_at(rhs, epsilon)
-    ratio = lv / rv if rv > 0 else None
+    ratio = lv / rv if (rv > 0 and lv > 0) else None
     return (lv - rv, ratio)
 
 

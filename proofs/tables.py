@@ -48,9 +48,13 @@ class ToleranceFileError(ValueError):
 def _coefficient(v, where: str) -> sympy.Expr:
     if isinstance(v, bool):
         raise ToleranceFileError(f"{where}: a boolean is not a coefficient")
-    if isinstance(v, int):
+    if isinstance(v, sympy.Basic):
+        x = v
+    elif isinstance(v, int):
         x = sympy.Integer(v)
     elif isinstance(v, float):
+        if v != v or v in (float("inf"), float("-inf")):
+            raise ToleranceFileError(f"{where}: coefficient must be finite, got {v!r}")
         x = sympy.Rational(repr(v))  # the decimal the user wrote, exactly
     elif isinstance(v, str):
         try:
@@ -119,9 +123,11 @@ def load_overrides(path: str | Path) -> dict[int, dict[str, dict[str, sympy.Expr
 
 
 def table(dim: int, overrides: dict | None = None) -> dict[str, ToleranceSpec]:
-    """Figure 1 (dim 2) / Figure 5 (dim 3), with ``overrides[dim]`` applied."""
+    """Figure 1 (dim 2) / Figure 5 (dim 3), with ``overrides[dim]`` applied (validated
+    and made exact by :func:`parse_overrides`)."""
     base = dict(TABLES[dim])
-    for name, fields in ((overrides or {}).get(dim) or {}).items():
+    overrides = parse_overrides(overrides) if overrides else {}
+    for name, fields in (overrides.get(dim) or {}).items():
         base[name] = replace(base[name], **fields)
     return base
 

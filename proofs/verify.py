@@ -183,7 +183,7 @@ def _ranges_text(ranges) -> str:
     if not ranges:
         return ""
     parts = []
-    for lo, hi in ranges:
+    for lo, hi in sorted(set(ranges)):
         parts.append(f"ε ∈ ({lo:.4g}, {hi:.4g}]" if lo > 0 else f"ε ∈ (0, {hi:.4g}]")
     return "fails for " + ", ".join(parts)
 
