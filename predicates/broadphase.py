@@ -10,8 +10,9 @@ register is lost, whatever the coordinates' magnitude. The grid only proposes pa
   coordinates fit 21 bits per axis), doubled while boxes would cover too many cells;
 * the b boxes are enlarged by ``pad`` (rounded outwards with ``nextafter``), both sets
   are binned, and the pairs sharing a cell are enumerated by a sort-merge join;
-* a pair is emitted only in the cell holding the lower corner of the two boxes'
-  overlap, so it is produced exactly once without a global ``unique``.
+* a pair is emitted only in the cell holding the lower corner of the two (enlarged)
+  boxes' overlap — the cell max(i0_a, i0_b) per axis, the cell index being monotone —
+  so it is produced exactly once without a global ``unique``.
 
 Work and memory are O((n_a + n_b)·cells per box + pairs), processed in chunks of at most
 ``chunk`` proposed pairs.
@@ -20,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["box_pairs", "box_pairs_bruteforce", "boxes"]
+__all__ = ["box_pairs", "box_pairs_bruteforce", "boxes", "near_flags"]
 
 _BITS = 20  # at most 2^20 + 1 cells per axis: linear keys fit in int64
 
@@ -53,7 +54,7 @@ def _linear(idx, G):
     return key
 
 
-def _entries(i0, i1, G):
+def _entries(i0, i1, G, sort=True):
     """(box id, linear cell key) for every cell each box covers, sorted by key."""
     c = i1 - i0 + 1
     per = np.prod(c, axis=1)
@@ -66,6 +67,8 @@ def _entries(i0, i1, G):
         idx[:, ax] = i0[box, ax] + t % cb
         t //= cb
     key = _linear(idx, G)
+    if not sort:
+        return box, key
     order = np.argsort(key, kind="stable")
     return box[order], key[order]
 
@@ -81,13 +84,9 @@ def _runs(sorted_keys):
     return sorted_keys[start], start, count
 
 
-def box_pairs(lo_a, hi_a, lo_b, hi_b, pad: float, chunk: int = 1 << 22):
-    """Yield (ia, ib) index arrays, together every pair of boxes a, b within ``pad``
-    (see module docstring), each pair exactly once. Boxes are (n, d) arrays."""
-    lo_a, hi_a, lo_b, hi_b = (np.asarray(x, dtype=np.float64) for x in (lo_a, hi_a, lo_b, hi_b))
+def _grid(lo_a, hi_a, lo_b, hi_b, pad):
+    """The grid: b boxes enlarged by pad (outwards), cell size, per-box cell ranges."""
     na, nb = len(lo_a), len(lo_b)
-    if na == 0 or nb == 0:
-        return
     pad = float(pad)
     if not pad >= 0:
         raise ValueError(f"pad must be a non-negative number, got {pad!r}")
@@ -114,6 +113,42 @@ def box_pairs(lo_a, hi_a, lo_b, hi_b, pad: float, chunk: int = 1 << 22):
         if total <= budget or np.all(G == 1):
             break
         h *= 2
+    return G, ia0, ia1, ib0, ib1
+
+
+def near_flags(lo_a, hi_a, lo_b, hi_b, pad: float):
+    """(near_a, near_b): boolean masks, a superset of the boxes that have a partner
+    within ``pad`` (same test as :func:`box_pairs`): a box is flagged when it shares a
+    grid cell with a box of the other set. Cheaper than enumerating the pairs."""
+    lo_a, hi_a, lo_b, hi_b = (np.asarray(x, dtype=np.float64) for x in (lo_a, hi_a, lo_b, hi_b))
+    near_a, near_b = np.zeros(len(lo_a), dtype=bool), np.zeros(len(lo_b), dtype=bool)
+    if len(lo_a) == 0 or len(lo_b) == 0:
+        return near_a, near_b
+    G, ia0, ia1, ib0, ib1 = _grid(lo_a, hi_a, lo_b, hi_b, pad)
+    box_a, key_a = _entries(ia0, ia1, G, sort=False)
+    box_b, key_b = _entries(ib0, ib1, G, sort=False)
+    if np.prod(G.astype(float)) <= 2.0 ** 26:
+        occ_a = np.zeros(int(np.prod(G)), dtype=bool)
+        occ_b = np.zeros(int(np.prod(G)), dtype=bool)
+        occ_a[key_a] = True
+        occ_b[key_b] = True
+        hit_a, hit_b = occ_b[key_a], occ_a[key_b]
+    else:
+        hit_a = np.isin(key_a, key_b)
+        hit_b = np.isin(key_b, key_a)
+    near_a[box_a[hit_a]] = True
+    near_b[box_b[hit_b]] = True
+    return near_a, near_b
+
+
+def box_pairs(lo_a, hi_a, lo_b, hi_b, pad: float, chunk: int = 1 << 22):
+    """Yield (ia, ib) index arrays, together every pair of boxes a, b within ``pad``
+    (see module docstring), each pair exactly once. Boxes are (n, d) arrays."""
+    lo_a, hi_a, lo_b, hi_b = (np.asarray(x, dtype=np.float64) for x in (lo_a, hi_a, lo_b, hi_b))
+    if len(lo_a) == 0 or len(lo_b) == 0:
+        return
+    pad = float(pad)
+    G, ia0, ia1, ib0, ib1 = _grid(lo_a, hi_a, lo_b, hi_b, pad)
     box_a, key_a = _entries(ia0, ia1, G)
     box_b, key_b = _entries(ib0, ib1, G)
     ua, sa, ca = _runs(key_a)
@@ -130,21 +165,24 @@ def box_pairs(lo_a, hi_a, lo_b, hi_b, pad: float, chunk: int = 1 << 22):
         hi = int(np.searchsorted(ends, base + chunk, side="right"))
         hi = max(hi, lo + 1)
         yield from _join(cells[lo:hi], sa[lo:hi], ca[lo:hi], sb[lo:hi], cb[lo:hi],
-                         box_a, box_b, lo_a, hi_a, lo_b, hi_b, lo_bx, origin, h, G, pad)
+                         box_a, box_b, lo_a, hi_a, lo_b, hi_b, ia0, ib0, G, pad)
         lo = hi
 
 
-def _join(cells, sa, ca, sb, cb, box_a, box_b, lo_a, hi_a, lo_b, hi_b, lo_bx, origin, h,
-          G, pad):
-    n = ca * cb
-    cell = np.repeat(np.arange(cells.size), n)
-    t = np.arange(cell.size, dtype=np.int64) - np.repeat(np.cumsum(n) - n, n)
-    q = cb[cell]
-    ia = box_a[sa[cell] + t // q]
-    ib = box_b[sb[cell] + t % q]
+def _join(cells, sa, ca, sb, cb, box_a, box_b, lo_a, hi_a, lo_b, hi_b, i0a, i0b, G, pad):
+    # one row per (cell, a-entry), repeated once per b-entry of that cell: no division
+    row_cell = np.repeat(np.arange(cells.size), ca)
+    row_a = np.arange(row_cell.size, dtype=np.int64) - np.repeat(np.cumsum(ca) - ca, ca) \
+        + sa[row_cell]
+    q = cb[row_cell]
+    ia = np.repeat(box_a[row_a], q)
+    off = np.arange(ia.size, dtype=np.int64) - np.repeat(np.cumsum(q) - q, q)
+    ib = box_b[np.repeat(sb[row_cell], q) + off]
+    cell_key = np.repeat(cells[row_cell], q)
+    # report each pair once: in the cell of the lower corner of the boxes' overlap
+    ref = np.maximum(i0a[ia], i0b[ib])
+    keep = _linear(ref, G) == cell_key
+    ia, ib = ia[keep], ib[keep]
     ok = np.all((lo_b[ib] - hi_a[ia] <= pad) & (lo_a[ia] - hi_b[ib] <= pad), axis=1)
-    ia, ib, cell = ia[ok], ib[ok], cell[ok]
-    ref = _linear(_cell_index(np.maximum(lo_a[ia], lo_bx[ib]), origin, h, G), G)
-    keep = ref == cells[cell]
-    if keep.any():
-        yield ia[keep], ib[keep]
+    if ok.any():
+        yield ia[ok], ib[ok]

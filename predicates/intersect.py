@@ -58,7 +58,7 @@ import numpy as np
 
 from . import d2, d3
 from . import meshes as _meshes  # noqa: F401  (predicates.meshes after import predicates)
-from .broadphase import box_pairs
+from .broadphase import box_pairs, near_flags
 from .mesh_input import from_meshio, validate_pair
 from .result import IntersectionResult, KindPairs
 from .tolerances import tolerances as compute_tolerances
@@ -333,18 +333,15 @@ class _Registration:
 
     # -- broad phase ------------------------------------------------------------------
     def _near(self):
-        """Per dimension, the primitives of each mesh whose cell is within σ+ of some
-        cell of the other mesh (every candidate of every kind is among them)."""
+        """Per dimension, the primitives of each mesh whose cell shares a grid cell with
+        a cell of the other mesh enlarged by σ+ (a superset of the cells within σ+ of
+        the other mesh, so every candidate of every kind is among them)."""
         sim, cut = self.sim, self.cut
         ts, tc = sim.cx.top, cut.cx.top
         Xs = sim.coords(ts, slice(None))
         Xc = cut.coords(tc, slice(None))
-        near_s = np.zeros(sim.count(ts), dtype=bool)
-        near_c = np.zeros(cut.count(tc), dtype=bool)
         pad = max(self.reach.values())
-        for ia, ib in box_pairs(Xs.min(1), Xs.max(1), Xc.min(1), Xc.max(1), pad):
-            near_s[ia] = True
-            near_c[ib] = True
+        near_s, near_c = near_flags(Xs.min(1), Xs.max(1), Xc.min(1), Xc.max(1), pad)
         self.near_sim = {k: np.unique(sim.cx.face(ts, k)[near_s]) for k in range(ts + 1)}
         self.near_cut = {k: np.unique(cut.cx.face(tc, k)[near_c]) for k in range(tc + 1)}
 
