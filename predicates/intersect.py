@@ -31,14 +31,17 @@ How it runs
    A large common offset (e.g. coordinates near 10⁶ with cells of 10⁻³) is therefore
    handled; an input whose coordinates cannot be scaled exactly (a coordinate would
    become subnormal and lose bits, or overflow) is refused with a clear error.
-3. Primitives: unique vertices, edges, faces (and cells) of each mesh. Inside every
-   primitive the vertices are ordered lexicographically by coordinates, so that the
-   predicates see the same numbers in the same order whatever the vertex numbering,
-   the cell order or the orientation: the result is invariant under all three.
+3. Primitives: unique vertices, edges, faces (and cells) of each mesh — of the cells
+   the first broad-phase stage keeps (step 5). Inside every primitive the vertices are
+   ordered lexicographically by coordinates, so that the predicates see the same
+   numbers in the same order whatever the vertex numbering, the cell order or the
+   orientation: the result is invariant under all three.
 4. Tolerances (Algorithms 1 and 6) from L_a, L_b, the largest bounding-box edge of any
    cell of each mesh, rounded up (they must be upper bounds).
-5. Broad phase (:mod:`predicates.broadphase`): cells within σ+ of each other, then per
-   kind the primitives' boxes within that kind's reach (≤ σ+; see :data:`REACH`).
+5. Broad phase (:mod:`predicates.broadphase`): the cells of each mesh sharing a grid
+   cell with a cell of the other mesh enlarged by σ+ (a superset of those within σ+),
+   then per kind the primitives' boxes within that kind's reach (≤ σ+; see
+   :data:`REACH`), tested exactly.
 6. Per level, per kind: suppression by registered sub-pairs, then the predicate in
    numpy batch mode on chunks of candidates.
 
@@ -286,7 +289,7 @@ def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: b
     # rank space: vertices ordered lexicographically by coordinates
     t = time.perf_counter()
     reg = _Registration(dim, P_sim, sim.cells, P_cut, cut.cells, tol_run, reach, chunk)
-    timings["primitives"] = time.perf_counter() - t
+    timings["ranks"] = time.perf_counter() - t
     pairs = reg.run(progress, timings)
 
     kinds = tuple(k for k, _, _ in KINDS[dim])
@@ -299,8 +302,9 @@ def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: b
 
 
 class _Side:
-    """One mesh in rank space: coordinates by rank, the simplicial complex, and the map
-    back to the input's vertex ids."""
+    """One mesh in rank space: coordinates by rank, the cells (rows of increasing
+    rank), the simplicial complex of the cells that matter (built by :meth:`build`), and
+    the map back to the input's vertex ids."""
 
     def __init__(self, P: np.ndarray, cells: np.ndarray):
         n = len(P)
@@ -309,7 +313,12 @@ class _Side:
         rank[order] = np.arange(n)
         self.order = order
         self.P = np.ascontiguousarray(P[order])
-        self.cx = _Complex(np.sort(rank[cells], axis=1), n) if len(cells) else None
+        self.cells = np.sort(rank[cells], axis=1)
+        self.cx = None
+
+    def build(self, mask):
+        """The complex of the cells selected by ``mask`` (all their faces)."""
+        self.cx = _Complex(self.cells[mask], len(self.P))
 
     def count(self, k):
         return len(self.cx.S[k])
@@ -330,30 +339,31 @@ class _Registration:
         self.registered = {}  # (i, j) -> sorted int64 keys s * n_cut[j] + c
         self.sim_involved = {}  # i -> bool per sim i-simplex: in some registered pair
         self.cut_involved = {}
+        self.empty = True
 
     # -- broad phase ------------------------------------------------------------------
     def _near(self):
-        """Per dimension, the primitives of each mesh whose cell shares a grid cell with
-        a cell of the other mesh enlarged by σ+ (a superset of the cells within σ+ of
-        the other mesh, so every candidate of every kind is among them)."""
+        """Keep only the cells of each mesh that share a grid cell with a cell of the
+        other mesh enlarged by σ+ (a superset of the cells within σ+ of the other mesh:
+        every candidate pair of every kind is made of their faces), and build the
+        simplicial complexes of those cells only."""
         sim, cut = self.sim, self.cut
-        ts, tc = sim.cx.top, cut.cx.top
-        Xs = sim.coords(ts, slice(None))
-        Xc = cut.coords(tc, slice(None))
+        if len(sim.cells) == 0 or len(cut.cells) == 0:
+            return
+        Xs, Xc = sim.P[sim.cells], cut.P[cut.cells]
         pad = max(self.reach.values())
         near_s, near_c = near_flags(Xs.min(1), Xs.max(1), Xc.min(1), Xc.max(1), pad)
-        self.near_sim = {k: np.unique(sim.cx.face(ts, k)[near_s]) for k in range(ts + 1)}
-        self.near_cut = {k: np.unique(cut.cx.face(tc, k)[near_c]) for k in range(tc + 1)}
+        if not (near_s.any() and near_c.any()):
+            return
+        sim.build(near_s)
+        cut.build(near_c)
+        self.empty = False
 
     def _candidates(self, kind, i, j):
-        s_idx, c_idx = self.near_sim[i], self.near_cut[j]
-        if len(s_idx) == 0 or len(c_idx) == 0:
-            return
-        Xs = self.sim.coords(i, s_idx)
-        Xc = self.cut.coords(j, c_idx)
-        for ia, ib in box_pairs(Xs.min(1), Xs.max(1), Xc.min(1), Xc.max(1),
-                                self.reach[kind], chunk=4 * self.chunk):
-            yield s_idx[ia], c_idx[ib]
+        Xs = self.sim.coords(i, slice(None))
+        Xc = self.cut.coords(j, slice(None))
+        yield from box_pairs(Xs.min(1), Xs.max(1), Xc.min(1), Xc.max(1), self.reach[kind],
+                             chunk=4 * self.chunk)
 
     # -- suppression --------------------------------------------------------------------
     def _blocked(self, i, j, s, c):
@@ -390,14 +400,15 @@ class _Registration:
         dim, dt = self.dim, self.dtype
         kinds = KINDS[dim]
         pairs = {}
-        empty = self.cut.cx is None
-        if not empty:
+        bar = tqdm(total=len(kinds) + 1, desc="registering", unit="step", delay=1.0,
+                   file=sys.stderr, disable=not progress, leave=False)
+        try:
+            bar.set_postfix_str("broad phase")
             t = time.perf_counter()
             self._near()
             timings["broadphase_cells"] = time.perf_counter() - t
-        bar = tqdm(total=len(kinds), desc="registering", unit="kind", delay=1.0,
-                   file=sys.stderr, disable=not progress, leave=False)
-        try:
+            empty = self.empty
+            bar.update(1)
             for kind, i, j in kinds:
                 t = time.perf_counter()
                 bar.set_postfix_str(kind)
@@ -430,7 +441,7 @@ class _Registration:
         return pairs
 
     def _register(self, i, j, s, c):
-        if self.cut.cx is None:
+        if self.empty:
             self.registered[i, j] = np.zeros(0, dtype=np.int64)
             return
         keys = s.astype(np.int64) * self.cut.count(j) + c
@@ -443,8 +454,7 @@ class _Registration:
         self.cut_involved[j][c] = True
 
     def _output(self, kind, i, j, s, c, sw, cw, ncand, nsup):
-        if self.cut.cx is None:
-            z = np.zeros((0, 1), dtype=np.int64)
+        if self.empty:
             return KindPairs(kind, np.zeros((0, i + 1), np.int64), np.zeros((0, j + 1), np.int64),
                              np.zeros((0, i + 1), self.dtype), np.zeros((0, j + 1), self.dtype))
         sid = self.sim.ids(i, s).reshape(len(s), i + 1)
