@@ -518,9 +518,10 @@ def special_argument(dim, alg, chk, x: Tracked, tt: Tracked, T: str, q: Tracked,
     steps = common + chain("accepting side: m ≥ √" + g(Tm, "lo"), Tn * m_acc, acc_txt)
     steps.append(Step(f"accepting ⇒ d̂² ≤ {Tsym}+²m²: (1 + 1/7 + 2/35)·{Tsym}² = 6/5·{Tsym}² "
                       f"≤ {Tsym}+²", [Inequality(Thi**2, R(6, 5) * Tn**2, strict=False)]))
-    note = ("the paper bounds γm from below by γ·4(τ−² − γ+²) on both sides; that bound "
-            "holds only when the pair intersects, and the accepting side must also hold "
-            "when it does not, where only m² > λ− is known (used here)")
+    geo = m_geo.text.split("> ")[-1] if m_geo is not None else "a geometric bound"
+    note = (f"the paper bounds {Tsym}m from below by {Tsym}·{geo} on both sides; that bound "
+            "holds only when the pair should be registered, and the accepting side must "
+            f"also hold when it does not, where only m² > {g(Tm, 'lo')} is known (used here)")
     never = [Inequality(sympy.Integer(0), sympy.Integer(1), label="no bound declared")]
     if m_geo is not None:
         mg = m_geo.expr(v)

@@ -507,7 +507,7 @@ def _branch_and_bound(expr: sympy.Expr, assume_poly: bool = False) -> Decision:
     stack = [(Fraction(0), S_HI)]
     bad, undecided = [], []
     steps = 0
-    while stack and steps < 20000:
+    while stack and steps < 3000:
         a, b = stack.pop()
         steps += 1
         try:

@@ -340,9 +340,9 @@ def render() -> str:
                 if err is None:
                     continue
                 K, k, p = paper_form(err)
-                if K != compare[1]:
-                    diffs.append(f"`{c.id}`: printed {compare[1]}, derived "
-                                 f"{_form_text(K, k, p)}")
+                item = f"`{c.id}`: printed {compare[1]}, derived {_form_text(K, k, p)}"
+                if K != compare[1] and item not in diffs:
+                    diffs.append(item)
     specials = [o for rep in reps.values() for o in rep.outcomes
                 if o.constraint.kind == "special"]
     for o in specials:

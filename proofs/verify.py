@@ -251,8 +251,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--require-paper-argument", action="store_true",
                         help="fail when the paper's own 5.4.4 argument does not hold "
                              "for every ε (even if another encoded argument does)")
-    parser.add_argument("--report", metavar="PATH", nargs="?", const="docs/error-bounds.md",
-                        help="also write the generated report (default path: "
+    parser.add_argument("--report", metavar="PATH", nargs="?", const="",
+                        help="also write the generated report (default: the repository's "
                              "docs/error-bounds.md)")
 
 
@@ -330,10 +330,11 @@ def run(args) -> int:
             print(f"{dim}D FAILED: " + ", ".join(o.id for o in rep.failures))
         print()
         ok = ok and rep.ok
-    if args.report:
-        from .report import write_report
-        write_report(args.report)
-        print(f"report written to {args.report}")
+    if args.report is not None:
+        from .report import DEFAULT_PATH, write_report
+        path = args.report or DEFAULT_PATH
+        write_report(path)
+        print(f"report written to {path}")
     return 0 if ok else 1
 
 
