@@ -53,7 +53,7 @@ def _lpow(p) -> str:
 
 def paper_integer(coefficient: sympy.Expr, b_term: sympy.Expr = sympy.Integer(0)) -> int | None:
     """Smallest integer K ≥ coefficient + b_term·ε for all 0 < ε ≤ 1e-5 (None if symbolic)."""
-    val = sympy.nsimplify(coefficient + b_term * EPS_MAX)
+    val = sympy.sympify(coefficient + b_term * EPS_MAX)
     if val.free_symbols:
         return None
     return int(sympy.ceiling(val))
