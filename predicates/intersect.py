@@ -217,13 +217,14 @@ def _parse_args(args):
                     f"intersect(sim_mesh, cut_mesh); got {len(args)} positional arguments")
 
 
-def _max_box_edge(points: np.ndarray, cells: np.ndarray, dtype) -> float:
-    """Largest bounding-box edge of any cell, rounded up (an upper bound)."""
+def _max_box_edge(points: np.ndarray, cells: np.ndarray) -> float:
+    """Largest bounding-box edge of any cell, in binary64, rounded up one ulp (an upper
+    bound of the exact value: hi − lo is correctly rounded)."""
     if len(cells) == 0:
         return 0.0
-    X = points[cells]
+    X = points.astype(np.float64, copy=False)[cells]
     d = (X.max(axis=1) - X.min(axis=1)).max()
-    return float(np.nextafter(dtype.type(d), dtype.type(np.inf))) if d > 0 else 0.0
+    return float(np.nextafter(d, np.inf)) if d > 0 else 0.0
 
 
 def _scale(points: np.ndarray, e: int, role: str) -> np.ndarray:
@@ -269,16 +270,16 @@ def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: b
     dim, sim, cut = validate_pair(sp, sc, cp, cc, dtype)
 
     # exact power-of-two scaling so that L_a + L_b is in [1/2, 1)
-    L_a0 = _max_box_edge(sim.points.astype(np.float64), sim.cells, np.dtype(np.float64))
-    L_b0 = _max_box_edge(cut.points.astype(np.float64), cut.cells, np.dtype(np.float64))
+    L_a0 = _max_box_edge(sim.points, sim.cells)
+    L_b0 = _max_box_edge(cut.points, cut.cells)
     if L_a0 + L_b0 == 0:
         raise ValueError("every cell of both meshes collapses to a single point (zero "
                          "bounding boxes): the tolerances would be zero")
     e = math.frexp(L_a0 + L_b0)[1]
     P_sim = _scale(sim.points, e, "simulation")
     P_cut = _scale(cut.points, e, "cutting")
-    L_a = _max_box_edge(P_sim, sim.cells, dtype)
-    L_b = _max_box_edge(P_cut, cut.cells, dtype)
+    # upper bounds, scaled exactly (compute_tolerances rounds them up into dtype)
+    L_a, L_b = math.ldexp(L_a0, -e), math.ldexp(L_b0, -e)
     tol = compute_tolerances(dim, L_a, L_b, dtype=dtype)
     tol_run = tol if ts == 1 else tol.scaled(dtype.type(ts))
     eps = float(np.finfo(dtype).eps)
@@ -296,7 +297,7 @@ def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: b
     timings["total"] = time.perf_counter() - t0
     return IntersectionResult(
         dim=dim, dtype=dtype, kinds=kinds, pairs=pairs, tolerances=tol_run, scale_exponent=e,
-        tolerance_scale=ts, L_a=float(np.ldexp(L_a, e)), L_b=float(np.ldexp(L_b, e)),
+        tolerance_scale=ts, L_a=L_a0, L_b=L_b0,
         sim_points=sim.points, sim_cells=sim.cells, cut_points=cut.points,
         cut_cells=cut.cells, rounded_inputs=sim.rounded or cut.rounded, timings=timings)
 
