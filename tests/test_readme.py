@@ -5,7 +5,8 @@ import re
 README = pathlib.Path(__file__).resolve().parents[1] / "README.md"
 
 
-def test_readme_python_blocks_run(capsys):
+def test_readme_python_blocks_run(capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # the examples write files
     blocks = re.findall(r"```python\n(.*?)```", README.read_text(), re.S)
     assert blocks
     env: dict = {}
@@ -14,6 +15,8 @@ def test_readme_python_blocks_run(capsys):
     out = capsys.readouterr().out
     assert "R ≤ 5ε, E ≤ 9εL^2" in out
     assert env["hit"].shape == (10**6,) and env["w"].shape == (10**6, 4)
+    assert env["res"]["vertex_vertex"].sim.shape == (81, 1)  # (n+1)² for n = 8
+    assert (tmp_path / "cut.vtu").stat().st_size > 0
 
 
 def test_readme_quick_start_matches_ci():
