@@ -92,7 +92,7 @@ def _meshes(case):
 
 class _Timers:
     """Per-kind time of the broad phase, the suppression and the predicates, measured by
-    wrappers around predicates.intersect's module-level functions and methods."""
+    wrappers around predicates.registration's module-level functions and methods."""
 
     def __init__(self):
         self.t = defaultdict(lambda: defaultdict(float))
@@ -100,8 +100,8 @@ class _Timers:
 
     def install(self):
         import importlib
-        # the module (predicates.intersect is also the name of the exported function)
-        I = importlib.import_module("predicates.intersect")
+        # the module behind predicates.intersect
+        I = importlib.import_module("predicates.registration")
         timers = self
         orig_bp, orig_blocked, orig_eval = I.box_pairs, I._Registration._blocked, I._evaluate
         orig_cand = I._Registration._candidates

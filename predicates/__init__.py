@@ -6,7 +6,7 @@
 from . import d2, d3
 from .core import Instrumented, Predicate
 from .tolerances import Tolerances, tolerances, tracked_tolerances
-from .intersect import intersect  # noqa: E402  (registration of two meshes)
+from .registration import intersect  # noqa: E402  (registration of two meshes)
 
 #: Every predicate, by dimension, in the paper's order.
 ALL = {2: (d2.vertex_vertex, d2.edge_vertex, d2.edge_edge, d2.triangle_vertex),

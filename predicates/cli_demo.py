@@ -84,7 +84,7 @@ def _write_mesh(path, points, cells, cell_type):
 
 def run(args):
     from .cli_intersect import plot_2d
-    from .intersect import intersect
+    from .registration import intersect
     from .meshes import example
 
     if args.n < 2:

@@ -86,7 +86,7 @@ def plot_2d(res, path, title=None):
 
 
 def run(args):
-    from .intersect import intersect
+    from .registration import intersect
     from .mesh_input import read_mesh
 
     try:

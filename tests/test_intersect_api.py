@@ -7,7 +7,7 @@ import pytest
 
 import predicates
 from predicates.broadphase import box_pairs, box_pairs_bruteforce
-from predicates.intersect import KINDS
+from predicates.registration import KINDS
 from predicates.meshes import example, cube_grid, grid_plane, square_grid
 from test_intersect_exact import transformed
 from test_intersect_oracle import check_exact
