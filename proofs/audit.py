@@ -31,6 +31,21 @@ Search
     steps at every scale, by snapping to the box extremes) to maximise the error ratio or
     the stress.
 
+The exact reference
+    Exact values are fractions while rational and rigorous 300-bit rational intervals
+    after an irrational square root (edge-vertex's m, the ε^(1/2), ε^(1/4) factors of the
+    tolerances, the √3 of some T+): see :mod:`fperr.shadow`. A measured error is the far
+    end of |F[x] − x| (an upper bound), so a ratio ≤ 1 is a proof for that input; a
+    comparison the interval cannot decide is counted as "undecided", never as agreement.
+
+Runs
+    CI size (the default, about 25 s of CPU): ``fperr audit``. A larger run (about
+    200 s of CPU, 130,000 shadow runs):
+    ``fperr audit --samples 1500 --search-steps 150 --seed 7 --format json -o audit.json``;
+    its figures are in benchmarks/README.md. ``--formats``, ``--dims`` and
+    ``--predicates`` restrict the audit; ``proofs.audit.replay(record)`` re-runs a
+    violation or worst case from the JSON report.
+
 Exit status 1 when any violation was found.
 """
 from __future__ import annotations
