@@ -11,6 +11,7 @@ from .contexts import (Context, FloatContext, MpContext, NumpyContext, TrackedCo
                        context_for)
 from .symbols import EPS_MAX, L, eps
 from .tracked import InvalidBound, Tracked, const, coord, exact_input, sqrt
+from .shadow import Shadow, ShadowContext  # noqa: F401  (shadow execution: proofs.audit)
 
 __all__ = [
     "Bounds", "Check", "Context", "EPS_MAX", "FloatContext", "InvalidBound", "L",
