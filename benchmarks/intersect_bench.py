@@ -6,7 +6,8 @@ after the robust registration) is its own. In the child:
 1. the meshes are generated (``predicates.meshes``, no download);
 2. the robust registration runs (``predicates.intersect``), with timers wrapped around
    the broad phase (``box_pairs``), the sub-pair suppression (``_blocked``) and the
-   predicates (``_evaluate``) of every kind — wrappers installed at run time by this
+   predicates (``_evaluate``) of every kind (in ``predicates.registration``) — wrappers
+   installed at run time by this
    script, the library is not modified; ``res.timings`` gives setup (validation,
    scaling, tolerances), primitives, the cell-level broad phase and each kind's total;
 3. peak RSS is read;
