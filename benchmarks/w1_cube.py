@@ -33,6 +33,9 @@ def main(argv=None):
     ap.add_argument("--sizes", default="16,32,48")
     ap.add_argument("--cuts", default="plane,plane_offset,sphere4,sphere5")
     ap.add_argument("--no-compare", action="store_true", help="skip trimesh")
+    ap.add_argument("--compare-max-n", type=int, default=32,
+                    help="run the trimesh comparison up to this n (default 32; it takes "
+                         "minutes at n = 32)")
     ap.add_argument("--json")
     ap.add_argument("--md")
     args = ap.parse_args(argv)
@@ -47,7 +50,7 @@ def main(argv=None):
             else:
                 case.update(cut=cut)
             case["compare"] = (not args.no_compare and case["cut"] == "sphere"
-                               and n <= 32)
+                               and n <= args.compare_max_n)
             cases.append(case)
     results = []
     for case in cases:
