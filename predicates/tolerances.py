@@ -206,6 +206,7 @@ def tolerances(dim: int, L_a, L_b, dtype=np.float64) -> Tolerances:
         raise ValueError("L_a + L_b must be positive (both meshes are single points?)")
     ctx = _context(dtype)
     L = compute_L(dim, L_a, L_b, ctx)
+    check_scale(dim, L, ctx)
     with ctx.session():
         powers = {p: L ** p for p in (1, 2, 3, 4)}
         for p, v in powers.items():
@@ -213,6 +214,43 @@ def tolerances(dim: int, L_a, L_b, dtype=np.float64) -> Tolerances:
                 raise ArithmeticError(f"L^{p} is not exact (overflow or underflow: L = {L})")
         values = tolerance_values(dim, powers.__getitem__, ctx)
     return Tolerances(dim, L, ctx.eps, ctx, values)
+
+
+#: Highest power of L any predicate computes: ‖A−B‖², areas (2D); d̂², γ²·m² (3D).
+MAX_DEGREE = {2: 2, 3: 6}
+
+
+def safe_scale_range(dim: int, ctx) -> tuple[float, float] | None:
+    """(lo, hi): the L for which no quantity up to L^deg overflows or loses its error
+    model to underflow (section 2 assumes neither), or None when the format has no
+    exponent limit (mpmath).
+
+    Overflow: every quantity is below 64·L^deg (the largest magnitude bound, d̂², is
+    36·L⁶). Underflow: a subnormal result errs by up to one quantum q absolutely, not
+    relatively; requiring u·L^deg ≥ 2^20·q makes that error far below every derived bound
+    (≈ ε·L^p) and every constraint margin, for the degree-deg quantities and all lower
+    ones. binary64 3D: 2^-166.8 ≤ L ≤ 2^169.6; binary32 3D: 2^-17.5 ≤ L ≤ 2^20.3.
+    """
+    if isinstance(ctx, MpContext):
+        return None
+    fi = np.finfo(ctx.dtype if isinstance(ctx, NumpyContext) else np.float64)
+    deg = MAX_DEGREE[dim]
+    log_q = math.log2(float(fi.smallest_subnormal))
+    log_u = math.log2(float(fi.eps) / 2)
+    lo = (20 + log_q - log_u) / deg
+    hi = (math.log2(float(fi.max)) - 6) / deg
+    return 2.0**lo, 2.0**hi
+
+
+def check_scale(dim: int, L, ctx) -> None:
+    """Raise ArithmeticError when L is outside :func:`safe_scale_range`."""
+    rng = safe_scale_range(dim, ctx)
+    if rng is not None and not rng[0] <= float(L) <= rng[1]:
+        raise ArithmeticError(
+            f"scale L = {float(L):.3g} is outside the safe range [{rng[0]:.3g}, {rng[1]:.3g}] "
+            f"of {dim}D predicates in this format: quantities up to L^{MAX_DEGREE[dim]} would "
+            "overflow or underflow. Rescale the coordinates by a power of two "
+            "(predicates.intersect does so automatically).")
 
 
 def tracked_tolerances(dim: int, table: dict | None = None) -> Tolerances:

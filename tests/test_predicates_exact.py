@@ -301,9 +301,10 @@ def test_hard_case(case):
 #: distance test of Algorithms 9 and 10 passes for elements far apart.
 EXTREME = [(np.float32, 2.0**-25), (np.float32, 2.0**23),
            (np.float64, 2.0**-180), (np.float64, 2.0**200)]
-#: the same configurations at the edge of the safe range are decided correctly
-SAFE = [(np.float32, 2.0**-24), (np.float32, 2.0**22),
-        (np.float64, 2.0**-170), (np.float64, 2.0**170)]
+#: the same configurations at the edges of predicates.tolerances.safe_scale_range
+#: (binary32 3D: 2^-17.5..2^20.3, binary64 3D: 2^-166.8..2^169.6) are decided correctly
+SAFE = [(np.float32, 2.0**-17), (np.float32, 2.0**19),
+        (np.float64, 2.0**-166), (np.float64, 2.0**168)]
 
 
 def _far_pairs(dtype, s):
@@ -320,17 +321,15 @@ def test_far_elements_miss_at_the_edge_of_the_safe_range(dtype, s):
     assert _far_pairs(dtype, s) == (False, False)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "BUG (predicates.tolerances / d3.edge_edge, d3.triangle_vertex): scales where degree-6 "
-    "quantities underflow or overflow are accepted silently; d̂² and γ²·m² both become 0 "
-    "(or inf), 'd̂² > γ²m²' is False and edges 0.4·L apart are reported as intersecting. "
-    "Expected: tolerances() refuses the scale (or the predicates rescale by a power of 2)."))
+# Was a bug (scales where degree-6 quantities underflow or overflow were accepted and
+# far edges reported as intersecting); tolerances() now refuses them (check_scale).
 @pytest.mark.parametrize("dtype, s", EXTREME, ids=lambda v: getattr(v, "__name__", repr(v)))
 def test_extreme_scales_are_refused_or_decided_correctly(dtype, s):
     try:
         result = _far_pairs(dtype, s)
-    except (ValueError, ArithmeticError):
-        return  # refused: fine
+    except ArithmeticError as e:
+        assert "safe range" in str(e)
+        return  # refused with a clear error: fine
     assert result == (False, False), f"far elements reported as hits: {result}"
 
 
