@@ -66,6 +66,7 @@ import sympy
 import fperr
 import predicates
 from fperr import FloatContext, MpContext, NumpyContext
+from fperr.shadow import _sub  # exact subtraction (Fraction / interval)
 from fperr.shadow import (BINARY32, BINARY64, Shadow, ShadowContext, compare,
                           interval_from_float, lower_fraction, mp_format, to_fraction,
                           upper_fraction)
@@ -549,7 +550,7 @@ def _bracket(c, cs, d, out):
 
 
 def _sub_exact(a, b):
-    from fperr.shadow import _sub
+    """a − b on exact values (Fractions or intervals)."""
     return _sub(a, b)
 
 
@@ -1087,7 +1088,7 @@ def _fmt_ratio(v):
 
 def render_markdown(s: dict) -> str:
     fm = s["formats"]
-    out = [f"# fperr audit: shadow execution against derived bounds", "",
+    out = ["# fperr audit: shadow execution against derived bounds", "",
            f"{s['runs']} shadow runs ({s['samples_per_predicate_and_format']} samples per "
            f"predicate and format, {s['search_steps']} hill-climbing steps per seed, seed "
            f"{s['seed']}) in {s['elapsed_s']} s. Formats: {', '.join(fm)}.", ""]

@@ -16,7 +16,6 @@ import pytest
 
 import fperr
 import predicates
-from fperr import FloatContext, MpContext, NumpyContext
 from fperr.shadow import (BINARY32, BINARY64, RInterval, Shadow, ShadowContext, compare,
                           exact_sqrt, mp_format, round_to_bits)
 from proofs import audit as A
