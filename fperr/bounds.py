@@ -18,8 +18,9 @@ from .tracked import InvalidBound, Tracked
 
 @dataclass(frozen=True)
 class Bounds:
-    """``E`` and ``R`` as sympy expressions (``R`` None unless r); ``E_int``/``R_int``
-    the paper's integers (None when not applicable: invalid, or c depends on ε)."""
+    """``E`` and ``R`` as sympy expressions (``R`` None unless r; ``E`` None for a bare
+    quotient, rule G); ``E_int``/``R_int`` the paper's integers (None when not
+    applicable: invalid, quotient, or c depends on ε)."""
 
     valid: bool
     power: sympy.Rational | None
@@ -68,8 +69,15 @@ def bounds(x: Tracked, strict: bool = False) -> Bounds:
         return Bounds(False, None, None, None, None, None, False)
     st = x.state
     rel = st.a * eps + st.b * eps**2
-    E = sympy.expand(st.c * L**st.p * rel)
     R = sympy.expand(rel) if st.r else None
+    if x.inv:
+        # A bare quotient: rule G's c = 1 is a convention (it holds once the quotient is
+        # multiplied into a unit vector), not a magnitude bound, so there is no E.
+        if strict:
+            raise InvalidBound(f"no absolute bound for the quotient {x.label} (rule G's "
+                               "c = 1 is not a magnitude bound); use R")
+        return Bounds(True, st.p, None, R, None, paper_integer(st.a, st.b), st.r)
+    E = sympy.expand(st.c * L**st.p * rel)
     E_int = paper_integer(st.c * st.a, st.c * st.b)
     R_int = paper_integer(st.a, st.b) if st.r else None
     return Bounds(True, st.p, E, R, E_int, R_int, st.r)

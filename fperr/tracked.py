@@ -27,11 +27,13 @@ class Tracked:
 
     Attributes: ``s`` (canonical string of the computation), ``state`` (c, p, n, a, b,
     r; None when invalid), ``v`` (valid), ``rule`` (the rule ID that produced it),
-    ``args`` (operands), ``why`` (reason when invalid), ``inv`` (a quotient whose c = 1
-    holds only once it is multiplied into a normalised quantity: rule G's "*").
+    ``args`` (operands), ``why`` (reason when invalid), ``inv`` (a quotient: rule G's
+    c = 1 is a convention, not a bound, until it is multiplied into a normalised
+    quantity), ``unit_of`` (for a quotient 1/‖v‖: the strings of v's components, the
+    only factors whose product with it has |x| ≤ 1).
     """
 
-    __slots__ = ("s", "state", "rule", "args", "why", "inv", "name")
+    __slots__ = ("s", "state", "rule", "args", "why", "inv", "name", "unit_of")
     __array_priority__ = 1000  # so numpy scalars defer to our reflected operators
 
     def __init__(self, s: str, state: State | None, rule: str, args: tuple = (),
@@ -43,6 +45,7 @@ class Tracked:
         self.why = why
         self.inv = inv
         self.name = name
+        self.unit_of: frozenset = frozenset()
 
     # -- the paper's fields -------------------------------------------------
     @property
@@ -110,9 +113,14 @@ class Tracked:
                 return self._invalid(s, rules.BINARY[op][-1], (x, y), _INV_MSG)
             return self._apply(s, rules.BINARY[op], (x, y), (x.state, y.state))
         if op == "*":
+            if x.inv and y.inv:
+                return self._invalid(s, "F", (x, y), _INV_MSG)
+            q, f = (x, y) if x.inv else (y, x)
+            if q.inv and f.s not in q.unit_of:
+                return self._invalid(s, "F", (x, y), _INV_MSG)
             out = self._apply(s, ("F",), (x, y), (x.state, y.state, x.s == y.s))
-            if out.v and (x.inv or y.inv):
-                # Rule G's "*": the product of a quotient is a normalised quantity, c = 1.
+            if out.v and q.inv:
+                # Rule G's "*": v_i·(1/‖v‖) is a component of a unit vector, c = 1.
                 st = out.state
                 out.state = State(sympy.Integer(1), st.p, st.n, st.a, st.b, st.r)
             return out
@@ -121,6 +129,8 @@ class Tracked:
                 return self._invalid(s, "G", (x, y), _INV_MSG)
             out = self._apply(s, ("G",), (x, y), (x.state, y.state))
             out.inv = out.v
+            if out.v and x.rule == "J" and x.c == 1:
+                out.unit_of = _norm_components(y)
             return out
         raise AssertionError(op)
 
@@ -214,7 +224,24 @@ class Tracked:
         return "\n".join(lines)
 
 
-_INV_MSG = "a quotient (rule G, c = 1*) may only be multiplied into a normalised quantity"
+_INV_MSG = ("a quotient (rule G, c = 1*) may only be multiplied by a component v_i of the "
+            "vector v it normalises (1/‖v‖); no magnitude bound holds otherwise")
+
+
+def _norm_components(m: "Tracked") -> frozenset:
+    """The strings of v's components when m = sqrt(v_1·v_1 + ... + v_k·v_k), else empty."""
+    if m.rule != "H" or not m.args:
+        return frozenset()
+    comps, stack = set(), [m.args[0]]
+    while stack:
+        t = stack.pop()
+        if t.rule in ("B", "C") and len(t.args) == 2:
+            stack.extend(t.args)
+        elif t.rule == "F" and t.args[0].s == t.args[1].s:
+            comps.add(t.args[0].s)
+        else:
+            return frozenset()
+    return frozenset(comps)
 
 
 def _simplify(st: State) -> State:

@@ -412,12 +412,10 @@ def test_checker_catches_a_wrong_value():
 # ---------------------------------------------------------------------------------
 # rule G's c = 1* outside its normalisation premise (fperr bug, see the report)
 
-_NORM_BUG = ("rule G's c = 1* is applied to any product with a quotient and to the bare "
-             "quotient's E, although |x| <= 1·L^p only holds for a component of the "
-             "normalised vector itself")
+# Rule G's c = 1* once applied to any product with a quotient and to the bare quotient
+# (found by this suite); fperr now gives c = 1 only to v_i·(1/‖v‖) and no E to a quotient.
 
 
-@pytest.mark.xfail(strict=True, raises=BoundViolation, reason=_NORM_BUG)
 def test_product_of_other_vector_with_quotient_is_not_normalised():
     """w.x·(1/m) with w = P − A and m = |A − B|: fperr gives c = 1, p = 0, so E <= 7ε,
     but with A = (0, 0), B = (1, 1), P = (1001, 0) (L = 2002) w.x/m = 1001/√2 ≈ 708 and
@@ -425,12 +423,16 @@ def test_product_of_other_vector_with_quotient_is_not_normalised():
     e = Expr("w.x*(1/m)", names("A B P", 2),
              lambda x, K: (x[4] - x[0]) * (K.const(1) / norm(sub(*pts(x, 2, 2)), K)),
              sqrt=True)
-    if not tracked(e).v:            # refusing the product would be a fix
-        return
-    check_bounds(e, BINARY64, [Fraction(v) for v in (0, 0, 1, 1, 1001, 0)])
+    t = tracked(e)
+    assert not t.v and "normalises" in t.why   # no magnitude bound: refused, not wrong
+    # whereas a component of the normalised vector keeps c = 1 and its bound holds:
+    u = Expr("u.x", names("A B", 2),
+             lambda x, K: (x[0] - x[2]) * (K.const(1) / norm(sub(*pts(x, 2, 2)), K)),
+             sqrt=True)
+    assert tracked(u).v and tracked(u).c == 1
+    check_bounds(u, BINARY64, [Fraction(v) for v in (0, 0, 1, 1)])
 
 
-@pytest.mark.xfail(strict=True, reason=_NORM_BUG)
 def test_bare_quotient_E_is_a_bound():
     """bounds(1/m).E = (4ε + 18ε²)/L claims |F[1/m] − 1/m| <= 4ε/L (c = 1: |1/m| <= 1/L);
     with A = (1000, 1000), B = (1001, 1001): L = 2002, m = √2, and the binary64 error of
@@ -439,9 +441,10 @@ def test_bare_quotient_E_is_a_bound():
     q = fperr.const(1) / fperr.sqrt((fperr.coord("A.x") - fperr.coord("B.x")) ** 2
                                     + (fperr.coord("A.y") - fperr.coord("B.y")) ** 2)
     b = fperr.bounds(q)
-    if b.E is None:                 # refusing E for a bare quotient would be a fix
-        return
+    assert b.valid and b.E is None and b.E_int is None   # no absolute bound is claimed
+    with pytest.raises(fperr.InvalidBound, match="quotient"):
+        fperr.bounds(q, strict=True)
     computed = 1.0 / math.sqrt(float((A[0] - B[0]) ** 2 + (A[1] - B[1]) ** 2))
     c = Fraction(computed)
     err = abs(sympy.Rational(c.numerator, c.denominator) - 1 / sympy.sqrt(2))
-    assert err <= b.E_at(BINARY64.eps, 2 * 1001)
+    assert err <= b.R_at(BINARY64.eps) / sympy.sqrt(2)   # the relative bound holds
