@@ -203,7 +203,12 @@ class NumpyContext(Context):
         return not self.active.any()
 
     def any(self, *conds):
-        return np.logical_or.reduce(conds)
+        # an in-place OR chain: np.logical_or.reduce(conds) first copies the conditions
+        # into one (k, n) array
+        out = np.logical_or(conds[0], conds[1]) if len(conds) > 1 else np.array(conds[0], dtype=bool)
+        for c in conds[2:]:
+            np.logical_or(out, c, out=out)
+        return out
 
     def same_sign(self, x, y):
         return (x > 0) == (y > 0)
@@ -211,16 +216,21 @@ class NumpyContext(Context):
     def differ_sign(self, x, y):
         return (x > 0) != (y > 0)
 
+    #: Optional (lanes, n_weights) output the caller provides (zero-filled): ``hit``
+    #: writes the weights of the active lanes into it instead of allocating.
+    out = None
+
     def hit(self, weights):
         n = self.active.shape[0]
-        w = (np.stack([np.asarray(x, dtype=self.dtype) for x in weights], axis=1)
-             if weights else np.zeros((n, 0), dtype=self.dtype))
-        w = np.where(self.active[:, None], w, self.dtype.type(0))
-        return self.active.copy(), w
+        out = self.out if self.out is not None else np.zeros((n, len(weights)), dtype=self.dtype)
+        for j, x in enumerate(weights):
+            np.copyto(out[:, j], x, where=self.active)
+        return self.active, out
 
     def miss(self):
         n = self.active.shape[0]
-        return np.zeros(n, dtype=bool), np.zeros((n, self.n_weights), dtype=self.dtype)
+        out = self.out if self.out is not None else np.zeros((n, self.n_weights), dtype=self.dtype)
+        return np.zeros(n, dtype=bool), out
 
 
 class TrackedContext(Context):

@@ -71,31 +71,31 @@ class Predicate:
 
     def _batch(self, pts, tol, ctx):
         arrs, n = self._batch_points(pts, ctx)
-        for a, lbl in zip(arrs, self.points):
-            if not np.isfinite(a).all():
-                raise ValueError(f"{self.name}: point {lbl} has non-finite coordinates")
-        # Coordinates as contiguous rows: cols[i][k] is coordinate k of point i.
-        cols = [np.ascontiguousarray(a.T) for a in arrs]
         k = len(self.weight_names)
         hit = np.zeros(n, dtype=bool)
         weights = np.zeros((n, k), dtype=ctx.dtype)
         tol_values = None
         for start in range(0, n, self.BLOCK):
             stop = min(n, start + self.BLOCK)
+            blocks = [a[start:stop] for a in arrs]
+            for b, lbl in zip(blocks, self.points):  # a cache-resident check per block
+                if not np.isfinite(b).all():
+                    raise ValueError(f"{self.name}: point {lbl} has non-finite coordinates")
             run = ctx.fresh(k, stop - start)
+            run.out = weights[start:stop]  # hit() writes the weights in place
             if tol_values is None:
                 tol_values = self._tolerances_for(tol, run)
             with run.session():
-                coords = [tuple(c[j, start:stop] for j in range(self.dim)) for c in cols]
-                h, w = self.fn(run, *coords, tol_values)
+                # strided column views: no transposed copy of the inputs
+                coords = [tuple(b[:, j] for j in range(self.dim)) for b in blocks]
+                h, _ = self.fn(run, *coords, tol_values)
             hit[start:stop] = h
-            weights[start:stop] = w
         return hit, weights
 
     # -- input handling ------------------------------------------------------------
     def _check_scalar_points(self, pts):
         for p, lbl in zip(pts, self.points):
-            if np.ndim(p) != 1 or len(p) != self.dim:
+            if not isinstance(p, (tuple, list)) and np.ndim(p) != 1 or len(p) != self.dim:
                 raise ValueError(f"{self.name}: point {lbl} must have {self.dim} "
                                  f"coordinates, got {p!r}")
 
@@ -116,6 +116,14 @@ class Predicate:
         return arrs, arrs[0].shape[0]
 
     def _tolerances_for(self, tol: Tolerances, run):
+        """``tol`` converted to ``run``'s number type (cached on ``tol`` per type)."""
+        key = (type(run), getattr(run, "dtype", None), getattr(run, "prec", None))
+        cache = tol.__dict__.setdefault("_converted", {})
+        if key not in cache:
+            cache[key] = self._convert_tolerances(tol, run)
+        return cache[key]
+
+    def _convert_tolerances(self, tol: Tolerances, run):
         if isinstance(run, TrackedContext):
             if isinstance(tol.ctx, TrackedContext):
                 return tol
