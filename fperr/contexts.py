@@ -133,7 +133,7 @@ class MpContext(FloatContext):
             m = mpmath.mpf(v)
             if not mpmath.isfinite(m):
                 raise ValueError(f"point {label} has a non-finite coordinate")
-            if mp_to_fraction(m) != _to_fraction_any(v):
+            if mp_to_fraction(m) != to_fraction(v):
                 raise ValueError(f"coordinate {v!r} of {label} is not representable with "
                                  f"{self.prec} bits; round the inputs first (the analysis "
                                  "assumes exact coordinates)")
@@ -152,7 +152,8 @@ def mp_to_fraction(m) -> Fraction:
     return -q if m < 0 else q
 
 
-def _to_fraction_any(v) -> Fraction:
+def to_fraction(v) -> Fraction:
+    """The exact value of a float, numpy scalar, mpmath mpf, int or Fraction."""
     if isinstance(v, mpmath.mpf):
         return mp_to_fraction(v)
     if isinstance(v, (np.floating, np.integer)):

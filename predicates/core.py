@@ -144,17 +144,19 @@ class Predicate:
         return Tolerances(tol.dim, tol.L, tol.eps, run, vals)
 
     # -- instrumented run --------------------------------------------------------------
-    def instrumented(self) -> Instrumented:
-        """Run the predicate on Tracked coordinates (rule K) and tracked tolerances."""
-        return _instrumented(self)
+    def instrumented(self, table: dict | None = None) -> Instrumented:
+        """Run the predicate on Tracked coordinates (rule K) and tracked tolerances
+        (``table``: name → ToleranceSpec overriding Figure 1/5, as the proofs try)."""
+        frozen = None if table is None else tuple(sorted(table.items()))
+        return _instrumented(self, frozen)
 
 
-@functools.lru_cache(maxsize=None)
-def _instrumented(pred: Predicate) -> Instrumented:
+@functools.lru_cache(maxsize=128)
+def _instrumented(pred: Predicate, frozen_table) -> Instrumented:
     axes = "xyz"[: pred.dim]
     pts = [tuple(fperr.coord(f"{p}.{a}") for a in axes) for p in pred.points]
     run = TrackedContext().fresh(len(pred.weight_names))
-    tol = tracked_tolerances(pred.dim)
+    tol = tracked_tolerances(pred.dim, None if frozen_table is None else dict(frozen_table))
     coords = [run.coords(p, lbl) for p, lbl in zip(pts, pred.points)]
     pred.fn(run, *coords, tol)
     for name, w in zip(pred.weight_names, run.weights):

@@ -15,7 +15,9 @@ __all__ = ["edge_edge", "edge_vertex", "triangle_vertex", "vertex_vertex"]
 
 @predicate(dim=2, points="AB", algorithm=2)
 def vertex_vertex(ctx, A, B, tol):
-    """Algorithm 2 (section 4.2): hit when d² = ‖A − B‖² ≤ σ². No weights."""
+    """Algorithms 2 and 7 (sections 4.2, 5.2): hit when d² = ‖A − B‖² ≤ σ². No weights.
+
+    The same source serves ``d3.vertex_vertex`` (the body is dimension-free)."""
     w = sub(A, B)
     d2 = ctx.name("d2", dot(w, w))
     if ctx.reject(d2 > tol.sigma * tol.sigma, line=2):

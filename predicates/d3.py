@@ -7,6 +7,7 @@ listed in docs/errata.md.
 """
 from __future__ import annotations
 
+from . import d2
 from .core import predicate
 from .vector import cross3, dot, scale, sub, triple
 
@@ -14,14 +15,8 @@ __all__ = ["edge_edge", "edge_vertex", "tetrahedron_vertex", "triangle_edge",
            "triangle_vertex", "vertex_vertex"]
 
 
-@predicate(dim=3, points="AB", algorithm=7)
-def vertex_vertex(ctx, A, B, tol):
-    """Algorithm 7 (section 5.2): hit when d² = ‖A − B‖² ≤ σ². No weights."""
-    w = sub(A, B)
-    d2 = ctx.name("d2", dot(w, w))
-    if ctx.reject(d2 > tol.sigma * tol.sigma, line=2):
-        return ctx.miss()
-    return ctx.hit(())
+#: Algorithm 7 (section 5.2) is Algorithm 2 in three coordinates: one source for both.
+vertex_vertex = predicate(dim=3, points="AB", algorithm=7)(d2.vertex_vertex.fn)
 
 
 @predicate(dim=3, points="ABP", weights=("a",), algorithm=8)

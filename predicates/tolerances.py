@@ -30,7 +30,7 @@ import numpy as np
 import sympy
 
 import fperr
-from fperr.contexts import mp_to_fraction
+from fperr.contexts import to_fraction
 from fperr import FloatContext, MpContext, NumpyContext, TrackedContext
 
 from .tolerance_table import L_ROOT, L_SIGMA_PLUS, TABLES
@@ -111,13 +111,13 @@ def compute_L(dim: int, L_a, L_b, ctx) -> object:
         if dim == 3:
             root = ctx.sqrt(root)
         # L_a, L_b enter rounded *up* to the working format (they are upper bounds).
-        La, Lb = (ctx.const(_exact_value(round_up_bits(_fraction_any(x), _precision(ctx)), ctx))
+        La, Lb = (ctx.const(_exact_value(round_up_bits(to_fraction(x), _precision(ctx)), ctx))
                   if x else ctx.const(0) for x in (L_a, L_b))
         L = (ctx.const(1) + ctx.const(5) * eps) / (ctx.const(1) - ctx.const(L_SIGMA_PLUS) * root) \
             * (La + Lb)
     bits = _precision(ctx) // 4
-    S, e = _fraction(La) + _fraction(Lb), _fraction(ctx.eps)
-    q = round_up_bits(_fraction(L), bits)
+    S, e = to_fraction(La) + to_fraction(Lb), to_fraction(ctx.eps)
+    q = round_up_bits(to_fraction(L), bits)
     while not bounds_L_hat(q, S, e, g):
         q = round_up_bits(q * (1 + Fraction(1, 2**bits)), bits)
     return ctx.const(_exact_value(q, ctx))
@@ -127,20 +127,6 @@ def bounds_L_hat(L: Fraction, S: Fraction, eps: Fraction, g: int) -> bool:
     """Exactly: L ≥ S/(1 − 7·ε^(1/g)), i.e. ((L − S)/(7L))^g ≥ ε with L − S ≥ 0."""
     x = (L - S) / (L_SIGMA_PLUS * L)
     return x >= 0 and x**g >= eps
-
-
-def _fraction(x) -> Fraction:
-    if isinstance(x, mpmath.mpf):
-        return mp_to_fraction(x)
-    return Fraction(float(x))
-
-
-def _fraction_any(x) -> Fraction:
-    if isinstance(x, mpmath.mpf):
-        return mp_to_fraction(x)
-    if isinstance(x, (np.floating, np.integer)):
-        return Fraction(x.item())
-    return Fraction(x)
 
 
 def _exact_value(q: Fraction, ctx):
@@ -210,7 +196,7 @@ def tolerances(dim: int, L_a, L_b, dtype=np.float64) -> Tolerances:
     with ctx.session():
         powers = {p: L ** p for p in (1, 2, 3, 4)}
         for p, v in powers.items():
-            if _fraction(v) != _fraction(L) ** p:
+            if to_fraction(v) != to_fraction(L) ** p:
                 raise ArithmeticError(f"L^{p} is not exact (overflow or underflow: L = {L})")
         values = tolerance_values(dim, powers.__getitem__, ctx)
     return Tolerances(dim, L, ctx.eps, ctx, values)

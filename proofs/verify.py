@@ -35,16 +35,13 @@ predicate can be checked without touching the built-in ones.
 from __future__ import annotations
 
 import argparse
-import functools
 import sys
 import time
 from dataclasses import dataclass, field
 
 import sympy
 
-import fperr
 import predicates
-from fperr import TrackedContext
 from predicates.core import Instrumented, Predicate
 
 from . import tables
@@ -123,26 +120,7 @@ def instrument(pred: Predicate, table: dict | None = None) -> Instrumented:
     """The instrumented run of ``pred`` with the tolerances of ``table`` (cached)."""
     if table is None or tables.is_default(table, pred.dim):
         return pred.instrumented()
-    return _instrument_cached(pred, _freeze(table))
-
-
-def _freeze(table):
-    return tuple(sorted((k, v) for k, v in table.items()))
-
-
-@functools.lru_cache(maxsize=64)
-def _instrument_cached(pred: Predicate, frozen) -> Instrumented:
-    table = dict(frozen)
-    axes = "xyz"[: pred.dim]
-    pts = [tuple(fperr.coord(f"{p}.{a}") for a in axes) for p in pred.points]
-    run = TrackedContext().fresh(len(pred.weight_names))
-    tol = predicates.tracked_tolerances(pred.dim, table)
-    coords = [run.coords(p, lbl) for p, lbl in zip(pts, pred.points)]
-    pred.fn(run, *coords, tol)
-    for name, w in zip(pred.weight_names, run.weights):
-        w.name = name
-    return Instrumented(pred.name, pred.dim, dict(run.quantities), list(run.checks),
-                        run.weights)
+    return pred.instrumented(table)
 
 
 # -- deciding ---------------------------------------------------------------------------
