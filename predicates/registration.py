@@ -404,7 +404,7 @@ class _Registration:
         bar = tqdm(total=len(kinds) + 1, desc="registering", unit="step", delay=1.0,
                    file=sys.stderr, disable=not progress, leave=False)
         try:
-            bar.set_postfix_str("broad phase")
+            bar.set_postfix_str("broad phase", refresh=False)  # refresh would defeat delay
             t = time.perf_counter()
             self._near()
             timings["broadphase_cells"] = time.perf_counter() - t
@@ -412,7 +412,7 @@ class _Registration:
             bar.update(1)
             for kind, i, j in kinds:
                 t = time.perf_counter()
-                bar.set_postfix_str(kind)
+                bar.set_postfix_str(kind, refresh=False)
                 s_all, c_all, sw_all, cw_all = [], [], [], []
                 ncand = nsup = 0
                 if not empty:
