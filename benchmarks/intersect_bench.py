@@ -251,6 +251,20 @@ def _compare(case, sp, sc, cp, cc):
 
 
 # -- the parent -----------------------------------------------------------------------------
+def run_cases(cases: list[dict]) -> list[dict]:
+    """Run every case (each in its own subprocess), reporting progress on stderr."""
+    results = []
+    for case in cases:
+        print(f"  running {label(case)} ...", file=sys.stderr, flush=True)
+        r = run_case(case)
+        results.append(r)
+        if "error" in r:
+            print(f"    FAILED: {r['error']}", file=sys.stderr)
+        else:
+            print(f"    {r['wall_s']:.2f} s, peak {r['peak_rss_mib']:.0f} MiB", file=sys.stderr)
+    return results
+
+
 def run_case(case: dict, timeout: float = 3600) -> dict:
     p = subprocess.run([sys.executable, os.path.abspath(__file__), "--child", json.dumps(case)],
                        capture_output=True, text=True, timeout=timeout)

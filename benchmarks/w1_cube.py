@@ -52,15 +52,7 @@ def main(argv=None):
             case["compare"] = (not args.no_compare and case["cut"] == "sphere"
                                and n <= args.compare_max_n)
             cases.append(case)
-    results = []
-    for case in cases:
-        print(f"  running {B.label(case)} ...", file=sys.stderr, flush=True)
-        results.append(B.run_case(case))
-        r = results[-1]
-        if "error" in r:
-            print(f"    FAILED: {r['error']}", file=sys.stderr)
-        else:
-            print(f"    {r['wall_s']:.2f} s, peak {r['peak_rss_mib']:.0f} MiB", file=sys.stderr)
+    results = B.run_cases(cases)
     md = B.report("W1: cube grid × plane / sphere (3D, float64)", results, LEVELS)
     md += B.scaling_report(results, key=lambda r: B.label(r["case"]).split("× ")[1])
     target = [r for r in results if "error" not in r and r["case"]["n"] == 32

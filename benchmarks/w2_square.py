@@ -43,15 +43,7 @@ def main(argv=None):
                 case.update(cut=cut)
             case["compare"] = not args.no_compare
             cases.append(case)
-    results = []
-    for case in cases:
-        print(f"  running {B.label(case)} ...", file=sys.stderr, flush=True)
-        results.append(B.run_case(case))
-        r = results[-1]
-        if "error" in r:
-            print(f"    FAILED: {r['error']}", file=sys.stderr)
-        else:
-            print(f"    {r['wall_s']:.2f} s, peak {r['peak_rss_mib']:.0f} MiB", file=sys.stderr)
+    results = B.run_cases(cases)
     md = B.report(f"W2: square grid × circle / diagonal (2D, {args.dtype})", results, LEVELS)
     md += B.scaling_report(results, key=lambda r: B.label(r["case"]).split("× ")[1])
     print(md)
