@@ -28,6 +28,7 @@ for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_v, "1")
 
 import json  # noqa: E402
+from pathlib import Path  # noqa: E402
 import platform  # noqa: E402
 import resource  # noqa: E402
 import subprocess  # noqa: E402
@@ -251,6 +252,16 @@ def _compare(case, sp, sc, cp, cc):
 
 
 # -- the parent -----------------------------------------------------------------------------
+def emit(md: str, results: list[dict], args) -> None:
+    """Print the markdown report; write it (--md) and the raw results (--json) if asked."""
+    print(md)
+    if args.md:
+        Path(args.md).write_text(md)
+    if args.json:
+        Path(args.json).write_text(json.dumps({"machine": machine(), "results": results},
+                                              indent=1))
+
+
 def run_cases(cases: list[dict]) -> list[dict]:
     """Run every case (each in its own subprocess), reporting progress on stderr."""
     results = []

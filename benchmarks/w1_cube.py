@@ -14,7 +14,6 @@ printed).
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -63,12 +62,7 @@ def main(argv=None):
         md += (f"\nTarget n = 32 × sphere 20,480: registration {r['timings']['total']:.2f} s "
                f"({'met' if ok_t else 'MISSED'}: ≤ 10 s), peak RSS {r['peak_rss_mib']:.0f} MiB "
                f"({'met' if ok_m else 'MISSED'}: ≤ 2048 MiB)\n")
-    print(md)
-    if args.md:
-        Path(args.md).write_text(md)
-    if args.json:
-        Path(args.json).write_text(json.dumps({"machine": B.machine(), "results": results},
-                                              indent=1))
+    B.emit(md, results, args)
 
 
 if __name__ == "__main__":

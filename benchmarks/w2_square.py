@@ -11,7 +11,6 @@ the nearest comparable job (grid edges × cutting segments, any contact) when in
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -46,12 +45,7 @@ def main(argv=None):
     results = B.run_cases(cases)
     md = B.report(f"W2: square grid × circle / diagonal (2D, {args.dtype})", results, LEVELS)
     md += B.scaling_report(results, key=lambda r: B.label(r["case"]).split("× ")[1])
-    print(md)
-    if args.md:
-        Path(args.md).write_text(md)
-    if args.json:
-        Path(args.json).write_text(json.dumps({"machine": B.machine(), "results": results},
-                                              indent=1))
+    B.emit(md, results, args)
 
 
 if __name__ == "__main__":

@@ -24,7 +24,6 @@ for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS",
 
 import argparse  # noqa: E402
 import json  # noqa: E402
-import platform  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -34,23 +33,11 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import predicates  # noqa: E402
 from exact_context import FractionContext, exact_tolerances  # noqa: E402
+from intersect_bench import load, machine  # noqa: E402
 
 #: The issue's targets.
 TARGET_BATCH64 = 10e6          # pairs/s, 3D triangle_edge and tetrahedron_vertex
 TARGET_BATCH_OVER_SCALAR = 100
-
-
-def machine() -> str:
-    model = "unknown CPU"
-    try:
-        for line in open("/proc/cpuinfo"):
-            if line.startswith("model name"):
-                model = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    return (f"{model}, {os.cpu_count()} cores; Python {platform.python_version()}, "
-            f"numpy {np.__version__}")
 
 
 def random_points(rng, n, dim, k, dtype):
@@ -70,13 +57,6 @@ def best_time(fn, repeat):
         fn()
         best = min(best, clock() - t)
     return best
-
-
-def load() -> str:
-    try:
-        return open("/proc/loadavg").read().split()[0]
-    except OSError:
-        return "?"
 
 
 def bench_predicate(pred, n_batch, n_scalar, n_exact, repeat, rng):
