@@ -34,13 +34,25 @@ class Instrumented:
 class Predicate:
     """A predicate of the paper, callable in every number system (see module doc)."""
 
-    def __init__(self, fn, dim: int, points: str, weights: tuple, algorithm: int):
+    def __init__(self, fn, dim: int, points: str, weights: tuple, algorithm: int,
+                 section: str = "", sim: str | None = None, bracket: str | None = None,
+                 reach: tuple[str, float] | None = None):
         self.fn = fn
         self.dim = dim
         self.points = tuple(points)
         self.weight_names = tuple(weights)
         self.algorithm = algorithm
         self.name = fn.__name__
+        # the catalogue entry (predicates.catalogue derives kinds, sub-pairs, reach from it)
+        self.section = section
+        self.title = "-".join(w.capitalize() for w in self.name.split("_"))
+        sim = points[: len(points) // 2] if sim is None else sim
+        if not points.startswith(sim) or not 0 < len(sim) < len(points):
+            raise ValueError(f"{self.name}: the simulation points {sim!r} must be a proper "
+                             f"prefix of the points {points!r}")
+        self.sim, self.cut = tuple(sim), tuple(points[len(sim):])
+        self.bracket = bracket
+        self.reach = reach
         functools.update_wrapper(self, fn)
 
     def __repr__(self):
@@ -165,8 +177,18 @@ def _instrumented(pred: Predicate, frozen_table) -> Instrumented:
                         run.weights)
 
 
-def predicate(dim: int, points: str, weights: tuple = (), algorithm: int = 0):
-    """Decorator: register ``fn(ctx, *points, tol)`` as a :class:`Predicate`."""
+def predicate(dim: int, points: str, weights: tuple = (), algorithm: int = 0, *,
+              section: str = "", sim: str | None = None, bracket: str | None = None,
+              reach: tuple[str, float] | None = None):
+    """Decorator: register ``fn(ctx, *points, tol)`` as a :class:`Predicate`.
+
+    The one declaration of what a predicate is: its dimension, its points (the
+    simulation primitive's first: ``sim``, default the first half; the cutting
+    primitive's after), its weights, the paper's algorithm and ``section``, the tolerance
+    whose bracket its inside-test uses (``bracket``; None for sign tests only) and its
+    broad-phase ``reach`` ``(tolerance, factor)``: the pairs it can register are within
+    factor·T of each other. :mod:`predicates.catalogue` derives everything else."""
     def wrap(fn):
-        return Predicate(fn, dim, points, weights, algorithm)
+        return Predicate(fn, dim, points, weights, algorithm, section=section, sim=sim,
+                         bracket=bracket, reach=reach)
     return wrap

@@ -13,7 +13,8 @@ from .vector import cross2, dot, scale, sub
 __all__ = ["edge_edge", "edge_vertex", "triangle_vertex", "vertex_vertex"]
 
 
-@predicate(dim=2, points="AB", algorithm=2)
+@predicate(dim=2, points="AB", algorithm=2, section="4.2", sim="A", bracket="sigma",
+           reach=("sigma", 7 / 6.5))
 def vertex_vertex(ctx, A, B, tol):
     """Algorithms 2 and 7 (sections 4.2, 5.2): hit when d² = ‖A − B‖² ≤ σ². No weights.
 
@@ -25,7 +26,8 @@ def vertex_vertex(ctx, A, B, tol):
     return ctx.hit(())
 
 
-@predicate(dim=2, points="ABP", weights=("a",), algorithm=3)
+@predicate(dim=2, points="ABP", weights=("a",), algorithm=3, section="4.3", sim="AB",
+           bracket="tau", reach=("tau", 5.5 / 4.5))
 def edge_vertex(ctx, A, B, P, tol):
     """Algorithm 3 (section 4.3): P within τ of edge AB, strictly between A and B.
 
@@ -48,7 +50,8 @@ def edge_vertex(ctx, A, B, P, tol):
     return ctx.hit((a_hat / m,))
 
 
-@predicate(dim=2, points="ABPQ", weights=("alpha_AB", "alpha_PQ"), algorithm=4)
+@predicate(dim=2, points="ABPQ", weights=("alpha_AB", "alpha_PQ"), algorithm=4,
+           section="4.4", sim="AB", reach=("tau", 1.0))
 def edge_edge(ctx, A, B, P, Q, tol):
     """Algorithm 4 (section 4.4): edges AB and PQ cross.
 
@@ -71,7 +74,8 @@ def edge_edge(ctx, A, B, P, Q, tol):
     return ctx.hit((a_A / (a_A - a_B), a_P / (a_P - a_Q)))
 
 
-@predicate(dim=2, points="ABCP", weights=("gamma_A", "gamma_B", "gamma_C"), algorithm=5)
+@predicate(dim=2, points="ABCP", weights=("gamma_A", "gamma_B", "gamma_C"), algorithm=5,
+           section="4.5", sim="ABC", reach=("tau", 1.0))
 def triangle_vertex(ctx, A, B, C, P, tol):
     """Algorithm 5 (section 4.5): P strictly inside triangle ABC.
 

@@ -16,10 +16,12 @@ __all__ = ["edge_edge", "edge_vertex", "tetrahedron_vertex", "triangle_edge",
 
 
 #: Algorithm 7 (section 5.2) is Algorithm 2 in three coordinates: one source for both.
-vertex_vertex = predicate(dim=3, points="AB", algorithm=7)(d2.vertex_vertex.fn)
+vertex_vertex = predicate(dim=3, points="AB", algorithm=7, section="5.2", sim="A",
+                          bracket="sigma", reach=("sigma", 7 / 6.5))(d2.vertex_vertex.fn)
 
 
-@predicate(dim=3, points="ABP", weights=("a",), algorithm=8)
+@predicate(dim=3, points="ABP", weights=("a",), algorithm=8, section="5.3", sim="AB",
+           bracket="tau", reach=("tau", 5.5 / 4.5))
 def edge_vertex(ctx, A, B, P, tol):
     """Algorithm 8 (section 5.3): P within τ of edge AB, strictly between A and B.
 
@@ -43,7 +45,8 @@ def edge_vertex(ctx, A, B, P, tol):
     return ctx.hit((a_hat / m,))
 
 
-@predicate(dim=3, points="ABPQ", weights=("a", "b"), algorithm=9)
+@predicate(dim=3, points="ABPQ", weights=("a", "b"), algorithm=9, section="5.4", sim="AB",
+           bracket="gamma", reach=("gamma", 2.75 / 2.25))
 def edge_edge(ctx, A, B, P, Q, tol):
     """Algorithm 9 (section 5.4): edges AB and PQ pass within γ of each other.
 
@@ -71,7 +74,8 @@ def edge_edge(ctx, A, B, P, Q, tol):
     return ctx.hit((a_hat / m2, b_hat / m2))
 
 
-@predicate(dim=3, points="ABCP", weights=("a", "b", "c"), algorithm=10)
+@predicate(dim=3, points="ABCP", weights=("a", "b", "c"), algorithm=10, section="5.5",
+           sim="ABC", bracket="delta", reach=("delta", 2.75 / 2.25))
 def triangle_vertex(ctx, A, B, C, P, tol):
     """Algorithm 10 (section 5.5): P within δ of triangle ABC, projecting inside it.
 
@@ -99,7 +103,7 @@ def triangle_vertex(ctx, A, B, C, P, tol):
 
 
 @predicate(dim=3, points="ABCPQ", weights=("gamma_A", "gamma_B", "gamma_C", "alpha_P"),
-           algorithm=11)
+           algorithm=11, section="5.6", sim="ABC", reach=("tau", 1.0))
 def triangle_edge(ctx, A, B, C, P, Q, tol):
     """Algorithm 11 (section 5.6): edge PQ crosses triangle ABC.
 
@@ -125,7 +129,7 @@ def triangle_edge(ctx, A, B, C, P, Q, tol):
 
 
 @predicate(dim=3, points="ABCDP", weights=("gamma_A", "gamma_B", "gamma_C", "gamma_D"),
-           algorithm=12)
+           algorithm=12, section="5.7", sim="ABCD", reach=("tau", 1.0))
 def tetrahedron_vertex(ctx, A, B, C, D, P, tol):
     """Algorithm 12 (section 5.7): P strictly inside tetrahedron ABCD.
 

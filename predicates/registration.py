@@ -41,7 +41,7 @@ How it runs
 5. Broad phase (:mod:`predicates.broadphase`): the cells of each mesh sharing a grid
    cell with a cell of the other mesh enlarged by σ+ (a superset of those within σ+),
    then per kind the primitives' boxes within that kind's reach (≤ σ+; see
-   :data:`REACH`), tested exactly.
+   ``predicates.catalogue``), tested exactly.
 6. Per level, per kind: suppression by registered sub-pairs, then the predicate in
    numpy batch mode on chunks of candidates.
 
@@ -59,40 +59,14 @@ from math import comb
 
 import numpy as np
 
-from . import d2, d3
+from .catalogue import kinds as catalogue_kinds
 from . import meshes as _meshes  # noqa: F401  (predicates.meshes after import predicates)
 from .broadphase import box_pairs, near_flags
 from .mesh_input import from_meshio, validate_pair
 from .result import IntersectionResult, KindPairs
 from .tolerances import tolerances as compute_tolerances
 
-__all__ = ["KINDS", "REACH", "intersect"]
-
-#: (kind, sim simplex dimension, cut simplex dimension), in registration order.
-KINDS = {
-    2: (("vertex_vertex", 0, 0), ("vertex_edge", 0, 1), ("edge_vertex", 1, 0),
-        ("edge_edge", 1, 1), ("triangle_vertex", 2, 0)),
-    3: (("vertex_vertex", 0, 0), ("vertex_edge", 0, 1), ("edge_vertex", 1, 0),
-        ("edge_edge", 1, 1), ("vertex_triangle", 0, 2), ("triangle_vertex", 2, 0),
-        ("edge_triangle", 1, 2), ("triangle_edge", 2, 1), ("tetrahedron_vertex", 3, 0)),
-}
-
-#: Broad-phase reach per kind: (tolerance, factor): boxes within factor·T are candidates.
-#: A registered pair is never farther apart than the predicate's T+ plus rounding:
-#: vertex-vertex σ+ = 7/6.5·σ; edge-vertex τ+ (+ the error of â, ā: we take 5.5/4.5·τ);
-#: 3D edge-edge and triangle-vertex γ+, δ+ (2.5/2.25; we take 2.75/2.25); the others
-#: register true crossings only (their sign tests are exact), reach τ as a margin.
-#: Every reach is ≤ σ+, the paper's bound on the pairs processed (section 4.1).
-REACH = {
-    2: {"vertex_vertex": ("sigma", 7 / 6.5), "vertex_edge": ("tau", 5.5 / 4.5),
-        "edge_vertex": ("tau", 5.5 / 4.5), "edge_edge": ("tau", 1.0),
-        "triangle_vertex": ("tau", 1.0)},
-    3: {"vertex_vertex": ("sigma", 7 / 6.5), "vertex_edge": ("tau", 5.5 / 4.5),
-        "edge_vertex": ("tau", 5.5 / 4.5), "edge_edge": ("gamma", 2.75 / 2.25),
-        "vertex_triangle": ("delta", 2.75 / 2.25), "triangle_vertex": ("delta", 2.75 / 2.25),
-        "edge_triangle": ("tau", 1.0), "triangle_edge": ("tau", 1.0),
-        "tetrahedron_vertex": ("tau", 1.0)},
-}
+__all__ = ["intersect"]
 
 #: Pairs per predicate batch (bounds the gathered coordinates and temporaries).
 CHUNK = 1 << 17
@@ -145,52 +119,6 @@ class _Complex:
         if j == k:
             return np.arange(len(self.S[k]))[:, None]
         return self.F[k, j]
-
-
-# -- narrow phase: the predicates, per kind --------------------------------------------------
-def _ones(n, dtype):
-    return np.ones((n, 1), dtype=dtype)
-
-
-def _segment(a, dtype):
-    a = a.astype(dtype, copy=False)
-    return np.stack([dtype.type(1) - a, a], axis=1)
-
-
-def _evaluate(kind: str, dim: int, S: np.ndarray, C: np.ndarray, tol):
-    """Run the kind's predicate on simulation primitives S (n, i+1, d) and cutting
-    primitives C (n, j+1, d). Returns (hit, sim_weights, cut_weights)."""
-    mod = d2 if dim == 2 else d3
-    dt = S.dtype
-    n = len(S)
-    if kind == "vertex_vertex":
-        hit, _ = mod.vertex_vertex(S[:, 0], C[:, 0], tol)
-        return hit, _ones(n, dt), _ones(n, dt)
-    if kind == "vertex_edge":  # sim vertex P on cut edge AB
-        hit, w = mod.edge_vertex(C[:, 0], C[:, 1], S[:, 0], tol)
-        return hit, _ones(n, dt), _segment(w[:, 0], dt)
-    if kind == "edge_vertex":  # sim edge AB, cut vertex P
-        hit, w = mod.edge_vertex(S[:, 0], S[:, 1], C[:, 0], tol)
-        return hit, _segment(w[:, 0], dt), _ones(n, dt)
-    if kind == "edge_edge":
-        hit, w = mod.edge_edge(S[:, 0], S[:, 1], C[:, 0], C[:, 1], tol)
-        return hit, _segment(w[:, 0], dt), _segment(w[:, 1], dt)
-    if kind == "triangle_vertex":
-        hit, w = mod.triangle_vertex(S[:, 0], S[:, 1], S[:, 2], C[:, 0], tol)
-        return hit, w, _ones(n, dt)
-    if kind == "vertex_triangle":
-        hit, w = d3.triangle_vertex(C[:, 0], C[:, 1], C[:, 2], S[:, 0], tol)
-        return hit, _ones(n, dt), w
-    if kind == "edge_triangle":  # cut triangle ABC, sim edge PQ
-        hit, w = d3.triangle_edge(C[:, 0], C[:, 1], C[:, 2], S[:, 0], S[:, 1], tol)
-        return hit, _segment(w[:, 3], dt), w[:, :3]
-    if kind == "triangle_edge":  # sim face ABC, cut edge PQ
-        hit, w = d3.triangle_edge(S[:, 0], S[:, 1], S[:, 2], C[:, 0], C[:, 1], tol)
-        return hit, w[:, :3], _segment(w[:, 3], dt)
-    if kind == "tetrahedron_vertex":
-        hit, w = d3.tetrahedron_vertex(S[:, 0], S[:, 1], S[:, 2], S[:, 3], C[:, 0], tol)
-        return hit, w, _ones(n, dt)
-    raise ValueError(f"unknown kind {kind!r}")
 
 
 # -- input handling --------------------------------------------------------------------------
@@ -283,8 +211,9 @@ def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: b
     tol = compute_tolerances(dim, L_a, L_b, dtype=dtype)
     tol_run = tol if ts == 1 else tol.scaled(dtype.type(ts))
     eps = float(np.finfo(dtype).eps)
-    reach = {k: float(tol.values[name]) * f * (1 + 16 * eps)
-             for k, (name, f) in REACH[dim].items()}
+    kinds = catalogue_kinds(dim)
+    reach = {k.name: float(tol.values[k.reach[0]]) * k.reach[1] * (1 + 16 * eps)
+             for k in kinds}
     timings["setup"] = time.perf_counter() - t0
 
     # rank space: vertices ordered lexicographically by coordinates
@@ -293,10 +222,9 @@ def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: b
     timings["ranks"] = time.perf_counter() - t
     pairs = reg.run(progress, timings)
 
-    kinds = tuple(k for k, _, _ in KINDS[dim])
     timings["total"] = time.perf_counter() - t0
     return IntersectionResult(
-        dim=dim, dtype=dtype, kinds=kinds, pairs=pairs, tolerances=tol_run, scale_exponent=e,
+        dim=dim, dtype=dtype, kinds=tuple(k.name for k in kinds), pairs=pairs, tolerances=tol_run, scale_exponent=e,
         tolerance_scale=ts, L_a=L_a0, L_b=L_b0,
         sim_points=sim.points, sim_cells=sim.cells, cut_points=cut.points,
         cut_cells=cut.cells, rounded_inputs=sim.rounded or cut.rounded, timings=timings)
@@ -399,7 +327,7 @@ class _Registration:
         from tqdm import tqdm
 
         dim, dt = self.dim, self.dtype
-        kinds = KINDS[dim]
+        kinds = catalogue_kinds(dim)
         pairs = {}
         bar = tqdm(total=len(kinds) + 1, desc="registering", unit="step", delay=1.0,
                    file=sys.stderr, disable=not progress, leave=False)
@@ -410,7 +338,8 @@ class _Registration:
             timings["broadphase_cells"] = time.perf_counter() - t
             empty = self.empty
             bar.update(1)
-            for kind, i, j in kinds:
+            for k in kinds:
+                kind, i, j = k.name, k.i, k.j
                 t = time.perf_counter()
                 bar.set_postfix_str(kind, refresh=False)
                 s_all, c_all, sw_all, cw_all = [], [], [], []
@@ -423,8 +352,8 @@ class _Registration:
                         s, c = s[~blocked], c[~blocked]
                         for lo in range(0, len(s), self.chunk):
                             ss, cc = s[lo: lo + self.chunk], c[lo: lo + self.chunk]
-                            hit, sw, cw = _evaluate(kind, dim, self.sim.coords(i, ss),
-                                                    self.cut.coords(j, cc), self.tol)
+                            hit, sw, cw = k.evaluate(self.sim.coords(i, ss),
+                                                     self.cut.coords(j, cc), self.tol)
                             s_all.append(ss[hit])
                             c_all.append(cc[hit])
                             sw_all.append(sw[hit])

@@ -70,6 +70,7 @@ from fperr.shadow import _sub  # exact subtraction (Fraction / interval)
 from fperr.shadow import (BINARY32, BINARY64, Shadow, ShadowContext, compare,
                           interval_from_float, lower_fraction, mp_format, to_fraction,
                           upper_fraction)
+from predicates.catalogue import pair_predicate
 from predicates.tolerance_table import TABLES
 from predicates.tolerances import Tolerances, tolerance_values, tracked_tolerances
 
@@ -82,22 +83,15 @@ MP17 = mp_format(17)
 FORMATS = {"binary64": (BINARY64, float), "binary32": (BINARY32, np.float32),
            "mp17": (MP17, "mp17")}
 
-#: (dim, predicate name) -> (points of the simulation primitive, of the cutting primitive)
-SPLIT = {
-    (2, "vertex_vertex"): ("A", "B"), (2, "edge_vertex"): ("AB", "P"),
-    (2, "edge_edge"): ("AB", "PQ"), (2, "triangle_vertex"): ("ABC", "P"),
-    (3, "vertex_vertex"): ("A", "B"), (3, "edge_vertex"): ("AB", "P"),
-    (3, "edge_edge"): ("AB", "PQ"), (3, "triangle_vertex"): ("ABC", "P"),
-    (3, "triangle_edge"): ("ABC", "PQ"), (3, "tetrahedron_vertex"): ("ABCD", "P"),
-}
-
 #: (L_a, L_b): bounding-box edge lengths of the two primitives (long and short elements).
 SCALES = [(0.5, 0.5), (0.9, 0.1), (0.1, 0.9), (0.999, 0.001), (0.001, 0.999),
           (1.5, 0.25), (0.75, 0.75), (0.3, 1.7)]
 
-#: Distance tolerance of a near-incidence between faces of i and j vertices.
-NEAR_TOL = {(1, 1): "sigma", (2, 1): "tau", (1, 2): "tau", (2, 2): "gamma",
-            (3, 1): "delta", (1, 3): "delta"}
+#: Distance tolerance of a near-incidence between faces of i and j vertices: the bracket
+#: of the 3D predicate deciding such a pair (the catalogue's), used in 2D too as a scale.
+NEAR_TOL = {(i, j): pair_predicate(3, i, j)[0].bracket
+            for i in range(1, 4) for j in range(1, 4)
+            if pair_predicate(3, i, j) and pair_predicate(3, i, j)[0].bracket}
 
 DEFAULT_SAMPLES = 100
 DEFAULT_SEARCH = 10
@@ -153,7 +147,7 @@ class PredicateSpec:
         self.dim = pred.dim
         self.name = pred.name
         self.key = f"{pred.dim}D {pred.name}"
-        self.split = split or SPLIT[(pred.dim, pred.name)]
+        self.split = split or ("".join(pred.sim), "".join(pred.cut))
         if "".join(self.split) != "".join(pred.points):
             raise ValueError(f"{self.key}: split {self.split} does not match points {pred.points}")
         ins = pred.instrumented()
@@ -339,7 +333,6 @@ def _real_context(fmt_name):
 def lower_pairs(dim, split):
     """Every pair (face of the first primitive, face of the second) except the pair itself,
     with the predicate that registers it and the argument order."""
-    d = {p.name: p for p in predicates.ALL[dim]}
     s1, s2 = split
     out = []
     from itertools import combinations
@@ -349,23 +342,12 @@ def lower_pairs(dim, split):
                 continue
             for f1 in combinations(s1, i):
                 for f2 in combinations(s2, j):
-                    pair = _pair_predicate(d, i, j)
+                    pair = pair_predicate(dim, i, j)
                     if pair is None:
                         continue
                     pred, swap = pair
                     out.append((pred, (f2 + f1) if swap else (f1 + f2), f1 + f2))
     return out
-
-
-def _pair_predicate(d, i, j):
-    table = {(1, 1): ("vertex_vertex", False), (2, 1): ("edge_vertex", False),
-             (1, 2): ("edge_vertex", True), (2, 2): ("edge_edge", False),
-             (3, 1): ("triangle_vertex", False), (1, 3): ("triangle_vertex", True),
-             (3, 2): ("triangle_edge", False), (2, 3): ("triangle_edge", True),
-             (4, 1): ("tetrahedron_vertex", False)}
-    if (i, j) not in table or table[(i, j)][0] not in d:
-        return None
-    return d[table[(i, j)][0]], table[(i, j)][1]
 
 
 def registered_sub_pairs(spec: PredicateSpec, cfg: Config) -> list:

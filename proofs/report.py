@@ -31,15 +31,6 @@ from .verify import instrument, verify
 
 DEFAULT_PATH = Path(__file__).resolve().parent.parent / "docs" / "error-bounds.md"
 
-SECTIONS = {
-    (2, "vertex_vertex"): ("4.2", "Vertex-Vertex"), (2, "edge_vertex"): ("4.3", "Edge-Vertex"),
-    (2, "edge_edge"): ("4.4", "Edge-Edge"), (2, "triangle_vertex"): ("4.5", "Triangle-Vertex"),
-    (3, "vertex_vertex"): ("5.2", "Vertex-Vertex"), (3, "edge_vertex"): ("5.3", "Edge-Vertex"),
-    (3, "edge_edge"): ("5.4", "Edge-Edge"), (3, "triangle_vertex"): ("5.5", "Triangle-Vertex"),
-    (3, "triangle_edge"): ("5.6", "Triangle-Edge"),
-    (3, "tetrahedron_vertex"): ("5.7", "Tetrahedron-Vertex"),
-}
-
 SUP = str.maketrans("0123456789", "⁰¹²³⁴⁵⁶⁷⁸⁹")
 
 
@@ -371,7 +362,7 @@ def render() -> str:
         out += _constraints_table(table_os)
         for pred in predicates.ALL[dim]:
             alg = pred.name
-            sec, title = SECTIONS[(dim, alg)]
+            sec, title = pred.section, pred.title
             ins = instrument(pred)
             mod = "d2" if dim == 2 else "d3"
             out += [f"### {sec} {title} (Algorithm {pred.algorithm}, "

@@ -12,7 +12,7 @@
 * **weight accuracy** — :func:`weight_error_bounds`: the guaranteed error of each
   returned weight, from the derived bounds E of its numerator and denominator (see that
   function's docstring for the derivation);
-* **degenerate sub-pairs** — :data:`SUBPAIRS`: the lower-level pairs the registration
+* **degenerate sub-pairs** — ``predicates.catalogue.sub_pairs``: the lower-level pairs the registration
   layer checks before a pair (only pairs *across* the two meshes: an edge's own two
   endpoints are never a vertex-vertex pair);
 * **adversarial constructions** — :func:`construct`: near-degenerate configurations,
@@ -434,37 +434,10 @@ def weight_error_bounds(ex: Exact) -> list:
 
 
 # ---------------------------------------------------------------------------------
-# degenerate sub-pairs (the registration layer's line 2)
+# faces of a tetrahedron (degenerate sub-pairs are predicates.catalogue.sub_pairs)
 
-_VV, _EV, _EE, _TV = "vertex_vertex", "edge_vertex", "edge_edge", "triangle_vertex"
-_EE_SUB = ([(_VV, (a, b)) for a in (0, 1) for b in (2, 3)]
-           + [(_EV, (0, 1, 2)), (_EV, (0, 1, 3)), (_EV, (2, 3, 0)), (_EV, (2, 3, 1))])
-_TRI_EDGES = ((0, 1), (1, 2), (2, 0))
 _TET_EDGES = ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))
 _TET_FACES = ((1, 2, 3), (0, 2, 3), (0, 1, 3), (0, 1, 2))
-
-#: (dim, predicate) -> [(lower predicate, indices of its points in the configuration)]:
-#: every lower-level pair between the two primitives (never within one primitive).
-SUBPAIRS = {
-    (2, _VV): [], (3, _VV): [],
-    (2, _EV): [(_VV, (0, 2)), (_VV, (1, 2))],
-    (3, _EV): [(_VV, (0, 2)), (_VV, (1, 2))],
-    (2, _EE): _EE_SUB,
-    (3, _EE): _EE_SUB,
-    (2, _TV): [(_VV, (i, 3)) for i in range(3)] + [(_EV, (i, j, 3)) for i, j in _TRI_EDGES],
-    (3, _TV): [(_VV, (i, 3)) for i in range(3)] + [(_EV, (i, j, 3)) for i, j in _TRI_EDGES],
-    (3, "triangle_edge"): ([(_VV, (i, j)) for i in range(3) for j in (3, 4)]
-                           + [(_EV, (i, j, k)) for i, j in _TRI_EDGES for k in (3, 4)]
-                           + [(_EV, (3, 4, i)) for i in range(3)]
-                           + [(_EE, (i, j, 3, 4)) for i, j in _TRI_EDGES]
-                           + [(_TV, (0, 1, 2, k)) for k in (3, 4)]),
-    (3, "tetrahedron_vertex"): ([(_VV, (i, 4)) for i in range(4)]
-                                + [(_EV, (i, j, 4)) for i, j in _TET_EDGES]
-                                + [(_TV, (*f, 4)) for f in _TET_FACES]),
-}
-
-#: The tolerance whose bracket each predicate's inside-test uses (None: sign tests only).
-BRACKET = {_VV: "sigma", _EV: "tau", (3, _EE): "gamma", (3, _TV): "delta"}
 
 
 # ---------------------------------------------------------------------------------

@@ -7,7 +7,7 @@ import pytest
 
 import predicates
 from predicates.broadphase import box_pairs, box_pairs_bruteforce
-from predicates.registration import KINDS
+from predicates.catalogue import kinds
 from predicates.meshes import example, cube_grid, grid_plane, square_grid
 from test_intersect_exact import transformed
 from test_intersect_oracle import check_exact
@@ -229,7 +229,7 @@ def test_empty_and_mixed_dimensions():
     bad(P3, C3, *S2, match="mixed dimensions")
     # an empty cutting mesh is allowed: nothing intersects
     res = predicates.intersect(P2, C2, np.zeros((0, 2)), np.zeros((0, 2), dtype=int))
-    assert res.total == 0 and res.kinds == tuple(k for k, _, _ in KINDS[2])
+    assert res.total == 0 and res.kinds == tuple(k.name for k in kinds(2))
     res = predicates.intersect(P3, C3, np.zeros((0, 3)), [])
     assert res.total == 0
 
@@ -289,7 +289,7 @@ def test_result_object_and_meshio_export(tmp_path):
     import meshio
 
     res = run(example("plane_offset", 3))
-    assert res.kinds == tuple(k for k, _, _ in KINDS[3])
+    assert res.kinds == tuple(k.name for k in kinds(3))
     p = res["edge_vertex"]
     assert p.sim.shape[1] == 2 and p.cut.shape[1] == 1
     assert p.sim_weights.shape == (len(p), 2) and np.all(p.cut_weights == 1)

@@ -9,7 +9,7 @@ configurations, tiny elements just above σ̂ and long ones spanning L):
 
 * the configuration is skipped when a lower-level degenerate pair would be registered:
   the lower predicates *of the same number system* are run on every sub-pair between the
-  two primitives (:data:`geometry_exact.SUBPAIRS`) and any hit skips the case;
+  two primitives (``predicates.catalogue.sub_pairs``) and any hit skips the case;
 * otherwise, with T± = coefficient·ε^q·L^p the exact brackets of
   ``predicates/tolerance_table.py`` (ε the format's unit roundoff, L = ``tol.L``):
 
@@ -60,7 +60,8 @@ from hypothesis import strategies as st
 
 import fperr
 import predicates
-from geometry_exact import (SUBPAIRS, DataSource, RngSource, Units, construct,
+from predicates import catalogue
+from geometry_exact import (DataSource, RngSource, Units, construct,
                             exact_eval, frac, max_difference, place, weight_error_bounds)
 
 LONG = os.environ.get("FPERR_LONG") == "1"
@@ -117,10 +118,9 @@ class Format:
     def degenerate(self, pred, configs, tol):
         """For each configuration: would a lower-level pair be registered?"""
         out = [False] * len(configs)
-        mod = getattr(predicates, f"d{pred.dim}")
-        for lower, idx in SUBPAIRS[(pred.dim, pred.name)]:
+        for lower, idx in catalogue.sub_pairs(pred):
             todo = [k for k in range(len(configs)) if not out[k]]
-            hits, _ = self.run(getattr(mod, lower), [tuple(configs[k][i] for i in idx)
+            hits, _ = self.run(lower, [tuple(configs[k][i] for i in idx)
                                                      for k in todo], tol)
             for k, h in zip(todo, hits):
                 out[k] = out[k] or h
