@@ -102,14 +102,3 @@ def _latex_bound(r) -> str:
     sym = {"E": r"\mathcal{E}", "R": r"\mathcal{R}", "M": "|x|"}[r["kind"]]
     eps = "" if r["kind"] == "M" else r"\epsilon "
     return f"{sym} \\le {r['coefficient']}{eps}{_lp(r['power'])}"
-
-
-def add_arguments(parser) -> None:
-    parser.add_argument("--dim", type=int, choices=(2, 3), help="only this dimension")
-    parser.add_argument("--format", choices=("md", "latex", "json"), default="md")
-
-
-def run(args) -> int:
-    dims = (args.dim,) if args.dim else (2, 3)
-    print(render(records(dims), args.format))
-    return 0

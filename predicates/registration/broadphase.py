@@ -1,5 +1,6 @@
-"""Broad phase: every pair of boxes within a distance ``pad`` of each other, in
-sub-quadratic time (uniform grid hashing, vectorised with numpy).
+"""Broad phase of the registration (section 1 of the paper): every pair of boxes within
+a distance ``pad`` of each other, in sub-quadratic time (uniform grid hashing,
+vectorised with numpy).
 
 The test a pair must pass is, per axis, ``F[lo_b − hi_a] ≤ pad`` and
 ``F[lo_a − hi_b] ≤ pad`` (``pad`` a binary64 number). Rounding to nearest is monotone,
@@ -21,14 +22,9 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["box_pairs", "box_pairs_bruteforce", "boxes", "near_flags"]
+__all__ = ["box_pairs", "box_pairs_bruteforce", "near_flags"]
 
 _BITS = 20  # at most 2^20 + 1 cells per axis: linear keys fit in int64
-
-
-def boxes(coords: np.ndarray):
-    """Bounding boxes of simplices given as (n, k, d) vertex coordinates: (lo, hi)."""
-    return coords.min(axis=1), coords.max(axis=1)
 
 
 def box_pairs_bruteforce(lo_a, hi_a, lo_b, hi_b, pad):
