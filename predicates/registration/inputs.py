@@ -14,9 +14,6 @@ import numpy as np
 __all__ = ["MeshInput", "from_meshio", "max_box_edge", "mesh_arrays", "scale_points",
            "validate_mesh", "validate_pair"]
 
-#: cells per dimension: (simulation cell, cutting cell) with their meshio names
-CELLS = {2: (("triangle", 3), ("line", 2)), 3: (("tetra", 4), ("triangle", 3))}
-
 
 @dataclass
 class MeshInput:
