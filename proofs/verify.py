@@ -232,6 +232,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--report", metavar="PATH", nargs="?", const="",
                         help="also write the generated report (default: the repository's "
                              "docs/error-bounds.md)")
+    parser.add_argument("--certificate", metavar="FILE", help="write a certificate of every decision (JSON; check it with python -m proofs.check_certificate FILE)")
 
 
 def _margin_text(o: Outcome) -> str:
@@ -308,6 +309,14 @@ def run(args) -> int:
             print(f"{dim}D FAILED: " + ", ".join(o.id for o in rep.failures))
         print()
         ok = ok and rep.ok
+    if getattr(args, "certificate", None):
+        from . import certificate
+        try:
+            certificate.write(args.certificate, reports, args.require_paper_argument)
+        except OSError as e:
+            print(f"fperr verify: cannot write certificate: {e}", file=sys.stderr)
+            return 2
+        print(f"certificate written to {args.certificate}")
     if args.report is not None:
         from .report import DEFAULT_PATH, write_report
         path = args.report or DEFAULT_PATH
