@@ -93,7 +93,7 @@ def _fr(x) -> Fraction:
 
 def _one_side_of_S(sqf: sympy.Poly, a: Fraction, b: Fraction) -> tuple:
     """An isolating interval (a, b) of one root of ``sqf`` (square-free) with a and b
-    not roots and not straddling S (exact roots a == b are widened)."""
+    not roots, not straddling S, width ≤ 2^-40·b (exact roots a == b are widened)."""
     if a == b:
         d = Fraction(1, 2**40) * max(a, Fraction(1, 2**40))
         while (sqf.count_roots(sympy.Rational(*_nd(a - d)), sympy.Rational(*_nd(a + d))) != 1
@@ -102,7 +102,8 @@ def _one_side_of_S(sqf: sympy.Poly, a: Fraction, b: Fraction) -> tuple:
                or sqf.eval(sympy.Rational(*_nd(a + d))) == 0):
             d /= 2
         return a - d, a + d
-    while below_S(a) and not below_S(b):
+    # narrow enough to name the ε where a root lies, and on one side of S
+    while (below_S(a) and not below_S(b)) or b - a > b / 2**40:
         m = (a + b) / 2
         fm = sqf.eval(sympy.Rational(*_nd(m)))
         if fm == 0:

@@ -251,14 +251,14 @@ def check_positive(bound: list, evidence, s_max: Fraction, where: str) -> None:
             if not lo < x < hi or sign_at(q, x) != sg:
                 raise NotCertified(f"{w}: sign at sample {x} is not {sg}")
             if below_S(lo) and sg <= 0:
-                raise NotCertified(f"{w}: negative on s ∈ ({lo}, {hi}) "
-                                   f"(ε from {float(lo)**4:.4g})")
+                raise NotCertified(f"{w}: negative on s ∈ ({lo}, {hi}), "
+                                   f"ε ∈ ({float(lo)**4:.4g}, {float(hi)**4:.4g})")
         elif kind == "root":
             if n != 1:
                 raise NotCertified(f"{w}: ({lo}, {hi}) holds {n} roots, not 1")
             if below_S(lo):
-                raise NotCertified(f"{w}: a root in ({lo}, {hi}) at or below S "
-                                   f"(ε ≈ {float(lo)**4:.4g})")
+                raise NotCertified(f"{w}: a root at or below S, in s ∈ ({lo}, {hi}), "
+                                   f"ε ∈ ({float(lo)**4:.4g}, {float(hi)**4:.4g})")
         else:
             raise Malformed(f"{w}: unknown piece kind {kind!r}")
         prev = hi
