@@ -15,6 +15,7 @@ Usage::
     fperr verify --dim 3 -v       # with the derived errors and argument steps
     fperr verify --tolerances my.toml
     fperr verify --report docs/error-bounds.md   # also write the report
+    fperr verify --certificate cert.json         # then: python -m proofs.check_certificate cert.json
 
 ``--tolerances FILE`` (TOML or JSON) replaces coefficients of T−, T, T+; e.g.::
 
@@ -232,7 +233,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--report", metavar="PATH", nargs="?", const="",
                         help="also write the generated report (default: the repository's "
                              "docs/error-bounds.md)")
-    parser.add_argument("--certificate", metavar="FILE", help="write a certificate of every decision (JSON; check it with python -m proofs.check_certificate FILE)")
+    parser.add_argument("--certificate", metavar="FILE", help="also write a checkable certificate")
 
 
 def _margin_text(o: Outcome) -> str:

@@ -301,3 +301,9 @@ def test_radical_enclosures_are_exact_bounds(p, q, e):
     # lo ≤ b^(m/n) ≤ hi  ⇔  lo^n ≤ b^m ≤ hi^n (all positive)
     n, m = ex.denominator, ex.numerator
     assert 0 <= lo < hi and lo**n <= b**m <= hi**n and hi - lo <= Fraction(1, 2**64)
+
+
+def test_unwritable_certificate_path_exits_2(tmp_path):
+    r, _ = _verify(tmp_path / "no" / "such" / "dir", 2)
+    assert r.returncode == 2 and "cannot write certificate" in r.stderr
+    assert "Traceback" not in r.stderr
