@@ -369,7 +369,7 @@ def main(argv: list[str] | None = None) -> int:
         with open(argv[0], encoding="utf-8") as f:
             doc = json.load(f)
         results = check(doc)
-    except (OSError, json.JSONDecodeError, Malformed) as e:
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError, Malformed) as e:
         print(f"check_certificate: malformed certificate {argv[0]}: {e}", file=sys.stderr)
         return 2
     bad = {cid: r for cid, r in results.items() if r is not None}
