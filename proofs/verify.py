@@ -15,6 +15,7 @@ Usage::
     fperr verify --dim 3 -v       # with the derived errors and argument steps
     fperr verify --tolerances my.toml
     fperr verify --report docs/error-bounds.md   # also write the report
+    fperr verify --certificate cert.json         # then: python -m proofs.check_certificate cert.json
 
 ``--tolerances FILE`` (TOML or JSON) replaces coefficients of T−, T, T+; e.g.::
 
@@ -232,6 +233,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--report", metavar="PATH", nargs="?", const="",
                         help="also write the generated report (default: the repository's "
                              "docs/error-bounds.md)")
+    parser.add_argument("--certificate", metavar="FILE", help="also write a checkable certificate")
 
 
 def _margin_text(o: Outcome) -> str:
@@ -308,6 +310,14 @@ def run(args) -> int:
             print(f"{dim}D FAILED: " + ", ".join(o.id for o in rep.failures))
         print()
         ok = ok and rep.ok
+    if getattr(args, "certificate", None):
+        from . import certificate
+        try:
+            certificate.write(args.certificate, reports, args.require_paper_argument)
+        except OSError as e:
+            print(f"fperr verify: cannot write certificate: {e}", file=sys.stderr)
+            return 2
+        print(f"certificate written to {args.certificate}")
     if args.report is not None:
         from .report import DEFAULT_PATH, write_report
         path = args.report or DEFAULT_PATH
