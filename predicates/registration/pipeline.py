@@ -54,6 +54,7 @@ from __future__ import annotations
 import math
 import os
 import time
+from typing import NamedTuple
 
 import numpy as np
 
@@ -70,7 +71,7 @@ CHUNK = 1 << 17
 
 
 def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: bool = False,
-              chunk: int = CHUNK) -> IntersectionResult:
+              chunk: int = CHUNK, partitions=None, scheduler=None) -> IntersectionResult:
     """Register the intersections of a simulation mesh with a cutting mesh.
 
     ``intersect(sim_points, sim_cells, cut_points, cut_cells)``, ``intersect(sim_mesh,
@@ -82,11 +83,53 @@ def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: b
     ``dtype``: float64 or float32, the working precision (coordinates are converted;
     ``res.rounded_inputs`` says whether that rounded them). ``tolerance_scale``: 1 for the
     robust method, 0 for the naive zero-tolerance baseline (values in [0, 1]).
-    ``progress``: a tqdm bar on stderr (shown after one second). Returns an
+    ``progress``: a tqdm bar on stderr (shown after one second). ``partitions`` (an int
+    or "auto") / ``scheduler`` ("threads", "processes", "synchronous" or a
+    ``dask.distributed.Client``): run on Dask in spatial partitions, with the identical
+    result (:mod:`predicates.registration.partition_run`; needs ``fperr[dask]``); the
+    default is serial, without Dask. Returns an
     :class:`~predicates.registration.result.IntersectionResult`. See the module docstring.
     """
     t0 = time.perf_counter()
     timings = {}
+    plan = _plan(args, dtype, tolerance_scale)
+    timings["setup"] = time.perf_counter() - t0
+    if partitions is None and scheduler is None:
+        pairs = _register(plan, chunk, progress, timings)
+    else:
+        from .partition_run import run_partitioned
+
+        pairs = run_partitioned(plan, partitions, scheduler, chunk, timings)
+    timings["total"] = time.perf_counter() - t0
+    sim, cut = plan.sim, plan.cut
+    return IntersectionResult(
+        dim=plan.dim, dtype=plan.dtype, kinds=tuple(k.name for k in plan.kinds), pairs=pairs,
+        tolerances=plan.tol, scale_exponent=plan.e, tolerance_scale=plan.ts, L_a=plan.L_a,
+        L_b=plan.L_b, sim_points=sim.points, sim_cells=sim.cells, cut_points=cut.points,
+        cut_cells=cut.cells, rounded_inputs=sim.rounded or cut.rounded, timings=timings)
+
+
+class Plan(NamedTuple):
+    """Everything global a registration decides before the levels (steps 1, 2, 4): a
+    partitioned run computes it once and every partition uses it unchanged."""
+
+    dim: int
+    dtype: np.dtype
+    sim: object  # inputs.MeshInput (validated, working dtype)
+    cut: object
+    e: int  # coordinates are scaled by 2^-e
+    P_sim: np.ndarray  # scaled points
+    P_cut: np.ndarray
+    L_a: float  # input units
+    L_b: float
+    tol: object  # Tolerances of the run (scaled by tolerance_scale)
+    ts: float
+    kinds: tuple
+    reach: dict  # kind -> broad-phase distance
+
+
+def _plan(args, dtype, tolerance_scale) -> Plan:
+    """Steps 1, 2 and 4: validation, exact scaling, tolerances and reach."""
     dtype = np.dtype(dtype)
     ts = float(tolerance_scale)
     if not 0 <= ts <= 1:
@@ -111,20 +154,17 @@ def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: b
     kinds = catalogue_kinds(dim)
     reach = {k.name: float(tol.values[k.reach[0]]) * k.reach[1] * (1 + 16 * eps)
              for k in kinds}
-    timings["setup"] = time.perf_counter() - t0
+    return Plan(dim, dtype, sim, cut, e, P_sim, P_cut, L_a0, L_b0, tol_run, ts, kinds, reach)
 
-    # rank space: vertices ordered lexicographically by coordinates
+
+def _register(plan: Plan, chunk: int, progress: bool, timings: dict) -> dict:
+    """Steps 3, 5, 6 on the whole meshes: {kind: KindPairs}."""
     t = time.perf_counter()
-    reg = Registration(dim, P_sim, sim.cells, P_cut, cut.cells, tol_run, reach, chunk)
+    # rank space: vertices ordered lexicographically by coordinates
+    reg = Registration(plan.dim, plan.P_sim, plan.sim.cells, plan.P_cut, plan.cut.cells,
+                       plan.tol, plan.reach, chunk)
     timings["ranks"] = time.perf_counter() - t
-    pairs = reg.run(progress, timings)
-
-    timings["total"] = time.perf_counter() - t0
-    return IntersectionResult(
-        dim=dim, dtype=dtype, kinds=tuple(k.name for k in kinds), pairs=pairs,
-        tolerances=tol_run, scale_exponent=e, tolerance_scale=ts, L_a=L_a0, L_b=L_b0,
-        sim_points=sim.points, sim_cells=sim.cells, cut_points=cut.points,
-        cut_cells=cut.cells, rounded_inputs=sim.rounded or cut.rounded, timings=timings)
+    return reg.run(progress, timings)
 
 
 def intersect_files(sim: str | os.PathLike, cut: str | os.PathLike, *,
