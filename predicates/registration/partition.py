@@ -1,0 +1,176 @@
+"""Spatial partitions of a registration (section 1 of the paper, run in pieces): which
+simulation cells, cutting cells and vertices each partition receives, which pairs it
+owns, and how the owned pairs merge back into the serial result. Pure numpy; the Dask
+execution is :mod:`predicates.registration.partition_run`, the argument that the merged
+result is the serial one is docs/partitioned.md.
+
+* cells are ordered by the Morton code of their centroids and cut into ``k`` contiguous
+  runs of (nearly) equal size: partition r *owns* run r;
+* a vertex is owned by the partition owning the smallest-index cell that contains it;
+* partition r receives its cells plus a halo (every cell sharing a vertex with them),
+  and every cutting cell whose box is within the largest reach of a box covering some
+  of those cells;
+* a registered pair belongs to the partition owning the smallest-id vertex of its
+  simulation primitive: every cell containing that primitive shares that vertex with an
+  owned cell, so the owner holds the primitive, all its faces and every cutting
+  primitive within reach — every sub-pair its suppression looks at.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .broadphase import near_flags
+from .result import KindPairs
+
+__all__ = ["Part", "merge", "morton_parts", "owned", "split"]
+
+_SUBBOXES = 64  # boxes per partition for choosing its cutting cells (tight, cheap)
+
+
+@dataclass
+class Part:
+    """What one partition receives: its slice of both meshes in local ids.
+
+    ``sim_ids`` / ``cut_ids``: the global vertex ids of the local vertices, increasing
+    (local order = global order, so ties in the lexicographic vertex order break the
+    same way as in the serial run); ``own_vertex``: per local simulation vertex, owned
+    by this partition."""
+
+    index: int
+    P_sim: np.ndarray
+    sim_cells: np.ndarray
+    sim_ids: np.ndarray
+    own_vertex: np.ndarray
+    P_cut: np.ndarray
+    cut_cells: np.ndarray
+    cut_ids: np.ndarray
+    owned_cells: int
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes of array data sent to the worker."""
+        return sum(a.nbytes for a in (self.P_sim, self.sim_cells, self.sim_ids,
+                                      self.own_vertex, self.P_cut, self.cut_cells,
+                                      self.cut_ids))
+
+
+def _spread(v: np.ndarray, dim: int) -> np.ndarray:
+    """Bits of v (uint64, < 2^21 in 3D, < 2^31 in 2D) spaced ``dim`` apart."""
+    v = v.astype(np.uint64)
+    if dim == 2:
+        masks = [(16, 0x0000FFFF0000FFFF), (8, 0x00FF00FF00FF00FF), (4, 0x0F0F0F0F0F0F0F0F),
+                 (2, 0x3333333333333333), (1, 0x5555555555555555)]
+    else:
+        masks = [(32, 0x1F00000000FFFF), (16, 0x1F0000FF0000FF), (8, 0x100F00F00F00F00F),
+                 (4, 0x10C30C30C30C30C3), (2, 0x1249249249249249)]
+    for shift, m in masks:
+        v = (v | (v << np.uint64(shift))) & np.uint64(m)
+    return v
+
+
+def morton_parts(points: np.ndarray, cells: np.ndarray, k: int) -> np.ndarray:
+    """Partition index (0..k−1) of every cell: Morton order of the cell centroids cut
+    into k contiguous runs of equal size (± 1). Any assignment gives the serial result;
+    this one keeps partitions compact, so halos and cutting slices stay small."""
+    m, dim = len(cells), points.shape[1]
+    c = points.astype(np.float64)[cells].mean(axis=1)
+    lo, hi = c.min(axis=0), c.max(axis=0)
+    bits = 21 if dim == 3 else 31
+    span = np.where(hi > lo, hi - lo, 1.0)
+    q = np.clip(((c - lo) / span * (2 ** bits - 1)), 0, 2 ** bits - 1).astype(np.uint64)
+    code = np.zeros(m, dtype=np.uint64)
+    for ax in range(dim):
+        code |= _spread(q[:, ax], dim) << np.uint64(ax)
+    order = np.argsort(code, kind="stable")
+    part = np.empty(m, dtype=np.int64)
+    part[order] = np.arange(m, dtype=np.int64) * k // m
+    return part
+
+
+def _cut_near(P_sim, cells, P_cut, cut_cells, pad) -> np.ndarray:
+    """Indices of the cutting cells within ``pad`` of some box covering a block of
+    ``cells``: a superset of those within pad of a cell (a cell's box lies in its
+    block's box, and the test F[lo − hi] ≤ pad is monotone)."""
+    if len(cut_cells) == 0 or len(cells) == 0:
+        return np.zeros(0, dtype=np.int64)
+    X = P_sim[cells]
+    lo, hi = X.min(axis=1), X.max(axis=1)
+    blocks = np.array_split(np.arange(len(cells)), min(_SUBBOXES, len(cells)))
+    blo = np.stack([lo[b].min(axis=0) for b in blocks])
+    bhi = np.stack([hi[b].max(axis=0) for b in blocks])
+    Y = P_cut[cut_cells]
+    _, near = near_flags(blo, bhi, Y.min(axis=1), Y.max(axis=1), pad)
+    return np.flatnonzero(near)
+
+
+def _local(P, cells, keep):
+    """The rows ``keep`` of ``cells`` renumbered to their vertices (global ids
+    increasing) and those vertices' coordinates."""
+    sub = cells[keep]
+    ids, local = np.unique(sub, return_inverse=True)
+    return P[ids], local.reshape(sub.shape).astype(np.int64), ids
+
+
+def split(P_sim, sim_cells, P_cut, cut_cells, k: int, pad: float):
+    """Yield the :class:`Part` of each non-empty partition of k (cells in Morton
+    order); ``pad``: the largest broad-phase reach. Cells given in input order."""
+    m, n = len(sim_cells), len(P_sim)
+    part = morton_parts(P_sim, sim_cells, k)
+    # vertex owner: partition of the smallest-index cell containing it
+    first = np.full(n, m, dtype=np.int64)
+    np.minimum.at(first, sim_cells.ravel(), np.repeat(np.arange(m), sim_cells.shape[1]))
+    owner = np.where(first < m, part[np.minimum(first, m - 1)], -1)
+    by_part = np.argsort(part, kind="stable")
+    bounds = np.searchsorted(part[by_part], np.arange(k + 1))
+    for r in range(k):
+        own = by_part[bounds[r]:bounds[r + 1]]
+        if own.size == 0:
+            continue
+        touched = np.zeros(n, dtype=bool)
+        touched[sim_cells[own].ravel()] = True
+        halo = np.flatnonzero(touched[sim_cells].any(axis=1))  # includes own cells
+        # blocks of nearby cells (Morton order) for a tight choice of cutting cells
+        halo_m = halo[np.argsort(part[halo], kind="stable")]
+        Ps, cs, sid = _local(P_sim, sim_cells, halo)
+        cut_keep = _cut_near(P_sim, sim_cells[halo_m], P_cut, cut_cells, pad)
+        Pc, cc, cid = _local(P_cut, cut_cells, cut_keep)
+        yield Part(r, Ps, cs, sid, owner[sid] == r, Pc, cc, cid, int(own.size))
+
+
+def owned(part: Part, pairs: dict) -> dict:
+    """The pairs of a partition's run (local ids) that it owns, in global ids: those
+    whose simulation primitive's smallest vertex id (local order = global order) is an
+    owned vertex."""
+    out = {}
+    for kind, p in pairs.items():
+        keep = part.own_vertex[p.sim.min(axis=1)] if len(p) else np.zeros(0, dtype=bool)
+        out[kind] = KindPairs(kind, part.sim_ids[p.sim[keep]], part.cut_ids[p.cut[keep]],
+                              p.sim_weights[keep], p.cut_weights[keep],
+                              candidates=p.candidates, suppressed=p.suppressed)
+    return out
+
+
+def merge(kinds, results: list[dict], dtype) -> dict:
+    """{kind: KindPairs}: the partitions' owned pairs concatenated and sorted as the
+    serial run sorts them (by sorted sim ids, then sorted cut ids). ``candidates`` and
+    ``suppressed`` are summed: per-run work statistics (halo pairs are counted by every
+    partition that proposed them), not part of the result."""
+    out = {}
+    for k in kinds:
+        got = [r[k.name] for r in results if k.name in r]
+        sid = np.concatenate([g.sim for g in got] + [np.zeros((0, k.i + 1), np.int64)])
+        cid = np.concatenate([g.cut for g in got] + [np.zeros((0, k.j + 1), np.int64)])
+        sw = np.concatenate([g.sim_weights for g in got] + [np.zeros((0, k.i + 1), dtype)])
+        cw = np.concatenate([g.cut_weights for g in got] + [np.zeros((0, k.j + 1), dtype)])
+        both = np.concatenate([np.sort(sid, axis=1), np.sort(cid, axis=1)], axis=1)
+        order = np.lexsort(both.T[::-1]) if len(both) else np.zeros(0, dtype=np.int64)
+        both = both[order]
+        if len(both) > 1 and np.any(np.all(both[1:] == both[:-1], axis=1)):
+            raise RuntimeError(f"{k.name}: a pair was registered by two partitions (an "
+                               "ownership bug; please report it)")
+        out[k.name] = KindPairs(k.name, sid[order], cid[order], sw[order], cw[order],
+                                candidates=sum(g.candidates for g in got),
+                                suppressed=sum(g.suppressed for g in got))
+    return out

@@ -1,0 +1,154 @@
+"""Partitioned registration on Dask (section 1 of the paper, scaled out): the plan
+(tolerances, reach, scaling) is global, each partition of
+:mod:`predicates.registration.partition` runs the serial levels on its slice as one Dask
+task, and the owned pairs merge into a result identical to the serial one
+(docs/partitioned.md).
+
+Schedulers: Dask's local ``"threads"``, ``"processes"``, ``"synchronous"``, a
+``dask.distributed.Client`` or a scheduler address (``"tcp://host:8786"``). Dask is
+imported only here, only when a partitioned run is asked for.
+"""
+from __future__ import annotations
+
+import os
+import resource
+import time
+
+import numpy as np
+
+from .levels import Registration
+from .partition import Part, merge, owned, split
+
+__all__ = ["DaskMissingError", "LOCAL_SCHEDULERS", "read_pieces", "run_partitioned"]
+
+LOCAL_SCHEDULERS = ("threads", "processes", "synchronous")
+#: "auto" makes at least one partition per this many simulation cells
+CELLS_PER_PART = 1_000_000
+
+
+class DaskMissingError(ImportError):
+    """Dask is needed for a partitioned run but is not installed."""
+
+
+def _dask():
+    try:
+        import dask
+    except ImportError:
+        raise DaskMissingError(
+            "partitioned registration (partitions=/scheduler=, fperr intersect --workers/"
+            "--scheduler) runs on Dask, which is not installed: pip install 'fperr[dask]' "
+            "(or leave partitions/scheduler unset for the serial run)") from None
+    return dask
+
+
+def _client(scheduler):
+    """The distributed Client meant by ``scheduler``, or None for a local scheduler."""
+    if isinstance(scheduler, str):
+        if scheduler in LOCAL_SCHEDULERS:
+            return None
+        if "://" in scheduler:
+            try:
+                from distributed import Client
+            except ImportError:
+                raise DaskMissingError("a scheduler address needs dask.distributed: pip "
+                                       "install 'fperr[dask]'") from None
+            return Client(scheduler)
+        raise ValueError(f"scheduler must be one of {', '.join(LOCAL_SCHEDULERS)}, a "
+                         f"dask.distributed.Client or an address like tcp://host:8786; got "
+                         f"{scheduler!r}")
+    if "Client" in type(scheduler).__name__ and hasattr(scheduler, "scatter"):
+        return scheduler
+    raise TypeError(f"scheduler must be a string or a dask.distributed.Client, got "
+                    f"{type(scheduler).__name__}")
+
+
+def _count(partitions, client, n_cells: int) -> int:
+    if isinstance(partitions, str) and partitions == "auto" or partitions is None:
+        workers = (sum(w["nthreads"] for w in client.scheduler_info()["workers"].values())
+                   if client is not None else os.cpu_count() or 1)
+        return max(1, min(n_cells, max(workers, -(-n_cells // CELLS_PER_PART))))
+    if isinstance(partitions, (bool, np.bool_)) or not isinstance(partitions, (int, np.integer)):
+        raise TypeError(f"partitions must be a positive int or 'auto', got {partitions!r}")
+    if partitions < 1:
+        raise ValueError(f"partitions must be at least 1, got {partitions}")
+    return int(min(partitions, n_cells))
+
+
+def run_part(part: Part, dim: int, tol, reach: dict, chunk: int) -> tuple[dict, dict]:
+    """One Dask task: the serial levels on the partition's slice; returns its owned
+    pairs (global ids) and statistics (time, peak RSS of the worker process, bytes)."""
+    t = time.perf_counter()
+    reg = Registration(dim, part.P_sim, part.sim_cells, part.P_cut, part.cut_cells, tol,
+                       reach, chunk)
+    pairs = owned(part, reg.run(False, {}))
+    sent_back = sum(a.nbytes for p in pairs.values()
+                    for a in (p.sim, p.cut, p.sim_weights, p.cut_weights))
+    stats = {"part": part.index, "owned_cells": part.owned_cells,
+             "sim_cells": len(part.sim_cells), "cut_cells": len(part.cut_cells),
+             "bytes_in": part.nbytes, "bytes_out": sent_back,
+             "seconds": time.perf_counter() - t, "pid": os.getpid(),
+             "peak_rss_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
+    return pairs, stats
+
+
+def run_partitioned(plan, partitions, scheduler, chunk: int, timings: dict) -> dict:
+    """Steps 3, 5, 6 in partitions on Dask: {kind: KindPairs}, identical to the serial
+    run. ``timings`` gets "partition" (client-side split), "dask" (the tasks) and
+    "merge"; ``timings["partitions"]`` the per-partition statistics."""
+    dask = _dask()
+    client = _client("threads" if scheduler is None else scheduler)
+    k = _count(partitions, client, len(plan.sim.cells))
+    t = time.perf_counter()
+    pad = max(plan.reach.values())
+    parts = list(split(plan.P_sim, plan.sim.cells, plan.P_cut, plan.cut.cells, k, pad))
+    timings["partition"] = time.perf_counter() - t
+    t = time.perf_counter()
+    args = (plan.dim, plan.tol, plan.reach, chunk)
+    if client is not None:
+        futures = client.map(run_part, client.scatter(parts), *[[a] * len(parts) for a in args])
+        out = client.gather(futures)
+    else:
+        tasks = [dask.delayed(run_part, pure=False)(p, *args) for p in parts]
+        out = dask.compute(*tasks, scheduler=scheduler or "threads")
+    timings["dask"] = time.perf_counter() - t
+    t = time.perf_counter()
+    pairs = merge(plan.kinds, [o[0] for o in out], plan.dtype)
+    timings["merge"] = time.perf_counter() - t
+    timings["partitions"] = [o[1] for o in out]
+    return pairs
+
+
+def read_pieces(paths) -> tuple[np.ndarray, np.ndarray]:
+    """A simulation mesh stored as several files (pieces, any format meshio reads) as one
+    ``(points, cells)``: the pieces' points concatenated with bit-identical coordinates
+    merged (pieces share their boundary vertices), cells renumbered. The partitioned
+    and the serial run of this mesh agree (it is one mesh)."""
+    from .files import read_mesh
+    from .inputs import from_meshio
+
+    pts, cells, off = [], [], 0
+    for path in paths:
+        m = read_mesh(path)
+        p, c, _, _ = from_meshio(m, _dummy_cut(m))
+        pts.append(np.asarray(p, dtype=np.float64))
+        cells.append(np.asarray(c, dtype=np.int64) + off)
+        off += len(p)
+    if not pts:
+        raise ValueError("read_pieces needs at least one mesh file")
+    P = np.concatenate(pts)
+    uniq, first, inv = np.unique(P, axis=0, return_index=True, return_inverse=True)
+    # keep the merged vertices in order of first appearance (ids stay piece by piece)
+    order = np.argsort(first, kind="stable")
+    rank = np.empty(len(order), dtype=np.int64)
+    rank[order] = np.arange(len(order))
+    return uniq[order], rank[inv.ravel()][np.concatenate(cells)]
+
+
+def _dummy_cut(mesh):
+    """An empty cutting mesh of the right cell type, so that :func:`from_meshio` reads a
+    piece with the same rules as a whole mesh."""
+    import meshio
+
+    tets = any(b.type == "tetra" for b in mesh.cells)
+    return meshio.Mesh(np.zeros((0, 3)), [("triangle" if tets else "line",
+                                           np.zeros((0, 3 if tets else 2), dtype=np.int64))])
