@@ -24,7 +24,7 @@ import numpy as np
 from .broadphase import near_flags
 from .result import KindPairs
 
-__all__ = ["Part", "merge", "morton_parts", "owned", "split"]
+__all__ = ["Part", "merge", "morton_order", "owned", "split"]
 
 _SUBBOXES = 64  # boxes per partition for choosing its cutting cells (tight, cheap)
 
@@ -70,12 +70,21 @@ def _spread(v: np.ndarray, dim: int) -> np.ndarray:
     return v
 
 
-def morton_parts(points: np.ndarray, cells: np.ndarray, k: int) -> np.ndarray:
-    """Partition index (0..k−1) of every cell: Morton order of the cell centroids cut
-    into k contiguous runs of equal size (± 1). Any assignment gives the serial result;
-    this one keeps partitions compact, so halos and cutting slices stay small."""
+def _boxes(P: np.ndarray, cells: np.ndarray):
+    """(lo, hi) of every cell's box, float64 (min and max are exact)."""
+    cols = [P[cells[:, v]].astype(np.float64, copy=False) for v in range(cells.shape[1])]
+    lo, hi = cols[0].copy(), cols[0].copy()
+    for c in cols[1:]:
+        np.minimum(lo, c, out=lo)
+        np.maximum(hi, c, out=hi)
+    return lo, hi
+
+
+def morton_order(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """Position of every cell in the Morton order of its first vertex (a point of the
+    cell; cheaper than the centroid and as good for compact runs)."""
     m, dim = len(cells), points.shape[1]
-    c = points.astype(np.float64)[cells].mean(axis=1)
+    c = points[cells[:, 0]].astype(np.float64)
     lo, hi = c.min(axis=0), c.max(axis=0)
     bits = 21 if dim == 3 else 31
     span = np.where(hi > lo, hi - lo, 1.0)
@@ -84,24 +93,22 @@ def morton_parts(points: np.ndarray, cells: np.ndarray, k: int) -> np.ndarray:
     for ax in range(dim):
         code |= _spread(q[:, ax], dim) << np.uint64(ax)
     order = np.argsort(code, kind="stable")
-    part = np.empty(m, dtype=np.int64)
-    part[order] = np.arange(m, dtype=np.int64) * k // m
-    return part
+    pos = np.empty(m, dtype=np.int64)
+    pos[order] = np.arange(m, dtype=np.int64)
+    return pos
 
 
-def _cut_near(P_sim, cells, P_cut, cut_cells, pad) -> np.ndarray:
-    """Indices of the cutting cells within ``pad`` of some box covering a block of
-    ``cells``: a superset of those within pad of a cell (a cell's box lies in its
-    block's box, and the test F[lo − hi] ≤ pad is monotone)."""
-    if len(cut_cells) == 0 or len(cells) == 0:
+def _cut_near(lo, hi, halo, clo, chi, pad) -> np.ndarray:
+    """Indices of the cutting cells within ``pad`` of the box of some block of the
+    ``halo`` cells (given in Morton order, so blocks are compact): a superset of those
+    within pad of a halo cell (its box lies in its block's box, and the test
+    F[lo − hi] ≤ pad is monotone)."""
+    if len(clo) == 0 or len(halo) == 0:
         return np.zeros(0, dtype=np.int64)
-    X = P_sim[cells]
-    lo, hi = X.min(axis=1), X.max(axis=1)
-    blocks = np.array_split(np.arange(len(cells)), min(_SUBBOXES, len(cells)))
-    blo = np.stack([lo[b].min(axis=0) for b in blocks])
-    bhi = np.stack([hi[b].max(axis=0) for b in blocks])
-    Y = P_cut[cut_cells]
-    _, near = near_flags(blo, bhi, Y.min(axis=1), Y.max(axis=1), pad)
+    starts = np.linspace(0, len(halo), min(_SUBBOXES, len(halo)) + 1).astype(np.int64)[:-1]
+    blo = np.minimum.reduceat(lo[halo], starts, axis=0)
+    bhi = np.maximum.reduceat(hi[halo], starts, axis=0)
+    _, near = near_flags(blo, bhi, clo, chi, pad)
     return np.flatnonzero(near)
 
 
@@ -109,32 +116,38 @@ def _local(P, cells, keep):
     """The rows ``keep`` of ``cells`` renumbered to their vertices (global ids
     increasing) and those vertices' coordinates."""
     sub = cells[keep]
-    ids, local = np.unique(sub, return_inverse=True)
-    return P[ids], local.reshape(sub.shape).astype(np.int64), ids
+    used = np.zeros(len(P), dtype=bool)
+    used[sub.ravel()] = True
+    ids = np.flatnonzero(used)
+    loc = np.zeros(len(P), dtype=np.int64)
+    loc[ids] = np.arange(len(ids))
+    return P[ids], loc[sub], ids
 
 
 def split(P_sim, sim_cells, P_cut, cut_cells, k: int, pad: float):
     """Yield the :class:`Part` of each non-empty partition of k (cells in Morton
-    order); ``pad``: the largest broad-phase reach. Cells given in input order."""
+    order, cut into k runs of equal size ± 1); ``pad``: the largest broad-phase reach.
+    Any assignment of cells to partitions gives the serial result; Morton runs keep
+    them compact, so halos and cutting slices stay small."""
     m, n = len(sim_cells), len(P_sim)
-    part = morton_parts(P_sim, sim_cells, k)
+    pos = morton_order(P_sim, sim_cells)
+    part = pos * k // m
     # vertex owner: partition of the smallest-index cell containing it
     first = np.full(n, m, dtype=np.int64)
     np.minimum.at(first, sim_cells.ravel(), np.repeat(np.arange(m), sim_cells.shape[1]))
     owner = np.where(first < m, part[np.minimum(first, m - 1)], -1)
-    by_part = np.argsort(part, kind="stable")
-    bounds = np.searchsorted(part[by_part], np.arange(k + 1))
+    lo, hi = _boxes(P_sim, sim_cells)
+    clo, chi = _boxes(P_cut, cut_cells)
+    by_pos = np.argsort(pos)
     for r in range(k):
-        own = by_part[bounds[r]:bounds[r + 1]]
+        own = by_pos[(r * m + k - 1) // k: ((r + 1) * m + k - 1) // k]
         if own.size == 0:
             continue
         touched = np.zeros(n, dtype=bool)
         touched[sim_cells[own].ravel()] = True
         halo = np.flatnonzero(touched[sim_cells].any(axis=1))  # includes own cells
-        # blocks of nearby cells (Morton order) for a tight choice of cutting cells
-        halo_m = halo[np.argsort(part[halo], kind="stable")]
         Ps, cs, sid = _local(P_sim, sim_cells, halo)
-        cut_keep = _cut_near(P_sim, sim_cells[halo_m], P_cut, cut_cells, pad)
+        cut_keep = _cut_near(lo, hi, halo[np.argsort(pos[halo])], clo, chi, pad)
         Pc, cc, cid = _local(P_cut, cut_cells, cut_keep)
         yield Part(r, Ps, cs, sid, owner[sid] == r, Pc, cc, cid, int(own.size))
 
