@@ -76,16 +76,36 @@ def _add_intersect(sub) -> None:
     p.add_argument("--naive", action="store_true",
                    help="zero tolerances: the naive floating-point baseline, for comparison")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--workers", type=_at_least_1, metavar="N",
+                   help="run in partitions on a local Dask cluster of N processes (same "
+                        "result; needs pip install 'fperr[dask]')")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run in partitions on a running Dask cluster (e.g. tcp://host:8786)")
     p.set_defaults(_run=_run_intersect)
 
 
 def _run_intersect(args) -> int:
+    import contextlib
+
     from predicates.registration import intersect_files
 
     try:
-        res = intersect_files(args.sim, args.cut, output=args.output, plot=args.plot,
-                              dtype=args.dtype, naive=args.naive, progress=not args.quiet)
-    except (ValueError, TypeError, OSError, ArithmeticError) as e:
+        dask_run = args.workers is not None or args.scheduler is not None
+        if args.workers is not None and args.scheduler is not None:
+            raise ValueError("--workers starts a local cluster, --scheduler connects to a "
+                             "running one: give one of them")
+        if dask_run:
+            from predicates.registration.partition_run import client_for
+
+            cluster = client_for(args.workers, args.scheduler)
+        else:
+            cluster = contextlib.nullcontext()
+        with cluster as client:
+            res = intersect_files(args.sim, args.cut, output=args.output, plot=args.plot,
+                                  dtype=args.dtype, naive=args.naive,
+                                  progress=not args.quiet and not dask_run,
+                                  partitions="auto" if dask_run else None, scheduler=client)
+    except (ValueError, TypeError, OSError, ArithmeticError, ImportError) as e:
         # bad input (meshes, paths): a message, never a traceback; nothing was written
         return _error("intersect", e)
     print(res)
@@ -97,6 +117,20 @@ def _run_intersect(args) -> int:
 
 
 # -- demo ------------------------------------------------------------------------------
+def _at_least_1(text: str) -> int:
+    n = _integer(text)
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {n}")
+    return n
+
+
+def _integer(text: str) -> int:
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+
+
 def _at_least_2(text: str) -> int:
     try:
         n = int(text)

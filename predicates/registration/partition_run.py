@@ -10,6 +10,7 @@ imported only here, only when a partitioned run is asked for.
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import resource
 import time
@@ -19,7 +20,8 @@ import numpy as np
 from .levels import Registration
 from .partition import Part, merge, owned, split
 
-__all__ = ["DaskMissingError", "LOCAL_SCHEDULERS", "read_pieces", "run_partitioned"]
+__all__ = ["DaskMissingError", "LOCAL_SCHEDULERS", "client_for", "read_pieces", "run_part",
+           "run_partitioned"]
 
 LOCAL_SCHEDULERS = ("threads", "processes", "synchronous")
 #: "auto" makes at least one partition per this many simulation cells
@@ -60,6 +62,33 @@ def _client(scheduler):
         return scheduler
     raise TypeError(f"scheduler must be a string or a dask.distributed.Client, got "
                     f"{type(scheduler).__name__}")
+
+
+@contextlib.contextmanager
+def client_for(workers: int | None = None, address: str | None = None):
+    """A ``dask.distributed.Client``: connected to the scheduler at ``address``, or to a
+    new local cluster of ``workers`` single-threaded worker processes (closed on exit).
+    The local workers run without distributed's default ``MALLOC_TRIM_THRESHOLD_=65536``,
+    which made every large numpy temporary a fresh mmap (measured: 11 s instead of 7 s
+    per W1 partition)."""
+    _dask()
+    try:
+        import dask
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise DaskMissingError("--workers/--scheduler need dask.distributed: pip install "
+                               "'fperr[dask]'") from None
+    if address is not None:
+        with Client(address) as client:
+            yield client
+        return
+    if workers is None or workers < 1:
+        raise ValueError(f"workers must be at least 1, got {workers}")
+    key = "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_"
+    with dask.config.set({key: None}), \
+            LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                         dashboard_address=None) as cluster, Client(cluster) as client:
+        yield client
 
 
 def _count(partitions, client, n_cells: int) -> int:

@@ -170,13 +170,15 @@ def _register(plan: Plan, chunk: int, progress: bool, timings: dict) -> dict:
 def intersect_files(sim: str | os.PathLike, cut: str | os.PathLike, *,
                     output: str | os.PathLike | None = None,
                     plot: str | os.PathLike | None = None, dtype: str = "float64",
-                    naive: bool = False, progress: bool = False) -> IntersectionResult:
+                    naive: bool = False, progress: bool = False, partitions=None,
+                    scheduler=None) -> IntersectionResult:
     """Register two mesh files (any format meshio reads) and write the intersection
     points to ``output`` (any format meshio writes) and a 2D picture to ``plot``.
 
     Output paths are checked before any work, and the run is refused (ValueError) before
     anything is written, so a refused run writes nothing. ``naive``: the zero-tolerance
-    baseline (``tolerance_scale=0``).
+    baseline (``tolerance_scale=0``); ``partitions``, ``scheduler``: as for
+    :func:`intersect`.
     """
     from .files import check_output, read_mesh
 
@@ -185,7 +187,8 @@ def intersect_files(sim: str | os.PathLike, cut: str | os.PathLike, *,
     if plot is not None:
         check_output(plot, "plot")
     res = intersect(read_mesh(sim), read_mesh(cut), dtype=np.dtype(dtype), progress=progress,
-                    tolerance_scale=0.0 if naive else 1.0)
+                    tolerance_scale=0.0 if naive else 1.0, partitions=partitions,
+                    scheduler=scheduler)
     if plot is not None and res.dim != 2:
         raise ValueError("plots are drawn for 2D meshes only (this case is 3D; open the "
                          "output in ParaView instead)")
