@@ -9,6 +9,8 @@ One module per step (see :mod:`predicates.registration.pipeline` for how they fi
 * :mod:`~predicates.registration.complex` — rank space and simplicial complexes;
 * :mod:`~predicates.registration.levels` — candidates, suppression, the level loop;
 * :mod:`~predicates.registration.pipeline` — :func:`intersect`, :func:`intersect_files`;
+* :mod:`~predicates.registration.partition`, :mod:`~predicates.registration.partition_run`
+  — the same run in spatial partitions on Dask (``intersect(..., partitions=k)``);
 * :mod:`~predicates.registration.result` — :class:`IntersectionResult`, :class:`KindPairs`;
 * :mod:`~predicates.registration.files` — mesh files in and out;
 * :mod:`~predicates.registration.plot` — 2D pictures (matplotlib);

@@ -24,7 +24,7 @@ import numpy as np
 from .broadphase import near_flags
 from .result import KindPairs
 
-__all__ = ["Part", "merge", "morton_order", "owned", "split"]
+__all__ = ["Part", "assign", "merge", "morton_order", "owned", "split"]
 
 _SUBBOXES = 64  # boxes per partition for choosing its cutting cells (tight, cheap)
 
@@ -124,18 +124,25 @@ def _local(P, cells, keep):
     return P[ids], loc[sub], ids
 
 
+def assign(P_sim: np.ndarray, sim_cells: np.ndarray, k: int):
+    """(position of every cell in Morton order, owner partition of every vertex): cell
+    c is owned by partition pos[c]·k // m; a vertex by the partition owning the
+    smallest-index cell that contains it (−1: in no cell)."""
+    m, n = len(sim_cells), len(P_sim)
+    pos = morton_order(P_sim, sim_cells)
+    first = np.full(n, m, dtype=np.int64)
+    np.minimum.at(first, sim_cells.ravel(), np.repeat(np.arange(m), sim_cells.shape[1]))
+    owner = np.where(first < m, pos[np.minimum(first, m - 1)] * k // m, -1)
+    return pos, owner
+
+
 def split(P_sim, sim_cells, P_cut, cut_cells, k: int, pad: float):
     """Yield the :class:`Part` of each non-empty partition of k (cells in Morton
     order, cut into k runs of equal size ± 1); ``pad``: the largest broad-phase reach.
     Any assignment of cells to partitions gives the serial result; Morton runs keep
     them compact, so halos and cutting slices stay small."""
     m, n = len(sim_cells), len(P_sim)
-    pos = morton_order(P_sim, sim_cells)
-    part = pos * k // m
-    # vertex owner: partition of the smallest-index cell containing it
-    first = np.full(n, m, dtype=np.int64)
-    np.minimum.at(first, sim_cells.ravel(), np.repeat(np.arange(m), sim_cells.shape[1]))
-    owner = np.where(first < m, part[np.minimum(first, m - 1)], -1)
+    pos, owner = assign(P_sim, sim_cells, k)
     lo, hi = _boxes(P_sim, sim_cells)
     clo, chi = _boxes(P_cut, cut_cells)
     by_pos = np.argsort(pos)

@@ -21,7 +21,7 @@ from .levels import Registration
 from .partition import Part, merge, owned, split
 
 __all__ = ["DaskMissingError", "LOCAL_SCHEDULERS", "client_for", "read_pieces", "run_part",
-           "run_partitioned"]
+           "run_partitioned", "write_parts"]
 
 LOCAL_SCHEDULERS = ("threads", "processes", "synchronous")
 #: "auto" makes at least one partition per this many simulation cells
@@ -145,6 +145,36 @@ def run_partitioned(plan, partitions, scheduler, chunk: int, timings: dict) -> d
     timings["merge"] = time.perf_counter() - t
     timings["partitions"] = [o[1] for o in out]
     return pairs
+
+
+def write_parts(res, k: int, pattern: str) -> list[str]:
+    """Write ``res`` (an IntersectionResult) as k files, ``pattern.format(part=r)``
+    (e.g. ``"hits_{part}.vtu"``), file r holding the pairs owned by partition r of k
+    (ownership as in the run: the smallest-id vertex of the simulation primitive).
+    Every pair is in exactly one file; each file is what ``res.to_meshio()`` writes,
+    restricted to its pairs. Returns the paths (a file is written even when empty)."""
+    from dataclasses import replace
+
+    from .files import check_output
+    from .partition import assign
+
+    if "{part}" not in pattern:
+        raise ValueError(f"pattern must contain '{{part}}' (one file per partition), got "
+                         f"{pattern!r}")
+    k = _count(k, None, len(res.sim_cells))
+    paths = [pattern.format(part=r) for r in range(k)]
+    for path in paths:
+        check_output(path, "mesh")
+    _, owner = assign(res.sim_points, res.sim_cells, k)
+    for r, path in enumerate(paths):
+        sub = {}
+        for kind in res.kinds:
+            p = res[kind]
+            keep = owner[p.sim.min(axis=1)] == r if len(p) else np.zeros(0, dtype=bool)
+            sub[kind] = replace(p, sim=p.sim[keep], cut=p.cut[keep],
+                                sim_weights=p.sim_weights[keep], cut_weights=p.cut_weights[keep])
+        replace(res, pairs=sub).to_meshio().write(path)
+    return paths
 
 
 def read_pieces(paths) -> tuple[np.ndarray, np.ndarray]:
