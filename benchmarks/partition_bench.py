@@ -1,0 +1,145 @@
+"""Partitioned registration on Dask (issue 13): serial vs a LocalCluster of W worker
+processes, on the cube grid × icosphere cases (W1: n = 48 × 20,480 triangles; W4:
+n = 120, 10.4 M tetrahedra × 327,680 triangles).
+
+    python benchmarks/partition_bench.py [--n 48] [--subdivisions 5] [--workers 2]
+                                         [--partitions 2,4] [--reps 3] [--json OUT.json]
+
+Each mode runs in its own subprocess (its own peak RSS). Serial: ``intersect`` as is.
+Partitioned: a LocalCluster (``partition_run.client_for``: single-threaded worker
+processes) is started first (its start-up time is reported apart), then ``intersect(...,
+partitions=k, scheduler=client)`` runs ``--reps`` times; wall time is the best of the
+reps for both modes. Reported per partition: cells received (own + halo), cutting cells,
+bytes sent to the worker and back, task seconds, and the worker process's peak RSS.
+Every partitioned result is checked against the serial one (SHA-256 of every pair and
+weight array, per kind).
+"""
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+
+def digest(res) -> str:
+    h = hashlib.sha256()
+    for k in res.kinds:
+        p = res[k]
+        for a in (p.sim, p.cut, p.sim_weights, p.cut_weights):
+            h.update(np.ascontiguousarray(a).tobytes())
+    return h.hexdigest()
+
+
+def child(mode: str, n: int, subdivisions: int, workers: int, k: int, reps: int) -> dict:
+    import predicates
+    from predicates.registration.examples import cube_grid, icosphere
+
+    sp, sc = cube_grid(n)
+    cp, cc = icosphere(subdivisions)
+    out = {"mode": mode, "n": n, "sim_cells": len(sc), "cut_cells": len(cc), "runs": []}
+    if mode == "serial":
+        for _ in range(reps):
+            t = time.perf_counter()
+            res = predicates.intersect(sp, sc, cp, cc)
+            out["runs"].append(time.perf_counter() - t)
+    else:
+        from predicates.registration.partition_run import client_for
+
+        t = time.perf_counter()
+        with client_for(workers) as client:
+            out["cluster_start_s"] = time.perf_counter() - t
+            for _ in range(reps):
+                t = time.perf_counter()
+                res = predicates.intersect(sp, sc, cp, cc, partitions=k, scheduler=client)
+                out["runs"].append(time.perf_counter() - t)
+        out["partitions"] = res.timings["partitions"]
+        out["split_s"] = res.timings["partition"]
+        out["merge_s"] = res.timings["merge"]
+    out["best_s"] = min(out["runs"])
+    out["client_peak_rss_mib"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    out["counts"] = res.counts
+    out["digest"] = digest(res)
+    return out
+
+
+def run(mode, args, k=0) -> dict:
+    cmd = [sys.executable, __file__, "--child", mode, "--n", str(args.n), "--subdivisions",
+           str(args.subdivisions), "--workers", str(args.workers), "--k", str(k),
+           "--reps", str(args.reps)]
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    if r.returncode:
+        raise SystemExit(f"{mode} failed:\n{r.stderr[-3000:]}")
+    return json.loads(r.stdout.strip().splitlines()[-1])
+
+
+def report(serial, parts) -> str:
+    import intersect_bench as B
+
+    lines = [f"machine: {B.machine()}; load at start: {B.load()}",
+             f"cube n = {serial['n']} ({serial['sim_cells']:,} tetrahedra) × icosphere "
+             f"{serial['cut_cells']:,} triangles; serial best {serial['best_s']:.2f} s "
+             f"(runs {', '.join(f'{x:.2f}' for x in serial['runs'])}), peak RSS "
+             f"{serial['client_peak_rss_mib']:.0f} MiB", ""]
+    lines.append("| partitions | best (s) | runs (s) | speed-up | identical | split (s) | "
+                 "merge (s) | cluster start (s) | client peak RSS (MiB) |")
+    lines.append("|---:|---:|---|---:|---|---:|---:|---:|---:|")
+    for p in parts:
+        lines.append(f"| {len(p['partitions'])} | {p['best_s']:.2f} | "
+                     f"{', '.join(f'{x:.2f}' for x in p['runs'])} | "
+                     f"{serial['best_s'] / p['best_s']:.2f}× | "
+                     f"{'yes' if p['digest'] == serial['digest'] else 'NO'} | "
+                     f"{p['split_s']:.2f} | {p['merge_s']:.2f} | {p['cluster_start_s']:.1f} | "
+                     f"{p['client_peak_rss_mib']:.0f} |")
+    for p in parts:
+        lines += ["", f"{len(p['partitions'])} partitions (last run):", "",
+                  "| part | owned cells | cells received | cutting cells | MB sent | "
+                  "MB back | task (s) | worker peak RSS (MiB) |",
+                  "|---:|---:|---:|---:|---:|---:|---:|---:|"]
+        for s in p["partitions"]:
+            lines.append(f"| {s['part']} | {s['owned_cells']:,} | {s['sim_cells']:,} | "
+                         f"{s['cut_cells']:,} | {s['bytes_in'] / 1e6:.1f} | "
+                         f"{s['bytes_out'] / 1e6:.1f} | {s['seconds']:.2f} | "
+                         f"{s['peak_rss_mib']:.0f} |")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--n", type=int, default=48)
+    ap.add_argument("--subdivisions", type=int, default=5)
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--partitions", default="2,4")
+    ap.add_argument("--reps", type=int, default=3)
+    ap.add_argument("--skip-serial", action="store_true", help="partitioned runs only")
+    ap.add_argument("--json")
+    ap.add_argument("--child")
+    ap.add_argument("--k", type=int, default=0)
+    args = ap.parse_args(argv)
+    if args.child:
+        print(json.dumps(child(args.child, args.n, args.subdivisions, args.workers, args.k,
+                               args.reps)))
+        return
+    serial = (run("serial", args) if not args.skip_serial else
+              {"n": args.n, "sim_cells": 0, "cut_cells": 0, "best_s": float("nan"),
+               "runs": [], "client_peak_rss_mib": float("nan"), "digest": ""})
+    parts = [run("dask", args, int(k)) for k in args.partitions.split(",")]
+    print(report(serial, parts))
+    if args.json:
+        Path(args.json).write_text(json.dumps({"serial": serial, "partitioned": parts},
+                                              indent=1))
+
+
+if __name__ == "__main__":
+    main()
