@@ -119,7 +119,8 @@ def _local(P, cells, keep):
     used = np.zeros(len(P), dtype=bool)
     used[sub.ravel()] = True
     ids = np.flatnonzero(used)
-    loc = np.zeros(len(P), dtype=np.int64)
+    # int32 local ids when they fit: fewer bytes to send (the worker widens them)
+    loc = np.zeros(len(P), dtype=np.int32 if len(ids) < 2 ** 31 else np.int64)
     loc[ids] = np.arange(len(ids))
     return P[ids], loc[sub], ids
 
