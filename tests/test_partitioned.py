@@ -119,6 +119,9 @@ def test_identical_on_local_cluster(processes):
                                                            scheduler=client))
             assert_identical(ref, predicates.intersect(*args, partitions="auto",
                                                        scheduler=client))
+        if processes:  # a scheduler address: connected to, used, disconnected
+            address = cluster.scheduler_address
+            assert_identical(ref, predicates.intersect(*args, partitions=3, scheduler=address))
 
 
 def test_partitions_cover_and_halos_hold_owned_stars():
@@ -129,7 +132,7 @@ def test_partitions_cover_and_halos_hold_owned_stars():
     ref = predicates.intersect(sp, sc, cp, cc)
     for k in (2, 3, 7):
         pos, owner = assign(sp, sc, k)
-        parts = list(split(sp, sc, cp, cc, k, pad=0.5))
+        parts = list(split(sp, sc, cp, cc, k, pad=0.5, extent=0.25))
         assert sum(p.owned_cells for p in parts) == len(sc)
         assert [p.index for p in parts] == list(range(k))
         border = np.zeros(len(sp), dtype=bool)  # vertices of cells of 2+ partitions
@@ -142,6 +145,25 @@ def test_partitions_cover_and_halos_hold_owned_stars():
             assert {tuple(sorted(c)) for c in sc[star].tolist()} <= halo
             assert np.array_equal(p.own_vertex, owner[p.sim_ids] == p.index)
         assert border[ref["vertex_vertex"].sim[:, 0]].any()
+
+
+@pytest.mark.parametrize("k", [2, 5])
+def test_partitions_get_every_cutting_cell_within_reach(k):
+    """Each partition holds every cutting cell whose box is within pad of one of its
+    cells' boxes (the same float test as the broad phase, checked by brute force)."""
+    from predicates.registration.broadphase import box_pairs_bruteforce
+
+    sp, sc, cp, cc = CASES["sphere"](11)
+    pad = 0.05
+    X, Y = sp[sc], cp[cc]
+    extent = float((X.max(axis=1) - X.min(axis=1)).max())
+    for p in split(sp, sc, cp, cc, k, pad=pad, extent=np.nextafter(extent, np.inf)):
+        Xp = p.P_sim[p.sim_cells]
+        _, ib = box_pairs_bruteforce(Xp.min(axis=1), Xp.max(axis=1), Y.min(axis=1),
+                                     Y.max(axis=1), pad)
+        held = {tuple(sorted(c)) for c in p.cut_ids[p.cut_cells].tolist()}
+        need = {tuple(sorted(c)) for c in cc[np.unique(ib)].tolist()}
+        assert need and need <= held
 
 
 def test_dask_arrays_and_auto():

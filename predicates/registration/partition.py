@@ -70,16 +70,6 @@ def _spread(v: np.ndarray, dim: int) -> np.ndarray:
     return v
 
 
-def _boxes(P: np.ndarray, cells: np.ndarray):
-    """(lo, hi) of every cell's box, float64 (min and max are exact)."""
-    cols = [P[cells[:, v]].astype(np.float64, copy=False) for v in range(cells.shape[1])]
-    lo, hi = cols[0].copy(), cols[0].copy()
-    for c in cols[1:]:
-        np.minimum(lo, c, out=lo)
-        np.maximum(hi, c, out=hi)
-    return lo, hi
-
-
 def morton_order(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
     """Position of every cell in the Morton order of its first vertex (a point of the
     cell; cheaper than the centroid and as good for compact runs)."""
@@ -98,16 +88,20 @@ def morton_order(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
     return pos
 
 
-def _cut_near(lo, hi, halo, clo, chi, pad) -> np.ndarray:
-    """Indices of the cutting cells within ``pad`` of the box of some block of the
-    ``halo`` cells (given in Morton order, so blocks are compact): a superset of those
-    within pad of a halo cell (its box lies in its block's box, and the test
-    F[lo − hi] ≤ pad is monotone)."""
+def _cut_near(first, halo, extent, clo, chi, pad) -> np.ndarray:
+    """Indices of the cutting cells (boxes ``clo``, ``chi``) within ``pad`` of some
+    block of the ``halo`` cells (given in Morton order, so blocks are compact). A block's
+    box is its cells' first vertices' box enlarged by ``extent`` (≥ every cell's box
+    edge), rounded outwards: it contains each of its cells' boxes, and the test
+    F[lo − hi] ≤ pad is monotone, so the result is a superset of the cutting cells
+    within pad of a halo cell — without gathering every vertex of every cell."""
     if len(clo) == 0 or len(halo) == 0:
         return np.zeros(0, dtype=np.int64)
     starts = np.linspace(0, len(halo), min(_SUBBOXES, len(halo)) + 1).astype(np.int64)[:-1]
-    blo = np.minimum.reduceat(lo[halo], starts, axis=0)
-    bhi = np.maximum.reduceat(hi[halo], starts, axis=0)
+    v = first[halo]
+    with np.errstate(over="ignore"):
+        blo = np.nextafter(np.minimum.reduceat(v, starts, axis=0) - extent, -np.inf)
+        bhi = np.nextafter(np.maximum.reduceat(v, starts, axis=0) + extent, np.inf)
     _, near = near_flags(blo, bhi, clo, chi, pad)
     return np.flatnonzero(near)
 
@@ -137,16 +131,19 @@ def assign(P_sim: np.ndarray, sim_cells: np.ndarray, k: int):
     return pos, owner
 
 
-def split(P_sim, sim_cells, P_cut, cut_cells, k: int, pad: float):
+def split(P_sim, sim_cells, P_cut, cut_cells, k: int, pad: float, extent: float):
     """Yield the :class:`Part` of each non-empty partition of k (cells in Morton
-    order, cut into k runs of equal size ± 1); ``pad``: the largest broad-phase reach.
-    Any assignment of cells to partitions gives the serial result; Morton runs keep
-    them compact, so halos and cutting slices stay small."""
+    order, cut into k runs of equal size ± 1); ``pad``: the largest broad-phase reach;
+    ``extent``: an upper bound of every simulation cell's box edge (L_a). Any
+    assignment of cells to partitions gives the serial result; Morton runs keep them
+    compact, so halos and cutting slices stay small."""
     m, n = len(sim_cells), len(P_sim)
     pos, owner = assign(P_sim, sim_cells, k)
-    lo, hi = _boxes(P_sim, sim_cells)
-    clo, chi = _boxes(P_cut, cut_cells)
-    by_pos = np.argsort(pos)
+    first = P_sim[sim_cells[:, 0]].astype(np.float64)
+    Y = P_cut[cut_cells].astype(np.float64)
+    clo, chi = Y.min(axis=1), Y.max(axis=1)
+    by_pos = np.empty(m, dtype=np.int64)
+    by_pos[pos] = np.arange(m, dtype=np.int64)
     for r in range(k):
         own = by_pos[(r * m + k - 1) // k: ((r + 1) * m + k - 1) // k]
         if own.size == 0:
@@ -155,7 +152,7 @@ def split(P_sim, sim_cells, P_cut, cut_cells, k: int, pad: float):
         touched[sim_cells[own].ravel()] = True
         halo = np.flatnonzero(touched[sim_cells].any(axis=1))  # includes own cells
         Ps, cs, sid = _local(P_sim, sim_cells, halo)
-        cut_keep = _cut_near(lo, hi, halo[np.argsort(pos[halo])], clo, chi, pad)
+        cut_keep = _cut_near(first, halo[np.argsort(pos[halo])], extent, clo, chi, pad)
         Pc, cc, cid = _local(P_cut, cut_cells, cut_keep)
         yield Part(r, Ps, cs, sid, owner[sid] == r, Pc, cc, cid, int(own.size))
 

@@ -11,6 +11,7 @@ imported only here, only when a partitioned run is asked for.
 from __future__ import annotations
 
 import contextlib
+import math
 import os
 import resource
 import time
@@ -129,16 +130,25 @@ def run_partitioned(plan, partitions, scheduler, chunk: int, timings: dict) -> d
     k = _count(partitions, client, len(plan.sim.cells))
     t = time.perf_counter()
     pad = max(plan.reach.values())
-    parts = list(split(plan.P_sim, plan.sim.cells, plan.P_cut, plan.cut.cells, k, pad))
+    # every scaled cell's box edge ≤ L_a·2^-e (one ulp up in case the scaling rounded)
+    extent = math.nextafter(math.ldexp(plan.L_a, -plan.e), math.inf)
+    parts = list(split(plan.P_sim, plan.sim.cells, plan.P_cut, plan.cut.cells, k, pad,
+                       extent))
     timings["partition"] = time.perf_counter() - t
     t = time.perf_counter()
     args = (plan.dim, plan.tol, plan.reach, chunk)
-    if client is not None:
-        futures = client.map(run_part, client.scatter(parts), *[[a] * len(parts) for a in args])
-        out = client.gather(futures)
-    else:
-        tasks = [dask.delayed(run_part, pure=False)(p, *args) for p in parts]
-        out = dask.compute(*tasks, scheduler=scheduler or "threads")
+    try:
+        if client is not None:
+            futures = client.map(run_part, client.scatter(parts),
+                                 *[[a] * len(parts) for a in args])
+            out = client.gather(futures)
+        else:
+            tasks = [dask.delayed(run_part, pure=False)(p, *args) for p in parts]
+            out = dask.compute(*tasks, scheduler=scheduler or "threads")
+    finally:
+        if client is not None and isinstance(scheduler, str):
+            client.close()  # we connected to the address: we disconnect
+    del parts
     timings["dask"] = time.perf_counter() - t
     t = time.perf_counter()
     pairs = merge(plan.kinds, [o[0] for o in out], plan.dtype)
