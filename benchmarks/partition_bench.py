@@ -3,13 +3,15 @@ processes, on the cube grid × icosphere cases (W1: n = 48 × 20,480 triangles; 
 n = 120, 10.4 M tetrahedra × 327,680 triangles).
 
     python benchmarks/partition_bench.py [--n 48] [--subdivisions 5] [--workers 2]
-                                         [--partitions 2,4] [--reps 3] [--json OUT.json]
+                                         [--partitions 2,4] [--reps 2] [--rounds 2]
+                                         [--skip-serial] [--json OUT.json]
 
 Each mode runs in its own subprocess (its own peak RSS). Serial: ``intersect`` as is.
 Partitioned: a LocalCluster (``partition_run.client_for``: single-threaded worker
 processes) is started first (its start-up time is reported apart), then ``intersect(...,
-partitions=k, scheduler=client)`` runs ``--reps`` times; wall time is the best of the
-reps for both modes. Reported per partition: cells received (own + halo), cutting cells,
+partitions=k, scheduler=client)`` runs ``--reps`` times; ``--rounds`` alternates the
+modes' child processes (the machine is shared: each mode sees the same load); wall time
+is the best run of each mode. Reported per partition: cells received (own + halo), cutting cells,
 bytes sent to the worker and back, task seconds, and the worker process's peak RSS.
 Every partitioned result is checked against the serial one (SHA-256 of every pair and
 weight array, per kind).
@@ -83,6 +85,16 @@ def run(mode, args, k=0) -> dict:
     return json.loads(r.stdout.strip().splitlines()[-1])
 
 
+def _best(old, new):
+    """Merge two children's records of one mode: all runs, the fastest run's details."""
+    if old is None:
+        return new
+    runs = old["runs"] + new["runs"]
+    keep = new if new["best_s"] < old["best_s"] else old
+    assert old["digest"] == new["digest"]
+    return {**keep, "runs": runs, "best_s": min(runs)}
+
+
 def report(serial, parts) -> str:
     import intersect_bench as B
 
@@ -121,7 +133,9 @@ def main(argv=None):
     ap.add_argument("--subdivisions", type=int, default=5)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--partitions", default="2,4")
-    ap.add_argument("--reps", type=int, default=3)
+    ap.add_argument("--reps", type=int, default=2, help="runs per child process")
+    ap.add_argument("--rounds", type=int, default=2,
+                    help="child processes per mode, alternating serial and partitioned")
     ap.add_argument("--skip-serial", action="store_true", help="partitioned runs only")
     ap.add_argument("--json")
     ap.add_argument("--child")
@@ -131,10 +145,17 @@ def main(argv=None):
         print(json.dumps(child(args.child, args.n, args.subdivisions, args.workers, args.k,
                                args.reps)))
         return
-    serial = (run("serial", args) if not args.skip_serial else
-              {"n": args.n, "sim_cells": 0, "cut_cells": 0, "best_s": float("nan"),
-               "runs": [], "client_peak_rss_mib": float("nan"), "digest": ""})
-    parts = [run("dask", args, int(k)) for k in args.partitions.split(",")]
+    serial = {"n": args.n, "sim_cells": 0, "cut_cells": 0, "best_s": float("nan"),
+              "runs": [], "client_peak_rss_mib": float("nan"), "digest": ""}
+    ks = [int(k) for k in args.partitions.split(",")]
+    parts = {}
+    # rounds alternate the modes, so that each sees the same (shared machine's) load
+    for _ in range(args.rounds):
+        if not args.skip_serial:
+            serial = _best(serial if serial["runs"] else None, run("serial", args))
+        for k in ks:
+            parts[k] = _best(parts.get(k), run("dask", args, k))
+    parts = [parts[k] for k in ks]
     print(report(serial, parts))
     if args.json:
         Path(args.json).write_text(json.dumps({"serial": serial, "partitioned": parts},
