@@ -11,8 +11,9 @@ Partitioned: a LocalCluster (``partition_run.client_for``: single-threaded worke
 processes) is started first (its start-up time is reported apart), then ``intersect(...,
 partitions=k, scheduler=client)`` runs ``--reps`` times; ``--rounds`` alternates the
 modes' child processes (the machine is shared: each mode sees the same load); wall time
-is the best run of each mode. Reported per partition: cells received (own + halo), cutting cells,
-bytes sent to the worker and back, task seconds, and the worker process's peak RSS.
+is the best run of each mode. Reported per partition: cells received (own + halo),
+cutting cells, bytes sent to the worker and back, task seconds, and the worker process's
+peak RSS.
 Every partitioned result is checked against the serial one (SHA-256 of every pair and
 weight array, per kind).
 """
