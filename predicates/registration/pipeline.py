@@ -45,6 +45,10 @@ How it runs
 6. Per level, per kind (:mod:`predicates.registration.levels`): suppression by registered sub-pairs, then the predicate in
    numpy batch mode on chunks of candidates.
 
+With ``partitions=`` / ``scheduler=``, steps 3, 5 and 6 run per spatial partition as Dask
+tasks (:mod:`predicates.registration.partition_run`; steps 1, 2, 4 stay global, in
+``_plan``), with the identical result (docs/partitioned.md).
+
 ``tolerance_scale=0`` runs the same pipeline with every tolerance zero (the naive
 floating-point baseline); the broad phase keeps its robust reach, so the baseline only
 differs in the predicates.
