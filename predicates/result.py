@@ -215,6 +215,12 @@ class IntersectionResult:
                 "cut_weights": np.concatenate(cw)}
         return meshio.Mesh(X, cells, point_data=data)
 
+    def split(self):
+        """The virtual-node split of the simulation mesh (:func:`predicates.split.split_mesh`)."""
+        from .split import split_mesh  # lazy: the split is an optional layer on top
+
+        return split_mesh(self)
+
     def summary(self) -> str:
         return str(self)
 

@@ -11,6 +11,7 @@ COMMANDS = {
     "tables": ("predicates.tables", "derived error bounds of every algorithm (paper's figures)"),
     "verify": ("proofs.verify", "check every tolerance constraint for all eps <= 1e-5"),
     "intersect": ("predicates.cli_intersect", "register intersections of two mesh files"),
+    "cut": ("predicates.cli_cut", "split a mesh along a cutting mesh (virtual node algorithm)"),
     "demo": ("predicates.cli_demo", "run the built-in 2D and 3D examples"),
     "audit": ("proofs.audit", "shadow execution: measured error against derived bounds"),
 }
