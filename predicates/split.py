@@ -44,6 +44,7 @@ class SplitMesh:
     (``cell_origin`` (C',): the original cell). ``material`` (C', d+1) bool: whether a
     corner is a real material node of that fragment (else a virtual node). ``piece``
     (C',) in 0..``n_pieces``−1: the connected pieces, numbered by their first new cell.
+    Nodes are numbered by original vertex, so an uncut mesh comes back unchanged.
 
     The intersection points on each cell (for embedding the cut surface): ``hit_points``
     (H, d) float64, Σ wᵢ·xᵢ on the simulation primitive; ``hit_kind`` (H,): index into
@@ -183,10 +184,13 @@ def split_mesh(res) -> SplitMesh:
     F, m = len(cell_origin), d + 1
     (g1, g2), (s1, s2) = R.glue(cells, frag_of, n)
     _, piece = np.unique(R.components(F, g1, g2), return_inverse=True)
-    _, node = np.unique(R.components(F * m, s1, s2), return_inverse=True)
-    node = node.ravel()
     origin_of_slot = cells[cell_origin].ravel()
-    node_origin = np.zeros(int(node.max(initial=-1)) + 1, dtype=np.int64)
+    roots, node = np.unique(R.components(F * m, s1, s2), return_inverse=True)
+    # number the nodes by original vertex (then first slot): an uncut mesh keeps its ids
+    rank = np.empty(len(roots), dtype=np.int64)
+    rank[np.lexsort((roots, origin_of_slot[roots]))] = np.arange(len(roots))
+    node = rank[node.ravel()]
+    node_origin = np.zeros(len(roots), dtype=np.int64)
     node_origin[node] = origin_of_slot
     hp, hk, hs, hw = _hits(res, d)
     offsets, index = R.cell_hits(cells, hs, cell_origin, n)
