@@ -69,7 +69,7 @@ def severed_edges(res, cells: np.ndarray, n: int) -> np.ndarray:
 
 def fragments(cells: np.ndarray, on_cut: np.ndarray, severed: np.ndarray):
     """The fragments of every cell: the connected components of its OFF-cut vertices
-    through its unsevered edges (Molino et al. 2004, section 3: one copy of the element
+    through its unsevered edges (Molino et al. 2004: one copy of the element
     per material component). A cell whose vertices are all on the cut is one fragment.
 
     Returns ``cell_origin`` (F,), ``frag_of`` (C, d+1): the fragment (new cell) holding
