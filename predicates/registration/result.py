@@ -216,6 +216,13 @@ class IntersectionResult:
                 "cut_weights": np.concatenate(cw)}
         return meshio.Mesh(X, cells, point_data=data)
 
+    def split(self):
+        """The virtual-node split of the simulation mesh along the cut
+        (:func:`predicates.registration.split.split_mesh`; rules in docs/split.md)."""
+        from .split import split_mesh  # lazy: the split is a layer on top of the result
+
+        return split_mesh(self)
+
     def __str__(self):
         dt = "binary64" if self.dtype == np.float64 else "binary32"
         cellname = {2: ("triangles", "segments"), 3: ("tetrahedra", "triangles")}[self.dim]
