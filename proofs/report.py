@@ -21,34 +21,19 @@ import sympy
 
 import predicates
 from fperr import bounds
+from fperr.notation import GREEK, epow, lpow
 from fperr.symbols import EPS_MAX, L, eps
 from predicates.tolerance_table import TABLES
 
 from . import paper_printed as paper
-from .constraints import GREEK, fmt
+from .constraints import fmt
 from .decide import EPS32, EPS64
 from .verify import instrument, verify
 
 DEFAULT_PATH = Path(__file__).resolve().parent.parent / "docs" / "error-bounds.md"
 
-SUP = str.maketrans("0123456789", "⁰¹²³⁴⁵⁶⁷⁸⁹")
-
 
 # -- formatting helpers -------------------------------------------------------------------
-
-def _lpow(p) -> str:
-    p = sympy.nsimplify(p)
-    if p == 0:
-        return ""
-    if p == 1:
-        return "L"
-    return "L" + (str(p).translate(SUP) if p.is_Integer else f"^({p})")
-
-
-def _epow(q) -> str:
-    q = sympy.nsimplify(q)
-    return {sympy.Rational(1, 2): "√ε", sympy.Integer(1): "ε"}.get(q, f"ε^({q})")
-
 
 def _coef(c: sympy.Expr) -> str:
     c = sympy.nsimplify(c)
@@ -88,7 +73,7 @@ def paper_form(err: sympy.Expr):
 
 
 def _form_text(K, k, p) -> str:
-    return f"{K}{_epow(k)}{_lpow(p) if p is not None else ''}"
+    return f"{K}{epow(k)}{lpow(p) if p is not None else ''}"
 
 
 def _cmp_text(lv: float, rv: float) -> str:
@@ -122,7 +107,7 @@ def _figure(dim: int) -> list[str]:
            "| Name | T− | T | T+ | R[T] derived | R[T] exact (derived) | paper printed R[T] | "
            "description |", "|---|---|---|---|---|---|---|---|"]
     for name, spec in TABLES[dim].items():
-        unit = f"{_epow(spec.q)}{_lpow(spec.p)}"
+        unit = f"{epow(spec.q)}{lpow(spec.p)}"
         b = bounds(tol.values[name])
         out.append(f"| {GREEK[name]} | {_coef(spec.lo)}{unit} | {_coef(spec.mid)}{unit} | "
                    f"{_coef(spec.hi)}{unit} | {b.R_int}ε | {fmt(b.R)} | {paper.R_T}ε"
@@ -145,7 +130,7 @@ def _floating_point(dim, alg, ins) -> list[str]:
         if b.R_int is not None:
             parts.append(f"R[{name}] ≤ {b.R_int}ε")
         if b.E_int is not None:
-            parts.append(f"E[{name}] ≤ {b.E_int}ε{_lpow(b.power)}")
+            parts.append(f"E[{name}] ≤ {b.E_int}ε{lpow(b.power)}")
     out.append(". ".join(parts) + ".")
     out += ["", "| quantity | derived | exact derived bound | paper printed | |",
             "|---|---|---|---|---|"]
@@ -157,18 +142,18 @@ def _floating_point(dim, alg, ins) -> list[str]:
         rows = []
         if b.R is not None:
             rows.append(("R", f"R ≤ {b.R_int}ε", fmt(b.R), b.R_int))
-        rows.append(("E", f"E ≤ {b.E_int}ε{_lpow(b.power)}", fmt(b.E), b.E_int))
+        rows.append(("E", f"E ≤ {b.E_int}ε{lpow(b.power)}", fmt(b.E), b.E_int))
         for kind, txt, exact, K in rows:
             P = printed.get((name, kind))
             ptxt = "" if P is None else (f"R ≤ {P}ε" if kind == "R"
-                                         else f"E ≤ {P}ε{_lpow(b.power)}")
+                                         else f"E ≤ {P}ε{lpow(b.power)}")
             mark = "" if P is None else ("same" if P == K else "**differs**")
             out.append(f"| {name} | {txt} | {exact} | {ptxt} | {mark} |")
         P = printed.get((name, "c"))
         if P is not None:
             c = q.state.c
-            out.append(f"| {name} | {name} ≤ {c}{_lpow(b.power)} | c = {c} | "
-                       f"{name} ≤ {P}{_lpow(b.power)} | {'same' if c == P else '**differs**'} |")
+            out.append(f"| {name} | {name} ≤ {c}{lpow(b.power)} | c = {c} | "
+                       f"{name} ≤ {P}{lpow(b.power)} | {'same' if c == P else '**differs**'} |")
     out.append("")
     return out
 
