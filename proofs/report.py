@@ -1,8 +1,10 @@
 """Generate docs/error-bounds.md: the paper's figures and constraint lists, from the code.
 
-    python -m proofs.report            # (re)write docs/error-bounds.md
-    python -m proofs.report --check    # exit 1 when the committed copy is stale
+    python -m proofs.report            # (re)write ./docs/error-bounds.md
+    python -m proofs.report --check    # exit 1 when that copy is stale
     python -m proofs.report -o FILE    # write elsewhere ("-" for stdout)
+
+(run from the repository root; paths are relative to the current directory)
 
 Regenerates Figure 1 and Figure 5 (T−, T, T+ from :mod:`predicates.tolerance_table`,
 R[T] derived by the instrumented tolerance computation), the "Floating point:" lines of
@@ -13,7 +15,6 @@ binary64's and binary32's unit roundoff), and sets the paper's printed figures
 """
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
@@ -29,9 +30,6 @@ from . import paper_printed as paper
 from .constraints import fmt
 from .decide import EPS32, EPS64
 from .verify import instrument, verify
-
-DEFAULT_PATH = Path(__file__).resolve().parent.parent / "docs" / "error-bounds.md"
-
 
 # -- formatting helpers -------------------------------------------------------------------
 
@@ -363,40 +361,25 @@ def render() -> str:
     return "\n".join(out).rstrip() + "\n"
 
 
-def write_report(path=DEFAULT_PATH) -> str:
+def write_report(path) -> str:
+    """Render the report and write it to ``path`` ("-": stdout); returns the text."""
     text = render()
     if str(path) == "-":
         sys.stdout.write(text)
     else:
-        Path(path).parent.mkdir(parents=True, exist_ok=True)
         Path(path).write_text(text, encoding="utf-8")
     return text
 
 
-def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m proofs.report", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("-o", "--output", default=str(DEFAULT_PATH))
-    p.add_argument("--check", action="store_true",
-                   help="do not write; exit 1 when the file differs from a fresh render")
-    a = p.parse_args(argv)
-    if a.check:
-        fresh = render()
-        try:
-            old = Path(a.output).read_text(encoding="utf-8")
-        except OSError:
-            old = None
-        if old != fresh:
-            print(f"{a.output} is stale: regenerate with `python -m proofs.report`",
-                  file=sys.stderr)
-            return 1
-        print(f"{a.output} is up to date")
-        return 0
-    write_report(a.output)
-    if a.output != "-":
-        print(f"wrote {a.output}")
-    return 0
+def is_current(path) -> bool:
+    """True when the file at ``path`` is exactly what :func:`render` produces now."""
+    try:
+        old = Path(path).read_text(encoding="utf-8")
+    except OSError:
+        return False
+    return old == render()
 
 
-if __name__ == "__main__":
-    sys.exit(main())
+if __name__ == "__main__":  # the arguments are parsed by the command-line module
+    from proofs.cli import report_main
+    sys.exit(report_main())

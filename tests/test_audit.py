@@ -129,8 +129,8 @@ def test_shadow_run_follows_the_real_path(fmt_name):
         for _ in range(25):
             cfg = gen.sample()
             ctx = A.run_shadow(spec, cfg)
-            pts = A._working_points(fmt_name, cfg.points)
-            hit, w = pred(*pts, cfg.info.real, ctx=A._real_context(fmt_name))
+            pts = A.working_points(fmt_name, cfg.points)
+            hit, w = pred(*pts, cfg.info.real, ctx=A.real_context(fmt_name))
             assert bool(np.all(hit)) == bool(ctx.result), (pred, cfg)
             if ctx.result:  # identical working weights, bit for bit
                 got = [A.FORMATS[fmt_name][0].to_fraction(x.w) for x in ctx.weights]
