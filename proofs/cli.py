@@ -252,6 +252,9 @@ arguments or an unusable tolerance file. See proofs.verify for the constraints.
                         type=_output_file,
                         help=f"also write the generated report (default: {REPORT_PATH} "
                              "in the current directory)")
+    parser.add_argument("--certificate", metavar="FILE", type=_output_file,
+                        help="also write a certificate of every decision, checkable with "
+                             "python -m proofs.check_certificate FILE")
 
 
 def _run_verify(args: argparse.Namespace) -> int:
