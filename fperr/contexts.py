@@ -214,8 +214,8 @@ class MpContext(FloatContext):
         with mpmath.workprec(self.prec):
             yield self
 
-    def const(self, x):
-        return mpmath.mpf(x)
+    def const(self, x):  # a Fraction is rounded once (correctly), not via float
+        return self.from_fraction(x) if type(x) is Fraction else mpmath.mpf(x)
 
     def sqrt(self, x):
         return mpmath.sqrt(x)
@@ -333,8 +333,8 @@ class NumpyContext(_BinaryFormat, Context):
         with np.errstate(all="ignore"):
             yield self
 
-    def const(self, x):
-        return self.dtype.type(x)
+    def const(self, x):  # a Fraction is rounded once (correctly), not via float
+        return self.from_fraction(x) if type(x) is Fraction else self.dtype.type(x)
 
     def sqrt(self, x):
         return np.sqrt(x)

@@ -65,22 +65,18 @@ import sympy
 
 import fperr
 import predicates
-from fperr import FloatContext, MpContext, NumpyContext
-from fperr.shadow import _sub  # exact subtraction (Fraction / interval)
-from fperr.shadow import (BINARY32, BINARY64, Shadow, ShadowContext, compare,
-                          interval_from_float, lower_fraction, mp_format, to_fraction,
-                          upper_fraction)
+from fperr import round_fraction, to_fraction, ulp
+from fperr.intervals import (compare, exact_sub, interval_from_float, lower_fraction,
+                             upper_fraction)
+from fperr.shadow import Shadow, ShadowContext
 from predicates.tolerance_table import TABLES
 from predicates.tolerances import Tolerances, tolerance_values, tracked_tolerances
 
 # --------------------------------------------------------------------------------------
 # formats, primitive kinds, scales
 # --------------------------------------------------------------------------------------
-MP17 = mp_format(17)
-
-#: name -> (WorkingFormat, dtype argument of predicates.tolerances)
-FORMATS = {"binary64": (BINARY64, float), "binary32": (BINARY32, np.float32),
-           "mp17": (MP17, "mp17")}
+#: name -> the working context (fperr.context(name))
+FORMATS = {name: fperr.context(name) for name in ("binary64", "binary32", "mp17")}
 
 #: (dim, predicate name) -> (points of the simulation primitive, of the cutting primitive)
 SPLIT = {
@@ -198,8 +194,7 @@ class PredicateSpec:
         return out
 
     def bound_coefficients(self, fmt_name):
-        fmt = FORMATS[fmt_name][0]
-        e = sympy.Rational(fmt.eps.numerator, fmt.eps.denominator)
+        e = sympy.Rational(1, 2 ** FORMATS[fmt_name].bits)
         for q in self.quantities.values():
             if q.E is None or fmt_name in q.E1:
                 continue
@@ -241,8 +236,8 @@ def tolerance_info(dim: int, fmt_name: str, L_a: float, L_b: float,
                    brackets: tuple = ()) -> ToleranceInfo:
     """Tolerances of a configuration. ``brackets``: ((name, lo, hi), ...) replaces the
     coefficients of T−, T+ of Figure 1/5 (tests use it to plant a wrong bracket)."""
-    fmt, dtype = FORMATS[fmt_name]
-    real = predicates.tolerances(dim, L_a, L_b, dtype=dtype)
+    fmt = FORMATS[fmt_name]
+    real = predicates.tolerances(dim, L_a, L_b, dtype=fmt)
     L = to_fraction(real.L)
     Ls = sympy.Rational(L.numerator, L.denominator)
     override = {name: (lo, hi) for name, lo, hi in brackets}
@@ -307,7 +302,7 @@ class Config:
 
 def run_shadow(spec: PredicateSpec, cfg: Config, pred=None, points=None) -> ShadowContext:
     """Run ``spec``'s predicate (or ``pred``) on ``cfg`` with shadow numbers."""
-    fmt = FORMATS[cfg.fmt_name][0]
+    fmt = FORMATS[cfg.fmt_name]
     info = cfg.info
     pred = pred or spec.pred
     pts = cfg.points if points is None else points
@@ -319,21 +314,12 @@ def run_shadow(spec: PredicateSpec, cfg: Config, pred=None, points=None) -> Shad
 
 
 def _working_points(fmt_name, pts):
-    fmt = FORMATS[fmt_name][0]
-    if fmt.kind == "numpy":
-        return [np.array([[float(c) for c in p]], dtype=fmt.dtype) for p in pts]
-    if fmt.kind == "mp":
-        return [tuple(fmt.from_fraction(c) for c in p) for p in pts]
-    return [tuple(float(c) for c in p) for p in pts]
+    fmt = FORMATS[fmt_name]
+    return [tuple(fmt.from_fraction(c) for c in p) for p in pts]
 
 
 def _real_context(fmt_name):
-    fmt = FORMATS[fmt_name][0]
-    if fmt.kind == "numpy":
-        return NumpyContext(fmt.dtype)
-    if fmt.kind == "mp":
-        return MpContext(fmt.bits)
-    return FloatContext()
+    return FORMATS[fmt_name]
 
 
 def lower_pairs(dim, split):
@@ -406,7 +392,7 @@ PREMISE_STRESS = 0.05
 
 
 def evaluate(spec: PredicateSpec, cfg: Config, pred=None) -> Outcome:
-    fmt = FORMATS[cfg.fmt_name][0]
+    fmt = FORMATS[cfg.fmt_name]
     info = cfg.info
     ctx = run_shadow(spec, cfg, pred)
     out = Outcome(result=ctx.result)
@@ -551,7 +537,7 @@ def _bracket(c, cs, d, out):
 
 def _sub_exact(a, b):
     """a − b on exact values (Fractions or intervals)."""
-    return _sub(a, b)
+    return exact_sub(a, b)
 
 
 # --------------------------------------------------------------------------------------
@@ -568,7 +554,7 @@ class Generator:
                  brackets: tuple = ()):
         self.spec, self.fmt_name, self.rng = spec, fmt_name, rng
         self.brackets = brackets
-        self.fmt = FORMATS[fmt_name][0]
+        self.fmt = FORMATS[fmt_name]
         self.d = spec.dim
         self.n1, self.n2 = len(spec.split[0]), len(spec.split[1])
         self.np_rng = np.random.default_rng(rng.getrandbits(64))
@@ -601,7 +587,7 @@ class Generator:
             q = []
             for v in p:
                 f = Fraction(float(v)) if math.isfinite(v) else Fraction(0)
-                f = self.fmt.round(f, "z")
+                f = round_fraction(f, self.fmt.bits, "zero")
                 if f > h:
                     f = h
                 elif f < -h:
@@ -770,8 +756,8 @@ class Generator:
         if r < 0.5:  # a few ulps .. many ulps on one coordinate
             a = self.rng.randrange(self.d)
             c = pts[i][a]
-            ulp = self.fmt.ulp(c) if c else self.fmt.ulp(info.L) * 2 ** -self.rng.randint(0, 40)
-            pts[i][a] = c + self.rng.choice((-1, 1)) * ulp * 2 ** int(self.rng.expovariate(0.25))
+            ulp_ = ulp(c, self.fmt.bits) if c else ulp(info.L, self.fmt.bits) * 2 ** -self.rng.randint(0, 40)
+            pts[i][a] = c + self.rng.choice((-1, 1)) * ulp_ * 2 ** int(self.rng.expovariate(0.25))
         elif r < 0.85:  # a random step of a random scale on one point
             s = float(info.L) * 2.0 ** -self.rng.uniform(2, 45)
             for a in range(self.d):
@@ -789,7 +775,7 @@ class Generator:
         for p in pts:
             q = []
             for v in p:
-                v = self.fmt.round(v, "z")
+                v = round_fraction(v, self.fmt.bits, "zero")
                 q.append(min(max(v, -h), h))
             out.append(tuple(q))
         return out
@@ -1000,8 +986,8 @@ class Audit:
         for dim in sorted({s.dim for s in self.specs}):
             rb = _tolerance_bounds(dim)
             for fmt_name in self.formats:
-                fmt = FORMATS[fmt_name][0]
-                e = sympy.Rational(fmt.eps.numerator, fmt.eps.denominator)
+                fmt = FORMATS[fmt_name]
+                e = sympy.Rational(1, 2 ** fmt.bits)
                 for L_ab in SCALES:
                     info = tolerance_info(dim, fmt_name, *L_ab)
                     ctx = ShadowContext(fmt)

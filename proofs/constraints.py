@@ -43,6 +43,7 @@ import sympy
 import fperr
 from fperr import InvalidBound, Tracked
 from fperr import bounds as _fperr_bounds
+from fperr.ops import BY_RULE
 from fperr.symbols import L, eps
 from predicates.tolerance_table import L_SIGMA_PLUS
 
@@ -351,23 +352,9 @@ def exact_value(t: Tracked, env: dict) -> sympy.Expr:
         return c if t.state.n else -c
     if t.rule == "K":
         raise _Impure(t.s)
-    a = [exact_value(x, env) for x in t.args]
-    r = t.rule
-    if r == "A":
-        return -a[0]
-    if r in "BC":
-        return a[0] + a[1]
-    if r in "DE":
-        return a[0] - a[1]
-    if r == "F":
-        return a[0] * a[1]
-    if r == "G":
-        return a[0] / a[1]
-    if r == "H":
-        return sympy.sqrt(a[0])
-    if r == "I":
-        return sympy.Abs(a[0])
-    raise ValueError(f"unknown rule {r} in {t.s}")
+    if t.rule not in BY_RULE:
+        raise ValueError(f"unknown rule {t.rule} in {t.s}")
+    return BY_RULE[t.rule].exact(*(exact_value(x, env) for x in t.args))
 
 
 def _monomial_in(gexpr: sympy.Expr, T: sympy.Symbol):
