@@ -34,18 +34,12 @@ import sympy
 from mpmath.ctx_iv import MPIntervalContext
 
 import fperr
-from fperr import round_fraction, to_fraction
+from fperr import to_fraction
 from fperr.exact import is_exact
 from fperr.exact import significand_bits as _significand_bits
 
 # ---------------------------------------------------------------------------------
 # exact helpers: the library's (fperr.exact)
-
-
-def round_to_bits(q: Fraction, bits: int) -> Fraction:
-    """``q`` rounded to the nearest ``bits``-bit number (ties to even, unbounded
-    exponent): the library's one rounding helper."""
-    return round_fraction(Fraction(q), bits)
 
 
 def significand_bits(q: Fraction) -> int:

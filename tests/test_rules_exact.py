@@ -31,7 +31,8 @@ from hypothesis import strategies as st
 import fperr
 from exact_eval import (BINARY32, BINARY64, FORMATS, MP17, TRACKED, BoundViolation,
                         Expr, OutOfRange, check, check_bounds, coordinates, eps_of,
-                        round_to_bits, tracked)
+                        tracked)
+from fperr import round_fraction as round_to_bits
 from fperr.ops import BY_RULE
 
 # ---------------------------------------------------------------------------------
