@@ -21,6 +21,7 @@ from hypothesis import strategies as st
 import fperr
 from fperr import L, bounds, const, coord, eps, paper_integer, sqrt
 from fperr import rules
+from fperr.ops import OPS as OP_TABLE
 
 # ---------------------------------------------------------------------------------
 # helpers
@@ -434,14 +435,9 @@ def build(t):
     if op == "const":
         return const(t[1])
     xs = [build(a) for a in t[1:]]
-    if op == "neg":
-        return -xs[0]
-    if op == "abs":
-        return abs(xs[0])
     if op == "sqrt":
         return sqrt(xs[0])
-    return {"+": lambda a, b: a + b, "-": lambda a, b: a - b, "*": lambda a, b: a * b,
-            "/": lambda a, b: a / b}[op](*xs)
+    return OP_TABLE[op].exact(*xs)   # the Python operators (neg, abs, + - * /) on Tracked
 
 
 LEAVES = st.one_of(
@@ -476,6 +472,7 @@ def test_states_match_the_rule_table(t):
     x = build(t)
     ref = reference(t)
     assert x.v == (ref is not None), (t, x)
+    assert t[0] not in OP_TABLE or x.rule in OP_TABLE[t[0]].rules, (t, x)  # operator table
     if ref is None:
         return
     c, p, n, a, b, r = ref
