@@ -12,10 +12,11 @@ from .contexts import (Context, FloatContext, MpContext, NumpyContext, TrackedCo
 from .symbols import EPS_MAX, L, eps
 from .tracked import InvalidBound, Tracked, const, coord, exact_input, sqrt
 from .shadow import Shadow, ShadowContext  # noqa: F401  (shadow execution: proofs.audit)
+from .warnings import ResolutionError, ResolutionWarning
 
 __all__ = [
     "Bounds", "Check", "Context", "EPS_MAX", "FloatContext", "InvalidBound", "L",
-    "MpContext", "NumpyContext", "Tracked", "TrackedContext", "bounds", "const",
+    "MpContext", "NumpyContext", "ResolutionError", "ResolutionWarning", "Tracked", "TrackedContext", "bounds", "const",
     "context_for", "coord", "eps", "error", "exact_input", "paper_integer", "sqrt",
 ]
 __version__ = "0.1.0"

@@ -79,6 +79,11 @@ class IntersectionResult:
     cut_cells: np.ndarray
     rounded_inputs: bool = False
     timings: dict = field(default_factory=dict)
+    #: what the run resolves (a predicates.registration.resolution.Resolution) and the
+    #: cutting mesh's refinement (refine.Refinement: cut_origin, input_weights), or None;
+    #: with a refinement, cut_points / cut_cells are the refined mesh the ids refer to
+    resolution: object = None
+    refinement: object = None
 
     def __getitem__(self, kind: str) -> KindPairs:
         try:
@@ -231,6 +236,8 @@ class IntersectionResult:
         names = [n for n in tu if n != "L"]
         lines.append("tolerances (input units): " + ", ".join(
             f"{n} = {tu[n] * self.tolerance_scale:.4g}" for n in names))
+        if self.resolution is not None:
+            lines.extend(self.resolution.lines())
         w = max(len(k) for k in self.kinds)
         lines.append(f"{'kind':<{w}}  {'candidates':>10}  {'suppressed':>10}  "
                      f"{'tested':>10}  {'registered':>10}")
