@@ -278,7 +278,9 @@ class Resolution:
             adv.append(f"split or drop the large or sliver simulation elements near the cut "
                        f"(box edge up to {self.L_a:.3g}, shortest edge {self.h_sim:.3g}: "
                        "L is the largest, the paper's L is global) or mesh it more uniformly")
-        adv.append("refine the simulation mesh less aggressively near the cut")
+        if not adv:
+            adv.append("use a wider format or accept the coarseness (σ+ is set by the "
+                       "elements near the cut and the format's ε)")
         return (f"coarse resolution: σ+ = {self.sigma_plus:.3g} is {self.ratio or 0:.3g} × "
                 f"the shortest simulation edge near the cut ({self.h_sim or 0:.3g}; threshold "
                 f"{COARSE_RATIO:g}), so crossings near vertices are registered at the "

@@ -134,8 +134,12 @@ class IntersectionResult:
         """Inconsistency count: cutting vertices marked ``inside`` (a bool per cutting
         point: known to lie inside the simulation mesh) that are not located exactly
         once — registered with no simulation primitive (the cut falls through a crack)
-        or with several (counted twice). A consistent registration gives 0."""
+        or with several (counted twice). A consistent registration gives 0. With a
+        refined cutting mesh, ``inside`` may cover the input points only (the vertices
+        the refinement appended count as unknown)."""
         inside = np.asarray(inside, dtype=bool)
+        if self.refinement is not None and len(inside) < len(self.cut_points):
+            inside = np.concatenate([inside, np.zeros(len(self.cut_points) - len(inside), bool)])
         used = np.zeros(len(self.cut_points), dtype=bool)
         used[np.unique(self.cut_cells)] = True
         return int(np.sum(inside & used & (self.location_counts("cut") != 1)))
