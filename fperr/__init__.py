@@ -16,11 +16,12 @@ from .symbols import EPS_MAX, L, eps
 from .tracked import InvalidBound, Tracked, const, coord, exact_input, sqrt
 from .tracked_context import TrackedContext
 from .shadow import Shadow, ShadowContext  # noqa: F401  (shadow execution: proofs.audit)
+from .warnings import ResolutionError, ResolutionWarning
 
 __all__ = [
     "Bounds", "Check", "Context", "EPS_MAX", "ExactContext", "FloatContext", "InvalidBound",
-    "L", "MpContext", "NumpyContext", "ROUNDING", "Tracked", "TrackedContext", "bounds",
-    "const", "context", "context_for", "coord", "eps", "error", "exact_input",
-    "paper_integer", "round_fraction", "sqrt", "to_fraction", "ulp",
+    "L", "MpContext", "NumpyContext", "ROUNDING", "ResolutionError", "ResolutionWarning",
+    "Tracked", "TrackedContext", "bounds", "const", "context", "context_for", "coord", "eps",
+    "error", "exact_input", "paper_integer", "round_fraction", "sqrt", "to_fraction", "ulp",
 ]
 __version__ = "0.1.0"
