@@ -101,7 +101,7 @@ def _count(partitions, client, n_cells: int) -> int:
         raise TypeError(f"partitions must be a positive int or 'auto', got {partitions!r}")
     if partitions < 1:
         raise ValueError(f"partitions must be at least 1, got {partitions}")
-    return int(min(partitions, n_cells))
+    return int(max(1, min(partitions, n_cells)))
 
 
 def run_part(part: Part, dim: int, tol, reach: dict, chunk: int) -> tuple[dict, dict]:
@@ -127,18 +127,21 @@ def run_partitioned(plan, partitions, scheduler, chunk: int, timings: dict) -> d
     "merge"; ``timings["partitions"]`` the per-partition statistics."""
     dask = _dask()
     client = _client("threads" if scheduler is None else scheduler)
-    k = _count(partitions, client, len(plan.sim.cells))
+    k = _count(partitions, client, len(plan.sim_cells))
     t = time.perf_counter()
-    pad = max(plan.reach.values())
+    reach = plan.scale.reach
     # every scaled cell's box edge ≤ L_a·2^-e (one ulp up in case the scaling rounded)
-    extent = math.nextafter(math.ldexp(plan.L_a, -plan.e), math.inf)
-    parts = list(split(plan.P_sim, plan.sim.cells, plan.P_cut, plan.cut.cells, k, pad,
-                       extent))
+    extent = math.nextafter(math.ldexp(plan.scale.L_a, -plan.scale.e), math.inf)
+    parts = [] if len(plan.cut_cells) == 0 or len(plan.sim_cells) == 0 else list(
+        split(plan.P_sim, plan.sim_cells, plan.P_cut, plan.cut_cells, k,
+              max(reach.values()), extent))
     timings["partition"] = time.perf_counter() - t
     t = time.perf_counter()
-    args = (plan.dim, plan.tol, plan.reach, chunk)
+    args = (plan.dim, plan.tol, reach, chunk)
     try:
-        if client is not None:
+        if not parts:  # no cells can meet: nothing to register
+            out = []
+        elif client is not None:
             futures = client.map(run_part, client.scatter(parts),
                                  *[[a] * len(parts) for a in args])
             out = client.gather(futures)
@@ -160,7 +163,8 @@ def run_partitioned(plan, partitions, scheduler, chunk: int, timings: dict) -> d
 def write_parts(res, k: int, pattern: str) -> list[str]:
     """Write ``res`` (an IntersectionResult) as k files, ``pattern.format(part=r)``
     (e.g. ``"hits_{part}.vtu"``), file r holding the pairs owned by partition r of k
-    (ownership as in the run: the smallest-id vertex of the simulation primitive).
+    (the run's rule — the smallest-id vertex of the simulation primitive — over all
+    simulation cells).
     Every pair is in exactly one file; each file is what ``res.to_meshio()`` writes,
     restricted to its pairs. Returns the paths (a file is written even when empty)."""
     from dataclasses import replace

@@ -46,7 +46,7 @@ How it runs
    numpy batch mode on chunks of candidates.
 
 With ``partitions=`` / ``scheduler=``, steps 3, 5 and 6 run per spatial partition as Dask
-tasks (:mod:`predicates.registration.partition_run`; steps 1, 2, 4 stay global, in
+tasks (:mod:`predicates.registration.partition_run`; the rest stays global, in
 ``_plan``), with the identical result (docs/partitioned.md).
 
 ``tolerance_scale=0`` runs the same pipeline with every tolerance zero (the naive
@@ -55,17 +55,22 @@ differs in the predicates.
 """
 from __future__ import annotations
 
-import math
 import os
 import time
+import warnings
 from typing import NamedTuple
 
 import numpy as np
 
+from fperr.warnings import ResolutionError, ResolutionWarning
+
 from ..catalogue import kinds as catalogue_kinds
-from ..tolerances import tolerances as compute_tolerances
+from . import resolution
 from .inputs import max_box_edge, mesh_arrays, scale_points, validate_pair
 from .levels import Registration
+from .refine import refine
+from .resolution import (Resolution, cell_boxes, consistent_scale, estimate_cell_pairs,
+                         memory_error, near_cells, shortest_edge, t_plus)
 from .result import IntersectionResult
 
 __all__ = ["CHUNK", "intersect", "intersect_files"]
@@ -75,7 +80,9 @@ CHUNK = 1 << 17
 
 
 def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: bool = False,
-              chunk: int = CHUNK, partitions=None, scheduler=None) -> IntersectionResult:
+              chunk: int = CHUNK, refine_cut: bool = True, strict: bool = False,
+              memory_limit: int | None = None, partitions=None,
+              scheduler=None) -> IntersectionResult:
     """Register the intersections of a simulation mesh with a cutting mesh.
 
     ``intersect(sim_points, sim_cells, cut_points, cut_cells)``, ``intersect(sim_mesh,
@@ -87,17 +94,27 @@ def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: b
     ``dtype``: float64 or float32, the working precision (coordinates are converted;
     ``res.rounded_inputs`` says whether that rounded them). ``tolerance_scale``: 1 for the
     robust method, 0 for the naive zero-tolerance baseline (values in [0, 1]).
-    ``progress``: a tqdm bar on stderr (shown after one second). ``partitions`` (an int
-    or "auto") / ``scheduler`` ("threads", "processes", "synchronous" or a
-    ``dask.distributed.Client``): run on Dask in spatial partitions, with the identical
-    result (:mod:`predicates.registration.partition_run`; needs ``fperr[dask]``); the
-    default is serial, without Dask. Returns an
+    ``progress``: a tqdm bar on stderr (shown after one second). ``refine_cut``: refine
+    cutting cells coarser than the simulation cells they meet (conforming midpoint
+    splits, :mod:`~predicates.registration.refine`); the registered cutting ids then
+    refer to ``res.cut_points`` / ``res.cut_cells``, the refined mesh (input points keep
+    their ids; ``res.refinement`` maps back). ``strict``: raise
+    :class:`fperr.ResolutionError` (a ValueError) instead of issuing a
+    :class:`fperr.ResolutionWarning` when the tolerances are coarse relative to the
+    elements near the cut (``res.resolution``). ``memory_limit``: bytes (default half
+    the available memory); a run estimated to need more is refused with
+    :class:`fperr.ResolutionError`. ``partitions`` (an int or "auto") / ``scheduler``
+    ("threads", "processes", "synchronous", a ``dask.distributed.Client`` or an
+    address): run on Dask in spatial partitions, with the identical result
+    (:mod:`predicates.registration.partition_run`; needs ``fperr[dask]``); the default
+    is serial, without Dask. Returns an
     :class:`~predicates.registration.result.IntersectionResult`. See the module docstring.
     """
     t0 = time.perf_counter()
     timings = {}
-    plan = _plan(args, dtype, tolerance_scale)
+    plan = _plan(args, dtype, tolerance_scale, refine_cut, timings)
     timings["setup"] = time.perf_counter() - t0
+    _check(plan.report, strict, memory_limit, plan.dim)
     if partitions is None and scheduler is None:
         pairs = _register(plan, chunk, progress, timings)
     else:
@@ -105,84 +122,115 @@ def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: b
 
         pairs = run_partitioned(plan, partitions, scheduler, chunk, timings)
     timings["total"] = time.perf_counter() - t0
-    sim, cut = plan.sim, plan.cut
+    sim, cut, sc_ = plan.sim, plan.cut, plan.scale
     return IntersectionResult(
         dim=plan.dim, dtype=plan.dtype, kinds=tuple(k.name for k in plan.kinds), pairs=pairs,
-        tolerances=plan.tol, scale_exponent=plan.e, tolerance_scale=plan.ts, L_a=plan.L_a,
-        L_b=plan.L_b, sim_points=sim.points, sim_cells=sim.cells, cut_points=cut.points,
-        cut_cells=cut.cells, rounded_inputs=sim.rounded or cut.rounded, timings=timings)
+        tolerances=plan.tol, scale_exponent=sc_.e, tolerance_scale=plan.ts, L_a=sc_.L_a,
+        L_b=sc_.L_b, sim_points=sim.points, sim_cells=sim.cells, cut_points=cut.points,
+        cut_cells=cut.cells, rounded_inputs=sim.rounded or cut.rounded, timings=timings,
+        resolution=plan.report, refinement=plan.refinement)
 
 
 class Plan(NamedTuple):
-    """Everything global a registration decides before the levels (steps 1, 2, 4): a
-    partitioned run computes it once and every partition uses it unchanged."""
+    """Everything global a registration decides before the levels: a partitioned run
+    computes it once and every partition uses it unchanged (docs/partitioned.md)."""
 
     dim: int
     dtype: np.dtype
     sim: object  # inputs.MeshInput (validated, working dtype)
-    cut: object
-    e: int  # coordinates are scaled by 2^-e
-    P_sim: np.ndarray  # scaled points
+    cut: object  # the same, refined when refine_cut
+    scale: object  # resolution.Scale: L_a, L_b, e, reach, masks
+    P_sim: np.ndarray  # coordinates scaled by 2^-e
     P_cut: np.ndarray
-    L_a: float  # input units
-    L_b: float
+    sim_cells: np.ndarray  # the cells that can meet (scale.masks): the run's cells
+    cut_cells: np.ndarray
     tol: object  # Tolerances of the run (scaled by tolerance_scale)
     ts: float
     kinds: tuple
-    reach: dict  # kind -> broad-phase distance
+    report: object  # resolution.Resolution
+    refinement: object
 
 
-def _plan(args, dtype, tolerance_scale) -> Plan:
-    """Steps 1, 2 and 4: validation, exact scaling, tolerances and reach."""
+def _plan(args, dtype, tolerance_scale, refine_cut, timings) -> Plan:
+    """Validation, refinement, L over the cells that can meet, exact scaling,
+    tolerances, reach and the resolution report: the global part of the run."""
     dtype = np.dtype(dtype)
     ts = float(tolerance_scale)
     if not 0 <= ts <= 1:
         raise ValueError(f"tolerance_scale must be in [0, 1], got {tolerance_scale!r}")
     sp, sc, cp, cc = mesh_arrays(args)
     dim, sim, cut = validate_pair(sp, sc, cp, cc, dtype)
-
-    # exact power-of-two scaling so that L_a + L_b is in [1/2, 1)
-    L_a0 = max_box_edge(sim.points, sim.cells)
-    L_b0 = max_box_edge(cut.points, cut.cells)
-    if L_a0 + L_b0 == 0:
+    if max_box_edge(sim.points, sim.cells) + max_box_edge(cut.points, cut.cells) == 0:
         raise ValueError("every cell of both meshes collapses to a single point (zero "
                          "bounding boxes): the tolerances would be zero")
-    e = math.frexp(L_a0 + L_b0)[1]
-    P_sim = scale_points(sim.points, e, "simulation")
-    P_cut = scale_points(cut.points, e, "cutting")
-    # upper bounds, scaled exactly (compute_tolerances rounds them up into dtype)
-    L_a, L_b = math.ldexp(L_a0, -e), math.ldexp(L_b0, -e)
-    tol = compute_tolerances(dim, L_a, L_b, dtype=dtype)
-    tol_run = tol if ts == 1 else tol.scaled(dtype.type(ts))
-    eps = float(np.finfo(dtype).eps)
-    kinds = catalogue_kinds(dim)
-    reach = {k.name: float(tol.values[k.reach[0]]) * k.reach[1] * (1 + 16 * eps)
-             for k in kinds}
-    return Plan(dim, dtype, sim, cut, e, P_sim, P_cut, L_a0, L_b0, tol_run, ts, kinds, reach)
+    sim_box = cell_boxes(sim.points, sim.cells)
+    refinement = None
+    if refine_cut and len(cut.cells):
+        t = time.perf_counter()
+        refinement = refine(cut.points, cut.cells, *sim_box)
+        cut.points, cut.cells = refinement.points, refinement.cells
+        timings["refine"] = time.perf_counter() - t
+    cut_box = cell_boxes(cut.points, cut.cells)
+
+    # L over the cells that can meet, then the exact power-of-two scaling from it
+    sc_ = consistent_scale(dim, sim_box, cut_box, dtype)
+    P_sim = scale_points(sim.points, sc_.e, "simulation")
+    P_cut = scale_points(cut.points, sc_.e, "cutting")
+    tol_run = sc_.tol if ts == 1 else sc_.tol.scaled(dtype.type(ts))
+    report = _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts)
+    ms, mc = sc_.masks
+    return Plan(dim, dtype, sim, cut, sc_, P_sim, P_cut, sim.cells[ms], cut.cells[mc],
+                tol_run, ts, catalogue_kinds(dim), report, refinement)
 
 
 def _register(plan: Plan, chunk: int, progress: bool, timings: dict) -> dict:
-    """Steps 3, 5, 6 on the whole meshes: {kind: KindPairs}."""
+    """Rank space, broad phase and levels on the cells that can meet (they hold every
+    pair within reach, docs/resolution.md): {kind: KindPairs}."""
     t = time.perf_counter()
-    # rank space: vertices ordered lexicographically by coordinates
-    reg = Registration(plan.dim, plan.P_sim, plan.sim.cells, plan.P_cut, plan.cut.cells,
-                       plan.tol, plan.reach, chunk)
+    reg = Registration(plan.dim, plan.P_sim, plan.sim_cells, plan.P_cut, plan.cut_cells,
+                       plan.tol, plan.scale.reach, chunk)
     timings["ranks"] = time.perf_counter() - t
     return reg.run(progress, timings)
+
+
+def _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts) -> Resolution:
+    """The resolution report (before the work): edges near the cut at the final pad."""
+    near_s, near_c = near_cells(sim_box, cut_box, sc_.pad, sc_.masks)
+    ms, mc = sc_.masks
+    pairs = estimate_cell_pairs(sim_box[0][ms], sim_box[1][ms], cut_box[0][mc],
+                                cut_box[1][mc], sc_.pad)
+    ref = None if refinement is None else (refinement.input_cells, len(refinement.cells),
+                                           refinement.rounds)
+    return Resolution(dim, dtype.name, t_plus(dim, sc_), shortest_edge(sim.points, sim.cells,
+                      near_s), shortest_edge(cut.points, cut.cells, near_c), sc_.L_a, sc_.L_b,
+                      sc_.history[0], len(sc_.history) - 1, ref, pairs, ts)
+
+
+def _check(report: Resolution, strict: bool, limit: int | None, dim: int) -> None:
+    """Warn (or raise, ``strict``) when coarse; refuse runs that would exhaust memory.
+    The naive baseline (tolerance_scale 0) is never called coarse."""
+    if report.coarse:
+        if strict:
+            raise ResolutionError(report.message() + " (strict: refused)")
+        warnings.warn(report.message(), ResolutionWarning, stacklevel=3)
+    err = memory_error(report, resolution.memory_limit() if limit is None else limit, dim)
+    if err is not None:
+        raise err
 
 
 def intersect_files(sim: str | os.PathLike, cut: str | os.PathLike, *,
                     output: str | os.PathLike | None = None,
                     plot: str | os.PathLike | None = None, dtype: str = "float64",
-                    naive: bool = False, progress: bool = False, partitions=None,
+                    naive: bool = False, progress: bool = False, refine_cut: bool = True,
+                    strict: bool = False, partitions=None,
                     scheduler=None) -> IntersectionResult:
     """Register two mesh files (any format meshio reads) and write the intersection
     points to ``output`` (any format meshio writes) and a 2D picture to ``plot``.
 
     Output paths are checked before any work, and the run is refused (ValueError) before
     anything is written, so a refused run writes nothing. ``naive``: the zero-tolerance
-    baseline (``tolerance_scale=0``); ``partitions``, ``scheduler``: as for
-    :func:`intersect`.
+    baseline (``tolerance_scale=0``); ``refine_cut``, ``strict``, ``partitions``,
+    ``scheduler``: as in :func:`intersect`.
     """
     from .files import check_output, read_mesh
 
@@ -191,8 +239,8 @@ def intersect_files(sim: str | os.PathLike, cut: str | os.PathLike, *,
     if plot is not None:
         check_output(plot, "plot")
     res = intersect(read_mesh(sim), read_mesh(cut), dtype=np.dtype(dtype), progress=progress,
-                    tolerance_scale=0.0 if naive else 1.0, partitions=partitions,
-                    scheduler=scheduler)
+                    tolerance_scale=0.0 if naive else 1.0, refine_cut=refine_cut,
+                    strict=strict, partitions=partitions, scheduler=scheduler)
     if plot is not None and res.dim != 2:
         raise ValueError("plots are drawn for 2D meshes only (this case is 3D; open the "
                          "output in ParaView instead)")
