@@ -44,7 +44,8 @@ def digest(res) -> str:
     return h.hexdigest()
 
 
-def child(mode: str, n: int, subdivisions: int, workers: int, k: int, reps: int) -> dict:
+def child(mode: str, n: int, subdivisions: int, workers: int, k: int, reps: int,
+          refine_cut: bool = True) -> dict:
     import predicates
     from predicates.registration.examples import cube_grid, icosphere
 
@@ -54,7 +55,7 @@ def child(mode: str, n: int, subdivisions: int, workers: int, k: int, reps: int)
     if mode == "serial":
         for _ in range(reps):
             t = time.perf_counter()
-            res = predicates.intersect(sp, sc, cp, cc)
+            res = predicates.intersect(sp, sc, cp, cc, refine_cut=refine_cut)
             out["runs"].append(time.perf_counter() - t)
     else:
         from predicates.registration.partition_run import client_for
@@ -64,12 +65,14 @@ def child(mode: str, n: int, subdivisions: int, workers: int, k: int, reps: int)
             out["cluster_start_s"] = time.perf_counter() - t
             for _ in range(reps):
                 t = time.perf_counter()
-                res = predicates.intersect(sp, sc, cp, cc, partitions=k, scheduler=client)
+                res = predicates.intersect(sp, sc, cp, cc, partitions=k, scheduler=client,
+                                           refine_cut=refine_cut)
                 out["runs"].append(time.perf_counter() - t)
         out["partitions"] = res.timings["partitions"]
         out["split_s"] = res.timings["partition"]
         out["merge_s"] = res.timings["merge"]
     out["best_s"] = min(out["runs"])
+    out["setup_s"] = res.timings["setup"]  # the global plan, on the client
     out["client_peak_rss_mib"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     out["counts"] = res.counts
     out["digest"] = digest(res)
@@ -79,7 +82,7 @@ def child(mode: str, n: int, subdivisions: int, workers: int, k: int, reps: int)
 def run(mode, args, k=0) -> dict:
     cmd = [sys.executable, __file__, "--child", mode, "--n", str(args.n), "--subdivisions",
            str(args.subdivisions), "--workers", str(args.workers), "--k", str(k),
-           "--reps", str(args.reps)]
+           "--reps", str(args.reps)] + (["--no-refine-cut"] if args.no_refine_cut else [])
     r = subprocess.run(cmd, capture_output=True, text=True)
     if r.returncode:
         raise SystemExit(f"{mode} failed:\n{r.stderr[-3000:]}")
@@ -102,17 +105,18 @@ def report(serial, parts) -> str:
     lines = [f"machine: {B.machine()}; load at start: {B.load()}",
              f"cube n = {serial['n']} ({serial['sim_cells']:,} tetrahedra) × icosphere "
              f"{serial['cut_cells']:,} triangles; serial best {serial['best_s']:.2f} s "
-             f"(runs {', '.join(f'{x:.2f}' for x in serial['runs'])}), peak RSS "
+             f"(runs {', '.join(f'{x:.2f}' for x in serial['runs'])}; global plan "
+             f"{serial.get('setup_s', float('nan')):.2f} s), peak RSS "
              f"{serial['client_peak_rss_mib']:.0f} MiB", ""]
-    lines.append("| partitions | best (s) | runs (s) | speed-up | identical | split (s) | "
-                 "merge (s) | cluster start (s) | client peak RSS (MiB) |")
-    lines.append("|---:|---:|---|---:|---|---:|---:|---:|---:|")
+    lines.append("| partitions | best (s) | runs (s) | speed-up | identical | plan (s) | "
+                 "split (s) | merge (s) | cluster start (s) | client peak RSS (MiB) |")
+    lines.append("|---:|---:|---|---:|---|---:|---:|---:|---:|---:|")
     for p in parts:
         lines.append(f"| {len(p['partitions'])} | {p['best_s']:.2f} | "
                      f"{', '.join(f'{x:.2f}' for x in p['runs'])} | "
                      f"{serial['best_s'] / p['best_s']:.2f}× | "
                      f"{'yes' if p['digest'] == serial['digest'] else 'NO'} | "
-                     f"{p['split_s']:.2f} | {p['merge_s']:.2f} | {p['cluster_start_s']:.1f} | "
+                     f"{p['setup_s']:.2f} | {p['split_s']:.2f} | {p['merge_s']:.2f} | {p['cluster_start_s']:.1f} | "
                      f"{p['client_peak_rss_mib']:.0f} |")
     for p in parts:
         lines += ["", f"{len(p['partitions'])} partitions (last run):", "",
@@ -138,13 +142,15 @@ def main(argv=None):
     ap.add_argument("--rounds", type=int, default=2,
                     help="child processes per mode, alternating serial and partitioned")
     ap.add_argument("--skip-serial", action="store_true", help="partitioned runs only")
+    ap.add_argument("--no-refine-cut", action="store_true",
+                    help="intersect(..., refine_cut=False): without the (global) refinement")
     ap.add_argument("--json")
     ap.add_argument("--child")
     ap.add_argument("--k", type=int, default=0)
     args = ap.parse_args(argv)
     if args.child:
         print(json.dumps(child(args.child, args.n, args.subdivisions, args.workers, args.k,
-                               args.reps)))
+                               args.reps, not args.no_refine_cut)))
         return
     serial = {"n": args.n, "sim_cells": 0, "cut_cells": 0, "best_s": float("nan"),
               "runs": [], "client_peak_rss_mib": float("nan"), "digest": ""}
