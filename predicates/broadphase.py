@@ -1,5 +1,6 @@
 """Broad phase: every pair of boxes within a distance ``pad`` of each other, in
-sub-quadratic time (uniform grid hashing, vectorised with numpy).
+O(n log n + pairs) time and linear memory (hierarchical grid hashing, vectorised with
+numpy).
 
 The test a pair must pass is, per axis, ``F[lo_b − hi_a] ≤ pad`` and
 ``F[lo_a − hi_b] ≤ pad`` (``pad`` a binary64 number). Rounding to nearest is monotone,
@@ -9,13 +10,21 @@ register is lost, whatever the coordinates' magnitude. The grid only proposes pa
 * cell size h ≈ the larger mean box extent (at least 2^-20 of the span, so cell
   coordinates fit 21 bits per axis), doubled while boxes would cover too many cells;
 * the b boxes are enlarged by ``pad`` (rounded outwards with ``nextafter``), both sets
-  are binned, and the pairs sharing a cell are enumerated by a sort-merge join;
+  are binned (cell indices clipped to the grid, a monotone map: boxes that overlap get
+  cell ranges that overlap), entries in cells the other set does not occupy are dropped,
+  and the pairs sharing a cell are enumerated by a sort-merge join;
 * a pair is emitted only in the cell holding the lower corner of the two (enlarged)
   boxes' overlap — the cell max(i0_a, i0_b) per axis, the cell index being monotone —
-  so it is produced exactly once without a global ``unique``.
+  so it is produced exactly once without a global ``unique``;
+* a *crowded* cell (many more proposals than entries: tiny boxes clustered in a grid
+  made coarse by large boxes elsewhere) is not enumerated: its boxes get a grid of their
+  own over that cell, sized by *their* extents, recursively. Within it the same
+  lower-corner rule makes each pair unique, and the parent keeps only the pairs whose
+  lower corner falls in the crowded cell.
 
 Work and memory are O((n_a + n_b)·cells per box + pairs), processed in chunks of at most
-``chunk`` proposed pairs.
+``chunk`` proposed pairs (a crowded cell that cannot be refined — boxes of similar size
+all overlapping — is enumerated, also in chunks: there the pairs themselves are many).
 """
 from __future__ import annotations
 
@@ -24,6 +33,16 @@ import numpy as np
 __all__ = ["box_pairs", "box_pairs_bruteforce", "boxes", "near_flags"]
 
 _BITS = 20  # at most 2^20 + 1 cells per axis: linear keys fit in int64
+#: A cell is refined when its proposals exceed both of these (pairs; pairs per entry).
+_CROWDED, _CROWD_RATIO = 1 << 12, 16
+_MAX_DEPTH = 8
+_DENSE = 1 << 26  # grids up to this many cells use dense occupancy arrays, when
+_DENSE_PER_ENTRY = 8  # they have at most this many cells per box entry (or 2^16)
+
+
+def _dense(G, entries):
+    cells = float(np.prod(G.astype(float)))
+    return cells <= _DENSE and cells <= _DENSE_PER_ENTRY * entries + (1 << 16)
 
 
 def boxes(coords: np.ndarray):
@@ -54,23 +73,20 @@ def _linear(idx, G):
     return key
 
 
-def _entries(i0, i1, G, sort=True):
-    """(box id, linear cell key) for every cell each box covers, sorted by key."""
+def _entries(i0, i1, G):
+    """(box id, linear cell key) for every cell each box covers (unsorted)."""
     c = i1 - i0 + 1
     per = np.prod(c, axis=1)
+    if np.all(per == 1):  # the common case at a well-sized grid: no expansion
+        return np.arange(len(c)), _linear(i0, G)
     box = np.repeat(np.arange(len(c)), per)
-    start = np.cumsum(per) - per
-    t = np.arange(box.size, dtype=np.int64) - np.repeat(start, per)
+    t = np.arange(box.size, dtype=np.int64) - np.repeat(np.cumsum(per) - per, per)
     idx = np.empty((box.size, c.shape[1]), dtype=np.int64)
     for ax in range(c.shape[1]):
         cb = c[box, ax]
         idx[:, ax] = i0[box, ax] + t % cb
         t //= cb
-    key = _linear(idx, G)
-    if not sort:
-        return box, key
-    order = np.argsort(key, kind="stable")
-    return box[order], key[order]
+    return box, _linear(idx, G)
 
 
 def _runs(sorted_keys):
@@ -78,21 +94,42 @@ def _runs(sorted_keys):
     if sorted_keys.size == 0:
         e = np.zeros(0, dtype=np.int64)
         return e, e, e
-    brk = np.flatnonzero(np.diff(sorted_keys)) + 1
+    brk = np.flatnonzero(sorted_keys[1:] != sorted_keys[:-1]) + 1
     start = np.concatenate([[0], brk])
     count = np.diff(np.concatenate([start, [sorted_keys.size]]))
     return sorted_keys[start], start, count
 
 
-def _grid(lo_a, hi_a, lo_b, hi_b, pad):
-    """The grid: b boxes enlarged by pad (outwards), cell size, per-box cell ranges."""
-    na, nb = len(lo_a), len(lo_b)
+def _enlarge(lo_b, hi_b, pad):
     pad = float(pad)
     if not pad >= 0:
         raise ValueError(f"pad must be a non-negative number, got {pad!r}")
     with np.errstate(over="ignore"):
-        lo_bx = np.nextafter(lo_b - pad, -np.inf)
-        hi_bx = np.nextafter(hi_b + pad, np.inf)
+        return np.nextafter(lo_b - pad, -np.inf), np.nextafter(hi_b + pad, np.inf)
+
+
+def _mean_extent(lo, hi, cap=np.inf):
+    return float(np.minimum(hi - lo, cap).mean(axis=0).max()) if len(lo) else 0.0
+
+
+def _fit(lo_a, hi_a, lo_bx, hi_bx, origin, top, h, budget):
+    """Grid over [origin, top] with cell size h, doubled until the boxes cover at most
+    ``budget`` cells: (G, h, ia0, ia1, ib0, ib1)."""
+    while True:
+        G = (np.floor((top - origin) / h).astype(np.int64) + 1).clip(1, (1 << _BITS) + 1)
+        ia0, ia1 = _cell_index(lo_a, origin, h, G), _cell_index(hi_a, origin, h, G)
+        ib0, ib1 = _cell_index(lo_bx, origin, h, G), _cell_index(hi_bx, origin, h, G)
+        total = (np.prod(ia1 - ia0 + 1, axis=1).sum() + np.prod(ib1 - ib0 + 1, axis=1).sum())
+        if total <= budget or np.all(G == 1):
+            return G, h, ia0, ia1, ib0, ib1
+        h *= 2
+
+
+def _grid(lo_a, hi_a, lo_b, hi_b, pad):
+    """The top grid: b boxes enlarged by pad (outwards), cell size, per-box cell ranges:
+    (lo_bx, hi_bx, origin, G, h, ia0, ia1, ib0, ib1)."""
+    na, nb = len(lo_a), len(lo_b)
+    lo_bx, hi_bx = _enlarge(lo_b, hi_b, pad)
     origin = np.minimum(lo_a.min(axis=0), lo_bx.min(axis=0))
     top = np.maximum(hi_a.max(axis=0), hi_bx.max(axis=0))
     with np.errstate(over="ignore"):
@@ -100,45 +137,90 @@ def _grid(lo_a, hi_a, lo_b, hi_b, pad):
     if not np.isfinite(span):
         raise ValueError("coordinates too large for the broad phase (their range "
                          "overflows the floating-point format)")
-    h = max(float((hi_a - lo_a).mean(axis=0).max()), float((hi_bx - lo_bx).mean(axis=0).max()))
+    h = max(_mean_extent(lo_a, hi_a), _mean_extent(lo_bx, hi_bx))
     if h <= 0:
         h = span / max(1.0, (na + nb) ** (1 / lo_a.shape[1]))
     h = max(h, span * 2.0 ** -_BITS, np.finfo(np.float64).tiny)
-    budget = 16 * (na + nb) + (1 << 20)
-    while True:
-        G = (np.floor((top - origin) / h).astype(np.int64) + 1).clip(1, (1 << _BITS) + 1)
-        ia0, ia1 = _cell_index(lo_a, origin, h, G), _cell_index(hi_a, origin, h, G)
-        ib0, ib1 = _cell_index(lo_bx, origin, h, G), _cell_index(hi_bx, origin, h, G)
-        total = (np.prod(ia1 - ia0 + 1, axis=1).sum() + np.prod(ib1 - ib0 + 1, axis=1).sum())
-        if total <= budget or np.all(G == 1):
-            break
-        h *= 2
-    return G, ia0, ia1, ib0, ib1
+    G, h, *ranges = _fit(lo_a, hi_a, lo_bx, hi_bx, origin, top, h, 16 * (na + nb) + (1 << 20))
+    return (lo_bx, hi_bx, origin, G, h, *ranges)
+
+
+def _occupied(keys, other, G):
+    """Mask of ``keys`` that occur in ``other`` (dense bitmap when the grid is small)."""
+    if _dense(G, len(keys) + len(other)):
+        occ = np.zeros(int(np.prod(G)), dtype=bool)
+        occ[other] = True
+        return occ[keys]
+    return np.isin(keys, other)
 
 
 def near_flags(lo_a, hi_a, lo_b, hi_b, pad: float):
     """(near_a, near_b): boolean masks, a superset of the boxes that have a partner
     within ``pad`` (same test as :func:`box_pairs`): a box is flagged when it shares a
-    grid cell with a box of the other set. Cheaper than enumerating the pairs."""
+    grid cell with a box of the other set (b boxes enlarged by pad). Cheaper than
+    enumerating the pairs: on a dense grid no box is expanded into its cells (each
+    side's occupancy comes from a difference array, each box's test from a summed-area
+    table of the other side's occupancy), so the cost is O(2^d·(n_a + n_b) + cells)."""
     lo_a, hi_a, lo_b, hi_b = (np.asarray(x, dtype=np.float64) for x in (lo_a, hi_a, lo_b, hi_b))
     near_a, near_b = np.zeros(len(lo_a), dtype=bool), np.zeros(len(lo_b), dtype=bool)
     if len(lo_a) == 0 or len(lo_b) == 0:
         return near_a, near_b
-    G, ia0, ia1, ib0, ib1 = _grid(lo_a, hi_a, lo_b, hi_b, pad)
-    box_a, key_a = _entries(ia0, ia1, G, sort=False)
-    box_b, key_b = _entries(ib0, ib1, G, sort=False)
-    if np.prod(G.astype(float)) <= 2.0 ** 26:
-        occ_a = np.zeros(int(np.prod(G)), dtype=bool)
-        occ_b = np.zeros(int(np.prod(G)), dtype=bool)
-        occ_a[key_a] = True
-        occ_b[key_b] = True
-        hit_a, hit_b = occ_b[key_a], occ_a[key_b]
-    else:
-        hit_a = np.isin(key_a, key_b)
-        hit_b = np.isin(key_b, key_a)
-    near_a[box_a[hit_a]] = True
-    near_b[box_b[hit_b]] = True
+    _, _, _, G, _, ia0, ia1, ib0, ib1 = _grid(lo_a, hi_a, lo_b, hi_b, pad)
+    if _dense(G + 1, len(lo_a) + len(lo_b)):
+        occ_a, occ_b = _occupancy(ia0, ia1, G), _occupancy(ib0, ib1, G)
+        return _any_in(occ_b, ia0, ia1, G), _any_in(occ_a, ib0, ib1, G)
+    box_a, key_a = _entries(ia0, ia1, G)
+    box_b, key_b = _entries(ib0, ib1, G)
+    near_a[box_a[_occupied(key_a, key_b, G)]] = True
+    near_b[box_b[_occupied(key_b, key_a, G)]] = True
     return near_a, near_b
+
+
+def _corners(i0, i1, G):
+    """(linear key on the (G + 1)-grid, sign) of the 2^d corners {i0, i1 + 1} of each
+    box's cell range; sign (−1)^(number of i0 picks) (inclusion–exclusion)."""
+    d = len(G)
+    for pick in range(1 << d):
+        idx = np.empty(i0.shape, dtype=np.int64)
+        n0 = 0
+        for ax in range(d):
+            if pick >> ax & 1:
+                idx[:, ax] = i1[:, ax] + 1
+            else:
+                idx[:, ax] = i0[:, ax]
+                n0 += 1
+        yield _linear(idx, G + 1), (-1) ** n0
+
+
+def _occupancy(i0, i1, G):
+    """Cells covered by at least one box, as a C-order array of shape reversed(G + 1)
+    (axis 0 of the boxes is the last, fastest axis), last row of every axis unused."""
+    size = int(np.prod(G + 1))
+    diff = np.zeros(size, dtype=np.int64)
+    for key, sign in _corners(i0, i1, G):
+        diff += (-sign if len(G) % 2 else sign) * np.bincount(key, minlength=size)
+    cover = diff.reshape(tuple((G + 1)[::-1]))
+    for ax in range(cover.ndim):
+        np.cumsum(cover, axis=ax, out=cover)
+    return cover > 0
+
+
+def _any_in(occ, i0, i1, G):
+    """Per box: does its cell range [i0, i1] contain an occupied cell (summed-area
+    table of ``occ`` over the (G + 1)-grid, 2^d look-ups per box)."""
+    S = np.zeros(tuple((G + 1)[::-1]), dtype=np.int32 if occ.size < 2 ** 31 else np.int64)
+    inner = tuple(slice(1, None) for _ in range(occ.ndim))
+    S[inner] = occ[tuple(slice(None, -1) for _ in range(occ.ndim))]
+    for ax in range(S.ndim):
+        np.cumsum(S, axis=ax, out=S)
+    S = S.ravel()
+    count = np.zeros(len(i0), dtype=S.dtype)
+    for key, sign in _corners(i0, i1, G):
+        if sign > 0:
+            count += S[key]
+        else:
+            count -= S[key]
+    return count > 0
 
 
 def box_pairs(lo_a, hi_a, lo_b, hi_b, pad: float, chunk: int = 1 << 22):
@@ -148,41 +230,111 @@ def box_pairs(lo_a, hi_a, lo_b, hi_b, pad: float, chunk: int = 1 << 22):
     if len(lo_a) == 0 or len(lo_b) == 0:
         return
     pad = float(pad)
-    G, ia0, ia1, ib0, ib1 = _grid(lo_a, hi_a, lo_b, hi_b, pad)
+    lo_bx, hi_bx, origin, G, h, ia0, ia1, ib0, ib1 = _grid(lo_a, hi_a, lo_b, hi_b, pad)
+    boxes_ = (lo_a, hi_a, lo_b, hi_b, lo_bx, hi_bx, pad)
+    ids_a, ids_b = np.arange(len(lo_a)), np.arange(len(lo_b))
+    yield from _level(boxes_, ids_a, ids_b, origin, G, h, (ia0, ia1, ib0, ib1), chunk, 0)
+
+
+def _level(bx, ids_a, ids_b, origin, G, h, ranges, chunk, depth):
+    """The pairs among boxes ``ids_a`` × ``ids_b`` (global ids) on one grid: sort-merge
+    join per cell, crowded cells refined (see module docstring)."""
+    ia0, ia1, ib0, ib1 = ranges
     box_a, key_a = _entries(ia0, ia1, G)
     box_b, key_b = _entries(ib0, ib1, G)
-    ua, sa, ca = _runs(key_a)
-    ub, sb, cb = _runs(key_b)
-    cells, ja, jb = np.intersect1d(ua, ub, assume_unique=True, return_indices=True)
+    ka, kb = _occupied(key_a, key_b, G), _occupied(key_b, key_a, G)
+    box_a, key_a, box_b, key_b = box_a[ka], key_a[ka], box_b[kb], key_b[kb]
+    oa, ob = np.argsort(key_a), np.argsort(key_b)
+    box_a, box_b = box_a[oa], box_b[ob]
+    cells, sa, ca = _runs(key_a[oa])
+    cb_cells, sb, cb = _runs(key_b[ob])
     if cells.size == 0:
         return
-    sa, ca, sb, cb = sa[ja], ca[ja], sb[jb], cb[jb]
+    # both sides occupy exactly the same cells now
+    del cb_cells, oa, ob, key_a, key_b
     npairs = ca * cb
+    crowded = ((npairs > _CROWDED) & (npairs > _CROWD_RATIO * (ca + cb))
+               if depth < _MAX_DEPTH else np.zeros(cells.size, dtype=bool))
+    for k in np.flatnonzero(crowded):
+        sub_a = box_a[sa[k]: sa[k] + ca[k]]
+        sub_b = box_b[sb[k]: sb[k] + cb[k]]
+        corner = origin + _unlinear(cells[k], G) * h
+        for pa, pb in _refine(bx, ids_a[sub_a], ids_b[sub_b], corner, h, chunk, depth):
+            # keep the pairs whose lower corner (on this grid) is this cell
+            ref = np.maximum(_cell_index(bx[0][pa], origin, h, G),
+                             _cell_index(bx[4][pb], origin, h, G))
+            keep = _linear(ref, G) == cells[k]
+            if keep.any():
+                yield pa[keep], pb[keep]
+    if crowded.any():
+        npairs = np.where(crowded, 0, npairs)
     ends = np.cumsum(npairs)
     lo = 0
     while lo < cells.size:
         base = ends[lo - 1] if lo else 0
-        hi = int(np.searchsorted(ends, base + chunk, side="right"))
-        hi = max(hi, lo + 1)
-        yield from _join(cells[lo:hi], sa[lo:hi], ca[lo:hi], sb[lo:hi], cb[lo:hi],
-                         box_a, box_b, lo_a, hi_a, lo_b, hi_b, ia0, ib0, G, pad)
+        hi = max(int(np.searchsorted(ends, base + chunk, side="right")), lo + 1)
+        if ends[hi - 1] > base:
+            yield from _join(cells[lo:hi], sa[lo:hi], ca[lo:hi], sb[lo:hi], cb[lo:hi],
+                             npairs[lo:hi], box_a, box_b, ia0, ib0, G, ids_a, ids_b, bx)
         lo = hi
 
 
-def _join(cells, sa, ca, sb, cb, box_a, box_b, lo_a, hi_a, lo_b, hi_b, i0a, i0b, G, pad):
-    # one row per (cell, a-entry), repeated once per b-entry of that cell: no division
+def _unlinear(key, G):
+    idx = np.empty(len(G), dtype=np.int64)
+    for ax in range(len(G)):
+        idx[ax] = key % G[ax]
+        key //= G[ax]
+    return idx.astype(np.float64)
+
+
+def _refine(bx, ga, gb, corner, h, chunk, depth):
+    """A crowded cell [corner, corner + h]: a grid of its own, sized by the extents of
+    the boxes in it (clipped to the cell); enumerated directly when that does not help."""
+    lo_a, hi_a, lo_bx, hi_bx = bx[0][ga], bx[1][ga], bx[4][gb], bx[5][gb]
+    hs = max(_mean_extent(lo_a, hi_a, h), _mean_extent(lo_bx, hi_bx, h))
+    hs = max(hs, h * 2.0 ** -_BITS, np.finfo(np.float64).tiny)
+    if 2 * hs > h:  # boxes as large as the cell: refining cannot separate them
+        yield from _all_pairs(bx, ga, gb, chunk)
+        return
+    top = corner + h
+    G, hs, *ranges = _fit(lo_a, hi_a, lo_bx, hi_bx, corner, top, hs,
+                          16 * (len(ga) + len(gb)) + (1 << 16))
+    if 2 * hs > h:
+        yield from _all_pairs(bx, ga, gb, chunk)
+        return
+    yield from _level(bx, ga, gb, corner, G, hs, ranges, chunk, depth + 1)
+
+
+def _all_pairs(bx, ga, gb, chunk):
+    """Every pair of ga × gb passing the exact test, in chunks of rows of ga."""
+    step = max(1, chunk // max(1, len(gb)))
+    for lo in range(0, len(ga), step):
+        ia = np.repeat(ga[lo: lo + step], len(gb))
+        ib = np.tile(gb, min(step, len(ga) - lo))
+        yield from _exact(bx, ia, ib)
+
+
+def _exact(bx, ia, ib):
+    lo_a, hi_a, lo_b, hi_b, _, _, pad = bx
+    ok = np.all((lo_b[ib] - hi_a[ia] <= pad) & (lo_a[ia] - hi_b[ib] <= pad), axis=1)
+    if ok.any():
+        yield ia[ok], ib[ok]
+
+
+def _join(cells, sa, ca, sb, cb, q_cell, box_a, box_b, i0a, i0b, G, ids_a, ids_b, bx):
+    """All pairs of the (non-crowded) cells given; ``q_cell``: b-entries per a-entry
+    (0 for a crowded cell, handled by :func:`_refine`)."""
+    q_cell = np.where(q_cell > 0, cb, 0)
     row_cell = np.repeat(np.arange(cells.size), ca)
     row_a = np.arange(row_cell.size, dtype=np.int64) - np.repeat(np.cumsum(ca) - ca, ca) \
         + sa[row_cell]
-    q = cb[row_cell]
-    ia = np.repeat(box_a[row_a], q)
+    q = q_cell[row_cell]
+    la = box_a[row_a]
+    ia = np.repeat(la, q)
     off = np.arange(ia.size, dtype=np.int64) - np.repeat(np.cumsum(q) - q, q)
     ib = box_b[np.repeat(sb[row_cell], q) + off]
     cell_key = np.repeat(cells[row_cell], q)
     # report each pair once: in the cell of the lower corner of the boxes' overlap
     ref = np.maximum(i0a[ia], i0b[ib])
     keep = _linear(ref, G) == cell_key
-    ia, ib = ia[keep], ib[keep]
-    ok = np.all((lo_b[ib] - hi_a[ia] <= pad) & (lo_a[ia] - hi_b[ib] <= pad), axis=1)
-    if ok.any():
-        yield ia[ok], ib[ok]
+    yield from _exact(bx, ids_a[ia[keep]], ids_b[ib[keep]])
