@@ -74,19 +74,28 @@ def _linear(idx, G):
 
 
 def _entries(i0, i1, G):
-    """(box id, linear cell key) for every cell each box covers (unsorted)."""
+    """(box id, linear cell key, start mask) for every cell each box covers (unsorted).
+    Bit ``ax`` of the mask: the cell is the box's first on axis ``ax``; None when every
+    box covers one cell. Expanded axis by axis, offset by offset, each pass touching only
+    the boxes still that wide: O(entries) work, no division."""
     c = i1 - i0 + 1
-    per = np.prod(c, axis=1)
-    if np.all(per == 1):  # the common case at a well-sized grid: no expansion
-        return np.arange(len(c)), _linear(i0, G)
-    box = np.repeat(np.arange(len(c)), per)
-    t = np.arange(box.size, dtype=np.int64) - np.repeat(np.cumsum(per) - per, per)
-    idx = np.empty((box.size, c.shape[1]), dtype=np.int64)
-    for ax in range(c.shape[1]):
-        cb = c[box, ax]
-        idx[:, ax] = i0[box, ax] + t % cb
-        t //= cb
-    return box, _linear(idx, G)
+    if len(c) == 0 or np.all(c == 1):  # the common case at a well-sized grid
+        return np.arange(len(c)), _linear(i0, G), None
+    box, idx = np.arange(len(c)), i0
+    mask = np.full(len(c), (1 << len(G)) - 1, dtype=np.uint8)
+    for ax in range(len(G)):
+        rc = c[box, ax]
+        sel = np.flatnonzero(rc > 1)
+        parts, k = [(box, idx, mask)], 1
+        while sel.size:
+            moved = idx[sel]  # a copy (fancy indexing)
+            moved[:, ax] += k
+            parts.append((box[sel], moved, mask[sel] & np.uint8(~(1 << ax) & 0xFF)))
+            k += 1
+            sel = sel[rc[sel] > k]
+        if len(parts) > 1:
+            box, idx, mask = (np.concatenate(x) for x in zip(*parts))
+    return box, _linear(idx, G), mask
 
 
 def _runs(sorted_keys):
@@ -169,8 +178,8 @@ def near_flags(lo_a, hi_a, lo_b, hi_b, pad: float):
     if _dense(G + 1, len(lo_a) + len(lo_b)):
         occ_a, occ_b = _occupancy(ia0, ia1, G), _occupancy(ib0, ib1, G)
         return _any_in(occ_b, ia0, ia1, G), _any_in(occ_a, ib0, ib1, G)
-    box_a, key_a = _entries(ia0, ia1, G)
-    box_b, key_b = _entries(ib0, ib1, G)
+    box_a, key_a, _ = _entries(ia0, ia1, G)
+    box_b, key_b, _ = _entries(ib0, ib1, G)
     near_a[box_a[_occupied(key_a, key_b, G)]] = True
     near_b[box_b[_occupied(key_b, key_a, G)]] = True
     return near_a, near_b
@@ -231,7 +240,8 @@ def box_pairs(lo_a, hi_a, lo_b, hi_b, pad: float, chunk: int = 1 << 22):
         return
     pad = float(pad)
     lo_bx, hi_bx, origin, G, h, ia0, ia1, ib0, ib1 = _grid(lo_a, hi_a, lo_b, hi_b, pad)
-    boxes_ = (lo_a, hi_a, lo_b, hi_b, lo_bx, hi_bx, pad)
+    cols = tuple(np.ascontiguousarray(x.T) for x in (lo_a, hi_a, lo_b, hi_b))
+    boxes_ = (lo_a, hi_a, lo_b, hi_b, lo_bx, hi_bx, pad, cols)
     ids_a, ids_b = np.arange(len(lo_a)), np.arange(len(lo_b))
     yield from _level(boxes_, ids_a, ids_b, origin, G, h, (ia0, ia1, ib0, ib1), chunk, 0)
 
@@ -240,18 +250,19 @@ def _level(bx, ids_a, ids_b, origin, G, h, ranges, chunk, depth):
     """The pairs among boxes ``ids_a`` × ``ids_b`` (global ids) on one grid: sort-merge
     join per cell, crowded cells refined (see module docstring)."""
     ia0, ia1, ib0, ib1 = ranges
-    box_a, key_a = _entries(ia0, ia1, G)
-    box_b, key_b = _entries(ib0, ib1, G)
+    box_a, key_a, mask_a = _entries(ia0, ia1, G)
+    box_b, key_b, mask_b = _entries(ib0, ib1, G)
     ka, kb = _occupied(key_a, key_b, G), _occupied(key_b, key_a, G)
-    box_a, key_a, box_b, key_b = box_a[ka], key_a[ka], box_b[kb], key_b[kb]
-    oa, ob = np.argsort(key_a), np.argsort(key_b)
+    oa = np.flatnonzero(ka)[np.argsort(key_a[ka])]
+    ob = np.flatnonzero(kb)[np.argsort(key_b[kb])]
     box_a, box_b = box_a[oa], box_b[ob]
+    mask_a = None if mask_a is None else mask_a[oa]
+    mask_b = None if mask_b is None else mask_b[ob]
     cells, sa, ca = _runs(key_a[oa])
-    cb_cells, sb, cb = _runs(key_b[ob])
+    _, sb, cb = _runs(key_b[ob])  # both sides occupy exactly the same cells now
+    del oa, ob, key_a, key_b, ka, kb
     if cells.size == 0:
         return
-    # both sides occupy exactly the same cells now
-    del cb_cells, oa, ob, key_a, key_b
     npairs = ca * cb
     crowded = ((npairs > _CROWDED) & (npairs > _CROWD_RATIO * (ca + cb))
                if depth < _MAX_DEPTH else np.zeros(cells.size, dtype=bool))
@@ -268,15 +279,22 @@ def _level(bx, ids_a, ids_b, origin, G, h, ranges, chunk, depth):
                 yield pa[keep], pb[keep]
     if crowded.any():
         npairs = np.where(crowded, 0, npairs)
+    masks = None if mask_a is None and mask_b is None else (
+        _full_mask(mask_a, len(box_a), G), _full_mask(mask_b, len(box_b), G), (1 << len(G)) - 1)
     ends = np.cumsum(npairs)
+    gbox_a, gbox_b = ids_a[box_a], ids_b[box_b]
     lo = 0
     while lo < cells.size:
         base = ends[lo - 1] if lo else 0
         hi = max(int(np.searchsorted(ends, base + chunk, side="right")), lo + 1)
         if ends[hi - 1] > base:
-            yield from _join(cells[lo:hi], sa[lo:hi], ca[lo:hi], sb[lo:hi], cb[lo:hi],
-                             npairs[lo:hi], box_a, box_b, ia0, ib0, G, ids_a, ids_b, bx)
+            yield from _join(sa[lo:hi], ca[lo:hi], sb[lo:hi], np.where(npairs[lo:hi] > 0,
+                             cb[lo:hi], 0), masks, gbox_a, gbox_b, bx)
         lo = hi
+
+
+def _full_mask(mask, n, G):
+    return np.full(n, (1 << len(G)) - 1, dtype=np.uint8) if mask is None else mask
 
 
 def _unlinear(key, G):
@@ -315,26 +333,29 @@ def _all_pairs(bx, ga, gb, chunk):
 
 
 def _exact(bx, ia, ib):
-    lo_a, hi_a, lo_b, hi_b, _, _, pad = bx
-    ok = np.all((lo_b[ib] - hi_a[ia] <= pad) & (lo_a[ia] - hi_b[ib] <= pad), axis=1)
-    if ok.any():
-        yield ia[ok], ib[ok]
+    """The pairs passing F[lo_b − hi_a] ≤ pad and F[lo_a − hi_b] ≤ pad on every axis
+    (axis by axis, compacting the survivors: cheaper gathers on per-axis columns)."""
+    pad, (lo_a, hi_a, lo_b, hi_b) = bx[6], bx[7]
+    for ax in range(len(lo_a)):
+        ok = lo_b[ax][ib] - hi_a[ax][ia] <= pad
+        ok &= lo_a[ax][ia] - hi_b[ax][ib] <= pad
+        ia, ib = ia[ok], ib[ok]
+    if len(ia):
+        yield ia, ib
 
 
-def _join(cells, sa, ca, sb, cb, q_cell, box_a, box_b, i0a, i0b, G, ids_a, ids_b, bx):
-    """All pairs of the (non-crowded) cells given; ``q_cell``: b-entries per a-entry
-    (0 for a crowded cell, handled by :func:`_refine`)."""
-    q_cell = np.where(q_cell > 0, cb, 0)
-    row_cell = np.repeat(np.arange(cells.size), ca)
-    row_a = np.arange(row_cell.size, dtype=np.int64) - np.repeat(np.cumsum(ca) - ca, ca) \
-        + sa[row_cell]
+def _join(sa, ca, sb, q_cell, masks, gbox_a, gbox_b, bx):
+    """All pairs of the cells given (entries sa[k] … sa[k] + ca[k] of side a against
+    q_cell[k] entries from sb[k] of side b; q_cell = 0 for a crowded cell, handled by
+    :func:`_refine`), each reported once: in the cell of the lower corner of the boxes'
+    overlap, i.e. on every axis one of the two boxes starts in the cell."""
+    row_cell = np.repeat(np.arange(len(ca)), ca)
+    ea = np.arange(row_cell.size, dtype=np.int64) + np.repeat(sa - (np.cumsum(ca) - ca), ca)
     q = q_cell[row_cell]
-    la = box_a[row_a]
-    ia = np.repeat(la, q)
-    off = np.arange(ia.size, dtype=np.int64) - np.repeat(np.cumsum(q) - q, q)
-    ib = box_b[np.repeat(sb[row_cell], q) + off]
-    cell_key = np.repeat(cells[row_cell], q)
-    # report each pair once: in the cell of the lower corner of the boxes' overlap
-    ref = np.maximum(i0a[ia], i0b[ib])
-    keep = _linear(ref, G) == cell_key
-    yield from _exact(bx, ids_a[ia[keep]], ids_b[ib[keep]])
+    ea = np.repeat(ea, q)
+    eb = np.arange(ea.size, dtype=np.int64) + np.repeat(sb[row_cell] - (np.cumsum(q) - q), q)
+    if masks is not None:
+        ma, mb, full = masks
+        keep = (ma[ea] | mb[eb]) == full
+        ea, eb = ea[keep], eb[keep]
+    yield from _exact(bx, gbox_a[ea], gbox_b[eb])
