@@ -3,11 +3,11 @@
 Every case runs in a fresh subprocess, so that its peak memory (``ru_maxrss``, read right
 after the robust registration) is its own. In the child:
 
-1. the meshes are generated (``predicates.meshes``, no download);
+1. the meshes are generated (``predicates.registration.examples``, no download);
 2. the robust registration runs (``predicates.intersect``), with timers wrapped around
-   the broad phase (``box_pairs``), the sub-pair suppression (``_blocked``) and the
-   predicates (``_evaluate``) of every kind (in ``predicates.registration``) — wrappers
-   installed at run time by this
+   the broad phase (``box_pairs``), the sub-pair suppression (``Registration._blocked``,
+   both in ``predicates.registration.levels``) and the predicates (``Kind.evaluate`` of
+   ``predicates.catalogue``) of every kind — wrappers installed at run time by this
    script, the library is not modified; ``res.timings`` gives setup (validation,
    scaling, tolerances), primitives, the cell-level broad phase and each kind's total;
 3. peak RSS is read;
@@ -70,7 +70,7 @@ def load() -> str:
 
 # -- the child ------------------------------------------------------------------------------
 def _meshes(case):
-    from predicates import meshes
+    from predicates.registration import examples as meshes
     n = case["n"]
     if case["dim"] == 3:
         sim = meshes.cube_grid(n)
@@ -93,7 +93,8 @@ def _meshes(case):
 
 class _Timers:
     """Per-kind time of the broad phase, the suppression and the predicates, measured by
-    wrappers around predicates.registration's module-level functions and methods."""
+    wrappers around predicates.registration.levels's functions and methods and
+    predicates.catalogue.Kind.evaluate."""
 
     def __init__(self):
         self.t = defaultdict(lambda: defaultdict(float))
@@ -101,11 +102,12 @@ class _Timers:
 
     def install(self):
         import importlib
-        # the module behind predicates.intersect
-        I = importlib.import_module("predicates.registration")
+        # the module behind predicates.intersect's level loop
+        I = importlib.import_module("predicates.registration.levels")
+        Kind = importlib.import_module("predicates.catalogue").Kind
         timers = self
-        orig_bp, orig_blocked, orig_eval = I.box_pairs, I._Registration._blocked, I._evaluate
-        orig_cand = I._Registration._candidates
+        orig_bp, orig_blocked, orig_eval = I.box_pairs, I.Registration._blocked, Kind.evaluate
+        orig_cand = I.Registration._candidates
 
         def box_pairs(*a, **k):
             t = time.perf_counter()
@@ -125,16 +127,16 @@ class _Timers:
             timers.t[timers.kind]["suppression"] += time.perf_counter() - t
             return out
 
-        def _evaluate(kind, *a):
+        def evaluate(self, *a):
             t = time.perf_counter()
-            out = orig_eval(kind, *a)
-            timers.t[kind]["predicates"] += time.perf_counter() - t
+            out = orig_eval(self, *a)
+            timers.t[self.name]["predicates"] += time.perf_counter() - t
             return out
 
         I.box_pairs = box_pairs
-        I._Registration._candidates = _candidates
-        I._Registration._blocked = _blocked
-        I._evaluate = _evaluate
+        I.Registration._candidates = _candidates
+        I.Registration._blocked = _blocked
+        Kind.evaluate = evaluate
 
     def _wrap_gen(self, gen):
         kind = self.kind

@@ -129,8 +129,8 @@ def test_shadow_run_follows_the_real_path(fmt_name):
         for _ in range(25):
             cfg = gen.sample()
             ctx = A.run_shadow(spec, cfg)
-            pts = A._working_points(fmt_name, cfg.points)
-            hit, w = pred(*pts, cfg.info.real, ctx=A._real_context(fmt_name))
+            pts = A.working_points(fmt_name, cfg.points)
+            hit, w = pred(*pts, cfg.info.real, ctx=A.real_context(fmt_name))
             assert bool(np.all(hit)) == bool(ctx.result), (pred, cfg)
             if ctx.result:  # identical working weights, bit for bit
                 got = [A.FORMATS[fmt_name][0].to_fraction(x.w) for x in ctx.weights]
@@ -247,3 +247,52 @@ def test_cli_json_and_exit_status(capsys, monkeypatch):
         A.spec_for.cache_clear()
     assert rc == 1
     assert "Violations:" in capsys.readouterr().out
+
+
+# --------------------------------------------------------------------------------------
+# bad arguments are argparse errors, before any work
+# --------------------------------------------------------------------------------------
+ROOT = __import__("pathlib").Path(__file__).resolve().parent.parent
+
+
+def _fperr(args, cwd):
+    import os
+    import subprocess
+    import sys
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    return subprocess.run([sys.executable, "-m", "proofs.cli", *args], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=120)
+
+
+@pytest.mark.parametrize("args, msg", [
+    (["--dims", "4"], "argument --dims: dimension 4 is not supported"),
+    (["--dims", "2,x"], "argument --dims"),
+    (["-o", "/missing/x"], "argument -o/--output: directory /missing does not exist"),
+    (["--formats", "binary16"], "unknown format 'binary16'"),
+    (["--dims", "2", "--predicates", "tetrahedron_vertex"],
+     "unknown predicate 'tetrahedron_vertex'"),
+])
+def test_audit_bad_arguments_exit_2_before_any_work(tmp_path, args, msg):
+    r = _fperr(["audit", *args], tmp_path)
+    assert r.returncode == 2, r.stderr
+    assert msg in r.stderr and "usage: fperr audit" in r.stderr
+    assert "audited" not in r.stderr and r.stdout == ""  # nothing was run or printed
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_audit_output_is_written_where_asked(tmp_path):
+    r = _fperr(["audit", "--samples", "3", "--search-steps", "0", "--dims", "2",
+                "--predicates", "vertex_vertex", "--formats", "binary64", "--format", "json",
+                "-o", "sub.json"], tmp_path)
+    assert r.returncode == 0, r.stderr
+    written = json.loads((tmp_path / "sub.json").read_text())
+    assert written == json.loads(r.stdout) and written["violation_count"] == 0
+    assert [q["predicate"] for q in written["quantities"]] == ["2D vertex_vertex"]
+
+
+def test_library_audit_rejects_bad_selections():
+    with pytest.raises(ValueError, match="unknown dimension 4"):
+        A.audit(dims=(4,))
+    with pytest.raises(ValueError, match="unknown format 'binary16'"):
+        A.audit(formats=("binary16",))
+    assert [p.name for p in A.select_predicates((3,), ("edge_edge",))] == ["edge_edge"]

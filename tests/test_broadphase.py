@@ -1,4 +1,4 @@
-"""The broad phase (predicates.broadphase) against brute force: every pair within pad,
+"""The broad phase (predicates.registration.broadphase) against brute force: every pair within pad,
 exactly once, including crowded grid cells (refined recursively) and degenerate boxes;
 near_flags against its definition."""
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from predicates.broadphase import box_pairs, box_pairs_bruteforce, near_flags
+from predicates.registration.broadphase import box_pairs, box_pairs_bruteforce, near_flags
 
 
 def _pairs(la, ha, lb, hb, pad, chunk=1 << 22):
@@ -72,7 +72,7 @@ def test_near_flags_definition():
 def test_near_flags_dense_equals_expanded(dim, monkeypatch):
     """The summed-area path flags exactly the boxes sharing a grid cell with the other
     side, like the expanded-entries path it replaces on dense grids."""
-    import predicates.broadphase as B
+    import predicates.registration.broadphase as B
     rng = np.random.default_rng(10 + dim)
     flagged = 0
     for trial in range(25):

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 import predicates
-from predicates.broadphase import box_pairs, box_pairs_bruteforce
+from predicates.registration.broadphase import box_pairs, box_pairs_bruteforce
 from predicates.catalogue import kinds
-from predicates.meshes import example, cube_grid, grid_plane, square_grid
+from predicates.registration.examples import example, cube_grid, grid_plane, square_grid
 from test_intersect_exact import transformed
 from test_intersect_oracle import check_exact
 
@@ -367,7 +367,7 @@ def test_benchmark_size_case_runs_within_budget():
     icosphere, in at most 10 s of CPU time (process time: robust to a loaded machine)."""
     import time
 
-    from predicates.meshes import icosphere
+    from predicates.registration.examples import icosphere
 
     sp, sc = cube_grid(32)
     cp, cc = icosphere(5)

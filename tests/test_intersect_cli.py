@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import predicates
-from predicates.meshes import example
+from predicates.registration.examples import example
 from proofs.cli import main
 
 

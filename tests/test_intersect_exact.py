@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import predicates
-from predicates.meshes import example
+from predicates.registration.examples import example
 from test_intersect_oracle import check_exact
 
 LONG = os.environ.get("FPERR_LONG") == "1"

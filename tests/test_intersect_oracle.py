@@ -35,7 +35,7 @@ import numpy as np
 import pytest
 
 from predicates.tolerance_table import TABLES
-from predicates.meshes import example
+from predicates.registration.examples import example
 import predicates
 
 KIND_DIMS = {2: {"vertex_vertex": (0, 0), "vertex_edge": (0, 1), "edge_vertex": (1, 0),

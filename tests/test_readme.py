@@ -25,3 +25,23 @@ def test_readme_quick_start_matches_ci():
     test_line = "python3 -m pip install -e '.[test]' && python3 -m pytest -q"
     assert test_line in text
     assert test_line in ci
+
+
+def test_design_map_lists_every_module():
+    """docs/design.md's map of the layers names every module and subpackage of the three
+    packages (a module added without its line fails here), and nothing that is gone."""
+    root = README.parent
+    text = (root / "docs" / "design.md").read_text().split("\n## ", 2)[1]
+    assert text.startswith("Map of the layers")
+    listed = set(re.findall(r"^\s*- `([\w.]+/?)`", text, re.M))
+    actual = set()
+    for pkg in ("fperr", "predicates", "proofs"):
+        actual.add(pkg + "/")
+        for p in (root / pkg).rglob("*"):
+            if "__pycache__" in p.parts or p.name == "__init__.py":
+                continue
+            if p.is_dir():
+                actual.add(p.name + "/")
+            elif p.suffix == ".py":
+                actual.add(p.name)
+    assert listed == actual

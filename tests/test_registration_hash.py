@@ -11,10 +11,7 @@ import pytest
 
 import predicates
 
-try:  # the example generators moved with the registration subpackage
-    from predicates.registration import examples as meshes
-except ImportError:  # pragma: no cover - layout before the move
-    from predicates import meshes
+from predicates.registration import examples as meshes
 
 
 def result_hash(res) -> str:

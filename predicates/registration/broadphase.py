@@ -1,6 +1,6 @@
-"""Broad phase: every pair of boxes within a distance ``pad`` of each other, in
-O(n log n + pairs) time and linear memory (hierarchical grid hashing, vectorised with
-numpy).
+"""Broad phase of the registration (section 1 of the paper): every pair of boxes within
+a distance ``pad`` of each other, in O(n log n + pairs) time and linear memory
+(hierarchical grid hashing, vectorised with numpy).
 
 The test a pair must pass is, per axis, ``F[lo_b − hi_a] ≤ pad`` and
 ``F[lo_a − hi_b] ≤ pad`` (``pad`` a binary64 number). Rounding to nearest is monotone,
@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["box_pairs", "box_pairs_bruteforce", "boxes", "near_flags"]
+__all__ = ["box_pairs", "box_pairs_bruteforce", "near_flags"]
 
 _BITS = 20  # at most 2^20 + 1 cells per axis: linear keys fit in int64
 #: A cell is refined when its proposals exceed both of these (pairs; pairs per entry).
@@ -43,11 +43,6 @@ _DENSE_PER_ENTRY = 8  # they have at most this many cells per box entry (or 2^16
 def _dense(G, entries):
     cells = float(np.prod(G.astype(float)))
     return cells <= _DENSE and cells <= _DENSE_PER_ENTRY * entries + (1 << 16)
-
-
-def boxes(coords: np.ndarray):
-    """Bounding boxes of simplices given as (n, k, d) vertex coordinates: (lo, hi)."""
-    return coords.min(axis=1), coords.max(axis=1)
 
 
 def box_pairs_bruteforce(lo_a, hi_a, lo_b, hi_b, pad):

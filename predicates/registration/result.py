@@ -1,4 +1,5 @@
-"""The result of :func:`predicates.intersect`: registered pairs per kind, summary, export."""
+"""The result of :func:`predicates.registration.intersect` (section 1 of the paper):
+registered pairs per kind, readable summary, consistency counts, export."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -100,7 +101,7 @@ class IntersectionResult:
     def tolerances_input_units(self) -> dict:
         """Every tolerance (and L) in the input's units: T·2^(e·p) (inf/0 if that
         overflows/underflows binary64; the registration itself never does)."""
-        from .tolerance_table import TABLES
+        from ..tolerance_table import TABLES
 
         e = self.scale_exponent
         out = {"L": float(np.ldexp(np.float64(self.tolerances.L), e))}
@@ -215,8 +216,12 @@ class IntersectionResult:
                 "cut_weights": np.concatenate(cw)}
         return meshio.Mesh(X, cells, point_data=data)
 
-    def summary(self) -> str:
-        return str(self)
+    def split(self):
+        """The virtual-node split of the simulation mesh along the cut
+        (:func:`predicates.registration.split.split_mesh`; rules in docs/split.md)."""
+        from .split import split_mesh  # lazy: the split is a layer on top of the result
+
+        return split_mesh(self)
 
     def __str__(self):
         dt = "binary64" if self.dtype == np.float64 else "binary32"

@@ -1,4 +1,6 @@
-"""Input of :func:`predicates.intersect`: validation, meshio meshes and mesh files.
+"""Input of :func:`predicates.registration.intersect` (steps 1–2 of
+:mod:`predicates.registration.pipeline`): the call's forms, validation, meshio meshes,
+and the exact power-of-two scaling.
 
 Everything a user can get wrong is rejected here with a ValueError or TypeError that
 names the mesh, the array and the problem, before any work is done.
@@ -9,10 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["MeshInput", "from_meshio", "read_mesh", "validate_mesh", "validate_pair"]
-
-#: cells per dimension: (simulation cell, cutting cell) with their meshio names
-CELLS = {2: (("triangle", 3), ("line", 2)), 3: (("tetra", 4), ("triangle", 3))}
+__all__ = ["MeshInput", "from_meshio", "max_box_edge", "mesh_arrays", "scale_points",
+           "validate_mesh", "validate_pair"]
 
 
 @dataclass
@@ -162,16 +162,55 @@ def from_meshio(sim, cut):
     return sp, sim_tris, cp, cut_lines
 
 
-def read_mesh(path):
-    """Read a mesh file with meshio (any format it knows), with a clear error."""
-    import os
+# -- the call's forms and the exact scaling ----------------------------------------------
+def mesh_arrays(args: tuple) -> tuple:
+    """(sim_points, sim_cells, cut_points, cut_cells) from the positional arguments of
+    :func:`~predicates.registration.intersect`: four arrays, two ``meshio.Mesh`` or two
+    ``(points, cells)`` tuples."""
+    if len(args) == 4:
+        return args
+    if len(args) == 2:
+        out = []
+        for role, m in zip(("simulation", "cutting"), args):
+            if hasattr(m, "points") and hasattr(m, "cells"):
+                out.append(m)
+            elif isinstance(m, (tuple, list)) and len(m) == 2:
+                out.append(tuple(m))
+            else:
+                raise TypeError(f"the {role} mesh must be a meshio.Mesh or a (points, cells) "
+                                f"tuple, got {type(m).__name__}")
+        sim, cut = out
+        if isinstance(sim, tuple) and isinstance(cut, tuple):
+            return (*sim, *cut)
+        if isinstance(sim, tuple) or isinstance(cut, tuple):
+            raise TypeError("pass both meshes as meshio.Mesh or both as (points, cells)")
+        return from_meshio(sim, cut)
+    raise TypeError("intersect(sim_points, sim_cells, cut_points, cut_cells) or "
+                    f"intersect(sim_mesh, cut_mesh); got {len(args)} positional arguments")
 
-    import meshio
 
-    if not os.path.isfile(path):
-        raise FileNotFoundError(f"no such mesh file: {path}")
-    try:
-        with np.errstate(all="ignore"):  # meshio's STL reader overflows harmlessly
-            return meshio.read(path)
-    except meshio.ReadError as e:
-        raise ValueError(f"cannot read {path}: {e}") from None
+def max_box_edge(points: np.ndarray, cells: np.ndarray) -> float:
+    """Largest bounding-box edge of any cell, in binary64, rounded up one ulp (an upper
+    bound of the exact value: hi − lo is correctly rounded)."""
+    if len(cells) == 0:
+        return 0.0
+    X = points.astype(np.float64, copy=False)[cells]
+    d = (X.max(axis=1) - X.min(axis=1)).max()
+    return float(np.nextafter(d, np.inf)) if d > 0 else 0.0
+
+
+def scale_points(points: np.ndarray, e: int, role: str) -> np.ndarray:
+    """``points``·2^-e, refused unless exact (no overflow, no bit lost to underflow)."""
+    with np.errstate(all="ignore"):
+        out = np.ldexp(points, -e)
+        back = np.ldexp(out, e)
+    limit = np.finfo(points.dtype).max / 16
+    if not (np.isfinite(out).all() and np.all(np.abs(out) <= limit)):
+        raise ValueError(f"the {role} coordinates are too large relative to the cells' size "
+                         f"(scaling the cells to unit size by 2^{-e} overflows "
+                         f"{points.dtype.name}): translate the meshes closer to the origin")
+    if not np.array_equal(back, points):
+        raise ValueError(f"the {role} coordinates cannot be scaled exactly by 2^{-e} (to "
+                         f"unit-size cells): some are so small relative to the cells that "
+                         f"they underflow {points.dtype.name}; round them to zero first")
+    return out

@@ -1,15 +1,16 @@
-"""Run the built-in examples (generated, no download).
+"""The built-in examples of the registration (section 1 of the paper), generated (no
+download): what ``fperr demo`` runs.
 
 1. 2D: an n×n grid of squares (two triangles each) cut by a circle polygon;
 2. 3D: the unit cube as n/2 × n/2 × n/2 cubes of six tetrahedra cut by an icosphere;
 3. degenerate cases, robust registration against the naive zero-tolerance baseline:
    cuts lying on mesh edges, through mesh vertices and on mesh faces, also under ten
-   fixed rotations (so that "on" holds only to rounding; counts summed). Inconsistencies: cutting vertices inside the
-   simulation mesh not located exactly once (IntersectionResult.mislocated), plus
-   cutting edges whose events are not a walk through the mesh
-   (IntersectionResult.broken_walks).
+   fixed rotations (so that "on" holds only to rounding; counts summed).
+   Inconsistencies: cutting vertices inside the simulation mesh not located exactly
+   once (IntersectionResult.mislocated), plus cutting edges whose events are not a walk
+   through the mesh (IntersectionResult.broken_walks).
 
-Prints the summary tables and writes into --out (default ./fperr-demo/):
+Prints the summary tables and writes into the output directory:
 demo_2d.png (plot), demo_2d.vtu, demo_3d.vtu (intersection points, for ParaView) and
 the meshes themselves (demo_2d_sim.vtu, demo_2d_cut.vtu, demo_3d_sim.vtu,
 demo_3d_cut.vtu).
@@ -17,19 +18,15 @@ demo_3d_cut.vtu).
 from __future__ import annotations
 
 import os
-import sys
 
 import numpy as np
 
+from .examples import example
+from .files import write_mesh
+from .pipeline import intersect
+from .plot import plot_2d
 
-def add_arguments(p):
-    p.add_argument("--out", default="fperr-demo", metavar="DIR",
-                   help="output directory (default ./fperr-demo, created if missing)")
-    p.add_argument("--n", type=int, default=16, metavar="N",
-                   help="grid resolution: N×N squares in 2D, N/2 cubes per side in 3D "
-                        "(default 16)")
-    p.add_argument("--dtype", choices=("float64", "float32"), default="float64")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+__all__ = ["ROTATIONS", "degenerate_cases", "demo", "rotation"]
 
 
 def rotation(dim, seed=1):
@@ -44,8 +41,6 @@ ROTATIONS = 10
 def degenerate_cases(n):
     """[(name, [(sim, cut), ...] variants, inside mask of the cutting vertices)]:
     rotated cases come as ROTATIONS fixed rotations (their counts are summed)."""
-    from .meshes import example
-
     n3 = max(2, n // 2)
     m = max(7, n)
     cases = [("2D diagonal on mesh edges", example("diagonal", n), False),
@@ -73,48 +68,49 @@ def degenerate_cases(n):
     return out
 
 
-def _write_mesh(path, points, cells, cell_type):
-    import meshio
+def demo(out: str | os.PathLike, *, n: int = 16, dtype: str = "float64",
+         progress: bool = False) -> None:
+    """Run the three parts of the demo (module docstring) at grid resolution ``n``
+    (n×n squares in 2D, n/2 cubes per side in 3D) in the working precision ``dtype``,
+    print their tables and write the files into the directory ``out`` (created if
+    missing)."""
+    if int(n) != n or n < 2:
+        raise ValueError(f"n must be an integer >= 2, got {n!r}")
+    if os.path.exists(out) and not os.path.isdir(out):
+        raise ValueError(f"{out} exists and is not a directory")
+    dtype = np.dtype(dtype)
+    os.makedirs(out, exist_ok=True)
+    _demo_2d(out, int(n), dtype, progress)
+    _demo_3d(out, max(2, int(n) // 2), dtype, progress)
+    _degenerate_table(int(n), dtype)
+    print(f"\nwrote demo_2d.png, demo_2d.vtu, demo_3d.vtu and the meshes into {out}/")
 
-    pts = np.asarray(points, dtype=np.float64)
-    if pts.shape[1] == 2:
-        pts = np.column_stack([pts, np.zeros(len(pts))])
-    meshio.Mesh(pts, [(cell_type, np.asarray(cells))]).write(path)
 
-
-def run(args):
-    from .cli_intersect import plot_2d
-    from .registration import intersect
-    from .meshes import example
-
-    if args.n < 2:
-        print("fperr demo: error: --n must be at least 2", file=sys.stderr)
-        return 2
-    dtype = np.dtype(args.dtype)
-    os.makedirs(args.out, exist_ok=True)
-    n, n3 = args.n, max(2, args.n // 2)
-    progress = not args.quiet
-
+def _demo_2d(out, n, dtype, progress):
     ex2 = example("circle", n, segments=4 * n)
     res2 = intersect(*ex2["sim"], *ex2["cut"], dtype=dtype, progress=progress)
     print(f"== 2D: {n}×{n} grid cut by a {4 * n}-gon ==")
     print(res2, end="\n\n")
-    plot_2d(res2, os.path.join(args.out, "demo_2d.png"),
+    plot_2d(res2, os.path.join(out, "demo_2d.png"),
             title=f"fperr demo: {n}×{n} grid cut by a circle polygon")
-    res2.to_meshio().write(os.path.join(args.out, "demo_2d.vtu"))
-    _write_mesh(os.path.join(args.out, "demo_2d_sim.vtu"), *ex2["sim"], "triangle")
-    _write_mesh(os.path.join(args.out, "demo_2d_cut.vtu"), *ex2["cut"], "line")
+    res2.to_meshio().write(os.path.join(out, "demo_2d.vtu"))
+    write_mesh(os.path.join(out, "demo_2d_sim.vtu"), *ex2["sim"], "triangle")
+    write_mesh(os.path.join(out, "demo_2d_cut.vtu"), *ex2["cut"], "line")
 
+
+def _demo_3d(out, n3, dtype, progress):
     subdiv = int(np.clip(round(np.log2(max(n3, 2))), 1, 5))
     ex3 = example("sphere", n3, subdivisions=subdiv)
     res3 = intersect(*ex3["sim"], *ex3["cut"], dtype=dtype, progress=progress)
     print(f"== 3D: {n3}³ cubes × 6 tetrahedra cut by an icosphere "
           f"({len(ex3['cut'][1])} triangles) ==")
     print(res3, end="\n\n")
-    res3.to_meshio().write(os.path.join(args.out, "demo_3d.vtu"))
-    _write_mesh(os.path.join(args.out, "demo_3d_sim.vtu"), *ex3["sim"], "tetra")
-    _write_mesh(os.path.join(args.out, "demo_3d_cut.vtu"), *ex3["cut"], "triangle")
+    res3.to_meshio().write(os.path.join(out, "demo_3d.vtu"))
+    write_mesh(os.path.join(out, "demo_3d_sim.vtu"), *ex3["sim"], "tetra")
+    write_mesh(os.path.join(out, "demo_3d_cut.vtu"), *ex3["cut"], "triangle")
 
+
+def _degenerate_table(n, dtype):
     print("== degenerate cases: robust against naive (zero tolerances) ==")
     print("inconsistencies = cutting vertices inside the mesh not located exactly once\n"
           "                + cutting edges whose events are not a walk through the mesh")
@@ -131,5 +127,3 @@ def run(args):
           f"{'inconsist.':>10}")
     for name, a, b, c, d in rows:
         print(f"{name:<{w}}  {a:>12}  {b:>10}  {c:>11}  {d:>10}")
-    print(f"\nwrote demo_2d.png, demo_2d.vtu, demo_3d.vtu and the meshes into {args.out}/")
-    return 0

@@ -1,0 +1,20 @@
+"""Registration of a simulation mesh against a cutting mesh (section 1 of the paper),
+built on the algorithms of sections 4–5 (:mod:`predicates.d2`, :mod:`predicates.d3`).
+
+One module per step (see :mod:`predicates.registration.pipeline` for how they fit):
+
+* :mod:`~predicates.registration.inputs` — the call's forms, validation, exact scaling;
+* :mod:`~predicates.registration.examples` — generated example meshes;
+* :mod:`~predicates.registration.broadphase` — boxes within a distance, on a grid;
+* :mod:`~predicates.registration.complex` — rank space and simplicial complexes;
+* :mod:`~predicates.registration.levels` — candidates, suppression, the level loop;
+* :mod:`~predicates.registration.pipeline` — :func:`intersect`, :func:`intersect_files`;
+* :mod:`~predicates.registration.result` — :class:`IntersectionResult`, :class:`KindPairs`;
+* :mod:`~predicates.registration.files` — mesh files in and out;
+* :mod:`~predicates.registration.plot` — 2D pictures (matplotlib);
+* :mod:`~predicates.registration.demo` — the built-in examples of ``fperr demo``.
+"""
+from .pipeline import intersect, intersect_files
+from .result import IntersectionResult, KindPairs
+
+__all__ = ["IntersectionResult", "KindPairs", "intersect", "intersect_files"]

@@ -1,0 +1,93 @@
+"""Rank space (step 3 of :mod:`predicates.registration.pipeline`, section 1 of the paper):
+each mesh's vertices ordered lexicographically by coordinates, and the simplicial complex
+of its cells — every vertex, edge, face (and cell) once, with the map from each simplex
+to its faces.
+
+Ordering the vertices of every primitive by coordinates makes the predicates see the
+same numbers in the same order whatever the vertex numbering, cell order or orientation.
+"""
+from __future__ import annotations
+
+import itertools
+from math import comb
+
+import numpy as np
+
+__all__ = ["Complex", "Side", "unique_rows"]
+
+
+def unique_rows(rows: np.ndarray, n: int):
+    """Unique rows (sorted lexicographically) and the inverse map, for ids < n."""
+    w = rows.shape[1]
+    if w == 1:
+        u, inv = np.unique(rows[:, 0], return_inverse=True)
+        return u[:, None], inv.ravel()
+    if n ** w < 2 ** 62:
+        key = rows[:, 0].astype(np.int64)
+        for c in range(1, w):
+            key = key * n + rows[:, c]
+        _, first, inv = np.unique(key, return_index=True, return_inverse=True)
+        return rows[first], inv.ravel()
+    u, inv = np.unique(rows, axis=0, return_inverse=True)
+    return u, inv.ravel()
+
+
+class Complex:
+    """The simplices of a mesh, all dimensions, in rank space.
+
+    ``S[k]`` (n_k, k+1): the k-simplices, rows of increasing rank; ``face(k, j)``
+    (n_k, C(k+1, j+1)): indices into ``S[j]`` of the j-faces of each k-simplex.
+    """
+
+    def __init__(self, cells: np.ndarray, n: int):
+        self.top = cells.shape[1] - 1
+        top = self.top
+        self.S = {}
+        self.F = {}
+        self.S[top], _ = unique_rows(cells, n)
+        for k in range(top, 0, -1):
+            rows = self.S[k]
+            combos = list(itertools.combinations(range(k + 1), k))
+            sub = rows[:, combos].reshape(-1, k)
+            self.S[k - 1], inv = unique_rows(sub, n)
+            self.F[k, k - 1] = inv.reshape(len(rows), k + 1)
+        for k in range(2, top + 1):
+            for j in range(k - 2, -1, -1):
+                g = self.F[k - 1, j][self.F[k, k - 1]].reshape(len(self.S[k]), -1)
+                g.sort(axis=1)
+                self.F[k, j] = np.ascontiguousarray(g[:, :: k - j])
+                assert self.F[k, j].shape[1] == comb(k + 1, j + 1)
+
+    def face(self, k: int, j: int) -> np.ndarray:
+        if j == k:
+            return np.arange(len(self.S[k]))[:, None]
+        return self.F[k, j]
+
+
+class Side:
+    """One mesh in rank space: coordinates by rank, the cells (rows of increasing
+    rank), the simplicial complex of the cells that matter (built by :meth:`build`), and
+    the map back to the input's vertex ids."""
+
+    def __init__(self, P: np.ndarray, cells: np.ndarray):
+        n = len(P)
+        order = np.lexsort(P.T[::-1])  # x primary; ties (equal points) keep id order
+        rank = np.empty(n, dtype=np.int64)
+        rank[order] = np.arange(n)
+        self.order = order
+        self.P = np.ascontiguousarray(P[order])
+        self.cells = np.sort(rank[cells], axis=1)
+        self.cx = None
+
+    def build(self, mask):
+        """The complex of the cells selected by ``mask`` (all their faces)."""
+        self.cx = Complex(self.cells[mask], len(self.P))
+
+    def count(self, k):
+        return len(self.cx.S[k])
+
+    def coords(self, k, idx):
+        return self.P[self.cx.S[k][idx]]
+
+    def ids(self, k, idx):
+        return self.order[self.cx.S[k][idx]]
