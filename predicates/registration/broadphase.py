@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["box_pairs", "box_pairs_bruteforce", "near_flags"]
+__all__ = ["box_pairs", "box_pairs_bruteforce", "boxes_of", "near_flags"]
 
 _BITS = 20  # at most 2^20 + 1 cells per axis: linear keys fit in int64
 #: A cell is refined when its proposals exceed both of these (pairs; pairs per entry).
@@ -45,6 +45,20 @@ def _dense(G, entries):
     return cells <= _DENSE and cells <= _DENSE_PER_ENTRY * entries + (1 << 16)
 
 
+def boxes_of(points: np.ndarray, rows: np.ndarray):
+    """Bounding boxes (lo, hi), each (n, d) float64, of the simplices ``points[rows]``
+    (rows (n, k) of vertex ids), one vertex column at a time: never the (n, k, d) gather.
+    Exact (min and max round nothing)."""
+    P = points.astype(np.float64, copy=False)
+    lo = P[rows[:, 0]]
+    hi = lo.copy()
+    for v in range(1, rows.shape[1]):
+        x = P[rows[:, v]]
+        np.minimum(lo, x, out=lo)
+        np.maximum(hi, x, out=hi)
+    return lo, hi
+
+
 def box_pairs_bruteforce(lo_a, hi_a, lo_b, hi_b, pad):
     """Reference: all pairs by the same test, O(n_a·n_b) (for tests only)."""
     lo_a, hi_a, lo_b, hi_b = (np.asarray(x, dtype=np.float64) for x in (lo_a, hi_a, lo_b, hi_b))
@@ -55,13 +69,15 @@ def box_pairs_bruteforce(lo_a, hi_a, lo_b, hi_b, pad):
 
 
 def _cell_index(x, origin, h, G):
+    """Cell of each coordinate, clipped to the grid (int32: G ≤ 2^20 + 1 per axis)."""
     with np.errstate(all="ignore"):
         i = np.floor((x - origin) / h)
-    return np.clip(i, 0, G - 1).astype(np.int64)
+    np.clip(i, 0, G - 1, out=i)
+    return i.astype(np.int32)
 
 
 def _linear(idx, G):
-    key = idx[:, -1].copy()
+    key = idx[:, -1].astype(np.int64)
     for ax in range(idx.shape[1] - 2, -1, -1):
         key *= G[ax]
         key += idx[:, ax]

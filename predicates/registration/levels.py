@@ -15,7 +15,7 @@ import time
 import numpy as np
 
 from ..catalogue import kinds as catalogue_kinds
-from .broadphase import box_pairs, near_flags
+from .broadphase import box_pairs, boxes_of, near_flags
 from .complex import Side
 from .result import KindPairs
 
@@ -44,9 +44,9 @@ class Registration:
         sim, cut = self.sim, self.cut
         if len(sim.cells) == 0 or len(cut.cells) == 0:
             return
-        Xs, Xc = sim.P[sim.cells], cut.P[cut.cells]
         pad = max(self.reach.values())
-        near_s, near_c = near_flags(Xs.min(1), Xs.max(1), Xc.min(1), Xc.max(1), pad)
+        near_s, near_c = near_flags(*boxes_of(sim.P, sim.cells), *boxes_of(cut.P, cut.cells),
+                                    pad)
         if not (near_s.any() and near_c.any()):
             return
         sim.build(near_s)
@@ -54,9 +54,8 @@ class Registration:
         self.empty = False
 
     def _candidates(self, kind, i, j):
-        Xs = self.sim.coords(i, slice(None))
-        Xc = self.cut.coords(j, slice(None))
-        yield from box_pairs(Xs.min(1), Xs.max(1), Xc.min(1), Xc.max(1), self.reach[kind],
+        yield from box_pairs(*boxes_of(self.sim.P, self.sim.cx.S[i]),
+                             *boxes_of(self.cut.P, self.cut.cx.S[j]), self.reach[kind],
                              chunk=4 * self.chunk)
 
     # -- suppression --------------------------------------------------------------------
