@@ -171,7 +171,7 @@ def _occupied(keys, other, G):
         occ = np.zeros(int(np.prod(G)), dtype=bool)
         occ[other] = True
         return occ[keys]
-    return np.isin(keys, other)
+    return np.isin(keys, other, kind="sort")
 
 
 def near_flags(lo_a, hi_a, lo_b, hi_b, pad: float):
@@ -263,15 +263,22 @@ def _level(bx, ids_a, ids_b, origin, G, h, ranges, chunk, depth):
     ia0, ia1, ib0, ib1 = ranges
     box_a, key_a, mask_a = _entries(ia0, ia1, G)
     box_b, key_b, mask_b = _entries(ib0, ib1, G)
-    ka, kb = _occupied(key_a, key_b, G), _occupied(key_b, key_a, G)
-    oa = np.flatnonzero(ka)[np.argsort(key_a[ka])]
-    ob = np.flatnonzero(kb)[np.argsort(key_b[kb])]
+    if _dense(G, len(key_a) + len(key_b)):  # drop entries alone in their cell, then sort
+        ka, kb = _occupied(key_a, key_b, G), _occupied(key_b, key_a, G)
+        oa = np.flatnonzero(ka)[np.argsort(key_a[ka])]
+        ob = np.flatnonzero(kb)[np.argsort(key_b[kb])]
+        cells, sa, ca = _runs(key_a[oa])
+        _, sb, cb = _runs(key_b[ob])  # both sides occupy exactly the same cells now
+    else:  # sparse grid: sort everything, join the sorted runs
+        oa, ob = np.argsort(key_a), np.argsort(key_b)
+        ua, sa, ca = _runs(key_a[oa])
+        ub, sb, cb = _runs(key_b[ob])
+        cells, ja, jb = np.intersect1d(ua, ub, assume_unique=True, return_indices=True)
+        sa, ca, sb, cb = sa[ja], ca[ja], sb[jb], cb[jb]
     box_a, box_b = box_a[oa], box_b[ob]
     mask_a = None if mask_a is None else mask_a[oa]
     mask_b = None if mask_b is None else mask_b[ob]
-    cells, sa, ca = _runs(key_a[oa])
-    _, sb, cb = _runs(key_b[ob])  # both sides occupy exactly the same cells now
-    del oa, ob, key_a, key_b, ka, kb
+    del oa, ob, key_a, key_b
     if cells.size == 0:
         return
     npairs = ca * cb
