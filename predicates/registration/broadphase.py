@@ -128,8 +128,28 @@ def _enlarge(lo_b, hi_b, pad):
         return np.nextafter(lo_b - pad, -np.inf), np.nextafter(hi_b + pad, np.inf)
 
 
+def _ncells(i0, i1):
+    """Cells covered by each box (int64), axis by axis."""
+    n = i1[:, 0].astype(np.int64) - i0[:, 0] + 1
+    for ax in range(1, i0.shape[1]):
+        n *= i1[:, ax].astype(np.int64) - i0[:, ax] + 1
+    return n
+
+
+def _colmin(x):
+    """x.min(axis=0), column by column (several times faster on (n, 3) arrays)."""
+    return np.array([x[:, ax].min() for ax in range(x.shape[1])])
+
+
+def _colmax(x):
+    return np.array([x[:, ax].max() for ax in range(x.shape[1])])
+
+
 def _mean_extent(lo, hi, cap=np.inf):
-    return float(np.minimum(hi - lo, cap).mean(axis=0).max()) if len(lo) else 0.0
+    """The largest per-axis mean box extent (extents capped at ``cap``): a cell size."""
+    if len(lo) == 0:
+        return 0.0
+    return max(float(np.minimum(hi[:, ax] - lo[:, ax], cap).mean()) for ax in range(lo.shape[1]))
 
 
 def _fit(lo_a, hi_a, lo_bx, hi_bx, origin, top, h, budget):
@@ -139,7 +159,7 @@ def _fit(lo_a, hi_a, lo_bx, hi_bx, origin, top, h, budget):
         G = (np.floor((top - origin) / h).astype(np.int64) + 1).clip(1, (1 << _BITS) + 1)
         ia0, ia1 = _cell_index(lo_a, origin, h, G), _cell_index(hi_a, origin, h, G)
         ib0, ib1 = _cell_index(lo_bx, origin, h, G), _cell_index(hi_bx, origin, h, G)
-        total = (np.prod(ia1 - ia0 + 1, axis=1).sum() + np.prod(ib1 - ib0 + 1, axis=1).sum())
+        total = _ncells(ia0, ia1).sum() + _ncells(ib0, ib1).sum()
         if total <= budget or np.all(G == 1):
             return G, h, ia0, ia1, ib0, ib1
         h *= 2
@@ -150,8 +170,8 @@ def _grid(lo_a, hi_a, lo_b, hi_b, pad):
     (lo_bx, hi_bx, origin, G, h, ia0, ia1, ib0, ib1)."""
     na, nb = len(lo_a), len(lo_b)
     lo_bx, hi_bx = _enlarge(lo_b, hi_b, pad)
-    origin = np.minimum(lo_a.min(axis=0), lo_bx.min(axis=0))
-    top = np.maximum(hi_a.max(axis=0), hi_bx.max(axis=0))
+    origin = np.minimum(_colmin(lo_a), _colmin(lo_bx))
+    top = np.maximum(_colmax(hi_a), _colmax(hi_bx))
     with np.errstate(over="ignore"):
         span = float((top - origin).max())
     if not np.isfinite(span):
@@ -198,18 +218,17 @@ def near_flags(lo_a, hi_a, lo_b, hi_b, pad: float):
 
 def _corners(i0, i1, G):
     """(linear key on the (G + 1)-grid, sign) of the 2^d corners {i0, i1 + 1} of each
-    box's cell range; sign (−1)^(number of i0 picks) (inclusion–exclusion)."""
+    box's cell range; sign (−1)^(number of i0 picks) (inclusion–exclusion). Keys are sums
+    of per-axis terms (two candidates per axis, computed once)."""
     d = len(G)
+    stride = np.cumprod(np.concatenate([[1], (G + 1)[:-1]])).astype(np.int64)
+    lo = [i0[:, ax].astype(np.int64) * stride[ax] for ax in range(d)]
+    up = [(i1[:, ax].astype(np.int64) + 1) * stride[ax] for ax in range(d)]
     for pick in range(1 << d):
-        idx = np.empty(i0.shape, dtype=np.int64)
-        n0 = 0
-        for ax in range(d):
-            if pick >> ax & 1:
-                idx[:, ax] = i1[:, ax] + 1
-            else:
-                idx[:, ax] = i0[:, ax]
-                n0 += 1
-        yield _linear(idx, G + 1), (-1) ** n0
+        key = (up if pick & 1 else lo)[0].copy()
+        for ax in range(1, d):
+            key += (up if pick >> ax & 1 else lo)[ax]
+        yield key, (-1) ** (d - bin(pick).count("1"))
 
 
 def _occupancy(i0, i1, G):
