@@ -370,29 +370,47 @@ def _all_pairs(bx, ga, gb, chunk):
 
 
 def _exact(bx, ia, ib):
-    """The pairs passing F[lo_b − hi_a] ≤ pad and F[lo_a − hi_b] ≤ pad on every axis
-    (axis by axis, compacting the survivors: cheaper gathers on per-axis columns)."""
-    pad, (lo_a, hi_a, lo_b, hi_b) = bx[6], bx[7]
+    """The global pairs (ia, ib) passing the exact test (see :func:`_test`)."""
+    lo_a, hi_a, lo_b, hi_b = bx[7]
+    keep = _test(bx[6], lo_a, hi_a, lo_b, hi_b, ia, ib)
+    if keep.size:
+        yield ia[keep], ib[keep]
+
+
+def _test(pad, lo_a, hi_a, lo_b, hi_b, ia, ib):
+    """Positions of the pairs (ia, ib) passing F[lo_b − hi_a] ≤ pad and
+    F[lo_a − hi_b] ≤ pad on every axis; boxes as (d, n) columns. Axis by axis, compacting
+    the survivors."""
+    pos = None
     for ax in range(len(lo_a)):
         ok = lo_b[ax][ib] - hi_a[ax][ia] <= pad
         ok &= lo_a[ax][ia] - hi_b[ax][ib] <= pad
-        ia, ib = ia[ok], ib[ok]
-    if len(ia):
-        yield ia, ib
+        sel = np.flatnonzero(ok)
+        ia, ib = ia[sel], ib[sel]
+        pos = sel if pos is None else pos[sel]
+    return pos
 
 
 def _join(sa, ca, sb, q_cell, masks, gbox_a, gbox_b, bx):
     """All pairs of the cells given (entries sa[k] … sa[k] + ca[k] of side a against
     q_cell[k] entries from sb[k] of side b; q_cell = 0 for a crowded cell, handled by
     :func:`_refine`), each reported once: in the cell of the lower corner of the boxes'
-    overlap, i.e. on every axis one of the two boxes starts in the cell."""
+    overlap, i.e. on every axis one of the two boxes starts in the cell. The boxes of
+    these entries are gathered once, in entry order, so the pair test reads them almost
+    sequentially."""
+    a0, a1 = sa[0], sa[-1] + ca[-1]
+    b0, b1 = sb[0], sb[-1] + q_cell[-1]  # runs ascend with the cells on both sides
     row_cell = np.repeat(np.arange(len(ca)), ca)
-    ea = np.arange(row_cell.size, dtype=np.int64) + np.repeat(sa - (np.cumsum(ca) - ca), ca)
+    ea = np.arange(row_cell.size, dtype=np.int64) + np.repeat(sa - a0 - (np.cumsum(ca) - ca), ca)
     q = q_cell[row_cell]
     ea = np.repeat(ea, q)
-    eb = np.arange(ea.size, dtype=np.int64) + np.repeat(sb[row_cell] - (np.cumsum(q) - q), q)
+    eb = np.arange(ea.size, dtype=np.int64) + np.repeat(sb[row_cell] - b0 - (np.cumsum(q) - q), q)
     if masks is not None:
         ma, mb, full = masks
-        keep = (ma[ea] | mb[eb]) == full
+        keep = (ma[a0:a1][ea] | mb[b0:b1][eb]) == full
         ea, eb = ea[keep], eb[keep]
-    yield from _exact(bx, gbox_a[ea], gbox_b[eb])
+    ga, gb = gbox_a[a0:a1], gbox_b[b0:b1]
+    lo_a, hi_a, lo_b, hi_b = bx[7]
+    keep = _test(bx[6], lo_a[:, ga], hi_a[:, ga], lo_b[:, gb], hi_b[:, gb], ea, eb)
+    if keep.size:
+        yield ga[ea[keep]], gb[eb[keep]]
