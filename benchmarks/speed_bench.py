@@ -18,7 +18,9 @@ set size (``/proc/self/statm``) every 2 ms; the stages' time intervals are rebui
 RSS; ``VmHWM`` gives the case's overall peak. Times are process CPU time (the
 pipeline runs on one thread, so on an idle machine CPU ≈ wall; this machine is shared)
 and wall time. ``tolerance_scale=0`` (the naive zero-tolerance registration) runs in the
-same child for the robust/naive ratio.
+same child for the robust/naive ratio, followed by a second robust run; the reported CPU
+time is then the better of the two robust runs (the first pays the page faults of fresh
+memory).
 """
 from __future__ import annotations
 
@@ -185,10 +187,17 @@ def child(case):
     out["registered"] = int(sum(res.counts.values()))
     del res
     if case.get("naive", True):
+        # naive, then robust again: the first run in a process pays the page faults of
+        # fresh memory; the ratio compares the best robust run with the naive one
         c0 = time.process_time()
         naive = predicates.intersect(sp, sc, cp, cc, tolerance_scale=0)
         out["naive_cpu_s"] = time.process_time() - c0
         out["naive_registered"] = int(sum(naive.counts.values()))
+        del naive
+        c0 = time.process_time()
+        predicates.intersect(sp, sc, cp, cc)
+        out["cpu_s_first"] = out["cpu_s"]
+        out["cpu_s"] = min(out["cpu_s"], time.process_time() - c0)
     return out
 
 
