@@ -298,6 +298,16 @@ def _level(bx, ids_a, ids_b, origin, G, h, ranges, chunk, depth):
     mask_a = None if mask_a is None else mask_a[oa]
     mask_b = None if mask_b is None else mask_b[ob]
     del oa, ob, key_a, key_b
+    yield from _emit(bx, ids_a, ids_b, origin, G, h, chunk, depth,
+                     (cells, sa, ca, sb, cb, box_a, box_b, mask_a, mask_b))
+
+
+def _emit(bx, ids_a, ids_b, origin, G, h, chunk, depth, runs):
+    """The pairs of the cells shared by both sides, from their sorted entries ``runs`` =
+    (cells, sa, ca, sb, cb, box_a, box_b, mask_a, mask_b): entries sa[k] … sa[k] + ca[k]
+    of box_a (local ids into ids_a) are in cells[k], likewise b; masks as in
+    :func:`_entries`. Crowded cells are refined, the others joined in chunks."""
+    cells, sa, ca, sb, cb, box_a, box_b, mask_a, mask_b = runs
     if cells.size == 0:
         return
     npairs = ca * cb
