@@ -84,11 +84,13 @@ class Side:
     def __init__(self, P: np.ndarray, cells: np.ndarray):
         n = len(P)
         order = np.lexsort(P.T[::-1])  # x primary; ties (equal points) keep id order
-        rank = np.empty(n, dtype=np.int64)
-        rank[order] = np.arange(n)
+        # int32 ranks when they fit: the cells in rank space take half the memory
+        rank = np.empty(n, dtype=np.int32 if n < 2 ** 31 else np.int64)
+        rank[order] = np.arange(n, dtype=rank.dtype)
         self.order = order
         self.P = np.ascontiguousarray(P[order])
-        self.cells = np.sort(rank[cells], axis=1)
+        self.cells = rank[cells]
+        self.cells.sort(axis=1)
         self.cx = None
 
     def build(self, mask):

@@ -56,7 +56,7 @@ class Registration:
     def _candidates(self, kind, i, j):
         yield from box_pairs(*boxes_of(self.sim.P, self.sim.cx.S[i]),
                              *boxes_of(self.cut.P, self.cut.cx.S[j]), self.reach[kind],
-                             chunk=4 * self.chunk)
+                             chunk=2 * self.chunk)
 
     # -- suppression --------------------------------------------------------------------
     def _blocked(self, i, j, s, c):
