@@ -89,3 +89,25 @@ def test_near_flags_dense_equals_expanded(dim, monkeypatch):
         assert np.array_equal(dense[0], expanded[0]) and np.array_equal(dense[1], expanded[1])
         flagged += dense[0].sum() + dense[1].sum()
     assert flagged > 100
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_tighten_flags_superset_and_tighter(dim):
+    """tighten_flags keeps every box with a partner within pad (also for flat inputs:
+    one axis of zero extent), and on clustered inputs drops boxes near_flags kept."""
+    from predicates.registration.broadphase import tighten_flags
+    rng = np.random.default_rng(20 + dim)
+    dropped = 0
+    for trial in range(20):
+        la, ha, lb, hb = _crowded(rng, int(rng.integers(1, 400)), int(rng.integers(0, 40)), dim,
+                                  size=float(rng.choice([1e-3, 0.05])))
+        if trial % 4 == 0:  # flat: every box in the plane x = 0.25
+            for x in (la, ha, lb, hb):
+                x[:, 0] = 0.25
+        pad = float(rng.choice([0, 1e-3, 0.02]))
+        ia, ib = box_pairs_bruteforce(la, ha, lb, hb, pad)
+        na, nb = near_flags(la, ha, lb, hb, pad)
+        ta, tb = tighten_flags(la, ha, lb, hb, pad)
+        assert ta[ia].all() and tb[ib].all()
+        dropped += int((na & ~ta).sum() + (nb & ~tb).sum())
+    assert dropped > 0

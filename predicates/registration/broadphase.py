@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["box_pairs", "box_pairs_bruteforce", "boxes_of", "near_flags"]
+__all__ = ["box_pairs", "box_pairs_bruteforce", "boxes_of", "near_flags", "tighten_flags"]
 
 _BITS = 20  # at most 2^20 + 1 cells per axis: linear keys fit in int64
 #: A cell is refined when its proposals exceed both of these (pairs; pairs per entry).
@@ -214,6 +214,34 @@ def near_flags(lo_a, hi_a, lo_b, hi_b, pad: float):
     near_a[box_a[_occupied(key_a, key_b, G)]] = True
     near_b[box_b[_occupied(key_b, key_a, G)]] = True
     return near_a, near_b
+
+
+def tighten_flags(lo_a, hi_a, lo_b, hi_b, pad: float, per_box: float = 4.0):
+    """Like :func:`near_flags` (a superset of the boxes with a partner within ``pad``),
+    on a grid sized by the boxes' *number* — about ``per_box`` cells per box over their
+    bounding region — rather than by their extent: applied to the boxes near_flags kept,
+    it drops most of those that only shared a coarse cell. Summed-area tables, no
+    expansion: O(2^d·n + cells). Returns all-True flags when no such grid fits."""
+    lo_a, hi_a, lo_b, hi_b = (np.asarray(x, dtype=np.float64) for x in (lo_a, hi_a, lo_b, hi_b))
+    n = len(lo_a) + len(lo_b)
+    keep = np.ones(len(lo_a), dtype=bool), np.ones(len(lo_b), dtype=bool)
+    if len(lo_a) == 0 or len(lo_b) == 0:
+        return keep
+    lo_bx, hi_bx = _enlarge(lo_b, hi_b, pad)
+    origin = np.minimum(_colmin(lo_a), _colmin(lo_bx))
+    ext = np.maximum(_colmax(hi_a), _colmax(hi_bx)) - origin
+    live = ext > 0
+    if not (np.all(np.isfinite(ext)) and live.any()):
+        return keep
+    h = float(np.prod(ext[live]) / (per_box * n)) ** (1 / live.sum())
+    h = max(h, float(ext.max()) * 2.0 ** -_BITS, np.finfo(np.float64).tiny)
+    G = (np.floor(ext / h).astype(np.int64) + 1).clip(1, (1 << _BITS) + 1)
+    if not _dense(G + 1, 2 * n):
+        return keep
+    ia0, ia1 = _cell_index(lo_a, origin, h, G), _cell_index(hi_a, origin, h, G)
+    ib0, ib1 = _cell_index(lo_bx, origin, h, G), _cell_index(hi_bx, origin, h, G)
+    occ_a, occ_b = _occupancy(ia0, ia1, G), _occupancy(ib0, ib1, G)
+    return _any_in(occ_b, ia0, ia1, G), _any_in(occ_a, ib0, ib1, G)
 
 
 def _corners(i0, i1, G):

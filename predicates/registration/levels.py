@@ -15,7 +15,7 @@ import time
 import numpy as np
 
 from ..catalogue import kinds as catalogue_kinds
-from .broadphase import box_pairs, boxes_of, near_flags
+from .broadphase import box_pairs, boxes_of, near_flags, tighten_flags
 from .complex import Side
 from .result import KindPairs
 
@@ -45,8 +45,15 @@ class Registration:
         if len(sim.cells) == 0 or len(cut.cells) == 0:
             return
         pad = max(self.reach.values())
-        near_s, near_c = near_flags(*boxes_of(sim.P, sim.cells), *boxes_of(cut.P, cut.cells),
-                                    pad)
+        box_s, box_c = boxes_of(sim.P, sim.cells), boxes_of(cut.P, cut.cells)
+        near_s, near_c = near_flags(*box_s, *box_c, pad)
+        # a second, finer grid over the survivors only: fewer primitives for every kind
+        si, ci = np.flatnonzero(near_s), np.flatnonzero(near_c)
+        fine_s, fine_c = tighten_flags(box_s[0][si], box_s[1][si], box_c[0][ci],
+                                       box_c[1][ci], pad)
+        near_s[si[~fine_s]] = False
+        near_c[ci[~fine_c]] = False
+        del box_s, box_c
         if not (near_s.any() and near_c.any()):
             return
         sim.build(near_s)
