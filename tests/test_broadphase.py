@@ -111,3 +111,16 @@ def test_tighten_flags_superset_and_tighter(dim):
         assert ta[ia].all() and tb[ib].all()
         dropped += int((na & ~ta).sum() + (nb & ~tb).sum())
     assert dropped > 0
+
+
+@pytest.mark.parametrize("dim,k", [(2, 2), (2, 3), (3, 3), (3, 4)])
+def test_boxes_of_equals_gathered_min_max(dim, k):
+    from predicates.registration.broadphase import boxes_of
+    rng = np.random.default_rng(dim * 10 + k)
+    P = rng.normal(size=(500, dim)) * 10.0 ** rng.integers(-300, 300, size=(500, 1))
+    rows = rng.integers(0, 500, size=(2000, k)).astype(np.int32)
+    lo, hi = boxes_of(P, rows)
+    assert np.array_equal(lo, P[rows].min(axis=1)) and np.array_equal(hi, P[rows].max(axis=1))
+    lo32, _ = boxes_of(P.astype(np.float32), rows)
+    assert lo32.dtype == np.float64
+    assert np.array_equal(lo32, P.astype(np.float32)[rows].min(axis=1))
