@@ -57,7 +57,9 @@ def _add_intersect(sub) -> None:
             "colour-coded by kind."),
         epilog=("examples:\n"
                 "  fperr intersect grid.msh circle.vtk -o hits.vtu --plot hits.png\n"
-                "  fperr intersect cube.vtu sphere.stl --dtype float32 --quiet"))
+                "  fperr intersect cube.vtu sphere.stl --dtype float32 --quiet\n\n"
+                "exit status: 0 done (a coarse resolution is warned about on stderr),\n"
+                "1 refused by --strict or the memory guard, 2 bad input or arguments"))
     p.add_argument("sim", help="simulation mesh file (triangles in 2D, tetrahedra in 3D)")
     p.add_argument("cut", help="cutting mesh file (segments in 2D, triangles in 3D)")
     p.add_argument("-o", "--output", metavar="OUT.vtu",
@@ -68,18 +70,36 @@ def _add_intersect(sub) -> None:
     p.add_argument("--naive", action="store_true",
                    help="zero tolerances: the naive floating-point baseline, for comparison")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--strict", action="store_true",
+                   help="refuse (exit 1, nothing written) when the tolerances are coarse for "
+                        "the elements near the cut, instead of warning on stderr")
+    p.add_argument("--no-refine-cut", action="store_true",
+                   help="use the cutting mesh as given (default: refine cutting cells "
+                        "coarser than the simulation cells they meet)")
     p.set_defaults(_run=_run_intersect)
 
 
 def _run_intersect(args) -> int:
+    import warnings
+
+    from fperr.warnings import ResolutionError, ResolutionWarning
     from predicates.registration import intersect_files
 
     try:
-        res = intersect_files(args.sim, args.cut, output=args.output, plot=args.plot,
-                              dtype=args.dtype, naive=args.naive, progress=not args.quiet)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", ResolutionWarning)
+            res = intersect_files(args.sim, args.cut, output=args.output, plot=args.plot,
+                                  dtype=args.dtype, naive=args.naive,
+                                  progress=not args.quiet, strict=args.strict,
+                                  refine_cut=not args.no_refine_cut)
+    except ResolutionError as e:  # valid input this precision cannot resolve: exit 1
+        print(f"fperr intersect: error: {e}", file=sys.stderr)
+        return 1
     except (ValueError, TypeError, OSError, ArithmeticError) as e:
         # bad input (meshes, paths): a message, never a traceback; nothing was written
         return _error("intersect", e)
+    for w in caught:  # one line each, no Python warning boilerplate
+        print(f"fperr intersect: warning: {w.message}", file=sys.stderr)
     print(res)
     if args.output:
         print(f"wrote {args.output} ({res.total} points)")
@@ -252,6 +272,9 @@ arguments or an unusable tolerance file. See proofs.verify for the constraints.
                         type=_output_file,
                         help=f"also write the generated report (default: {REPORT_PATH} "
                              "in the current directory)")
+    parser.add_argument("--certificate", metavar="FILE", type=_output_file,
+                        help="also write a certificate of every decision, checkable with "
+                             "python -m proofs.check_certificate FILE")
 
 
 def _run_verify(args: argparse.Namespace) -> int:

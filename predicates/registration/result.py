@@ -79,6 +79,11 @@ class IntersectionResult:
     cut_cells: np.ndarray
     rounded_inputs: bool = False
     timings: dict = field(default_factory=dict)
+    #: what the run resolves (a predicates.registration.resolution.Resolution) and the
+    #: cutting mesh's refinement (refine.Refinement: cut_origin, input_weights), or None;
+    #: with a refinement, cut_points / cut_cells are the refined mesh the ids refer to
+    resolution: object = None
+    refinement: object = None
 
     def __getitem__(self, kind: str) -> KindPairs:
         try:
@@ -129,8 +134,12 @@ class IntersectionResult:
         """Inconsistency count: cutting vertices marked ``inside`` (a bool per cutting
         point: known to lie inside the simulation mesh) that are not located exactly
         once — registered with no simulation primitive (the cut falls through a crack)
-        or with several (counted twice). A consistent registration gives 0."""
+        or with several (counted twice). A consistent registration gives 0. With a
+        refined cutting mesh, ``inside`` may cover the input points only (the vertices
+        the refinement appended count as unknown)."""
         inside = np.asarray(inside, dtype=bool)
+        if self.refinement is not None and len(inside) < len(self.cut_points):
+            inside = np.concatenate([inside, np.zeros(len(self.cut_points) - len(inside), bool)])
         used = np.zeros(len(self.cut_points), dtype=bool)
         used[np.unique(self.cut_cells)] = True
         return int(np.sum(inside & used & (self.location_counts("cut") != 1)))
@@ -238,6 +247,8 @@ class IntersectionResult:
         names = [n for n in tu if n != "L"]
         lines.append("tolerances (input units): " + ", ".join(
             f"{n} = {tu[n] * self.tolerance_scale:.4g}" for n in names))
+        if self.resolution is not None:
+            lines.extend(self.resolution.lines())
         w = max(len(k) for k in self.kinds)
         lines.append(f"{'kind':<{w}}  {'candidates':>10}  {'suppressed':>10}  "
                      f"{'tested':>10}  {'registered':>10}")

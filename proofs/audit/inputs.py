@@ -10,6 +10,7 @@ from fractions import Fraction
 
 import numpy as np
 
+from fperr import round_fraction, ulp
 from predicates.tolerance_table import TABLES
 
 from .spec import FORMATS, NEAR_TOL, SCALES, Config, PredicateSpec, tolerance_info
@@ -25,7 +26,7 @@ class Generator:
                  brackets: tuple = ()):
         self.spec, self.fmt_name, self.rng = spec, fmt_name, rng
         self.brackets = brackets
-        self.fmt = FORMATS[fmt_name][0]
+        self.fmt = FORMATS[fmt_name]
         self.d = spec.dim
         self.n1, self.n2 = len(spec.split[0]), len(spec.split[1])
         self.np_rng = np.random.default_rng(rng.getrandbits(64))
@@ -58,7 +59,7 @@ class Generator:
             q = []
             for v in p:
                 f = Fraction(float(v)) if math.isfinite(v) else Fraction(0)
-                f = self.fmt.round(f, "z")
+                f = round_fraction(f, self.fmt.bits, "zero")
                 if f > h:
                     f = h
                 elif f < -h:
@@ -227,8 +228,9 @@ class Generator:
         if r < 0.5:  # a few ulps .. many ulps on one coordinate
             a = self.rng.randrange(self.d)
             c = pts[i][a]
-            ulp = self.fmt.ulp(c) if c else self.fmt.ulp(info.L) * 2 ** -self.rng.randint(0, 40)
-            pts[i][a] = c + self.rng.choice((-1, 1)) * ulp * 2 ** int(self.rng.expovariate(0.25))
+            ulp_ = (ulp(c, self.fmt.bits) if c
+                    else ulp(info.L, self.fmt.bits) * 2 ** -self.rng.randint(0, 40))
+            pts[i][a] = c + self.rng.choice((-1, 1)) * ulp_ * 2 ** int(self.rng.expovariate(0.25))
         elif r < 0.85:  # a random step of a random scale on one point
             s = float(info.L) * 2.0 ** -self.rng.uniform(2, 45)
             for a in range(self.d):
@@ -246,7 +248,7 @@ class Generator:
         for p in pts:
             q = []
             for v in p:
-                v = self.fmt.round(v, "z")
+                v = round_fraction(v, self.fmt.bits, "zero")
                 q.append(min(max(v, -h), h))
             out.append(tuple(q))
         return out

@@ -12,7 +12,8 @@ import sympy
 
 import fperr
 import predicates
-from fperr.shadow import Shadow, ShadowContext, lower_fraction
+from fperr.intervals import lower_fraction
+from fperr.shadow import Shadow, ShadowContext
 from predicates.tolerances import tolerance_values
 
 from .inputs import Generator
@@ -217,8 +218,8 @@ class Audit:
         for dim in sorted({s.dim for s in self.specs}):
             rb = tolerance_bounds(dim)
             for fmt_name in self.formats:
-                fmt = FORMATS[fmt_name][0]
-                e = sympy.Rational(fmt.eps.numerator, fmt.eps.denominator)
+                fmt = FORMATS[fmt_name]
+                e = sympy.Rational(1, 2 ** fmt.bits)
                 for L_ab in SCALES:
                     info = tolerance_info(dim, fmt_name, *L_ab)
                     ctx = ShadowContext(fmt)

@@ -11,18 +11,16 @@ from itertools import combinations
 import numpy as np
 
 import predicates
-from fperr import FloatContext, MpContext, NumpyContext
-# the one place the audit reaches into fperr.shadow's privates (exact a − b on a
-# Fraction or an interval); fperr.shadow is being split and will make it public
-from fperr.shadow import _sub as _sub_exact
-from fperr.shadow import Shadow, ShadowContext, compare, lower_fraction, upper_fraction
+from fperr.intervals import compare, lower_fraction, upper_fraction
+from fperr.intervals import exact_sub as _sub_exact
+from fperr.shadow import Shadow, ShadowContext
 from predicates.catalogue import pair_predicate
 
 from .spec import FORMATS, Config, PredicateSpec, spec_for
 
 def run_shadow(spec: PredicateSpec, cfg: Config, pred=None, points=None) -> ShadowContext:
     """Run ``spec``'s predicate (or ``pred``) on ``cfg`` with shadow numbers."""
-    fmt = FORMATS[cfg.fmt_name][0]
+    fmt = FORMATS[cfg.fmt_name]
     info = cfg.info
     pred = pred or spec.pred
     pts = cfg.points if points is None else points
@@ -34,21 +32,12 @@ def run_shadow(spec: PredicateSpec, cfg: Config, pred=None, points=None) -> Shad
 
 
 def working_points(fmt_name, pts):
-    fmt = FORMATS[fmt_name][0]
-    if fmt.kind == "numpy":
-        return [np.array([[float(c) for c in p]], dtype=fmt.dtype) for p in pts]
-    if fmt.kind == "mp":
-        return [tuple(fmt.from_fraction(c) for c in p) for p in pts]
-    return [tuple(float(c) for c in p) for p in pts]
+    fmt = FORMATS[fmt_name]
+    return [tuple(fmt.from_fraction(c) for c in p) for p in pts]
 
 
 def real_context(fmt_name):
-    fmt = FORMATS[fmt_name][0]
-    if fmt.kind == "numpy":
-        return NumpyContext(fmt.dtype)
-    if fmt.kind == "mp":
-        return MpContext(fmt.bits)
-    return FloatContext()
+    return FORMATS[fmt_name]
 
 
 def lower_pairs(dim, split):
@@ -108,7 +97,7 @@ PREMISE_STRESS = 0.05
 
 
 def evaluate(spec: PredicateSpec, cfg: Config, pred=None) -> Outcome:
-    fmt = FORMATS[cfg.fmt_name][0]
+    fmt = FORMATS[cfg.fmt_name]
     info = cfg.info
     ctx = run_shadow(spec, cfg, pred)
     out = Outcome(result=ctx.result)

@@ -12,17 +12,15 @@ import sympy
 
 import fperr
 import predicates
-from fperr.shadow import (BINARY32, BINARY64, Shadow, ShadowContext, interval_from_float,
-                          mp_format, to_fraction)
+from fperr import to_fraction
+from fperr.intervals import interval_from_float
+from fperr.shadow import Shadow, ShadowContext
 from predicates.catalogue import pair_predicate
 from predicates.tolerance_table import TABLES
 from predicates.tolerances import Tolerances, tracked_tolerances
 
-MP17 = mp_format(17)
-
-#: name -> (WorkingFormat, dtype argument of predicates.tolerances)
-FORMATS = {"binary64": (BINARY64, float), "binary32": (BINARY32, np.float32),
-           "mp17": (MP17, "mp17")}
+#: name -> the working context (fperr.context(name))
+FORMATS = {name: fperr.context(name) for name in ("binary64", "binary32", "mp17")}
 
 #: (L_a, L_b): bounding-box edge lengths of the two primitives (long and short elements).
 SCALES = [(0.5, 0.5), (0.9, 0.1), (0.1, 0.9), (0.999, 0.001), (0.001, 0.999),
@@ -133,8 +131,7 @@ class PredicateSpec:
         return out
 
     def bound_coefficients(self, fmt_name):
-        fmt = FORMATS[fmt_name][0]
-        e = sympy.Rational(fmt.eps.numerator, fmt.eps.denominator)
+        e = sympy.Rational(1, 2 ** FORMATS[fmt_name].bits)
         for q in self.quantities.values():
             if q.E is None or fmt_name in q.E1:
                 continue
@@ -176,8 +173,8 @@ def tolerance_info(dim: int, fmt_name: str, L_a: float, L_b: float,
                    brackets: tuple = ()) -> ToleranceInfo:
     """Tolerances of a configuration. ``brackets``: ((name, lo, hi), ...) replaces the
     coefficients of T−, T+ of Figure 1/5 (tests use it to plant a wrong bracket)."""
-    fmt, dtype = FORMATS[fmt_name]
-    real = predicates.tolerances(dim, L_a, L_b, dtype=dtype)
+    fmt = FORMATS[fmt_name]
+    real = predicates.tolerances(dim, L_a, L_b, dtype=fmt)
     L = to_fraction(real.L)
     Ls = sympy.Rational(L.numerator, L.denominator)
     override = {name: (lo, hi) for name, lo, hi in brackets}

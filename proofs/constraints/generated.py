@@ -9,6 +9,7 @@ import sympy
 
 from fperr import InvalidBound, Tracked
 from fperr.notation import greek
+from fperr.ops import BY_RULE
 
 from ..tables import Values
 from .facts import M_LOWER, NONZERO, PROTECTED
@@ -46,23 +47,9 @@ def exact_value(t: Tracked, env: dict) -> sympy.Expr:
         return c if t.state.n else -c
     if t.rule == "K":
         raise _Impure(t.s)
-    a = [exact_value(x, env) for x in t.args]
-    r = t.rule
-    if r == "A":
-        return -a[0]
-    if r in "BC":
-        return a[0] + a[1]
-    if r in "DE":
-        return a[0] - a[1]
-    if r == "F":
-        return a[0] * a[1]
-    if r == "G":
-        return a[0] / a[1]
-    if r == "H":
-        return sympy.sqrt(a[0])
-    if r == "I":
-        return sympy.Abs(a[0])
-    raise ValueError(f"unknown rule {r} in {t.s}")
+    if t.rule not in BY_RULE:
+        raise ValueError(f"unknown rule {t.rule} in {t.s}")
+    return BY_RULE[t.rule].exact(*(exact_value(x, env) for x in t.args))
 
 
 def _monomial_in(gexpr: sympy.Expr, T: sympy.Symbol):
