@@ -308,6 +308,14 @@ def box_pairs(lo_a, hi_a, lo_b, hi_b, pad: float, chunk: int = 1 << 22):
     cols = tuple(np.ascontiguousarray(x.T) for x in (lo_a, hi_a, lo_b, hi_b))
     boxes_ = (lo_a, hi_a, lo_b, hi_b, lo_bx, hi_bx, pad, cols)
     ids_a, ids_b = np.arange(len(lo_a)), np.arange(len(lo_b))
+    if _dense(G + 1, len(lo_a) + len(lo_b)):
+        # boxes sharing no grid cell with the other side: dropped before any expansion
+        # into cells (summed-area tables, O(2^d) per box), e.g. the many simulation
+        # cells far from a few cutting edges
+        ka = _any_in(_occupancy(ib0, ib1, G), ia0, ia1, G)
+        kb = _any_in(_occupancy(ia0, ia1, G), ib0, ib1, G)
+        ids_a, ids_b = ids_a[ka], ids_b[kb]
+        ia0, ia1, ib0, ib1 = ia0[ka], ia1[ka], ib0[kb], ib1[kb]
     yield from _level(boxes_, ids_a, ids_b, origin, G, h, (ia0, ia1, ib0, ib1), chunk, 0)
 
 
