@@ -20,16 +20,28 @@ def unique_rows(rows: np.ndarray, n: int):
     """Unique rows (sorted lexicographically) and the inverse map, for ids < n."""
     w = rows.shape[1]
     if w == 1:
-        u, inv = np.unique(rows[:, 0], return_inverse=True)
-        return u[:, None], inv.ravel()
+        return _unique_keys(rows[:, 0].astype(np.int64), rows)
     if n ** w < 2 ** 62:
         key = rows[:, 0].astype(np.int64)
         for c in range(1, w):
             key = key * n + rows[:, c]
-        _, first, inv = np.unique(key, return_index=True, return_inverse=True)
-        return rows[first], inv.ravel()
+        return _unique_keys(key, rows)
     u, inv = np.unique(rows, axis=0, return_inverse=True)
     return u, inv.ravel()
+
+
+def _unique_keys(key: np.ndarray, rows: np.ndarray):
+    """``np.unique(key, return_index=True, return_inverse=True)`` without its stable
+    (merge) sort: equal keys are equal rows, so any representative will do, and the
+    unique keys and inverse map are the same."""
+    order = np.argsort(key)
+    ks = key[order]
+    new = np.empty(len(ks), dtype=bool)
+    new[:1] = True
+    np.not_equal(ks[1:], ks[:-1], out=new[1:])
+    inv = np.empty(len(ks), dtype=np.int64)
+    inv[order] = np.cumsum(new) - 1
+    return rows[order[new]], inv
 
 
 class Complex:
@@ -72,11 +84,13 @@ class Side:
     def __init__(self, P: np.ndarray, cells: np.ndarray):
         n = len(P)
         order = np.lexsort(P.T[::-1])  # x primary; ties (equal points) keep id order
-        rank = np.empty(n, dtype=np.int64)
-        rank[order] = np.arange(n)
+        # int32 ranks when they fit: the cells in rank space take half the memory
+        rank = np.empty(n, dtype=np.int32 if n < 2 ** 31 else np.int64)
+        rank[order] = np.arange(n, dtype=rank.dtype)
         self.order = order
         self.P = np.ascontiguousarray(P[order])
-        self.cells = np.sort(rank[cells], axis=1)
+        self.cells = rank[cells]
+        self.cells.sort(axis=1)
         self.cx = None
 
     def build(self, mask):

@@ -15,7 +15,7 @@ import time
 import numpy as np
 
 from ..catalogue import kinds as catalogue_kinds
-from .broadphase import box_pairs, near_flags
+from .broadphase import box_pairs, boxes_of, near_flags, tighten_flags
 from .complex import Side
 from .result import KindPairs
 
@@ -44,9 +44,16 @@ class Registration:
         sim, cut = self.sim, self.cut
         if len(sim.cells) == 0 or len(cut.cells) == 0:
             return
-        Xs, Xc = sim.P[sim.cells], cut.P[cut.cells]
         pad = max(self.reach.values())
-        near_s, near_c = near_flags(Xs.min(1), Xs.max(1), Xc.min(1), Xc.max(1), pad)
+        box_s, box_c = boxes_of(sim.P, sim.cells), boxes_of(cut.P, cut.cells)
+        near_s, near_c = near_flags(*box_s, *box_c, pad)
+        # a second, finer grid over the survivors only: fewer primitives for every kind
+        si, ci = np.flatnonzero(near_s), np.flatnonzero(near_c)
+        fine_s, fine_c = tighten_flags(box_s[0][si], box_s[1][si], box_c[0][ci],
+                                       box_c[1][ci], pad)
+        near_s[si[~fine_s]] = False
+        near_c[ci[~fine_c]] = False
+        del box_s, box_c
         if not (near_s.any() and near_c.any()):
             return
         sim.build(near_s)
@@ -54,10 +61,9 @@ class Registration:
         self.empty = False
 
     def _candidates(self, kind, i, j):
-        Xs = self.sim.coords(i, slice(None))
-        Xc = self.cut.coords(j, slice(None))
-        yield from box_pairs(Xs.min(1), Xs.max(1), Xc.min(1), Xc.max(1), self.reach[kind],
-                             chunk=4 * self.chunk)
+        yield from box_pairs(*boxes_of(self.sim.P, self.sim.cx.S[i]),
+                             *boxes_of(self.cut.P, self.cut.cx.S[j]), self.reach[kind],
+                             chunk=2 * self.chunk)
 
     # -- suppression --------------------------------------------------------------------
     def _blocked(self, i, j, s, c):

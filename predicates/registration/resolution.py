@@ -28,7 +28,7 @@ import numpy as np
 
 from ..catalogue import kinds as catalogue_kinds
 from ..tolerances import tolerances as compute_tolerances
-from .broadphase import near_flags
+from .broadphase import boxes_of, near_flags
 
 __all__ = ["COARSE_RATIO", "MAX_ROUNDS", "Resolution", "Scale", "cell_boxes",
            "consistent_scale", "estimate_cell_pairs", "memory_limit", "near_cells"]
@@ -46,8 +46,7 @@ BYTES_PER_CELL_PAIR = 256
 
 def cell_boxes(points: np.ndarray, cells: np.ndarray):
     """(lo, hi) binary64 bounding boxes of the cells (exact: conversion only)."""
-    X = points.astype(np.float64, copy=False)[cells]
-    return X.min(axis=1), X.max(axis=1)
+    return boxes_of(points, cells)  # no (n, k, d) gather (issue 12)
 
 
 def _max_edge(lo, hi, mask) -> float:

@@ -1,0 +1,58 @@
+"""Summed-area tables over a box grid (for :mod:`predicates.registration.broadphase`):
+which grid cells a set of boxes covers, and whether a box's cell range holds a covered
+cell — without expanding any box into its cells. O(2^d) work per box plus the grid.
+
+Cell ranges are inclusive index ranges [i0, i1] per axis on a grid of G cells per axis;
+keys are linear on the (G + 1)-grid, axis 0 fastest.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["any_in", "occupancy"]
+
+
+def _corners(i0, i1, G):
+    """(linear key on the (G + 1)-grid, sign) of the 2^d corners {i0, i1 + 1} of each
+    box's cell range; sign (−1)^(number of i0 picks) (inclusion–exclusion). Keys are sums
+    of per-axis terms (two candidates per axis, computed once)."""
+    d = len(G)
+    stride = np.cumprod(np.concatenate([[1], (G + 1)[:-1]])).astype(np.int64)
+    lo = [i0[:, ax].astype(np.int64) * stride[ax] for ax in range(d)]
+    up = [(i1[:, ax].astype(np.int64) + 1) * stride[ax] for ax in range(d)]
+    for pick in range(1 << d):
+        key = (up if pick & 1 else lo)[0].copy()
+        for ax in range(1, d):
+            key += (up if pick >> ax & 1 else lo)[ax]
+        yield key, (-1) ** (d - bin(pick).count("1"))
+
+
+def occupancy(i0, i1, G):
+    """Cells covered by at least one box, as a C-order array of shape reversed(G + 1)
+    (axis 0 of the boxes is the last, fastest axis), last row of every axis unused."""
+    size = int(np.prod(G + 1))
+    diff = np.zeros(size, dtype=np.int64)
+    for key, sign in _corners(i0, i1, G):
+        diff += (-sign if len(G) % 2 else sign) * np.bincount(key, minlength=size)
+    cover = diff.reshape(tuple((G + 1)[::-1]))
+    for ax in range(cover.ndim):
+        np.cumsum(cover, axis=ax, out=cover)
+    return cover > 0
+
+
+def any_in(occ, i0, i1, G):
+    """Per box: does its cell range [i0, i1] contain an occupied cell (summed-area
+    table of ``occ`` over the (G + 1)-grid, 2^d look-ups per box)."""
+    S = np.zeros(tuple((G + 1)[::-1]), dtype=np.int32 if occ.size < 2 ** 31 else np.int64)
+    inner = tuple(slice(1, None) for _ in range(occ.ndim))
+    S[inner] = occ[tuple(slice(None, -1) for _ in range(occ.ndim))]
+    for ax in range(S.ndim):
+        np.cumsum(S, axis=ax, out=S)
+    S = S.ravel()
+    count = np.zeros(len(i0), dtype=S.dtype)
+    for key, sign in _corners(i0, i1, G):
+        if sign > 0:
+            count += S[key]
+        else:
+            count -= S[key]
+    return count > 0

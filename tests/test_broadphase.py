@@ -1,0 +1,126 @@
+"""The broad phase (predicates.registration.broadphase) against brute force: every pair within pad,
+exactly once, including crowded grid cells (refined recursively) and degenerate boxes;
+near_flags against its definition."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from predicates.registration.broadphase import box_pairs, box_pairs_bruteforce, near_flags
+
+
+def _pairs(la, ha, lb, hb, pad, chunk=1 << 22):
+    got = [(int(a), int(b)) for ia, ib in box_pairs(la, ha, lb, hb, pad, chunk=chunk)
+           for a, b in zip(ia, ib)]
+    assert len(got) == len(set(got)), "a pair was reported twice"
+    return set(got)
+
+
+def _crowded(rng, n_tiny, n_big, dim, size=1e-3):
+    """Tiny boxes clustered in a 0.4-wide cube plus large boxes elsewhere."""
+    la = np.concatenate([rng.uniform(0, 0.4, (n_tiny, dim)),
+                         2 + 3 * rng.integers(0, 6, (n_big, dim)).astype(float)])
+    ha = la + np.concatenate([rng.uniform(0, size, (n_tiny, dim)), np.ones((n_big, dim))])
+    lb = np.concatenate([rng.uniform(0, 0.4, (n_tiny, dim)), la[n_tiny:] + 0.25])
+    hb = lb + np.concatenate([rng.uniform(0, size, (n_tiny, dim)), np.ones((n_big, dim))])
+    return la, ha, lb, hb
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("pad", [0.0, 2e-3, 0.02])
+def test_crowded_cell_matches_brute_force(dim, pad):
+    rng = np.random.default_rng(dim + int(pad * 1e4))
+    n_tiny = 1500 if dim == 2 else 1200
+    la, ha, lb, hb = _crowded(rng, n_tiny, 300, dim)
+    ref = set(zip(*(x.tolist() for x in box_pairs_bruteforce(la, ha, lb, hb, pad))))
+    assert len(ref) > n_tiny // 10  # the case has pairs among the tiny boxes
+    assert _pairs(la, ha, lb, hb, pad) == ref
+    assert _pairs(la, ha, lb, hb, pad, chunk=777) == ref
+
+
+def test_crowded_cell_nested_and_identical_boxes():
+    """Clusters inside clusters (several refinement levels) and many identical boxes
+    (a cell no grid can split: enumerated)."""
+    rng = np.random.default_rng(5)
+    la, ha, lb, hb = _crowded(rng, 800, 200, 3)
+    inner = rng.uniform(0.1, 0.1 + 1e-3, (800, 3))
+    same = np.full((300, 3), 0.3)
+    la = np.concatenate([la, inner, same])
+    ha = np.concatenate([ha, inner + 1e-6, same + 1e-4])
+    lb = np.concatenate([lb, inner[::-1] + 1e-7, same])
+    hb = np.concatenate([hb, inner[::-1] + 2e-6, same + 1e-4])
+    pad = 1e-6
+    ref = set(zip(*(x.tolist() for x in box_pairs_bruteforce(la, ha, lb, hb, pad))))
+    assert len(ref) > 300 * 300
+    assert _pairs(la, ha, lb, hb, pad, chunk=5000) == ref
+
+
+def test_near_flags_definition():
+    """near_flags is a superset of the boxes with a partner within pad."""
+    rng = np.random.default_rng(1)
+    for trial in range(20):
+        la, ha, lb, hb = _crowded(rng, int(rng.integers(1, 400)), int(rng.integers(0, 50)), 3)
+        pad = float(rng.choice([0, 1e-3, 0.1]))
+        ia, ib = box_pairs_bruteforce(la, ha, lb, hb, pad)
+        na, nb = near_flags(la, ha, lb, hb, pad)
+        assert na[ia].all() and nb[ib].all()
+    with pytest.raises(ValueError, match="pad"):
+        near_flags(la, ha, lb, hb, -1.0)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_near_flags_dense_equals_expanded(dim, monkeypatch):
+    """The summed-area path flags exactly the boxes sharing a grid cell with the other
+    side, like the expanded-entries path it replaces on dense grids."""
+    import predicates.registration.broadphase as B
+    rng = np.random.default_rng(10 + dim)
+    flagged = 0
+    for trial in range(25):
+        na, nb = rng.integers(1, 300, 2)
+        la = rng.random((na, dim))
+        ha = la + rng.random((na, dim)) * rng.choice([0, 0.01, 0.2])
+        lb = rng.random((nb, dim))
+        hb = lb + rng.random((nb, dim)) * rng.choice([0, 0.02, 0.3])
+        pad = float(rng.choice([0, 1e-3, 0.05]))
+        dense = near_flags(la, ha, lb, hb, pad)
+        monkeypatch.setattr(B, "_DENSE", 0)
+        expanded = near_flags(la, ha, lb, hb, pad)
+        monkeypatch.undo()
+        assert np.array_equal(dense[0], expanded[0]) and np.array_equal(dense[1], expanded[1])
+        flagged += dense[0].sum() + dense[1].sum()
+    assert flagged > 100
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_tighten_flags_superset_and_tighter(dim):
+    """tighten_flags keeps every box with a partner within pad (also for flat inputs:
+    one axis of zero extent), and on clustered inputs drops boxes near_flags kept."""
+    from predicates.registration.broadphase import tighten_flags
+    rng = np.random.default_rng(20 + dim)
+    dropped = 0
+    for trial in range(20):
+        la, ha, lb, hb = _crowded(rng, int(rng.integers(1, 400)), int(rng.integers(0, 40)), dim,
+                                  size=float(rng.choice([1e-3, 0.05])))
+        if trial % 4 == 0:  # flat: every box in the plane x = 0.25
+            for x in (la, ha, lb, hb):
+                x[:, 0] = 0.25
+        pad = float(rng.choice([0, 1e-3, 0.02]))
+        ia, ib = box_pairs_bruteforce(la, ha, lb, hb, pad)
+        na, nb = near_flags(la, ha, lb, hb, pad)
+        ta, tb = tighten_flags(la, ha, lb, hb, pad)
+        assert ta[ia].all() and tb[ib].all()
+        dropped += int((na & ~ta).sum() + (nb & ~tb).sum())
+    assert dropped > 0
+
+
+@pytest.mark.parametrize("dim,k", [(2, 2), (2, 3), (3, 3), (3, 4)])
+def test_boxes_of_equals_gathered_min_max(dim, k):
+    from predicates.registration.broadphase import boxes_of
+    rng = np.random.default_rng(dim * 10 + k)
+    P = rng.normal(size=(500, dim)) * 10.0 ** rng.integers(-300, 300, size=(500, 1))
+    rows = rng.integers(0, 500, size=(2000, k)).astype(np.int32)
+    lo, hi = boxes_of(P, rows)
+    assert np.array_equal(lo, P[rows].min(axis=1)) and np.array_equal(hi, P[rows].max(axis=1))
+    P32 = rng.normal(size=(500, dim)).astype(np.float32)
+    lo32, _ = boxes_of(P32, rows)
+    assert lo32.dtype == np.float64 and np.array_equal(lo32, P32[rows].min(axis=1))
