@@ -197,16 +197,31 @@ class _SimScale:
         tiny = np.finfo(np.float64).tiny
         return bool(self._mmin / g > tiny and np.isfinite(self._mmax / f))
 
-    def max_ext(self, g: float, qlo, qhi):
-        """Per query box: the largest box edge of the boxes of class g (cells or bins,
-        :meth:`boxes`) meeting it (closed boxes), 0 if none."""
+    def marks(self, g: float, qlo, qhi, qext):
+        """Per query box (edges of class g, box edge ``qext``): is qext > thr > 0, thr
+        the largest box edge of the boxes of class g (cells or bins, :meth:`boxes`)
+        meeting it (closed boxes)? See :class:`_BoxHash`."""
         # grid of about the queries' size (box edge < 4g, so each covers ≤ 4 cells per
         # axis) and no finer than the cells: proposals stay a few times the true pairs
         h = max(4 * g, self.fine) if g <= self.fine else 4 * g
         name = ("cells" if g <= self.fine else g, h)
         if name not in self._hash:
             self._hash[name] = _BoxHash(*self.boxes(g), h)
-        return self._hash[name].max_over(qlo, qhi)
+        return self._hash[name].marks(qlo, qhi, qext)
+
+
+def _cells_of(i0, i1):
+    """(box id, grid index (d,)) of every grid cell each box's range i0..i1 covers."""
+    c = i1 - i0 + 1
+    per = np.prod(c, axis=1)
+    box = np.repeat(np.arange(len(c)), per)
+    t = np.arange(box.size, dtype=np.int64) - np.repeat(np.cumsum(per) - per, per)
+    idx = np.empty((box.size, c.shape[1]), dtype=np.int64)
+    for ax in range(c.shape[1]):
+        cb = c[box, ax]
+        idx[:, ax] = i0[box, ax] + t % cb
+        t //= cb
+    return box, idx
 
 
 def _group(key):
@@ -249,6 +264,43 @@ class _BoxHash:
         self.h, self.G, self.i0 = h, G, i0
         self.box, key = _entries(i0, i1, G)
         self.keys, self.start, self.count = _runs(key)
+        # the largest value entered in each grid cell (for the interior shortcut)
+        self.cellmax = (np.maximum.reduceat(val[self.box], self.start) if key.size
+                        else np.zeros(0))
+
+    def marks(self, qlo, qhi, qext):
+        """qext > thr > 0 per query, thr = :meth:`max_over`. Decided from the grid
+        cells alone where possible: a box entered in a cell strictly inside the query's
+        cell range (or beyond the grid's span on that side) meets the query (the cell
+        index is monotone), and every box meeting it is entered in its range. So
+        ib = max over interior cells ≥ qext decides False, ub = max over the range
+        < qext with ib > 0 decides True, ub ≤ 0 decides False; only the rest are tested
+        box by box. The marks equal those from the exact maximum."""
+        out = np.zeros(len(qlo), dtype=bool)
+        q = np.flatnonzero(np.all((qlo <= self.top) & (qhi >= self.origin), axis=1))
+        if q.size == 0 or self.keys.size == 0:
+            return out
+        j0 = _cell_index(qlo[q], self.origin, self.h, self.G)
+        j1 = _cell_index(qhi[q], self.origin, self.h, self.G)
+        qi, idx = _cells_of(j0, j1)
+        key = _linear(idx, self.G)
+        pos = np.searchsorted(self.keys, key).clip(0, self.keys.size - 1)
+        cm = np.where(self.keys[pos] == key, self.cellmax[pos], 0.0)
+        inner = np.all(((idx > j0[qi]) | (qlo[q][qi] < self.origin))
+                       & ((idx < j1[qi]) | (qhi[q][qi] > self.top)), axis=1)
+        ub = np.zeros(q.size)
+        ib = np.full(q.size, -np.inf)
+        np.maximum.at(ub, qi, cm)
+        np.maximum.at(ib, qi[inner], cm[inner])
+        e = qext[q]
+        yes = (ub < e) & (ib > 0)
+        no = (ib >= e) | (ub <= 0)
+        out[q[yes]] = True
+        rest = q[~yes & ~no]
+        if rest.size:
+            thr = self.max_over(qlo[rest], qhi[rest])
+            out[rest] = (thr > 0) & (qext[rest] > thr)
+        return out
 
     def max_over(self, qlo, qhi):
         out = np.zeros(len(qlo))
@@ -293,7 +345,7 @@ def _too_long(P, E, sim):
     X = P[E].astype(np.float64)
     lo, hi = X.min(axis=1), X.max(axis=1)
     ext = (hi - lo).max(axis=1)
-    thr = np.zeros(len(E))
+    marked = np.zeros(len(E), dtype=bool)
     lo, hi = lo - ext[:, None], hi + ext[:, None]
     # one query per size class 4^c, against boxes of that class (the cells, or bins of
     # size 4^c: a few huge edges would otherwise pair with every cell they span)
@@ -301,8 +353,8 @@ def _too_long(P, E, sim):
         size_class = np.floor(np.log2(np.maximum(ext, 1e-300)) / 2)
     for c in np.unique(size_class):
         sel = np.flatnonzero(size_class == c)
-        thr[sel] = sim.max_ext(math.ldexp(1.0, 2 * int(c)), lo[sel], hi[sel])
-    return (thr > 0) & (ext > thr)
+        marked[sel] = sim.marks(math.ldexp(1.0, 2 * int(c)), lo[sel], hi[sel], ext[sel])
+    return marked
 
 
 def _edge_rank(P, E):
