@@ -12,8 +12,10 @@ split edge gets ONE new vertex shared by both triangles on it: the mesh stays co
 (a hanging midpoint, rounded, would not lie on the neighbour's edge and would open a gap
 in the cutting surface). Rounds repeat until no edge is marked. An edge that was not
 marked never is (its geometry and the simulation mesh do not change), so each round
-tests only the edges it created: the work is linear in the cells created plus one pass
-over the simulation cells per round (rounds ≈ log2 of the coarseness).
+tests only the edges it created, against static grids over the simulation cells (and
+over their bins per size class) built once per run: no round passes over every
+simulation cell. A test is decided from per-grid-cell maxima where the query's cell
+range decides it, box by box otherwise (benchmarks/README.md, "Refinement").
 
 Midpoints are 0.5·a + 0.5·b in binary64, then rounded to the working dtype: the refined
 surface lies within one rounding of the input surface, and the guarantees of the paper
