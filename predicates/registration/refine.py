@@ -12,8 +12,10 @@ split edge gets ONE new vertex shared by both triangles on it: the mesh stays co
 (a hanging midpoint, rounded, would not lie on the neighbour's edge and would open a gap
 in the cutting surface). Rounds repeat until no edge is marked. An edge that was not
 marked never is (its geometry and the simulation mesh do not change), so each round
-tests only the edges it created: the work is linear in the cells created plus one pass
-over the simulation cells per round (rounds ≈ log2 of the coarseness).
+tests only the edges it created, against static grids over the simulation cells (and
+over their bins per size class) built once per run: no round passes over every
+simulation cell. A test is decided from per-grid-cell maxima where the query's cell
+range decides it, box by box otherwise (benchmarks/README.md, "Refinement").
 
 Midpoints are 0.5·a + 0.5·b in binary64, then rounded to the working dtype: the refined
 surface lies within one rounding of the input surface, and the guarantees of the paper
@@ -34,7 +36,7 @@ import numpy as np
 
 from fperr.warnings import ResolutionError
 
-from .broadphase import box_pairs
+from .broadphase import _cell_index, _entries, _linear, _runs
 from .complex import unique_rows
 
 __all__ = ["MAX_CELLS", "Refinement", "refine"]
@@ -150,30 +152,190 @@ class _SimScale:
     union of its cells' boxes) with the largest box edge of its cells. Querying edges of
     box edge ≥ g against the bins costs O(1) pairs per edge instead of one pair per cell
     they span; the scale found is then the largest over a slightly larger region (a
-    heuristic of where to refine only: soundness comes from the L computed afterwards)."""
+    heuristic of where to refine only: soundness comes from the L computed afterwards).
+
+    Each set of boxes (the cells, or the bins of one class) gets ONE static grid per run
+    (:class:`_BoxHash`), queried each round with the new edges only: a round costs
+    O(its new edges + the pairs they meet), not a pass over every simulation cell."""
 
     def __init__(self, lo, hi):
         self.lo, self.hi = lo, hi
         self.ext = (hi - lo).max(axis=1) if len(lo) else np.zeros(0)
         self.fine = float(np.median(self.ext)) if len(lo) else 0.0
+        self.mid = 0.5 * (lo + hi)  # the bins' key: the cells' box centres
+        a = np.abs(self.mid)
+        self._mmin = float(a[a > 0].min()) if (a > 0).any() else np.inf
+        self._mmax = float(a.max()) if a.size else 0.0
         self._bins = {}
+        self._hash = {}
 
     def boxes(self, g: float):
         if g <= self.fine:
             return self.lo, self.hi, self.ext
         if g not in self._bins:
-            key = np.floor(0.5 * (self.lo + self.hi) / g)
-            _, inv = np.unique(key, axis=0, return_inverse=True)
-            inv = inv.ravel()
-            n = int(inv.max()) + 1
-            lo = np.full((n, self.lo.shape[1]), np.inf)
-            hi = np.full((n, self.lo.shape[1]), -np.inf)
-            ext = np.zeros(n)
-            np.minimum.at(lo, inv, self.lo)
-            np.maximum.at(hi, inv, self.hi)
-            np.maximum.at(ext, inv, self.ext)
-            self._bins[g] = (lo, hi, ext)
-        return self._bins[g]
+            finer = max((f for f in self._bins if f < g), default=None)
+            if finer is not None and self._exact(finer, g):
+                # bins of g are unions of bins of finer: floor(floor(x)/4^j) = floor(x/4^j)
+                # and every quotient is exact, so the grouping is the same as from the
+                # cells, at the cost of the (fewer) finer bins
+                key0, lo0, hi0, ext0 = self._bins[finer]
+                key = np.floor(key0 / (g / finer))
+            else:
+                key = np.floor(self.mid / g)
+                lo0, hi0, ext0 = self.lo, self.hi, self.ext
+            u, inv = _group(key)
+            lo = np.full((len(u), self.lo.shape[1]), np.inf)
+            hi = np.full((len(u), self.lo.shape[1]), -np.inf)
+            ext = np.zeros(len(u))
+            np.minimum.at(lo, inv, lo0)
+            np.maximum.at(hi, inv, hi0)
+            np.maximum.at(ext, inv, ext0)
+            self._bins[g] = (u, lo, hi, ext)
+        return self._bins[g][1:]
+
+    def _exact(self, f: float, g: float) -> bool:
+        """Every centre / f and centre / g is exact (normal or zero, finite): scaling by
+        a power of two then loses nothing, so the keys of g follow from those of f."""
+        tiny = np.finfo(np.float64).tiny
+        return bool(self._mmin / g > tiny and np.isfinite(self._mmax / f))
+
+    def marks(self, g: float, qlo, qhi, qext):
+        """Per query box (edges of class g, box edge ``qext``): is qext > thr > 0, thr
+        the largest box edge of the boxes of class g (cells or bins, :meth:`boxes`)
+        meeting it (closed boxes)? See :class:`_BoxHash`."""
+        # grid of about the queries' size (box edge < 4g, so each covers ≤ 4 cells per
+        # axis) and no finer than the cells: proposals stay a few times the true pairs
+        h = max(4 * g, self.fine) if g <= self.fine else 4 * g
+        name = ("cells" if g <= self.fine else g, h)
+        if name not in self._hash:
+            self._hash[name] = _BoxHash(*self.boxes(g), h)
+        return self._hash[name].marks(qlo, qhi, qext)
+
+
+def _cells_of(i0, i1):
+    """(box id, grid index (d,)) of every grid cell each box's range i0..i1 covers."""
+    c = i1 - i0 + 1
+    per = np.prod(c, axis=1)
+    box = np.repeat(np.arange(len(c)), per)
+    t = np.arange(box.size, dtype=np.int64) - np.repeat(np.cumsum(per) - per, per)
+    idx = np.empty((box.size, c.shape[1]), dtype=np.int64)
+    for ax in range(c.shape[1]):
+        cb = c[box, ax]
+        idx[:, ax] = i0[box, ax] + t % cb
+        t //= cb
+    return box, idx
+
+
+def _group(key):
+    """Unique rows of the float integer-valued ``key`` (sorted) and the inverse map;
+    one int64 sort when the index ranges fit, else numpy's row unique."""
+    if len(key):
+        k0 = key.min(axis=0)
+        span = key.max(axis=0) - k0 + 1
+        if (span < 2.0 ** 52).all() and np.prod(span) < 2.0 ** 62:  # exact differences
+            lin = np.zeros(len(key), dtype=np.int64)
+            for ax in range(key.shape[1]):
+                lin = lin * int(span[ax]) + (key[:, ax] - k0[ax]).astype(np.int64)
+            _, first, inv = np.unique(lin, return_index=True, return_inverse=True)
+            return key[first], inv.ravel()
+    u, inv = np.unique(key, axis=0, return_inverse=True)
+    return u, inv.ravel()
+
+
+class _BoxHash:
+    """A uniform grid over fixed boxes (built once), queried by other boxes: for each
+    query, the largest value of the boxes meeting it. The grid only proposes; each pair
+    is tested exactly as :func:`~.broadphase.box_pairs` with pad 0 does
+    (``lo_b − hi_a ≤ 0`` and ``lo_a − hi_b ≤ 0`` per axis), so the result is the maximum
+    over exactly the pairs that broad phase would return."""
+
+    def __init__(self, lo, hi, val, h: float, chunk: int = 1 << 21):
+        self.lo, self.hi, self.val, self.chunk = lo, hi, val, chunk
+        self.origin, self.top = lo.min(axis=0), hi.max(axis=0)
+        span = float((self.top - self.origin).max())
+        if not h > 0:  # degenerate boxes: about one box per cell
+            h = span / max(1.0, len(lo) ** (1 / lo.shape[1]))
+        h = max(h, span * 2.0 ** -20, np.finfo(np.float64).tiny)
+        budget = 16 * len(lo) + (1 << 20)
+        while True:  # coarsen while a few huge boxes would cover too many cells
+            G = (np.floor((self.top - self.origin) / h).astype(np.int64) + 1).clip(1, (1 << 20) + 1)
+            i0, i1 = (_cell_index(x, self.origin, h, G) for x in (lo, hi))
+            if np.prod(i1 - i0 + 1, axis=1).sum() <= budget or np.all(G == 1):
+                break
+            h *= 2
+        self.h, self.G, self.i0 = h, G, i0
+        self.box, key = _entries(i0, i1, G)
+        self.keys, self.start, self.count = _runs(key)
+        # the largest value entered in each grid cell (for the interior shortcut)
+        self.cellmax = (np.maximum.reduceat(val[self.box], self.start) if key.size
+                        else np.zeros(0))
+
+    def marks(self, qlo, qhi, qext):
+        """qext > thr > 0 per query, thr = :meth:`max_over`. Decided from the grid
+        cells alone where possible: a box entered in a cell strictly inside the query's
+        cell range (or beyond the grid's span on that side) meets the query (the cell
+        index is monotone), and every box meeting it is entered in its range. So
+        ib = max over interior cells ≥ qext decides False, ub = max over the range
+        < qext with ib > 0 decides True, ub ≤ 0 decides False; only the rest are tested
+        box by box. The marks equal those from the exact maximum."""
+        out = np.zeros(len(qlo), dtype=bool)
+        q = np.flatnonzero(np.all((qlo <= self.top) & (qhi >= self.origin), axis=1))
+        if q.size == 0 or self.keys.size == 0:
+            return out
+        j0 = _cell_index(qlo[q], self.origin, self.h, self.G)
+        j1 = _cell_index(qhi[q], self.origin, self.h, self.G)
+        qi, idx = _cells_of(j0, j1)
+        key = _linear(idx, self.G)
+        pos = np.searchsorted(self.keys, key).clip(0, self.keys.size - 1)
+        cm = np.where(self.keys[pos] == key, self.cellmax[pos], 0.0)
+        inner = np.all(((idx > j0[qi]) | (qlo[q][qi] < self.origin))
+                       & ((idx < j1[qi]) | (qhi[q][qi] > self.top)), axis=1)
+        ub = np.zeros(q.size)
+        ib = np.full(q.size, -np.inf)
+        np.maximum.at(ub, qi, cm)
+        np.maximum.at(ib, qi[inner], cm[inner])
+        e = qext[q]
+        yes = (ub < e) & (ib > 0)
+        no = (ib >= e) | (ub <= 0)
+        out[q[yes]] = True
+        rest = q[~yes & ~no]
+        if rest.size:
+            thr = self.max_over(qlo[rest], qhi[rest])
+            out[rest] = (thr > 0) & (qext[rest] > thr)
+        return out
+
+    def max_over(self, qlo, qhi):
+        out = np.zeros(len(qlo))
+        # a box meeting the query lies in [origin, top]: other queries meet nothing, and
+        # for the rest the clipped cell ranges hold every point they share with a box
+        q = np.flatnonzero(np.all((qlo <= self.top) & (qhi >= self.origin), axis=1))
+        if q.size == 0 or self.keys.size == 0:
+            return out
+        j0 = _cell_index(qlo[q], self.origin, self.h, self.G)
+        j1 = _cell_index(qhi[q], self.origin, self.h, self.G)
+        ends = np.cumsum(np.prod(j1 - j0 + 1, axis=1))
+        a = 0
+        while a < q.size:  # chunks of about `chunk` grid-cell lookups
+            b = max(int(np.searchsorted(ends, (ends[a - 1] if a else 0) + self.chunk)), a + 1)
+            self._query(q[a:b], j0[a:b], j1[a:b], qlo, qhi, out)
+            a = b
+        return out
+
+    def _query(self, q, j0, j1, qlo, qhi, out):
+        qi, key = _entries(j0, j1, self.G, sort=False)
+        pos = np.searchsorted(self.keys, key).clip(0, self.keys.size - 1)
+        hit = self.keys[pos] == key
+        qi, key, pos = qi[hit], key[hit], pos[hit]
+        cnt = self.count[pos]
+        row = np.repeat(np.arange(qi.size), cnt)
+        off = np.arange(row.size, dtype=np.int64) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+        ib = self.box[self.start[pos][row] + off]
+        ia = qi[row]
+        # each pair once: in the cell of the lower corner of the two boxes' overlap
+        keep = _linear(np.maximum(j0[ia], self.i0[ib]), self.G) == key[row]
+        ia, ib = q[ia[keep]], ib[keep]
+        ok = np.all((self.lo[ib] - qhi[ia] <= 0.0) & (qlo[ia] - self.hi[ib] <= 0.0), axis=1)
+        np.maximum.at(out, ia[ok], self.val[ib[ok]])
 
 
 def _too_long(P, E, sim):
@@ -185,18 +347,16 @@ def _too_long(P, E, sim):
     X = P[E].astype(np.float64)
     lo, hi = X.min(axis=1), X.max(axis=1)
     ext = (hi - lo).max(axis=1)
-    thr = np.zeros(len(E))
+    marked = np.zeros(len(E), dtype=bool)
     lo, hi = lo - ext[:, None], hi + ext[:, None]
-    # one broad phase per size class 4^c: its grid fits the class (a few huge edges would
-    # otherwise make one grid cell hold everything, and pair every edge with every cell)
+    # one query per size class 4^c, against boxes of that class (the cells, or bins of
+    # size 4^c: a few huge edges would otherwise pair with every cell they span)
     with np.errstate(divide="ignore"):
         size_class = np.floor(np.log2(np.maximum(ext, 1e-300)) / 2)
     for c in np.unique(size_class):
         sel = np.flatnonzero(size_class == c)
-        slo, shi, sext = sim.boxes(math.ldexp(1.0, 2 * int(c)))
-        for ia, ib in box_pairs(lo[sel], hi[sel], slo, shi, 0.0):
-            np.maximum.at(thr, sel[ia], sext[ib])
-    return (thr > 0) & (ext > thr)
+        marked[sel] = sim.marks(math.ldexp(1.0, 2 * int(c)), lo[sel], hi[sel], ext[sel])
+    return marked
 
 
 def _edge_rank(P, E):
