@@ -423,3 +423,19 @@ def _join(sa, ca, sb, q_cell, masks, gbox_a, gbox_b, bx):
     keep = _test(bx[6], lo_a[:, ga], hi_a[:, ga], lo_b[:, gb], hi_b[:, gb], ea, eb)
     if keep.size:
         yield ga[ea[keep]], gb[eb[keep]]
+
+
+# -- the grid, for other modules (refine.py's size hashes) --------------------------------
+cell_index = _cell_index  # cell of each coordinate, clipped to the grid
+linear_key = _linear      # linear key of a cell index (d,) in a grid of shape G
+runs = _runs              # unique keys of a sorted array, start and length of each run
+
+
+def cell_entries(i0: np.ndarray, i1: np.ndarray, G: np.ndarray, sort: bool = True):
+    """(box id, linear cell key) for every grid cell each box's range i0..i1 covers;
+    sorted by key, then box id (``sort=False``: in no particular order)."""
+    box, key, _ = _entries(i0, i1, G)
+    if not sort:
+        return box, key
+    order = np.lexsort((box, key))
+    return box[order], key[order]

@@ -36,7 +36,7 @@ import numpy as np
 
 from fperr.warnings import ResolutionError
 
-from .broadphase import _cell_index, _entries, _linear, _runs
+from .broadphase import cell_entries, cell_index, linear_key, runs
 from .complex import unique_rows
 
 __all__ = ["MAX_CELLS", "Refinement", "refine"]
@@ -259,13 +259,13 @@ class _BoxHash:
         budget = 16 * len(lo) + (1 << 20)
         while True:  # coarsen while a few huge boxes would cover too many cells
             G = (np.floor((self.top - self.origin) / h).astype(np.int64) + 1).clip(1, (1 << 20) + 1)
-            i0, i1 = (_cell_index(x, self.origin, h, G) for x in (lo, hi))
+            i0, i1 = (cell_index(x, self.origin, h, G) for x in (lo, hi))
             if np.prod(i1 - i0 + 1, axis=1).sum() <= budget or np.all(G == 1):
                 break
             h *= 2
         self.h, self.G, self.i0 = h, G, i0
-        self.box, key = _entries(i0, i1, G)
-        self.keys, self.start, self.count = _runs(key)
+        self.box, key = cell_entries(i0, i1, G)
+        self.keys, self.start, self.count = runs(key)
         # the largest value entered in each grid cell (for the interior shortcut)
         self.cellmax = (np.maximum.reduceat(val[self.box], self.start) if key.size
                         else np.zeros(0))
@@ -282,10 +282,10 @@ class _BoxHash:
         q = np.flatnonzero(np.all((qlo <= self.top) & (qhi >= self.origin), axis=1))
         if q.size == 0 or self.keys.size == 0:
             return out
-        j0 = _cell_index(qlo[q], self.origin, self.h, self.G)
-        j1 = _cell_index(qhi[q], self.origin, self.h, self.G)
+        j0 = cell_index(qlo[q], self.origin, self.h, self.G)
+        j1 = cell_index(qhi[q], self.origin, self.h, self.G)
         qi, idx = _cells_of(j0, j1)
-        key = _linear(idx, self.G)
+        key = linear_key(idx, self.G)
         pos = np.searchsorted(self.keys, key).clip(0, self.keys.size - 1)
         cm = np.where(self.keys[pos] == key, self.cellmax[pos], 0.0)
         inner = np.all(((idx > j0[qi]) | (qlo[q][qi] < self.origin))
@@ -311,8 +311,8 @@ class _BoxHash:
         q = np.flatnonzero(np.all((qlo <= self.top) & (qhi >= self.origin), axis=1))
         if q.size == 0 or self.keys.size == 0:
             return out
-        j0 = _cell_index(qlo[q], self.origin, self.h, self.G)
-        j1 = _cell_index(qhi[q], self.origin, self.h, self.G)
+        j0 = cell_index(qlo[q], self.origin, self.h, self.G)
+        j1 = cell_index(qhi[q], self.origin, self.h, self.G)
         ends = np.cumsum(np.prod(j1 - j0 + 1, axis=1))
         a = 0
         while a < q.size:  # chunks of about `chunk` grid-cell lookups
@@ -322,7 +322,7 @@ class _BoxHash:
         return out
 
     def _query(self, q, j0, j1, qlo, qhi, out):
-        qi, key = _entries(j0, j1, self.G, sort=False)
+        qi, key = cell_entries(j0, j1, self.G, sort=False)
         pos = np.searchsorted(self.keys, key).clip(0, self.keys.size - 1)
         hit = self.keys[pos] == key
         qi, key, pos = qi[hit], key[hit], pos[hit]
@@ -332,7 +332,7 @@ class _BoxHash:
         ib = self.box[self.start[pos][row] + off]
         ia = qi[row]
         # each pair once: in the cell of the lower corner of the two boxes' overlap
-        keep = _linear(np.maximum(j0[ia], self.i0[ib]), self.G) == key[row]
+        keep = linear_key(np.maximum(j0[ia], self.i0[ib]), self.G) == key[row]
         ia, ib = q[ia[keep]], ib[keep]
         ok = np.all((self.lo[ib] - qhi[ia] <= 0.0) & (qlo[ia] - self.hi[ib] <= 0.0), axis=1)
         np.maximum.at(out, ia[ok], self.val[ib[ok]])
@@ -348,14 +348,21 @@ def _too_long(P, E, sim):
     lo, hi = X.min(axis=1), X.max(axis=1)
     ext = (hi - lo).max(axis=1)
     marked = np.zeros(len(E), dtype=bool)
-    lo, hi = lo - ext[:, None], hi + ext[:, None]
+    # a mark needs ext > thr > 0, and every threshold (a cell's box edge, or a bin's:
+    # the largest of its cells') is at least the smallest cell box edge: edges no longer
+    # than that are never marked, so only the others are queried (same marks; a cutting
+    # mesh already as fine as the simulation mesh costs one pass)
+    todo = np.flatnonzero(ext > sim.ext.min())
+    if todo.size == 0:
+        return marked
+    lo, hi, ext = lo[todo] - ext[todo, None], hi[todo] + ext[todo, None], ext[todo]
     # one query per size class 4^c, against boxes of that class (the cells, or bins of
     # size 4^c: a few huge edges would otherwise pair with every cell they span)
     with np.errstate(divide="ignore"):
         size_class = np.floor(np.log2(np.maximum(ext, 1e-300)) / 2)
     for c in np.unique(size_class):
         sel = np.flatnonzero(size_class == c)
-        marked[sel] = sim.marks(math.ldexp(1.0, 2 * int(c)), lo[sel], hi[sel], ext[sel])
+        marked[todo[sel]] = sim.marks(math.ldexp(1.0, 2 * int(c)), lo[sel], hi[sel], ext[sel])
     return marked
 
 
