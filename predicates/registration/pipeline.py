@@ -59,7 +59,7 @@ import numpy as np
 
 from ..catalogue import kinds as catalogue_kinds
 from ..tolerances import tolerances as compute_tolerances
-from .inputs import max_box_edge, mesh_arrays, scale_points, validate_pair
+from .inputs import max_box_edge, mesh_arrays, scale_points, validate_options, validate_pair
 from .levels import Registration
 from .result import IntersectionResult
 
@@ -70,11 +70,12 @@ CHUNK = 1 << 17
 
 
 def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: bool = False,
-              chunk: int = CHUNK) -> IntersectionResult:
+              chunk: int = CHUNK, sim_region=None, cut_region=None) -> IntersectionResult:
     """Register the intersections of a simulation mesh with a cutting mesh.
 
     ``intersect(sim_points, sim_cells, cut_points, cut_cells)``, ``intersect(sim_mesh,
-    cut_mesh)`` (``meshio.Mesh``) or ``intersect((sim_points, sim_cells), (cut_points,
+    cut_mesh)`` (``meshio.Mesh``, pyvista, trimesh; ``sim_region``/``cut_region``: a
+    gmsh physical group or cell block, by tag or name) or ``intersect((sim_points, sim_cells), (cut_points,
     cut_cells))``. 2D: triangles (M, 3) vs segments (K, 2), points (N, 2); 3D:
     tetrahedra (M, 4) vs triangles (K, 3), points (N, 3). An empty cutting mesh gives an
     empty result.
@@ -87,11 +88,9 @@ def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: b
     """
     t0 = time.perf_counter()
     timings = {}
-    dtype = np.dtype(dtype)
-    ts = float(tolerance_scale)
-    if not 0 <= ts <= 1:
-        raise ValueError(f"tolerance_scale must be in [0, 1], got {tolerance_scale!r}")
-    sp, sc, cp, cc = mesh_arrays(args)
+    dtype, ts = validate_options(dtype, tolerance_scale, progress, chunk)
+    arrays = mesh_arrays(args, sim_region, cut_region)
+    sp, sc, cp, cc = arrays
     dim, sim, cut = validate_pair(sp, sc, cp, cc, dtype)
 
     # exact power-of-two scaling so that L_a + L_b is in [1/2, 1)
@@ -124,35 +123,39 @@ def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: b
         dim=dim, dtype=dtype, kinds=tuple(k.name for k in kinds), pairs=pairs,
         tolerances=tol_run, scale_exponent=e, tolerance_scale=ts, L_a=L_a0, L_b=L_b0,
         sim_points=sim.points, sim_cells=sim.cells, cut_points=cut.points,
-        cut_cells=cut.cells, rounded_inputs=sim.rounded or cut.rounded, timings=timings)
+        cut_cells=cut.cells, rounded_inputs=sim.rounded or cut.rounded, timings=timings,
+        notes=arrays.notes, plane=arrays.plane)
 
 
 def intersect_files(sim: str | os.PathLike, cut: str | os.PathLike, *,
                     output: str | os.PathLike | None = None,
-                    plot: str | os.PathLike | None = None, dtype: str = "float64",
-                    naive: bool = False, progress: bool = False) -> IntersectionResult:
+                    plot: str | os.PathLike | None = None,
+                    sim_output: str | os.PathLike | None = None, dtype: str = "float64",
+                    naive: bool = False, progress: bool = False, sim_region=None,
+                    cut_region=None, **options) -> IntersectionResult:
     """Register two mesh files (any format meshio reads) and write the intersection
-    points to ``output`` (any format meshio writes) and a 2D picture to ``plot``.
+    points to ``output`` (.vtu/.vtk), the simulation mesh with cut-cell data to
+    ``sim_output`` and a 2D picture to ``plot``.
 
-    Output paths are checked before any work, and the run is refused (ValueError) before
-    anything is written, so a refused run writes nothing. ``naive``: the zero-tolerance
-    baseline (``tolerance_scale=0``).
+    Output paths are checked before any work (format, directory, not an input file), the
+    inputs are read under guard, and every problem raises an error naming the file, so
+    a refused run writes nothing; files are written atomically. ``naive``: the
+    zero-tolerance baseline (``tolerance_scale=0``); ``sim_region``/``cut_region``: a
+    gmsh physical group or cell block (tag or name); other ``options`` go to
+    :func:`intersect`.
     """
-    from .files import check_output, read_mesh
+    from .files import check_outputs, load_pair, write_results
 
-    if output is not None:
-        check_output(output, "mesh")
-    if plot is not None:
-        check_output(plot, "plot")
-    res = intersect(read_mesh(sim), read_mesh(cut), dtype=np.dtype(dtype), progress=progress,
-                    tolerance_scale=0.0 if naive else 1.0)
-    if plot is not None and res.dim != 2:
+    check_outputs({"SIM": sim, "CUT": cut},
+                  {("-o", "mesh"): output, ("--plot", "plot"): plot,
+                   ("--sim-output", "mesh"): sim_output})
+    arrays = load_pair(sim, cut, dtype=dtype, sim_region=sim_region, cut_region=cut_region)
+    if plot is not None and arrays[0].shape[1] != 2:
         raise ValueError("plots are drawn for 2D meshes only (this case is 3D; open the "
                          "output in ParaView instead)")
-    if output is not None:
-        res.to_meshio().write(output)
-    if plot is not None:
-        from .plot import plot_2d
-
-        plot_2d(res, plot)
+    res = intersect(*arrays, dtype=np.dtype(dtype), progress=progress,
+                    tolerance_scale=0.0 if naive else 1.0, **options)
+    res.notes[:0] = arrays.notes
+    res.plane = arrays.plane
+    write_results(res, output=output, plot=plot, sim_output=sim_output)
     return res
