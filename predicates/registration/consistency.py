@@ -12,7 +12,7 @@ import itertools
 
 import numpy as np
 
-__all__ = ["broken_walks", "cell_faces", "location_counts", "rows_in"]
+__all__ = ["broken_edges", "broken_walks", "cell_faces", "location_counts", "rows_in"]
 
 
 def _void(rows: np.ndarray) -> np.ndarray:
@@ -21,9 +21,18 @@ def _void(rows: np.ndarray) -> np.ndarray:
 
 
 def rows_in(rows: np.ndarray, table: np.ndarray) -> np.ndarray:
-    """For every row of ``rows`` (n, w): is it a row of ``table`` (m, w)?"""
+    """For every row of ``rows`` (n, w) of ids ≥ −1: is it a row of ``table`` (m, w)?"""
     if len(rows) == 0 or len(table) == 0:
         return np.zeros(len(rows), dtype=bool)
+    base = int(max(rows.max(), table.max())) + 2
+    w = rows.shape[1]
+    if base ** w < 2 ** 62:  # one int64 key per row: a fast integer isin
+        def key(a):
+            k = np.zeros(len(a), dtype=np.int64)
+            for c in range(w):
+                k = k * base + (a[:, c].astype(np.int64) + 1)
+            return k
+        return np.isin(key(rows), key(table))
     return np.isin(_void(rows), _void(table))
 
 
@@ -36,11 +45,11 @@ def _padded(rows: np.ndarray, width: int) -> np.ndarray:
 
 def cell_faces(cells: np.ndarray) -> np.ndarray:
     """Every face (vertex, edge, ..., the cell itself) of every cell as a sorted row
-    left-padded with −1 to the cell's width, unique."""
+    left-padded with −1 to the cell's width (repeated where cells share faces)."""
     k = cells.shape[1]
     parts = [_padded(cells[:, list(c)].reshape(-1, r), k)
              for r in range(1, k + 1) for c in itertools.combinations(range(k), r)]
-    return np.unique(np.concatenate(parts), axis=0)
+    return np.concatenate(parts)
 
 
 def location_counts(res, side: str = "cut") -> np.ndarray:
@@ -90,7 +99,12 @@ def _union(x: np.ndarray, y: np.ndarray, width: int):
 
 
 def broken_walks(res) -> int:
-    """Cutting edges whose registered events do not form a walk through the simulation
+    """The number of :func:`broken_edges`."""
+    return len(broken_edges(res))
+
+
+def broken_edges(res) -> np.ndarray:
+    """(k, 2) cutting edges (vertex ids, sorted) whose registered events do not form a walk through the simulation
     mesh (see :meth:`IntersectionResult.broken_walks`): between consecutive events the
     edge runs inside one cell, so consecutive event primitives must lie in a common
     cell. Only edges whose both endpoints are located exactly once are checked."""
@@ -107,7 +121,7 @@ def broken_walks(res) -> int:
         axis=0) if len(cc) else np.zeros((0, 2), np.int64)
     edges = edges[(count[edges[:, 0]] == 1) & (count[edges[:, 1]] == 1)]
     if len(edges) == 0:
-        return 0
+        return np.zeros((0, 2), dtype=np.int64)
     # events of the checked edges, endpoints at t = -inf / +inf
     m = len(edges)
     ekey = edges[:, 0] * n + edges[:, 1]  # ascending: edges are unique rows, sorted
@@ -122,4 +136,4 @@ def broken_walks(res) -> int:
     same = E[1:] == E[:-1]
     u, fits = _union(P[:-1][same], P[1:][same], width)
     ok = fits & rows_in(u, cell_faces(res.sim_cells))
-    return int(len(np.unique(E[:-1][same][~ok])))
+    return edges[np.unique(E[:-1][same][~ok])]

@@ -3,6 +3,7 @@ registered pairs per kind, readable summary, consistency counts, analysis and ex
 (meshio/ParaView, dict/JSON, pandas)."""
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -185,7 +186,6 @@ class IntersectionResult:
             if not prims:
                 continue
             table = np.unique(np.sort(np.concatenate(prims), axis=1), axis=0)
-            import itertools
             combos = list(itertools.combinations(range(k), r))
             faces = np.sort(cells[:, combos], axis=2).reshape(-1, r)
             hit |= consistency.rows_in(faces, table).reshape(len(cells), -1).any(axis=1)
@@ -326,13 +326,13 @@ class IntersectionResult:
         field data: the kind legend {name: [code]}."""
         import meshio
 
-        data = {"cut": self._cut_mask(self.kinds).astype(np.int8)}
+        data = {}
         bits = np.zeros(len(self.sim_cells), dtype=np.int32)
         for k in self.kinds:
             m = self._cut_mask([k])
             data[f"cut_by_{k}"] = m.astype(np.int8)
             bits |= m.astype(np.int32) << (KIND_CODES[k] - 1)
-        data["cut_kinds"] = bits
+        data = {"cut": (bits != 0).astype(np.int8), "cut_kinds": bits, **data}
         ctype = "tetra" if self.dim == 3 else "triangle"
         legend = {k: np.array([c], dtype=np.int32) for k, c in self.kind_legend().items()}
         return meshio.Mesh(self._xyz(self.sim_points), [(ctype, self.sim_cells)],
