@@ -42,7 +42,7 @@ Runs
     CI size (the default, about 25 s of CPU): ``fperr audit``. A larger run (about
     200 s of CPU, 130,000 shadow runs):
     ``fperr audit --samples 1500 --search-steps 150 --seed 7 --format json -o audit.json``;
-    its figures are in benchmarks/README.md. ``--formats``, ``--dims`` and
+    its figures are in benchmarks/README.md. ``--dtype``, ``--dim`` and
     ``--predicates`` restrict the audit; ``proofs.audit.replay(record)`` re-runs a
     violation or worst case from the JSON report.
 
@@ -1154,7 +1154,27 @@ def run_audit(**kw) -> dict:
 # --------------------------------------------------------------------------------------
 # command line
 # --------------------------------------------------------------------------------------
+#: --dtype names (the same as intersect's and demo's) -> audit formats
+DTYPES = {"float64": "binary64", "float32": "binary32", "mp17": "mp17"}
+
+
+def _listed(choices, convert=str):
+    """argparse type of the deprecated comma-separated options: every item checked."""
+    def parse(text):
+        out = []
+        for item in (t.strip() for t in text.split(",")):
+            if item and convert(item) not in choices:
+                raise ValueError(item)
+            if item:
+                out.append(convert(item))
+        return out
+    parse.__name__ = "list of " + "/".join(map(str, choices))
+    return parse
+
+
 def add_arguments(parser):
+    import argparse
+
     parser.add_argument("--samples", type=int, default=DEFAULT_SAMPLES,
                         help=f"random/adversarial samples per predicate and format "
                              f"(default {DEFAULT_SAMPLES}, the CI size)")
@@ -1164,30 +1184,45 @@ def add_arguments(parser):
     parser.add_argument("--format", choices=("md", "json"), default="md",
                         help="report format (default md)")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    parser.add_argument("--formats", default="binary64,binary32,mp17",
-                        help="comma-separated working formats (default all three)")
-    parser.add_argument("--dims", default="2,3", help="dimensions to audit (default 2,3)")
+    parser.add_argument("--dtype", choices=tuple(DTYPES), action="append",
+                        help="working precision to audit, repeatable (default all three: "
+                             "float64, float32 and mp17, mpmath at 17 bits)")
+    parser.add_argument("--dim", type=int, choices=(2, 3), action="append",
+                        help="dimension to audit, repeatable (default both)")
+    # the former names, kept working (same checks, not shown)
+    parser.add_argument("--formats", type=_listed(tuple(FORMATS)), help=argparse.SUPPRESS)
+    parser.add_argument("--dims", type=_listed((2, 3), int), help=argparse.SUPPRESS)
     parser.add_argument("--predicates", default="",
                         help="comma-separated predicate names to audit (default all)")
     parser.add_argument("-o", "--output", help="also write the report to this file")
+    parser.add_argument("--quiet", action="store_true", help="no progress lines")
 
 
 def run(args) -> int:
-    formats = [f.strip() for f in args.formats.split(",") if f.strip()]
-    for f in formats:
-        if f not in FORMATS:
-            print(f"fperr audit: unknown format {f!r} (choose from {', '.join(FORMATS)})",
-                  file=sys.stderr)
+    import os
+
+    formats = [DTYPES[d] for d in args.dtype] if args.dtype else \
+        (args.formats or ["binary64", "binary32", "mp17"])
+    dims = sorted(set(args.dim or args.dims or [2, 3]))
+    if args.output:  # checked before the run, not after it
+        parent = os.path.dirname(os.path.abspath(args.output))
+        if not os.path.isdir(parent) or os.path.isdir(args.output):
+            print(f"fperr audit: error: cannot write {args.output} (no directory {parent})"
+                  if not os.path.isdir(parent) else
+                  f"fperr audit: error: {args.output} is a directory", file=sys.stderr)
             return 2
-    dims = [int(d) for d in args.dims.split(",") if d.strip()]
     wanted = {p.strip() for p in args.predicates.split(",") if p.strip()}
-    preds = [p for d in dims for p in predicates.ALL[d] if not wanted or p.name in wanted]
-    if not preds:
-        print("fperr audit: no predicate selected", file=sys.stderr)
+    known = {p.name for d in dims for p in predicates.ALL[d]}
+    if wanted - known:
+        print(f"fperr audit: error: unknown predicate(s) {', '.join(sorted(wanted - known))}"
+              f" in {', '.join(f'{d}D' for d in dims)} (choose from "
+              f"{', '.join(sorted(known))})", file=sys.stderr)
         return 2
+    preds = [p for d in dims for p in predicates.ALL[d] if not wanted or p.name in wanted]
 
     def progress(spec, fmt):
-        print(f"  audited {spec.key} in {fmt}", file=sys.stderr)
+        if not args.quiet:
+            print(f"  audited {spec.key} in {fmt}", file=sys.stderr)
 
     audit = Audit(preds, formats, args.samples, args.search_steps, args.seed,
                   progress=progress).run()

@@ -201,7 +201,7 @@ def constraints(dim: int, overrides: dict | None = None, runs=None) -> list[Cons
 
 
 def verify(dim: int, overrides: dict | None = None, runs=None,
-           require_paper_argument: bool = False) -> Report:
+           require_paper_argument: bool = False, progress: bool = False) -> Report:
     """Decide every constraint of ``dim`` for every ε ∈ (0, 1e-5].
 
     ``overrides``: coefficient overrides ({dim: {name: {"lo"|"mid"|"hi": value}}}, see
@@ -209,11 +209,15 @@ def verify(dim: int, overrides: dict | None = None, runs=None,
     verify instead of ``predicates.ALL[dim]`` (a list, or a dict keyed by the paper
     algorithm whose declared facts apply, e.g. {"edge_vertex": my_variant}). An
     Instrumented run is used as given (its tolerance errors are those it was run with);
-    a Predicate is re-run with the overridden tolerances.
+    a Predicate is re-run with the overridden tolerances. ``progress``: a bar on stderr.
     """
     t0 = time.perf_counter()
     tab = tables.table(dim, overrides)
     cs = constraints(dim, overrides, runs)
+    if progress:
+        from tqdm import tqdm
+        cs = tqdm(cs, desc=f"fperr verify {dim}D", unit="constraint", leave=False,
+                  delay=1.0, file=sys.stderr)
     outs = [decide_constraint(c, require_paper_argument) for c in cs]
     return Report(dim, outs, time.perf_counter() - t0, tab)
 
@@ -234,6 +238,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="also write the generated report (default: the repository's "
                              "docs/error-bounds.md)")
     parser.add_argument("--certificate", metavar="FILE", help="also write a checkable certificate")
+    parser.add_argument("--format", choices=("text", "json"), default="text",
+                        help="output format (default text; json: every constraint's name, "
+                             "status and margin)")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def outcome_dict(o: Outcome) -> dict:
+    """One decided constraint as plain data: name, status, margin (binary64, L = 1)."""
+    d = o.tightest()
+    diff, ratio = d.at64 if d is not None else (None, None)
+    return {"name": o.id, "status": "pass" if o.holds else "fail",
+            "section": o.constraint.section, "statement": o.constraint.statement,
+            "margin": None if diff is None else float(diff),
+            "ratio": None if ratio is None else float(ratio),
+            "established_by": o.established_by or None, "reason": o.reason or None}
 
 
 def _margin_text(o: Outcome) -> str:
@@ -290,13 +309,18 @@ def run(args) -> int:
     dims = sorted(set(args.dim or [2, 3]))
     ok = True
     reports = {}
+    as_json = getattr(args, "format", "text") == "json"
     for dim in dims:
         try:
-            rep = verify(dim, overrides, require_paper_argument=args.require_paper_argument)
+            rep = verify(dim, overrides, require_paper_argument=args.require_paper_argument,
+                         progress=not getattr(args, "quiet", True))
         except (ValueError, TypeError) as e:
             print(f"fperr verify: {dim}D: {e}", file=sys.stderr)
             return 2
         reports[dim] = rep
+        ok = ok and rep.ok
+        if as_json:
+            continue
         src = "paper's Figure 1" if dim == 2 else "paper's Figure 5"
         if overrides and dim in overrides:
             src += f" with overrides from {args.tolerances}"
@@ -309,7 +333,13 @@ def run(args) -> int:
         if nf:
             print(f"{dim}D FAILED: " + ", ".join(o.id for o in rep.failures))
         print()
-        ok = ok and rep.ok
+    if as_json:
+        import json
+        print(json.dumps({"ok": ok, "dims": {str(d): {
+            "constraints": [outcome_dict(o) for o in r.outcomes], "hold": len(r.outcomes) -
+            len(r.failures), "fail": len(r.failures), "seconds": r.seconds}
+            for d, r in reports.items()}}, indent=1))
+    out = sys.stderr if as_json else sys.stdout  # json: stdout holds the document only
     if getattr(args, "certificate", None):
         from . import certificate
         try:
@@ -317,12 +347,12 @@ def run(args) -> int:
         except OSError as e:
             print(f"fperr verify: cannot write certificate: {e}", file=sys.stderr)
             return 2
-        print(f"certificate written to {args.certificate}")
+        print(f"certificate written to {args.certificate}", file=out)
     if args.report is not None:
         from .report import DEFAULT_PATH, write_report
         path = args.report or DEFAULT_PATH
         write_report(path)
-        print(f"report written to {path}")
+        print(f"report written to {path}", file=out)
     return 0 if ok else 1
 
 

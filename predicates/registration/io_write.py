@@ -1,9 +1,11 @@
 """Writing results (section 1 of the paper's registration, for ParaView): output paths
 checked before any work, and atomic writes.
 
-Only formats that hold everything the result carries (points, cells, point and cell
-data, field data with the kind legend) are accepted: VTU and legacy VTK. STL/OFF/PLY/
-Medit keep no data, meshio's .msh picks an ANSYS writer that crashes, .obj/.xdmf fail.
+Only a format that holds everything the result carries (points, cells, point and cell
+data, field data with the kind legend) is accepted: VTU, ParaView's own. STL/OFF/PLY/
+Medit keep no data, meshio's .msh picks an ANSYS writer that crashes, .obj/.xdmf fail,
+and meshio writes no field data into .vtk — nor into .vtu, so the legend is added to
+the VTU file here (a dataset-level ``<FieldData>``, which meshio and ParaView read).
 A file is written to a temporary name in the target directory and renamed, so a failed
 write never leaves a file, and an output naming an input file is refused.
 """
@@ -20,7 +22,7 @@ __all__ = ["MESH_FORMATS", "PLOT_FORMATS", "check_output", "check_outputs", "wri
            "write_mesh"]
 
 #: the mesh formats a result is written in (they hold point, cell and field data)
-MESH_FORMATS = (".vtu", ".vtk")
+MESH_FORMATS = (".vtu",)
 #: the image formats :func:`predicates.registration.plot.plot_2d` writes
 PLOT_FORMATS = (".png", ".pdf", ".svg")
 
@@ -89,12 +91,31 @@ def write_atomic(path: str | os.PathLike, write) -> None:
 
 
 def write_meshio(path: str | os.PathLike, mesh) -> None:
-    """Write a ``meshio.Mesh`` atomically, meshio's stdout chatter kept off stdout."""
+    """Write a ``meshio.Mesh`` atomically, meshio's stdout chatter kept off stdout, its
+    ``field_data`` (integer arrays) included in a VTU file."""
     def write(tmp):
         with contextlib.redirect_stdout(io.StringIO()):
             mesh.write(tmp)
+        if mesh.field_data and tmp.lower().endswith(".vtu"):
+            _add_field_data(tmp, mesh.field_data)
 
     write_atomic(path, write)
+
+
+def _add_field_data(path: str, field_data: dict) -> None:
+    """Insert ``<FieldData>`` (ascii integer arrays) at the top of a VTU's grid."""
+    arrays = "".join(
+        f'<DataArray type="Int32" Name="{name}" NumberOfTuples="{np.size(v)}" '
+        f'format="ascii">{" ".join(str(int(x)) for x in np.ravel(v))}</DataArray>\n'
+        for name, v in field_data.items())
+    with open(path, "rb") as fh:
+        text = fh.read()
+    tag = b"<UnstructuredGrid>"
+    if tag not in text:
+        raise ValueError(f"{path}: unexpected VTU layout, cannot add the field data")
+    text = text.replace(tag, tag + b"\n<FieldData>\n" + arrays.encode() + b"</FieldData>", 1)
+    with open(path, "wb") as fh:
+        fh.write(text)
 
 
 def write_mesh(path: str | os.PathLike, points: np.ndarray, cells: np.ndarray,

@@ -41,12 +41,13 @@ def _draw_2d(ax, res, title: str) -> None:
     cp = res.cut_points.astype(np.float64)
     ax.triplot(sp[:, 0], sp[:, 1], res.sim_cells, color="0.78", lw=0.6, zorder=1)
     ax.add_collection(LineCollection(cp[res.cut_cells], colors="k", linewidths=1.0, zorder=2))
+    shrink = float(np.clip(np.sqrt(150 / max(res.total, 1)), 0.2, 1.0))  # dense: smaller
     for z, kind in enumerate(res.kinds):
         p = res[kind]
         if len(p):
             X = p.points()
             m, s = MARKERS[kind]
-            ax.scatter(X[:, 0], X[:, 1], s=s, marker=m, facecolors=COLOURS[kind],
+            ax.scatter(X[:, 0], X[:, 1], s=s * shrink, marker=m, facecolors=COLOURS[kind],
                        edgecolors="k", linewidths=0.4, zorder=3 + z, alpha=0.9,
                        label=f"{kind} ({len(p)})")
     ax.set_aspect("equal")
@@ -65,8 +66,7 @@ def plot_2d(res, path: str | os.PathLike, title: str | None = None) -> None:
     naive = " (naive: zero tolerances)" if res.tolerance_scale == 0 else ""
     _draw_2d(ax, res, title or f"{res.total} intersections registered{naive}")
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1), fontsize=8, title="kind")
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, dpi=120, bbox_inches="tight")
     plt.close(fig)
 
 
