@@ -139,9 +139,10 @@ def read_mesh(path: str | os.PathLike, *, time_limit: float | None = None):
         if ext in _CHECKS:
             with open(path, "rb") as fh:
                 _CHECKS[ext](fh.read())
-        sink = io.StringIO()  # meshio prints stray blank lines and notes on stdout
+        sink = io.StringIO()  # meshio prints blank lines, notes and errors of its own
         with _time_limit(time_limit or _limit(size)), contextlib.redirect_stdout(sink), \
-                warnings.catch_warnings(), np.errstate(all="ignore"):
+                contextlib.redirect_stderr(sink), warnings.catch_warnings(), \
+                np.errstate(all="ignore"):
             warnings.simplefilter("ignore")
             mesh = meshio.read(path)
     except _Timeout:
