@@ -197,6 +197,11 @@ def _cut(mesh, dim: int, role: str, notes: list):
                              f"mesh's points have shape {pts.shape}")
         return pts, tris, None
     lines = _blocks(mesh, "line", notes, role)
+    if lines is None and _blocks(mesh, "triangle", [], role) is not None:
+        raise ValueError(f"mixed dimensions: the simulation mesh has triangles only and the "
+                         f"{role} mesh has triangles: a 2D registration needs line segments "
+                         "as the cutting mesh, a 3D one a volume (tetrahedral) mesh is "
+                         "needed as the simulation mesh")
     if lines is None:
         raise ValueError(f"mixed dimensions: the simulation mesh has triangles (2D) but the "
                          f"{role} mesh has no line segments (cell types: {_types(mesh)})")
