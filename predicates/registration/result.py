@@ -69,7 +69,10 @@ class KindPairs:
             if self._points is None:
                 raise ValueError("these pairs are not attached to a result: pass the points")
             points = self._points[0 if side == "sim" else 1]
-        X = np.asarray(points, dtype=np.float64)[ids]
+        points = np.asarray(points, dtype=np.float64)
+        if len(ids) == 0:
+            return np.zeros((0, points.shape[1]))
+        X = points[ids]
         return np.einsum("mk,mkd->md", w.astype(np.float64), X)
 
 
