@@ -76,7 +76,7 @@ def test_points_without_arguments_and_plain_data():
     assert back["tolerances"]["tau"] == res.tolerances.values["tau"]
     for k in res.kinds:
         assert back["pairs"][k]["sim"] == res[k].sim.tolist()
-        assert np.allclose(back["pairs"][k]["points"], res[k].points())
+        assert np.allclose(np.reshape(back["pairs"][k]["points"], (-1, 3)), res[k].points())
 
 
 def test_dataframe():
