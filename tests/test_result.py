@@ -229,3 +229,15 @@ def test_unknown_objects_are_refused_by_type():
     m = meshio.Mesh(np.column_stack([ex["sim"][0], np.zeros(len(ex["sim"][0]))]),
                     [("triangle", ex["sim"][1])])
     assert predicates.intersect(m, meshio.Mesh(ex["cut"][0], [("line", ex["cut"][1])])).total
+
+
+def test_intersect_files_validates_its_parameters_before_reading(tmp_path):
+    from predicates.registration import intersect_files
+
+    missing = tmp_path / "nope.vtu"  # never read: the parameters are refused first
+    with pytest.raises(TypeError, match="dtype"):
+        intersect_files(missing, missing, dtype="float16")
+    with pytest.raises(TypeError, match="naive"):
+        intersect_files(missing, missing, naive="no")
+    with pytest.raises(TypeError, match="progress"):
+        intersect_files(missing, missing, progress=None)

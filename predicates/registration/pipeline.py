@@ -146,6 +146,9 @@ def intersect_files(sim: str | os.PathLike, cut: str | os.PathLike, *,
     """
     from .files import check_outputs, load_pair, write_results
 
+    validate_options(dtype, 0.0, progress, options.get("chunk", CHUNK))  # before any work
+    if not isinstance(naive, (bool, np.bool_)):
+        raise TypeError(f"naive must be True or False, got {naive!r}")
     check_outputs({"SIM": sim, "CUT": cut},
                   {("-o", "mesh"): output, ("--plot", "plot"): plot,
                    ("--sim-output", "mesh"): sim_output})
