@@ -135,10 +135,13 @@ def read_mesh(path: str | os.PathLike, *, time_limit: float | None = None):
     size = os.path.getsize(path)
     if size == 0:
         raise MeshFileError(path, "empty file")
-    try:
-        if ext in _CHECKS:
+    if ext in _CHECKS:
+        try:
             with open(path, "rb") as fh:
                 _CHECKS[ext](fh.read())
+        except ValueError as e:
+            raise MeshFileError(path, e) from None
+    try:
         sink = io.StringIO()  # meshio prints blank lines, notes and errors of its own
         with _time_limit(time_limit or _limit(size)), contextlib.redirect_stdout(sink), \
                 contextlib.redirect_stderr(sink), warnings.catch_warnings(), \

@@ -40,10 +40,10 @@ def check_output(path: str | os.PathLike, kind: str) -> None:
     ext = os.path.splitext(path)[1].lower()
     allowed = {"plot": PLOT_FORMATS, "mesh": MESH_FORMATS}[kind]
     if ext not in allowed:
-        what = "plots are written" if kind == "plot" else \
-            "results are written (they keep the kind, ids and weights as data)"
-        raise ValueError(f"{path}: {what} as {', '.join(allowed)}, not "
-                         f"'{ext or 'no extension'}'")
+        what = f"plots are written as {', '.join(allowed)}" if kind == "plot" else \
+            (f"results are written as {', '.join(allowed)} (the format that keeps their "
+             "kind, ids and weights as data, for ParaView)")
+        raise ValueError(f"{path}: {what}, not '{ext or 'no extension'}'")
 
 
 def _same(a: str, b: str) -> bool:
