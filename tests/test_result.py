@@ -241,3 +241,22 @@ def test_intersect_files_validates_its_parameters_before_reading(tmp_path):
         intersect_files(missing, missing, naive="no")
     with pytest.raises(TypeError, match="progress"):
         intersect_files(missing, missing, progress=None)
+
+
+def test_pyvista_layouts_without_pyvista():
+    """pyvista is optional and not installed here: its documented layouts (PolyData's
+    padded [n, i0, .., i(n-1), ...] faces/lines, UnstructuredGrid's cells_dict keyed by
+    VTK type ids) in plain objects convert to the same registration."""
+    from types import SimpleNamespace
+
+    ex = example("sphere", 3, subdivisions=1)
+    P, T = ex["sim"]
+    C, F = ex["cut"]
+    grid = SimpleNamespace(points=P, cells_dict={10: T})  # VTK_TETRA = 10
+    surf = SimpleNamespace(points=C, faces=np.column_stack([np.full(len(F), 3), F]).ravel(),
+                           lines=np.zeros(0, np.int64))
+    ref = predicates.intersect(*ex["sim"], *ex["cut"])
+    assert predicates.intersect(grid, surf).counts == ref.counts
+    quads = SimpleNamespace(points=C, faces=np.array([4, 0, 1, 2, 3]))
+    with pytest.raises(ValueError, match="triangulate"):
+        predicates.intersect(grid, quads)
