@@ -121,9 +121,3 @@ def rule_K(c=sympy.Rational(1, 2), p=sympy.Integer(1)) -> State:
     """K: x = coord, exact, |x| ≤ L/2 (coordinates are shifted to the pair's box)."""
     return State(sympy.sympify(c), sympy.sympify(p), False, ZERO, ZERO, True)
 
-
-#: Binary operators: candidate rules, most restricted first.
-BINARY = {
-    "+": ("C", "B"),
-    "-": ("E", "D"),
-}

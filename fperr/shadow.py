@@ -2,10 +2,11 @@
 
 A :class:`Shadow` holds
 
-* ``w`` — the value the real floating-point path computes: a Python float (binary64), a
-  numpy float32/float64 scalar or array, or an mpmath ``mpf`` rounded at a given
-  precision (see :class:`WorkingFormat`);
-* ``x`` — the exact value of the same expression on the same (exact) inputs;
+* ``w`` — the value the real floating-point path computes in a working context ``fmt``
+  (:class:`fperr.FloatContext`, a :class:`fperr.NumpyContext` scalar or array, an
+  :class:`fperr.MpContext` ``mpf``; any :func:`fperr.context`);
+* ``x`` — the exact value of the same expression on the same (exact) inputs: a Fraction
+  or a rigorous interval (see :mod:`fperr.intervals`);
 * ``lo`` / ``hi`` — for quantities computed from a *bracketed* input (a tolerance T with
   its exact brackets T− and T+, section 3 of the paper): the exact value with T− resp.
   T+ substituted for T. ``None`` for quantities that do not depend on a tolerance.
@@ -16,399 +17,38 @@ decisions (so the real floating-point path runs, early returns included) and rec
 named quantity and every comparison, whose exact decisions at T, T− and T+ can then be
 read from the record (:meth:`ShadowCheck.exact_decision`).
 
-The exact reference
--------------------
-Exact values are :class:`fractions.Fraction` whenever the value is rational: every input
-coordinate, constant and working value is a dyadic rational, so sums, differences,
-products and quotients stay exact. A square root that is not rational (edge-vertex's
-m = ‖û‖, the ε^(1/2) and ε^(1/4) factors of the tolerances, the √3 in some T+) becomes a
-*rigorous* interval (mpmath's interval arithmetic at :data:`REFERENCE_PREC` = 300 bits,
-outward rounded), and everything computed from it stays an interval. So the reference is
-either exact or an enclosure whose width is about 2^-290 relative to the magnitudes
-involved — negligible against the ε² terms of every bound (ε² ≥ 2^-106). Measured errors
-use the interval's far end (an upper bound of the true error), and comparisons decide only
-when the enclosure does: :func:`compare` returns ``None`` (undecided) otherwise.
-
 This module knows nothing of geometry; :mod:`proofs.audit` uses it to audit the
 predicates.
 """
 from __future__ import annotations
 
-import math
 from contextlib import contextmanager
 from fractions import Fraction
 
 import mpmath
 import numpy as np
-from mpmath import libmp
 
-from .contexts import Context, mp_to_fraction
+from .contexts import Context, FloatContext
+from .exact import to_fraction
+from .intervals import (compare, exact_abs, exact_add, exact_div, exact_mul, exact_neg,
+                        exact_sqrt, exact_sub, upper_fraction)
 
-__all__ = ["BINARY32", "BINARY64", "NP_BINARY64", "REFERENCE_PREC", "RInterval", "Shadow",
-           "ShadowCheck", "ShadowContext", "WorkingFormat", "compare", "exact_sqrt",
-           "interval_from_float", "lower_fraction", "mp_format", "round_to_bits",
-           "to_fraction", "upper_fraction"]
-
-#: Significand bits of the endpoints of the reference intervals (irrational exact values).
-REFERENCE_PREC = 300
-
-
-# --------------------------------------------------------------------------------------
-# exact values: Fraction, or a rigorous rational interval; None = undefined (0/0 in a lane
-# the working path had already rejected)
-# --------------------------------------------------------------------------------------
-def _floor_log2(n: int, d: int) -> int:
-    e = n.bit_length() - d.bit_length()
-    if (n << max(-e, 0)) < (d << max(e, 0)):
-        e -= 1
-    return e
-
-
-def _round_dir(q: Fraction, up: bool, bits: int = REFERENCE_PREC) -> Fraction:
-    """q rounded to ``bits`` significant bits toward +inf (up) or -inf (down)."""
-    n, d = q.numerator, q.denominator
-    if n == 0 or (d & (d - 1) == 0 and abs(n).bit_length() <= bits):
-        return q
-    neg = n < 0
-    n = -n if neg else n
-    shift = _floor_log2(n, d) - bits + 1
-    if shift >= 0:
-        k, r = divmod(n, d << shift)
-    else:
-        k, r = divmod(n << -shift, d)
-    if r and (up != neg):  # magnitude rounded up
-        k += 1
-    v = Fraction(k << shift) if shift >= 0 else Fraction(k, 1 << -shift)
-    return -v if neg else v
-
-
-class RInterval:
-    """A closed interval [lo, hi] with dyadic rational endpoints of at most
-    :data:`REFERENCE_PREC` significant bits, rounded outward after every operation: a
-    rigorous enclosure of an irrational exact value."""
-
-    __slots__ = ("lo", "hi")
-
-    def __init__(self, lo: Fraction, hi: Fraction):
-        self.lo = _round_dir(lo, False)
-        self.hi = _round_dir(hi, True)
-
-    @staticmethod
-    def of(q):
-        return q if type(q) is RInterval else RInterval(q, q)
-
-    def __add__(self, o):
-        o = RInterval.of(o)
-        return RInterval(self.lo + o.lo, self.hi + o.hi)
-
-    __radd__ = __add__
-
-    def __sub__(self, o):
-        o = RInterval.of(o)
-        return RInterval(self.lo - o.hi, self.hi - o.lo)
-
-    def __rsub__(self, o):
-        return RInterval.of(o) - self
-
-    def __mul__(self, o):
-        o = RInterval.of(o)
-        p = (self.lo * o.lo, self.lo * o.hi, self.hi * o.lo, self.hi * o.hi)
-        return RInterval(min(p), max(p))
-
-    __rmul__ = __mul__
-
-    def __truediv__(self, o):
-        o = RInterval.of(o)
-        if o.lo <= 0 <= o.hi:
-            raise ZeroDivisionError("interval divisor contains zero")
-        return self * RInterval(_round_dir(1 / o.hi, False), _round_dir(1 / o.lo, True))
-
-    def __rtruediv__(self, o):
-        return RInterval.of(o) / self
-
-    def __neg__(self):
-        return RInterval(-self.hi, -self.lo)
-
-    def __abs__(self):
-        if self.lo >= 0:
-            return self
-        if self.hi <= 0:
-            return -self
-        return RInterval(Fraction(0), max(-self.lo, self.hi))
-
-    def sqrt(self):
-        lo = self.lo if self.lo > 0 else Fraction(0)  # an enclosure of x >= 0 may dip below 0
-        if self.hi < 0:
-            raise ValueError("square root of a negative exact value")
-        return RInterval(_sqrt_bound(lo, False), _sqrt_bound(self.hi, True))
-
-    def mid(self) -> Fraction:
-        return (self.lo + self.hi) / 2
-
-    def __float__(self):
-        return float(self.mid())
-
-    def __repr__(self):
-        return f"RInterval({float(self.lo)!r}, width 2^{_log2w(self)})"
-
-
-def _log2w(iv):
-    w = iv.hi - iv.lo
-    return "-inf" if w == 0 else _floor_log2(w.numerator, w.denominator)
-
-
-def _sqrt_bound(q: Fraction, up: bool) -> Fraction:
-    """A dyadic bound of √q (q ≥ 0) with about REFERENCE_PREC + 8 significant bits."""
-    n, d = q.numerator, q.denominator
-    if n == 0:
-        return Fraction(0)
-    # √(n/d) = √(n·d)/d; scale by 4^k so the integer root has enough bits
-    nd = n * d
-    k = max(0, (REFERENCE_PREC + 8) - nd.bit_length() // 2)
-    r = math.isqrt(nd << (2 * k))
-    if up and r * r != (nd << (2 * k)):
-        r += 1
-    return Fraction(r, d << k)
-
-
-def _add(a, b):
-    if a is None or b is None:
-        return None
-    return a + b if type(a) is Fraction else RInterval.of(a) + b
-
-
-def _sub(a, b):
-    if a is None or b is None:
-        return None
-    return a - b if type(a) is Fraction else RInterval.of(a) - b
-
-
-def _mul(a, b):
-    if a is None or b is None:
-        return None
-    return a * b if type(a) is Fraction else RInterval.of(a) * b
-
-
-def _div(a, b):
-    if a is None or b is None:
-        return None
-    try:
-        return a / b if type(a) is Fraction else RInterval.of(a) / b
-    except ZeroDivisionError:
-        return None
-
-
-def _neg(a):
-    return None if a is None else -a
-
-
-def _abs(a):
-    return None if a is None else abs(a)
-
-
-def exact_sqrt(q):
-    """√q: a Fraction when q is the square of a rational, else a rigorous interval."""
-    if q is None:
-        return None
-    if type(q) is Fraction:
-        if q < 0:
-            raise ValueError(f"square root of a negative exact value {q}")
-        n, d = q.numerator, q.denominator
-        rn, rd = math.isqrt(n), math.isqrt(d)
-        if rn * rn == n and rd * rd == d:
-            return Fraction(rn, rd)
-        return RInterval(_sqrt_bound(q, False), _sqrt_bound(q, True))
-    return q.sqrt()
-
-
-def compare(a, b):
-    """Exact comparison: -1, 0 or 1, or ``None`` when an interval cannot decide."""
-    if type(a) is Fraction and type(b) is Fraction:
-        return (a > b) - (a < b)
-    if a is None or b is None:
-        return None
-    d = RInterval.of(a) - b
-    if d.lo > 0:
-        return 1
-    if d.hi < 0:
-        return -1
-    if d.lo == 0 and d.hi == 0:
-        return 0
-    return None
-
-
-def upper_fraction(a) -> Fraction | None:
-    """|a| as a Fraction, or an upper bound of it for an interval (its far end)."""
-    if a is None:
-        return None
-    if type(a) is Fraction:
-        return abs(a)
-    return abs(a).hi
-
-
-def lower_fraction(a) -> Fraction | None:
-    """|a| as a Fraction, or a lower bound of it for an interval (its near end)."""
-    if a is None:
-        return None
-    if type(a) is Fraction:
-        return abs(a)
-    return abs(a).lo
-
-
-def interval_from_float(v, rel=Fraction(1, 2**280)) -> RInterval:
-    """A rigorous interval around a high-precision decimal approximation ``v`` of a real
-    number (e.g. ``sympy.N(expr, 130)``) known to be accurate to better than ``rel``."""
-    q = Fraction(str(v)) if not isinstance(v, Fraction) else v
-    delta = abs(q) * rel
-    return RInterval(q - delta, q + delta)
+__all__ = ["Shadow", "ShadowCheck", "ShadowContext"]
 
 
 # vectorised versions for object arrays (array working values)
-_vadd = np.frompyfunc(_add, 2, 1)
-_vsub = np.frompyfunc(_sub, 2, 1)
-_vmul = np.frompyfunc(_mul, 2, 1)
-_vdiv = np.frompyfunc(_div, 2, 1)
-_vneg = np.frompyfunc(_neg, 1, 1)
-_vabs = np.frompyfunc(_abs, 1, 1)
+_vadd = np.frompyfunc(exact_add, 2, 1)
+_vsub = np.frompyfunc(exact_sub, 2, 1)
+_vmul = np.frompyfunc(exact_mul, 2, 1)
+_vdiv = np.frompyfunc(exact_div, 2, 1)
+_vneg = np.frompyfunc(exact_neg, 1, 1)
+_vabs = np.frompyfunc(exact_abs, 1, 1)
 _vsqrt = np.frompyfunc(exact_sqrt, 1, 1)
 _vcmp = np.frompyfunc(compare, 2, 1)
 
 
 def _arr(*xs):
     return any(isinstance(x, np.ndarray) for x in xs)
-
-
-# --------------------------------------------------------------------------------------
-# working formats
-# --------------------------------------------------------------------------------------
-def round_to_bits(q: Fraction, bits: int, mode: str = "n") -> Fraction:
-    """``q`` rounded to a ``bits``-bit significand (no exponent limits): mode ``"n"``
-    nearest-even, ``"z"`` toward zero."""
-    q = Fraction(q)
-    n, d = q.numerator, q.denominator
-    if n == 0:
-        return q
-    s = -1 if n < 0 else 1
-    n = abs(n)
-    # e = floor(log2(n/d))
-    e = n.bit_length() - d.bit_length()
-    if (n << max(-e, 0)) < (d << max(e, 0)):
-        e -= 1
-    shift = e - bits + 1  # unit = 2^shift
-    if shift >= 0:
-        k, r2, den = divmod(n, d << shift) + (d << shift,)
-    else:
-        k, r2, den = divmod(n << -shift, d) + (d,)
-    if mode == "n" and (2 * r2 > den or (2 * r2 == den and k & 1)):
-        k += 1
-    return s * (Fraction(k << shift) if shift >= 0 else Fraction(k, 1 << -shift))
-
-
-class WorkingFormat:
-    """A working number format: how to make, convert and round its values.
-
-    ``kind``: ``"float"`` (Python float, binary64), ``"numpy"`` (numpy scalar or array
-    of ``dtype``), ``"mp"`` (mpmath ``mpf`` at ``prec`` bits). ``eps`` is the unit
-    roundoff 2^-prec (a Fraction), ``bits`` the significand, ``min_normal`` the smallest
-    normal magnitude (None: unbounded exponent).
-    """
-
-    def __init__(self, name: str, kind: str, bits: int, dtype=None, min_normal=None):
-        self.name = name
-        self.kind = kind
-        self.bits = int(bits)
-        self.dtype = None if dtype is None else np.dtype(dtype)
-        self.eps = Fraction(1, 2 ** self.bits)
-        self.min_normal = min_normal
-        if kind == "mp":
-            self.sqrt = mpmath.sqrt
-        elif kind == "numpy":
-            self.sqrt = np.sqrt
-        else:
-            self.sqrt = math.sqrt
-
-    def __repr__(self):
-        return f"<WorkingFormat {self.name}: {self.bits}-bit significand, ε = 2^-{self.bits}>"
-
-    @contextmanager
-    def session(self):
-        """The arithmetic environment: mpmath precision, numpy error state."""
-        if self.kind == "mp":
-            with mpmath.workprec(self.bits):
-                yield
-        elif self.kind == "numpy":
-            with np.errstate(all="ignore"):
-                yield
-        else:
-            yield
-
-    # conversions ------------------------------------------------------------------
-    def from_fraction(self, q: Fraction):
-        """The working value nearest to ``q`` (round to nearest even)."""
-        q = Fraction(q)
-        if self.kind == "mp":
-            t = libmp.from_rational(q.numerator, q.denominator, self.bits, libmp.round_nearest)
-            return mpmath.mp.make_mpf(t)
-        r = float(round_to_bits(q, self.bits)) if self.kind == "numpy" else float(q)
-        return self.dtype.type(r) if self.kind == "numpy" else r
-
-    def exact(self, q):
-        """``q`` (any number) as a working value; ValueError unless representable."""
-        f = to_fraction(q)
-        w = self.from_fraction(f)
-        if self.to_fraction(w) != f:
-            raise ValueError(f"{q!r} is not representable in {self.name}; round the "
-                             "inputs first (the analysis assumes exact coordinates)")
-        return w
-
-    def to_fraction(self, w) -> Fraction:
-        if self.kind == "mp":
-            return mp_to_fraction(w)
-        return Fraction(float(w))
-
-    def round(self, q, mode: str = "z") -> Fraction:
-        """``q`` rounded to this format's significand (exponent range ignored)."""
-        return round_to_bits(Fraction(q), self.bits, mode)
-
-    def ulp(self, q) -> Fraction:
-        """The spacing of this format's numbers at ``q`` (q ≠ 0; exponent range ignored)."""
-        a = abs(Fraction(q))
-        n, d = a.numerator, a.denominator
-        e = n.bit_length() - d.bit_length()
-        if (n << max(-e, 0)) < (d << max(e, 0)):
-            e -= 1
-        k = e - self.bits + 1
-        return Fraction(1 << k) if k >= 0 else Fraction(1, 1 << -k)
-
-    def is_array(self, w) -> bool:
-        return isinstance(w, np.ndarray)
-
-
-def to_fraction(v) -> Fraction:
-    """The exact value of a float, numpy scalar, mpf, int or Fraction."""
-    if type(v) is Fraction:
-        return v
-    if isinstance(v, mpmath.mpf):
-        return mp_to_fraction(v)
-    if isinstance(v, (np.floating, np.integer)):
-        return Fraction(v.item())
-    if isinstance(v, (int, float, str)):
-        return Fraction(v)
-    raise TypeError(f"no exact value for {v!r}")
-
-
-#: Python floats (binary64, ε = 2^-53).
-BINARY64 = WorkingFormat("binary64", "float", 53, min_normal=Fraction(2) ** -1022)
-#: numpy float32 (binary32, ε = 2^-24).
-BINARY32 = WorkingFormat("binary32", "numpy", 24, np.float32, min_normal=Fraction(2) ** -126)
-#: numpy float64 scalars/arrays (binary64).
-NP_BINARY64 = WorkingFormat("np.float64", "numpy", 53, np.float64,
-                            min_normal=Fraction(2) ** -1022)
-
-
-def mp_format(prec: int) -> WorkingFormat:
-    """mpmath at ``prec`` bits (ε = 2^-prec); ``mp_format(17)`` is the paper's worst case."""
-    return WorkingFormat(f"mp{prec}", "mp", prec)
 
 
 # --------------------------------------------------------------------------------------
@@ -421,7 +61,7 @@ class Shadow:
     __slots__ = ("w", "x", "lo", "hi", "fmt", "label")
     __array_priority__ = 1000
 
-    def __init__(self, w, x, fmt: WorkingFormat, lo=None, hi=None, label=None):
+    def __init__(self, w, x, fmt: Context, lo=None, hi=None, label=None):
         self.w = w
         self.x = x
         self.fmt = fmt
@@ -431,19 +71,19 @@ class Shadow:
 
     # construction -------------------------------------------------------------------
     @classmethod
-    def exact_input(cls, value, fmt: WorkingFormat, label=None) -> "Shadow":
+    def exact_input(cls, value, fmt: Context, label=None) -> "Shadow":
         """An input (e.g. a coordinate) that the working format holds exactly."""
         if isinstance(value, np.ndarray):
             w = np.asarray(value, dtype=fmt.dtype)
             x = np.empty(w.shape, dtype=object)
             x.flat[:] = [Fraction(v) for v in w.astype(np.float64).ravel()]
             if any(Fraction(float(a)) != b for a, b in zip(np.asarray(value).ravel(), x.ravel())):
-                raise ValueError(f"input {label} is not representable in {fmt.name}")
+                raise ValueError(f"input {label} is not representable in {fmt.format}")
             return cls(w, x, fmt, label=label)
-        return cls(fmt.exact(value), to_fraction(value), fmt, label=label)
+        return cls(fmt.convert(value), to_fraction(value), fmt, label=label)
 
     @classmethod
-    def bracketed(cls, w, x, lo, hi, fmt: WorkingFormat, label=None) -> "Shadow":
+    def bracketed(cls, w, x, lo, hi, fmt: Context, label=None) -> "Shadow":
         """A tolerance: working value ``w``, exact value ``x`` (T), brackets T−, T+."""
         return cls(w, x, fmt, lo, hi, label)
 
@@ -477,14 +117,14 @@ class Shadow:
         label = f"({a.label}{op}{b.label})" if (a.label and b.label) else None
         return Shadow(wop(a.w, b.w), x, a.fmt, lo, hi, label)
 
-    def __add__(self, o): return self._bin(o, "+", _wadd, _add, _vadd)
-    def __radd__(self, o): return self._bin(o, "+", _wadd, _add, _vadd, True)
-    def __sub__(self, o): return self._bin(o, "-", _wsub, _sub, _vsub)
-    def __rsub__(self, o): return self._bin(o, "-", _wsub, _sub, _vsub, True)
-    def __mul__(self, o): return self._bin(o, "*", _wmul, _mul, _vmul)
-    def __rmul__(self, o): return self._bin(o, "*", _wmul, _mul, _vmul, True)
-    def __truediv__(self, o): return self._bin(o, "/", _wdiv, _div, _vdiv)
-    def __rtruediv__(self, o): return self._bin(o, "/", _wdiv, _div, _vdiv, True)
+    def __add__(self, o): return self._bin(o, "+", _wadd, exact_add, _vadd)
+    def __radd__(self, o): return self._bin(o, "+", _wadd, exact_add, _vadd, True)
+    def __sub__(self, o): return self._bin(o, "-", _wsub, exact_sub, _vsub)
+    def __rsub__(self, o): return self._bin(o, "-", _wsub, exact_sub, _vsub, True)
+    def __mul__(self, o): return self._bin(o, "*", _wmul, exact_mul, _vmul)
+    def __rmul__(self, o): return self._bin(o, "*", _wmul, exact_mul, _vmul, True)
+    def __truediv__(self, o): return self._bin(o, "/", _wdiv, exact_div, _vdiv)
+    def __rtruediv__(self, o): return self._bin(o, "/", _wdiv, exact_div, _vdiv, True)
 
     def _un(self, wop, xop, vxop, label):
         f = vxop if isinstance(self.x, np.ndarray) else xop
@@ -493,13 +133,13 @@ class Shadow:
         return Shadow(wop(self.w), f(self.x), self.fmt, lo, hi, label)
 
     def __neg__(self):
-        return self._un(_wneg, _neg, _vneg, f"(-{self.label})" if self.label else None)
+        return self._un(_wneg, exact_neg, _vneg, f"(-{self.label})" if self.label else None)
 
     def __pos__(self):
         return self
 
     def __abs__(self):
-        return self._un(abs, _abs, _vabs, f"|{self.label}|" if self.label else None)
+        return self._un(abs, exact_abs, _vabs, f"|{self.label}|" if self.label else None)
 
     def sqrt(self) -> "Shadow":
         return self._un(self.fmt.sqrt, exact_sqrt, _vsqrt,
@@ -541,7 +181,7 @@ class Shadow:
         """|F[x] − x| exactly, or an upper bound of it when x is an interval (scalars)."""
         if self.x is None:
             return None
-        return upper_fraction(_sub(self.working_fraction, self.x))
+        return upper_fraction(exact_sub(self.working_fraction, self.x))
 
     def __repr__(self):
         x = self.x
@@ -669,9 +309,11 @@ class ShadowContext(Context):
     when a quantity was computed, and each check's ``active`` mask likewise.
     """
 
-    def __init__(self, fmt: WorkingFormat = BINARY64):
-        self.fmt = fmt
-        self.eps = float(fmt.eps)
+    def __init__(self, fmt: Context | None = None):
+        self.fmt = fmt = FloatContext() if fmt is None else fmt
+        self.format = f"shadow:{fmt.format}"
+        self.eps, self.bits, self.dtype = fmt.eps, fmt.bits, fmt.dtype
+        self.min_normal, self.max_finite = fmt.min_normal, fmt.max_finite
         self.quantities: dict[str, Shadow] = {}
         self.active_at: dict[str, np.ndarray] = {}
         self.checks: list[ShadowCheck] = []
@@ -701,8 +343,22 @@ class ShadowContext(Context):
         return x
 
     def const(self, x):
-        q = to_fraction(x) if not isinstance(x, str) else Fraction(x)
-        return Shadow(self.fmt.from_fraction(q), q, self.fmt, label=_num_label(q))
+        return self.from_fraction(to_fraction(x))
+
+    # number-type decisions: the working format's, with the exact value alongside ------
+    def from_fraction(self, q, rounding: str = "nearest") -> Shadow:
+        q = to_fraction(q)
+        return Shadow(self.fmt.from_fraction(q, rounding), q, self.fmt, label=_num_label(q))
+
+    def to_fraction(self, x) -> Fraction:
+        """The exact value of the working value of a scalar :class:`Shadow`."""
+        return x.working_fraction
+
+    def convert(self, x) -> Shadow:
+        return x if isinstance(x, Shadow) else Shadow.exact_input(x, self.fmt)
+
+    def eps_multiple(self, q, power: int = 1) -> Shadow:
+        return self.const(Fraction(q) * Fraction(1, 2 ** self.bits) ** power)
 
     def sqrt(self, x):
         if not isinstance(x, Shadow):

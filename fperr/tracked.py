@@ -13,7 +13,7 @@ from typing import Iterator
 
 import sympy
 
-from . import rules
+from . import ops, rules
 from .exact import is_exact, to_fraction
 from .rules import NoRule, State
 
@@ -88,37 +88,35 @@ class Tracked:
             return Tracked(s, _simplify(st), rid, args)
         return Tracked._invalid(s, candidates[-1], args, "; ".join(errors))
 
-    # -- operators -------------------------------------------------------------
-    def __neg__(self) -> "Tracked":
-        if self.inv:
-            return self._invalid(f"(-{self.s})", "A", (self,), _INV_MSG)
-        return self._apply(f"(-{self.s})", ("A",), (self,), (self.state,))
+    # -- operators (installed from fperr.ops.OPS below) ---------------------------------
+    def _unary(self, op: str) -> "Tracked":
+        o = ops.OPS[op]
+        s = o.s_form.format(self.s)
+        if self.v and self.inv:
+            return self._invalid(s, o.rules[0], (self,), _INV_MSG)
+        return self._apply(s, o.rules, (self,), (self.state,))
 
     def __pos__(self) -> "Tracked":
         return self
-
-    def __abs__(self) -> "Tracked":
-        if self.inv:
-            return self._invalid(f"|{self.s}|", "I", (self,), _INV_MSG)
-        return self._apply(f"|{self.s}|", ("I",), (self,), (self.state,))
 
     def _binary(self, other, op: str, reflected: bool = False) -> "Tracked":
         other = _lift(other)
         if other is NotImplemented:
             return NotImplemented
         x, y = (other, self) if reflected else (self, other)
-        s = f"({x.s}{op}{y.s})"
+        o = ops.OPS[op]
+        s = o.s_form.format(x.s, y.s)
         if op in "+-":
             if x.inv or y.inv:
-                return self._invalid(s, rules.BINARY[op][-1], (x, y), _INV_MSG)
-            return self._apply(s, rules.BINARY[op], (x, y), (x.state, y.state))
+                return self._invalid(s, o.rules[-1], (x, y), _INV_MSG)
+            return self._apply(s, o.rules, (x, y), (x.state, y.state))
         if op == "*":
             if x.inv and y.inv:
                 return self._invalid(s, "F", (x, y), _INV_MSG)
             q, f = (x, y) if x.inv else (y, x)
             if q.inv and f.s not in q.unit_of:
                 return self._invalid(s, "F", (x, y), _INV_MSG)
-            out = self._apply(s, ("F",), (x, y), (x.state, y.state, x.s == y.s))
+            out = self._apply(s, o.rules, (x, y), (x.state, y.state, x.s == y.s))
             if out.v and q.inv:
                 # Rule G's "*": v_i·(1/‖v‖) is a component of a unit vector, c = 1.
                 st = out.state
@@ -127,21 +125,12 @@ class Tracked:
         if op == "/":
             if x.inv or y.inv:
                 return self._invalid(s, "G", (x, y), _INV_MSG)
-            out = self._apply(s, ("G",), (x, y), (x.state, y.state))
+            out = self._apply(s, o.rules, (x, y), (x.state, y.state))
             out.inv = out.v
             if out.v and x.rule == "J" and x.c == 1:
                 out.unit_of = _norm_components(y)
             return out
         raise AssertionError(op)
-
-    def __add__(self, o): return self._binary(o, "+")
-    def __radd__(self, o): return self._binary(o, "+", True)
-    def __sub__(self, o): return self._binary(o, "-")
-    def __rsub__(self, o): return self._binary(o, "-", True)
-    def __mul__(self, o): return self._binary(o, "*")
-    def __rmul__(self, o): return self._binary(o, "*", True)
-    def __truediv__(self, o): return self._binary(o, "/")
-    def __rtruediv__(self, o): return self._binary(o, "/", True)
 
     def __pow__(self, k):
         """x**k for an integer k ≥ 1 is evaluated as repeated multiplication, left to right."""
@@ -202,16 +191,12 @@ class Tracked:
         """
         ids: dict[int, str] = {}
         lines = []
-        sym = {"A": "-{0}", "I": "|{0}|", "H": "sqrt({0})"}
         for x in self.walk():
             tag = ids[id(x)] = f"t{len(ids) + 1}"
             if not x.args:
                 expr = x.s
-            elif len(x.args) == 1:
-                expr = sym.get(x.rule, "{0}").format(ids[id(x.args[0])])
             else:
-                op = x.s[len(x.args[0].s) + 1]
-                expr = f"{ids[id(x.args[0])]} {op} {ids[id(x.args[1])]}"
+                expr = ops.BY_RULE[x.rule].text.format(*(ids[id(a)] for a in x.args))
             if not x.v:
                 body = f"invalid: {x.why}"
             else:
@@ -223,6 +208,21 @@ class Tracked:
             lines.append(f"{tag} = {expr:<18} [{x.rule}] {body}{named}")
         return "\n".join(lines)
 
+
+def _install_operators() -> None:
+    """The dunders of :class:`Tracked` (reflected ones too), from the operator table."""
+    for op in ops.OPS.values():
+        if op.dunder is None:
+            continue
+        if op.arity == 1:
+            setattr(Tracked, f"__{op.dunder}__", lambda self, k=op.key: self._unary(k))
+            continue
+        setattr(Tracked, f"__{op.dunder}__", lambda self, o, k=op.key: self._binary(o, k))
+        setattr(Tracked, f"__r{op.dunder}__",
+                lambda self, o, k=op.key: self._binary(o, k, True))
+
+
+_install_operators()
 
 _INV_MSG = ("a quotient (rule G, c = 1*) may only be multiplied by a component v_i of the "
             "vector v it normalises (1/‖v‖); no magnitude bound holds otherwise")
@@ -295,14 +295,12 @@ def _representable(value: sympy.Expr) -> bool:
     """Exact when value = q·ε^k with q a short dyadic and k an integer (ε is a power of 2)."""
     from .symbols import eps
     coeff, rest = value.as_coeff_Mul()
-    if rest == 1:
-        q = to_fraction(coeff)
-        return q is not None and is_exact(q)
-    powers = rest.as_powers_dict()
-    if set(powers) != {eps} or not sympy.sympify(powers[eps]).is_integer:
-        return False
-    q = to_fraction(coeff)
-    return q is not None and is_exact(q)
+    if rest != 1:
+        powers = rest.as_powers_dict()
+        if set(powers) != {eps} or not sympy.sympify(powers[eps]).is_integer:
+            return False
+    coeff = sympy.nsimplify(coeff) if coeff.is_Float else coeff
+    return bool(coeff.is_Rational) and is_exact(to_fraction(coeff))
 
 
 def _const_string(v: sympy.Expr) -> str:
@@ -312,6 +310,4 @@ def _const_string(v: sympy.Expr) -> str:
 def sqrt(x) -> Tracked:
     """Rule H: the square root of a non-negative quantity with relative error."""
     x = _lift(x)
-    if x.v and x.inv:
-        return Tracked._invalid(f"sqrt({x.s})", "H", (x,), _INV_MSG)
-    return Tracked._apply(f"sqrt({x.s})", ("H",), (x,), (x.state,))
+    return x._unary("sqrt")

@@ -11,11 +11,9 @@ from __future__ import annotations
 import functools
 from dataclasses import dataclass
 
-import mpmath
 import numpy as np
 
 import fperr
-from fperr import MpContext, NumpyContext, TrackedContext
 
 from .tolerances import Tolerances, tracked_tolerances
 
@@ -67,10 +65,9 @@ class Predicate:
             raise TypeError(f"{self.name}: tol must be {self.dim}D Tolerances "
                             "(predicates.tolerances(...))")
         ctx = ctx if ctx is not None else fperr.context_for(*pts)
-        if isinstance(ctx, NumpyContext):
+        if ctx.vectorised:
             return self._batch(pts, tol, ctx)
-        if not isinstance(ctx, TrackedContext):
-            self._check_scalar_points(pts)
+        self._check_scalar_points(pts)
         run = ctx.fresh(len(self.weight_names))
         tol_values = self._tolerances_for(tol, run)
         with run.session():
@@ -142,30 +139,23 @@ class Predicate:
 
     def _tolerances_for(self, tol: Tolerances, run):
         """``tol`` converted to ``run``'s number type (cached on ``tol`` per type)."""
-        key = (type(run), getattr(run, "dtype", None), getattr(run, "prec", None))
+        key = (type(run), run.format)
         cache = tol.__dict__.setdefault("_converted", {})
         if key not in cache:
             cache[key] = self._convert_tolerances(tol, run)
         return cache[key]
 
     def _convert_tolerances(self, tol: Tolerances, run):
-        if isinstance(run, TrackedContext):
-            if isinstance(tol.ctx, TrackedContext):
-                return tol
-            raise TypeError("instrumented inputs need predicates.tracked_tolerances(dim)")
-        if isinstance(tol.ctx, TrackedContext):
-            raise TypeError("tracked tolerances can only be used with Tracked points")
-        if float(tol.eps) < float(run.eps):
+        """The values of ``tol`` as numbers of ``run`` (exact: a format at least as
+        precise as the one they were computed for holds them). A Tracked/numeric mix
+        is refused by ``run.convert``."""
+        src = tol.ctx
+        if src.bits is not None and run.bits is not None and src.bits > run.bits:
             raise ValueError(f"{self.name}: tolerances were computed for ε = {float(tol.eps)!r}"
                              f" but the arithmetic has ε = {float(run.eps)!r}; compute them "
                              "for this format (predicates.tolerances(..., dtype=...))")
-        if isinstance(run, NumpyContext):
-            vals = {k: run.dtype.type(v) for k, v in tol.values.items()}
-        elif isinstance(run, MpContext):
-            with mpmath.workprec(run.prec):
-                vals = {k: mpmath.mpf(v) for k, v in tol.values.items()}
-        else:
-            vals = {k: float(v) for k, v in tol.values.items()}
+        with run.session():
+            vals = {k: run.convert(v) for k, v in tol.values.items()}
         return Tolerances(tol.dim, tol.L, tol.eps, run, vals)
 
     # -- instrumented run --------------------------------------------------------------
@@ -180,7 +170,7 @@ class Predicate:
 def _instrumented(pred: Predicate, frozen_table) -> Instrumented:
     axes = "xyz"[: pred.dim]
     pts = [tuple(fperr.coord(f"{p}.{a}") for a in axes) for p in pred.points]
-    run = TrackedContext().fresh(len(pred.weight_names))
+    run = fperr.context("tracked").fresh(len(pred.weight_names))
     tol = tracked_tolerances(pred.dim, None if frozen_table is None else dict(frozen_table))
     coords = [run.coords(p, lbl) for p, lbl in zip(pts, pred.points)]
     pred.fn(run, *coords, tol)

@@ -13,6 +13,7 @@ import json
 import sympy
 
 import fperr
+from fperr.notation import LATEX_GREEK, lpow
 
 from . import ALL
 from .tolerances import tracked_tolerances
@@ -51,14 +52,10 @@ def _num(p):
     return int(p) if p.is_integer else float(p)
 
 
-def _lp(power) -> str:
-    return {0: "", 1: "L"}.get(power, f"L^{power}")
-
-
 def _text(r) -> str:
     sym = {"E": "E", "R": "R", "M": r"\|x\|"}[r["kind"]]
     eps = "" if r["kind"] == "M" else "ε"
-    return f"{sym} ≤ {r['coefficient']}{eps}{_lp(r['power'])}"
+    return f"{sym} ≤ {r['coefficient']}{eps}{lpow(r['power'], superscript=False)}"
 
 
 def render(recs: list[dict], fmt: str) -> str:
@@ -88,9 +85,7 @@ def _latex_expr(text: str) -> str:
 
 def _latex_name(q: str) -> str:
     base, _, sub = q.partition("_")
-    greek = {"sigma": r"\sigma", "tau": r"\tau", "kappa": r"\kappa", "delta": r"\delta",
-             "gamma": r"\gamma", "lam": r"\lambda", "phi": r"\phi", "nu": r"\nu",
-             "zeta": r"\zeta", "mu": r"\mu", "xi": r"\xi", "rho": r"\rho"}
+    greek = LATEX_GREEK
     if q.endswith("_hat") or q.endswith("_bar"):
         acc = r"\hat" if q.endswith("_hat") else r"\bar"
         core = q[:-4]
@@ -101,4 +96,5 @@ def _latex_name(q: str) -> str:
 def _latex_bound(r) -> str:
     sym = {"E": r"\mathcal{E}", "R": r"\mathcal{R}", "M": "|x|"}[r["kind"]]
     eps = "" if r["kind"] == "M" else r"\epsilon "
-    return f"{sym} \\le {r['coefficient']}{eps}{_lp(r['power'])}"
+    return f"{sym} \\le {r['coefficient']}{eps}{lpow(r['power'], superscript=False)}"
+

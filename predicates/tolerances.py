@@ -25,19 +25,12 @@ import math
 from dataclasses import dataclass, field
 from fractions import Fraction
 
-import mpmath
 import numpy as np
-import sympy
 
 import fperr
-from fperr.contexts import to_fraction
-from fperr import FloatContext, MpContext, NumpyContext, TrackedContext
+from fperr import round_fraction, to_fraction
 
 from .tolerance_table import L_ROOT, L_SIGMA_PLUS, TABLES
-
-NAMES_2D = ("sigma", "tau", "sigma_hat", "kappa")
-NAMES_3D = ("sigma", "tau", "delta", "gamma", "sigma_hat", "lam", "phi", "nu", "zeta",
-            "mu", "xi", "rho")
 
 
 @dataclass
@@ -64,35 +57,17 @@ class Tolerances:
     def names(self):
         return tuple(self.values)
 
-    def as_floats(self) -> dict:
-        return {"L": float(self.L), "eps": float(self.eps),
-                **{k: float(v) for k, v in self.values.items()}}
-
     def scaled(self, factor) -> "Tolerances":
         """The same tolerances times ``factor`` (0 gives the naive zero-tolerance run)."""
         vals = {k: v * factor for k, v in self.values.items()}
         return Tolerances(self.dim, self.L, self.eps, self.ctx, vals)
 
 
-def _precision(ctx) -> int:
-    if isinstance(ctx, NumpyContext):
-        return np.finfo(ctx.dtype).nmant + 1
-    if isinstance(ctx, MpContext):
-        return ctx.prec
-    return 53
-
-
 def round_up_bits(x: Fraction, bits: int) -> Fraction:
     """The smallest number ≥ x (x > 0) with a ``bits``-bit significand."""
     if x <= 0:
         raise ValueError("L must be positive")
-    e = math.floor(math.log2(x.numerator) - math.log2(x.denominator)) - bits + 1
-    while Fraction(2) ** (e + bits - 1) > x:  # fix float log2 rounding
-        e -= 1
-    while Fraction(2) ** (e + bits) <= x:
-        e += 1
-    unit = Fraction(2) ** e
-    return math.ceil(x / unit) * unit
+    return round_fraction(x, bits, "up")
 
 
 def compute_L(dim: int, L_a, L_b, ctx) -> object:
@@ -111,31 +86,23 @@ def compute_L(dim: int, L_a, L_b, ctx) -> object:
         if dim == 3:
             root = ctx.sqrt(root)
         # L_a, L_b enter rounded *up* to the working format (they are upper bounds).
-        La, Lb = (ctx.const(_exact_value(round_up_bits(to_fraction(x), _precision(ctx)), ctx))
+        La, Lb = (ctx.const(ctx.from_fraction(round_up_bits(to_fraction(x), ctx.bits)))
                   if x else ctx.const(0) for x in (L_a, L_b))
         L = (ctx.const(1) + ctx.const(5) * eps) / (ctx.const(1) - ctx.const(L_SIGMA_PLUS) * root) \
             * (La + Lb)
-    bits = _precision(ctx) // 4
-    S, e = to_fraction(La) + to_fraction(Lb), to_fraction(ctx.eps)
-    q = round_up_bits(to_fraction(L), bits)
+    bits = ctx.bits // 4
+    S, e = ctx.to_fraction(La) + ctx.to_fraction(Lb), Fraction(1, 2**ctx.bits)
+    q = round_up_bits(ctx.to_fraction(L), bits)
     while not bounds_L_hat(q, S, e, g):
         q = round_up_bits(q * (1 + Fraction(1, 2**bits)), bits)
-    return ctx.const(_exact_value(q, ctx))
+    with ctx.session():
+        return ctx.const(ctx.from_fraction(q))
 
 
 def bounds_L_hat(L: Fraction, S: Fraction, eps: Fraction, g: int) -> bool:
     """Exactly: L ≥ S/(1 − 7·ε^(1/g)), i.e. ((L − S)/(7L))^g ≥ ε with L − S ≥ 0."""
     x = (L - S) / (L_SIGMA_PLUS * L)
     return x >= 0 and x**g >= eps
-
-
-def _exact_value(q: Fraction, ctx):
-    """q as a number of the working format (q is representable by construction)."""
-    if isinstance(ctx, MpContext):
-        with mpmath.workprec(ctx.prec):
-            v = mpmath.mpf(q.numerator) / q.denominator
-        return v
-    return float(q)
 
 
 def tolerance_values(dim: int, L_power, ctx, table: dict | None = None) -> dict:
@@ -151,37 +118,19 @@ def tolerance_values(dim: int, L_power, ctx, table: dict | None = None) -> dict:
         k = int(spec.q.q)  # denominator of q: 1, 2 or 4
         power = int(spec.q * k)
         C = Fraction(int(spec.mid.p), int(spec.mid.q)) ** k
-        x = ctx.const(_eps_constant(C, power, ctx))
+        x = ctx.eps_multiple(C, power)
         while k > 1:
             x, k = ctx.sqrt(x), k // 2
         out[name] = ctx.name(name, x * L_power(spec.p))
     return out
 
 
-def _eps_constant(C: Fraction, power: int, ctx):
-    if isinstance(ctx, TrackedContext):
-        return sympy.Rational(C.numerator, C.denominator) * fperr.eps ** power
-    if isinstance(ctx, MpContext):
-        with mpmath.workprec(ctx.prec):
-            return mpmath.mpf(C.numerator) / C.denominator * ctx.eps ** power
-    return float(C * Fraction(ctx.eps) ** power)
-
-
-def _context(dtype) -> object:
-    if isinstance(dtype, fperr.Context):
-        return dtype
-    if dtype is None or dtype is float:
-        return FloatContext()
-    if isinstance(dtype, str) and dtype.startswith("mp"):
-        return MpContext(int(dtype[2:]))
-    return NumpyContext(dtype)
-
-
 def tolerances(dim: int, L_a, L_b, dtype=np.float64) -> Tolerances:
     """Tolerances for meshes whose primitives' largest bounding-box edges are L_a, L_b.
 
     ``dtype``: numpy.float64 / numpy.float32 (values are numpy scalars of that type),
-    ``float`` (Python floats, binary64), ``"mp17"`` or an :class:`fperr.MpContext`.
+    ``float`` (Python floats, binary64), ``"mp17"``, or anything :func:`fperr.context`
+    accepts (a context included).
     """
     if dim not in (2, 3):
         raise ValueError(f"dim must be 2 or 3, not {dim!r}")
@@ -190,13 +139,13 @@ def tolerances(dim: int, L_a, L_b, dtype=np.float64) -> Tolerances:
             raise ValueError(f"{name} must be finite and non-negative, got {v!r}")
     if float(L_a) + float(L_b) <= 0:
         raise ValueError("L_a + L_b must be positive (both meshes are single points?)")
-    ctx = _context(dtype)
+    ctx = fperr.context(dtype)
     L = compute_L(dim, L_a, L_b, ctx)
     check_scale(dim, L, ctx)
     with ctx.session():
         powers = {p: L ** p for p in (1, 2, 3, 4)}
         for p, v in powers.items():
-            if to_fraction(v) != to_fraction(L) ** p:
+            if ctx.to_fraction(v) != ctx.to_fraction(L) ** p:
                 raise ArithmeticError(f"L^{p} is not exact (overflow or underflow: L = {L})")
         values = tolerance_values(dim, powers.__getitem__, ctx)
     return Tolerances(dim, L, ctx.eps, ctx, values)
@@ -209,7 +158,9 @@ MAX_DEGREE = {2: 2, 3: 6}
 def safe_scale_range(dim: int, ctx) -> tuple[float, float] | None:
     """(lo, hi): the L for which no quantity up to L^deg overflows or loses its error
     model to underflow (section 2 assumes neither), or None when the format has no
-    exponent limit (mpmath).
+    exponent limit (mpmath). The context gives the format's facts (``bits``,
+    ``min_normal``, ``max_finite``); the degree is geometry, so the range is computed
+    here, not in fperr.
 
     Overflow: every quantity is below 64·L^deg (the largest magnitude bound, d̂², is
     36·L⁶). Underflow: a subnormal result errs by up to one quantum q absolutely, not
@@ -217,14 +168,14 @@ def safe_scale_range(dim: int, ctx) -> tuple[float, float] | None:
     (≈ ε·L^p) and every constraint margin, for the degree-deg quantities and all lower
     ones. binary64 3D: 2^-166.8 ≤ L ≤ 2^169.6; binary32 3D: 2^-17.5 ≤ L ≤ 2^20.3.
     """
-    if isinstance(ctx, MpContext):
+    if ctx.min_normal is None or ctx.max_finite is None:
         return None
-    fi = np.finfo(ctx.dtype if isinstance(ctx, NumpyContext) else np.float64)
     deg = MAX_DEGREE[dim]
-    log_q = math.log2(float(fi.smallest_subnormal))
-    log_u = math.log2(float(fi.eps) / 2)
+    quantum = ctx.min_normal / 2 ** (ctx.bits - 1)  # the smallest subnormal
+    log_q = math.log2(float(quantum))
+    log_u = math.log2(float(Fraction(1, 2**ctx.bits)))
     lo = (20 + log_q - log_u) / deg
-    hi = (math.log2(float(fi.max)) - 6) / deg
+    hi = (math.log2(float(ctx.max_finite)) - 6) / deg
     return 2.0**lo, 2.0**hi
 
 
@@ -244,7 +195,7 @@ def tracked_tolerances(dim: int, table: dict | None = None) -> Tolerances:
 
     ``table``: optional replacement of ``TABLES[dim]`` (see :func:`tolerance_values`).
     """
-    ctx = TrackedContext()
+    ctx = fperr.context("tracked")
     powers = {p: fperr.exact_input("L" if p == 1 else f"L^{p}", 1, p, nonnegative=True)
               for p in (1, 2, 3, 4)}
     values = tolerance_values(dim, powers.__getitem__, ctx, table)

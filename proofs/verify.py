@@ -9,13 +9,12 @@ section 5.4.4. Each is decided for EVERY unit roundoff ε in (0, 1e-5] by
 interval bounds; no sampling). The margin shown is at binary64's ε = 2^-53, L = 1:
 lhs − rhs and lhs/rhs of the tightest inequality of the constraint.
 
-Usage::
+Command line (:mod:`proofs.cli`)::
 
     fperr verify                  # 2D and 3D
     fperr verify --dim 3 -v       # with the derived errors and argument steps
     fperr verify --tolerances my.toml
     fperr verify --report docs/error-bounds.md   # also write the report
-    fperr verify --certificate cert.json         # then: python -m proofs.check_certificate cert.json
 
 ``--tolerances FILE`` (TOML or JSON) replaces coefficients of T−, T, T+; e.g.::
 
@@ -31,16 +30,14 @@ section 5.4.4 to hold (by default a constraint with several encoded arguments ho
 when one of them is proven for every ε; see docs/proofs.md).
 
 Python API: :func:`verify` accepts predicates or instrumented runs, so a modified
-predicate can be checked without touching the built-in ones.
+predicate can be checked without touching the built-in ones; :func:`format_outcome`
+is the text the command prints.
 """
 from __future__ import annotations
 
-import argparse
-import sys
 import time
 from dataclasses import dataclass, field
 
-import sympy
 
 import predicates
 from predicates.core import Instrumented, Predicate
@@ -215,33 +212,13 @@ def verify(dim: int, overrides: dict | None = None, runs=None,
     tab = tables.table(dim, overrides)
     cs = constraints(dim, overrides, runs)
     if progress:
+        import sys
+
         from tqdm import tqdm
         cs = tqdm(cs, desc=f"fperr verify {dim}D", unit="constraint", leave=False,
                   delay=1.0, file=sys.stderr)
     outs = [decide_constraint(c, require_paper_argument) for c in cs]
     return Report(dim, outs, time.perf_counter() - t0, tab)
-
-
-# -- CLI -----------------------------------------------------------------------------------
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--dim", type=int, choices=(2, 3), action="append",
-                        help="dimension to verify (default: both)")
-    parser.add_argument("--tolerances", metavar="FILE",
-                        help="TOML/JSON file replacing coefficients of T−, T, T+")
-    parser.add_argument("-v", "--verbose", action="store_true",
-                        help="show derived errors, inequalities and argument steps")
-    parser.add_argument("--require-paper-argument", action="store_true",
-                        help="fail when the paper's own 5.4.4 argument does not hold "
-                             "for every ε (even if another encoded argument does)")
-    parser.add_argument("--report", metavar="PATH", nargs="?", const="",
-                        help="also write the generated report (default: the repository's "
-                             "docs/error-bounds.md)")
-    parser.add_argument("--certificate", metavar="FILE", help="also write a checkable certificate")
-    parser.add_argument("--format", choices=("text", "json"), default="text",
-                        help="output format (default text; json: every constraint's name, "
-                             "status and margin)")
-    parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
 def outcome_dict(o: Outcome) -> dict:
@@ -254,6 +231,8 @@ def outcome_dict(o: Outcome) -> dict:
             "ratio": None if ratio is None else float(ratio),
             "established_by": o.established_by or None, "reason": o.reason or None}
 
+
+# -- text --------------------------------------------------------------------------------
 
 def _margin_text(o: Outcome) -> str:
     d = o.tightest()
@@ -298,70 +277,3 @@ def format_outcome(o: Outcome, verbose: bool = False) -> str:
                 okst = all(d.holds for d in ds)
                 lines.append(f"          {'ok ' if okst else 'NO '} {st.title}")
     return "\n".join(lines)
-
-
-def run(args) -> int:
-    try:
-        overrides = tables.load_overrides(args.tolerances) if args.tolerances else None
-    except tables.ToleranceFileError as e:
-        print(f"fperr verify: {e}", file=sys.stderr)
-        return 2
-    dims = sorted(set(args.dim or [2, 3]))
-    ok = True
-    reports = {}
-    as_json = getattr(args, "format", "text") == "json"
-    for dim in dims:
-        try:
-            rep = verify(dim, overrides, require_paper_argument=args.require_paper_argument,
-                         progress=not getattr(args, "quiet", True))
-        except (ValueError, TypeError) as e:
-            print(f"fperr verify: {dim}D: {e}", file=sys.stderr)
-            return 2
-        reports[dim] = rep
-        ok = ok and rep.ok
-        if as_json:
-            continue
-        src = "paper's Figure 1" if dim == 2 else "paper's Figure 5"
-        if overrides and dim in overrides:
-            src += f" with overrides from {args.tolerances}"
-        print(f"{dim}D constraints ({src}), decided for every ε in (0, 1e-5]:")
-        for o in rep.outcomes:
-            print(format_outcome(o, args.verbose))
-        n = len(rep.outcomes)
-        nf = len(rep.failures)
-        print(f"{dim}D: {n} constraints, {n - nf} hold, {nf} fail  ({rep.seconds:.1f} s)")
-        if nf:
-            print(f"{dim}D FAILED: " + ", ".join(o.id for o in rep.failures))
-        print()
-    if as_json:
-        import json
-        print(json.dumps({"ok": ok, "dims": {str(d): {
-            "constraints": [outcome_dict(o) for o in r.outcomes], "hold": len(r.outcomes) -
-            len(r.failures), "fail": len(r.failures), "seconds": r.seconds}
-            for d, r in reports.items()}}, indent=1))
-    out = sys.stderr if as_json else sys.stdout  # json: stdout holds the document only
-    if getattr(args, "certificate", None):
-        from . import certificate
-        try:
-            certificate.write(args.certificate, reports, args.require_paper_argument)
-        except OSError as e:
-            print(f"fperr verify: cannot write certificate: {e}", file=sys.stderr)
-            return 2
-        print(f"certificate written to {args.certificate}", file=out)
-    if args.report is not None:
-        from .report import DEFAULT_PATH, write_report
-        path = args.report or DEFAULT_PATH
-        write_report(path)
-        print(f"report written to {path}", file=out)
-    return 0 if ok else 1
-
-
-def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="fperr verify", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
-    add_arguments(p)
-    return run(p.parse_args(argv))
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,15 +1,16 @@
 """Evaluate one expression in several number systems, and compare with fperr's bound.
 
 An *expression* is a plain Python function ``fn(xs, K)``: ``xs`` are the input
-coordinates in some number system, ``K`` the system itself (``K.const(q)``,
-``K.sqrt(x)``); the operators are Python's (``+ - * / abs``), so the same function
-runs, in the same operation order, on
+coordinates in some number system, ``K`` the system itself — a library context
+(:func:`fperr.context`) or a reference evaluator (``K.const(q)``, ``K.sqrt(x)``); the
+operators are Python's (``+ - * / abs``), so the same function runs, in the same
+operation order, on
 
 * :data:`TRACKED`   — fperr's instrumented numbers (gives the state and the bound),
 * :data:`BINARY64`  — Python floats, ε = 2^-53,
 * :data:`BINARY32`  — ``numpy.float32`` scalars, ε = 2^-24,
 * :data:`MP17`      — mpmath at 17 bits of precision, ε = 2^-17 (the paper's worst case),
-* :data:`EXACT`     — :class:`fractions.Fraction` (no square roots),
+* :data:`EXACT`     — :class:`fperr.ExactContext`, Fractions (no square roots),
 * :data:`INTERVAL`  — mpmath interval arithmetic at 300 bits (a rigorous enclosure of
   the exact value when a square root is involved),
 * :data:`SYMBOLIC`  — sympy, exact algebraic numbers (a slow fallback for ties).
@@ -27,246 +28,99 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Callable
 
+import mpmath
 import numpy as np
 import sympy
-from mpmath import MPContext, libmp
 from mpmath.ctx_iv import MPIntervalContext
 
 import fperr
+from fperr import to_fraction
+from fperr.exact import is_exact
+from fperr.exact import significand_bits as _significand_bits
 
 # ---------------------------------------------------------------------------------
-# exact rounding helpers
-
-
-def round_to_bits(q: Fraction, bits: int) -> Fraction:
-    """``q`` rounded to the nearest number with a ``bits``-bit significand (ties to even,
-    unbounded exponent): the correctly rounded value in a binary format of that width."""
-    q = Fraction(q)
-    if q == 0:
-        return q
-    sign = -1 if q < 0 else 1
-    q = abs(q)
-    # e = floor(log2 q)
-    e = q.numerator.bit_length() - q.denominator.bit_length()
-    if Fraction(2) ** e > q:
-        e -= 1
-    k = bits - 1 - e                        # 2^(bits-1) <= q * 2^k < 2^bits
-    scaled = q * Fraction(2) ** k
-    n, rem = divmod(scaled.numerator, scaled.denominator)
-    twice = 2 * rem
-    if twice > scaled.denominator or (twice == scaled.denominator and n % 2 == 1):
-        n += 1
-    return sign * Fraction(n) / Fraction(2) ** k
+# exact helpers: the library's (fperr.exact)
 
 
 def significand_bits(q: Fraction) -> int:
     """Bits of the odd part of a dyadic rational (raises for a non-dyadic one)."""
-    q = Fraction(q)
-    den = q.denominator
-    if den & (den - 1):
+    nb = _significand_bits(Fraction(q))
+    if nb is None:
         raise ValueError(f"{q} is not dyadic")
-    num = abs(q.numerator)
-    if num == 0:
-        return 0
-    while num % 2 == 0:
-        num //= 2
-    return num.bit_length()
+    return nb
 
 
 def representable(q: Fraction, bits: int) -> bool:
-    q = Fraction(q)
-    return q.denominator & (q.denominator - 1) == 0 and significand_bits(q) <= bits
+    return is_exact(Fraction(q), bits)
+
+
+def eps_of(fmt) -> Fraction:
+    """The unit roundoff 2^-bits of a binary context, exactly."""
+    return Fraction(1, 2 ** fmt.bits)
 
 
 # ---------------------------------------------------------------------------------
-# number systems
+# number systems: the library's contexts, plus two reference evaluators
 
 
-class System:
-    """A number system an expression can be evaluated in."""
+class _Interval:
+    """mpmath intervals at 300 bits: outward rounded, so the result encloses the exact value
+    (a reference evaluator, not a number format)."""
 
-    name: str = "?"
-    #: significand bits (None: exact / enclosure systems)
-    bits: int | None = None
-
-    @property
-    def eps(self) -> Fraction:
-        return Fraction(1, 2 ** self.bits)
-
-    def coord(self, q: Fraction):
-        raise NotImplementedError
-
-    def const(self, x):
-        raise NotImplementedError
-
-    def sqrt(self, x):
-        raise NotImplementedError
-
-    def value(self, x) -> Fraction:
-        raise NotImplementedError
-
-    def __repr__(self) -> str:
-        return self.name
-
-
-def _as_fraction(x) -> Fraction:
-    return x if isinstance(x, Fraction) else Fraction(x)
-
-
-class _Binary64(System):
-    name, bits = "binary64", 53
-
-    def coord(self, q):
-        v = float(q)
-        assert Fraction(v) == q, f"{q} is not a binary64 number"
-        return v
-
-    def const(self, x):
-        return float(round_to_bits(_as_fraction(x), 53))
-
-    def sqrt(self, x):
-        return math.sqrt(x)
-
-    def value(self, x):
-        assert isinstance(x, float), f"binary64 evaluation produced {type(x)}"
-        assert math.isfinite(x)
-        return Fraction(x)
-
-
-class _Binary32(System):
-    name, bits = "binary32", 24
-
-    def coord(self, q):
-        v = np.float32(float(q))
-        assert Fraction(float(v)) == q, f"{q} is not a binary32 number"
-        return v
-
-    def const(self, x):
-        return np.float32(float(round_to_bits(_as_fraction(x), 24)))
-
-    def sqrt(self, x):
-        return np.sqrt(x)
-
-    def value(self, x):
-        # a silent promotion to float64 anywhere would make the test meaningless
-        assert isinstance(x, np.float32), f"binary32 evaluation produced {type(x)}"
-        assert np.isfinite(x)
-        return Fraction(float(x))
-
-
-class _Mp(System):
-    """mpmath at ``bits`` bits, in its own context (never touches the global mp.prec)."""
-
-    def __init__(self, bits: int):
-        self.bits = bits
-        self.name = f"mpmath{bits}"
-        self.ctx = MPContext()
-        self.ctx.prec = bits
-
-    def _make(self, q: Fraction):
-        return self.ctx.make_mpf(libmp.from_rational(q.numerator, q.denominator,
-                                                     self.bits, "n"))
-
-    def coord(self, q):
-        assert representable(q, self.bits), f"{q} is not a {self.bits}-bit number"
-        return self._make(Fraction(q))
-
-    def const(self, x):
-        return self._make(_as_fraction(x))      # correctly rounded (round to nearest)
-
-    def sqrt(self, x):
-        return self.ctx.sqrt(x)
-
-    def value(self, x):
-        assert isinstance(x, self.ctx.mpf), f"{self.name} evaluation produced {type(x)}"
-        return _mpf_fraction(x._mpf_)
-
-
-class _Exact(System):
-    name = "exact"
-
-    def coord(self, q):
-        return Fraction(q)
-
-    def const(self, x):
-        return _as_fraction(x)
-
-    def sqrt(self, x):
-        raise TypeError("no exact rational square root: evaluate in INTERVAL")
-
-    def value(self, x):
-        return x
-
-
-class _Interval(System):
-    """mpmath intervals at 300 bits: outward rounded, so the result encloses the exact value."""
-
-    name = "interval300"
+    format = "interval300"
 
     def __init__(self, prec: int = 300):
         self.ctx = MPIntervalContext()
         self.ctx.prec = prec
 
-    def coord(self, q):
+    def convert(self, q):
         q = Fraction(q)
         num, den = self.ctx.mpf(q.numerator), self.ctx.mpf(q.denominator)
         return num / den
 
-    const = coord
+    const = convert
 
     def sqrt(self, x):
         return self.ctx.sqrt(x)
 
     def enclosure(self, x) -> tuple[Fraction, Fraction]:
         lo, hi = x._mpi_
-        return _mpf_fraction(lo), _mpf_fraction(hi)
+        return to_fraction(mpmath.mp.make_mpf(lo)), to_fraction(mpmath.mp.make_mpf(hi))
 
 
-def _mpf_fraction(m) -> Fraction:
-    """The exact value of a raw mpmath number (sign, man, exp, bc); finite only."""
-    sign, man, exp, bc = m
-    if not man:
-        assert m == libmp.fzero, f"non-finite value {libmp.to_str(m, 10)}"
-        return Fraction(0)
-    return (-1) ** sign * Fraction(int(man)) * Fraction(2) ** int(exp)
+class _Symbolic:
+    """Exact algebraic numbers (sympy): the slow reference for ties."""
 
+    format = "sympy"
 
-class _Symbolic(System):
-    name = "sympy"
-
-    def coord(self, q):
+    def convert(self, q):
         q = Fraction(q)
         return sympy.Rational(q.numerator, q.denominator)
 
-    const = coord
+    const = convert
 
     def sqrt(self, x):
         return sympy.sqrt(x)
 
 
-class _Tracked(System):
-    name = "tracked"
-
-    def coord(self, name):
-        return fperr.coord(name)
-
-    def const(self, x):
-        return fperr.const(x)
-
-    def sqrt(self, x):
-        return fperr.sqrt(x)
-
-
-BINARY64 = _Binary64()
-BINARY32 = _Binary32()
-MP17 = _Mp(17)
-EXACT = _Exact()
+BINARY64 = fperr.context("binary64")
+BINARY32 = fperr.context("binary32")
+MP17 = fperr.context("mp17")
+EXACT = fperr.ExactContext(sqrt_bits=None)   # no square roots: evaluate those in INTERVAL
 INTERVAL = _Interval()
 SYMBOLIC = _Symbolic()
-TRACKED = _Tracked()
+TRACKED = fperr.context("tracked")
 
 #: The three floating-point formats every bound is checked in.
 FORMATS = (BINARY64, BINARY32, MP17)
+
+
+def evaluate(expr, fmt, coords) -> Fraction:
+    """The exact value of ``expr`` computed in ``fmt`` (inside its session: mpmath's
+    precision), keeping the caller's numpy error policy (:func:`check` raises)."""
+    policy = np.geterr()
+    with fmt.session(), np.errstate(**policy):
+        return fmt.to_fraction(expr(fmt, coords))
 
 
 # ---------------------------------------------------------------------------------
@@ -294,10 +148,10 @@ class Expr:
     def arity(self) -> int:
         return len(self.names)
 
-    def __call__(self, system: System, coords):
+    def __call__(self, system, coords):
         if system is TRACKED:
-            return self.fn([TRACKED.coord(n) for n in self.names], TRACKED)
-        return self.fn([system.coord(q) for q in coords], system)
+            return self.fn([fperr.coord(n) for n in self.names], TRACKED)
+        return self.fn([system.convert(q) for q in coords], system)
 
     def __repr__(self) -> str:
         return self.name
@@ -363,7 +217,7 @@ def _le(lo_side: Fraction, coef: Coef, factor: Fraction, tie: Callable[[], bool]
         raise BoundViolation(what())
 
 
-def check_bounds(expr: Expr, fmt: System, coords) -> dict:
+def check_bounds(expr: Expr, fmt: fperr.Context, coords) -> dict:
     """Evaluate ``expr`` in ``fmt`` and exactly, and assert fperr's bounds (magnitude
     |x| <= c·L^p, E, and R when r holds) at ``fmt``'s ε. Returns the numbers involved."""
     coords = [Fraction(q) for q in coords]
@@ -372,7 +226,7 @@ def check_bounds(expr: Expr, fmt: System, coords) -> dict:
     L = scale_for(coords)
     Lp = L ** p
 
-    computed = fmt.value(expr(fmt, coords))
+    computed = evaluate(expr, fmt, coords)
     if expr.sqrt:
         lo, hi = INTERVAL.enclosure(expr(INTERVAL, coords))
     else:
@@ -397,7 +251,7 @@ def check_bounds(expr: Expr, fmt: System, coords) -> dict:
     comp_s = sympy.Rational(computed.numerator, computed.denominator)
 
     def info():
-        return dict(expr=expr.name, fmt=fmt.name, coords=[str(q) for q in coords], L=str(L),
+        return dict(expr=expr.name, fmt=fmt.format, coords=[str(q) for q in coords], L=str(L),
                     computed=str(computed), exact=(float(lo), float(hi)), state=repr(x))
 
     # the magnitude claim c·L^p: for a bare quotient (rule G's c = 1*) it is a premise
@@ -434,7 +288,7 @@ class OutOfRange(Exception):
     and no overflow, section 2); the caller discards such an input."""
 
 
-def check(expr: Expr, fmt: System, coords) -> dict:
+def check(expr: Expr, fmt: fperr.Context, coords) -> dict:
     """:func:`check_bounds` with binary32 under- and overflow turned into
     :class:`OutOfRange` (numpy raises for an inexact underflow or an overflow)."""
     try:
@@ -462,7 +316,7 @@ def _ulp(q: Fraction, bits: int) -> Fraction:
 
 
 @functools.lru_cache(maxsize=None)
-def coordinates(fmt: System, n: int):
+def coordinates(fmt: fperr.Context, n: int):
     """``n`` coordinates exactly representable in ``fmt``: random ones, and adversarial
     ones — the largest significand, powers of two, tiny significands, zeros, and values
     derived from earlier ones (a few ulps apart, equal, negated, scaled by a power of two)

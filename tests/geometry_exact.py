@@ -37,41 +37,21 @@ import sympy
 
 import fperr
 import predicates
-from fperr.contexts import mp_to_fraction
+from fperr import round_fraction, to_fraction
 from predicates.tolerance_table import TABLES
 
 # ---------------------------------------------------------------------------------
 # numbers
 
 
-def frac(x) -> Fraction:
-    """The exact value of a Python float/int, numpy scalar, mpmath mpf or Fraction."""
-    if isinstance(x, Fraction):
-        return x
-    if isinstance(x, mpmath.mpf):
-        return mp_to_fraction(x)
-    if isinstance(x, (np.floating, np.integer)):
-        return Fraction(x.item())
-    return Fraction(x)
+#: The exact value of a Python float/int, numpy scalar, mpmath mpf or Fraction.
+frac = to_fraction
 
 
 def round_bits(q, bits: int) -> Fraction:
     """``q`` correctly rounded (nearest, ties to even) to a ``bits``-bit significand
     (unbounded exponent: the formats' ranges are never approached here)."""
-    q = frac(q)
-    if q == 0:
-        return q
-    sign = -1 if q < 0 else 1
-    q = abs(q)
-    e = q.numerator.bit_length() - q.denominator.bit_length()
-    if Fraction(2) ** e > q:
-        e -= 1
-    k = bits - 1 - e
-    s = q * Fraction(2) ** k
-    n, rem = divmod(s.numerator, s.denominator)
-    if 2 * rem > s.denominator or (2 * rem == s.denominator and n % 2):
-        n += 1
-    return sign * Fraction(n) * Fraction(2) ** (-k)
+    return round_fraction(frac(q), bits)
 
 
 def significand_bits(q: Fraction) -> int:

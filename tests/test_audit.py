@@ -16,12 +16,14 @@ import pytest
 
 import fperr
 import predicates
-from fperr.shadow import (BINARY32, BINARY64, RInterval, Shadow, ShadowContext, compare,
-                          exact_sqrt, mp_format, round_to_bits)
+from fperr import round_fraction
+from fperr.intervals import RInterval, compare, exact_sqrt
+from fperr.shadow import Shadow, ShadowContext
 from proofs import audit as A
 from proofs.cli import main as cli_main
 
 ALL_PREDS = [p for d in (2, 3) for p in predicates.ALL[d]]
+BINARY64, BINARY32 = fperr.context("binary64"), fperr.context("binary32")
 
 
 # --------------------------------------------------------------------------------------
@@ -44,13 +46,13 @@ def test_shadow_float32_and_mp17_round_in_their_format():
     y32 = x32 * x32
     assert type(y32.w) is np.float32 and y32.w == np.float32(1.1) * np.float32(1.1)
     assert y32.x == Fraction(float(np.float32(1.1))) ** 2
-    mp17 = mp_format(17)
+    mp17 = fperr.context("mp17")
     with mp17.session():
         t = Shadow.exact_input(mp17.from_fraction(Fraction(3, 7)), mp17)
         u = t * t + t
         with mpmath.workprec(17):
             assert u.w == t.w * t.w + t.w
-    assert fperr.contexts.mp_to_fraction(t.w) == round_to_bits(Fraction(3, 7), 17)
+    assert mp17.to_fraction(t.w) == round_fraction(Fraction(3, 7), 17)
 
 
 def test_inputs_must_be_representable():
@@ -71,11 +73,11 @@ def test_irrational_exact_values_are_rigorous_intervals():
     assert s.w == 2.0 ** 0.5 and 0 < s.error() < Fraction(2.0 ** -52)
 
 
-def test_round_to_bits_matches_ieee():
+def test_round_fraction_matches_ieee():
     rng = np.random.default_rng(3)
     for v in rng.normal(size=2000) * 10.0 ** rng.integers(-30, 30, size=2000):
-        assert float(round_to_bits(Fraction(float(v)), 24)) == float(np.float32(v))
-    assert round_to_bits(Fraction(-7, 3), 4, "z") == Fraction(-9, 4)
+        assert float(round_fraction(Fraction(float(v)), 24)) == float(np.float32(v))
+    assert round_fraction(Fraction(-7, 3), 4, "zero") == Fraction(-9, 4)
 
 
 def test_comparisons_do_not_decide_behind_the_context():
@@ -99,7 +101,7 @@ def test_brackets_follow_the_tolerance():
 def test_array_working_values_match_scalars():
     rng = np.random.default_rng(5)
     pred = predicates.d2.triangle_vertex
-    fmt = A.FORMATS["binary64"][0]
+    fmt = A.FORMATS["binary64"]
     info = A.tolerance_info(2, "binary64", 0.5, 0.5)
     pts = [rng.uniform(-0.4, 0.4, size=(64, 2)) for _ in pred.points]
     pts[3] = (pts[0] + pts[1] + pts[2]) / 3 + rng.normal(size=(64, 2)) * 0.1
@@ -129,12 +131,12 @@ def test_shadow_run_follows_the_real_path(fmt_name):
         for _ in range(25):
             cfg = gen.sample()
             ctx = A.run_shadow(spec, cfg)
-            pts = A._working_points(fmt_name, cfg.points)
-            hit, w = pred(*pts, cfg.info.real, ctx=A._real_context(fmt_name))
+            pts = A.working_points(fmt_name, cfg.points)
+            hit, w = pred(*pts, cfg.info.real, ctx=A.real_context(fmt_name))
             assert bool(np.all(hit)) == bool(ctx.result), (pred, cfg)
             if ctx.result:  # identical working weights, bit for bit
-                got = [A.FORMATS[fmt_name][0].to_fraction(x.w) for x in ctx.weights]
-                want = [A.FORMATS[fmt_name][0].to_fraction(x) for x in np.ravel(w)]
+                got = [A.FORMATS[fmt_name].to_fraction(x.w) for x in ctx.weights]
+                want = [A.FORMATS[fmt_name].to_fraction(x) for x in np.ravel(w)]
                 assert got == want
 
 
@@ -247,3 +249,52 @@ def test_cli_json_and_exit_status(capsys, monkeypatch):
         A.spec_for.cache_clear()
     assert rc == 1
     assert "Violations:" in capsys.readouterr().out
+
+
+# --------------------------------------------------------------------------------------
+# bad arguments are argparse errors, before any work
+# --------------------------------------------------------------------------------------
+ROOT = __import__("pathlib").Path(__file__).resolve().parent.parent
+
+
+def _fperr(args, cwd):
+    import os
+    import subprocess
+    import sys
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    return subprocess.run([sys.executable, "-m", "proofs.cli", *args], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=120)
+
+
+@pytest.mark.parametrize("args, msg", [
+    (["--dims", "4"], "argument --dims: dimension 4 is not supported"),
+    (["--dims", "2,x"], "argument --dims"),
+    (["-o", "/missing/x"], "argument -o/--output: directory /missing does not exist"),
+    (["--formats", "binary16"], "unknown format 'binary16'"),
+    (["--dims", "2", "--predicates", "tetrahedron_vertex"],
+     "unknown predicate 'tetrahedron_vertex'"),
+])
+def test_audit_bad_arguments_exit_2_before_any_work(tmp_path, args, msg):
+    r = _fperr(["audit", *args], tmp_path)
+    assert r.returncode == 2, r.stderr
+    assert msg in r.stderr and "usage: fperr audit" in r.stderr
+    assert "audited" not in r.stderr and r.stdout == ""  # nothing was run or printed
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_audit_output_is_written_where_asked(tmp_path):
+    r = _fperr(["audit", "--samples", "3", "--search-steps", "0", "--dims", "2",
+                "--predicates", "vertex_vertex", "--formats", "binary64", "--format", "json",
+                "-o", "sub.json"], tmp_path)
+    assert r.returncode == 0, r.stderr
+    written = json.loads((tmp_path / "sub.json").read_text())
+    assert written == json.loads(r.stdout) and written["violation_count"] == 0
+    assert [q["predicate"] for q in written["quantities"]] == ["2D vertex_vertex"]
+
+
+def test_library_audit_rejects_bad_selections():
+    with pytest.raises(ValueError, match="unknown dimension 4"):
+        A.audit(dims=(4,))
+    with pytest.raises(ValueError, match="unknown format 'binary16'"):
+        A.audit(formats=("binary16",))
+    assert [p.name for p in A.select_predicates((3,), ("edge_edge",))] == ["edge_edge"]

@@ -44,10 +44,10 @@ def test_option_names_are_the_same_across_commands():
 
 
 @pytest.mark.parametrize("argv, message", [
-    (["audit", "--dims", "4"], "invalid"),
+    (["audit", "--dims", "4"], "--dims"),
     (["audit", "--dim", "4"], "invalid choice"),
     (["audit", "--dtype", "float16"], "invalid choice"),
-    (["audit", "--formats", "binary16"], "invalid"),
+    (["audit", "--formats", "binary16"], "--formats"),
     (["verify", "--format", "xml"], "invalid choice"),
     (["intersect", "a.vtu", "b.vtu", "--format", "yaml"], "invalid choice"),
 ])

@@ -358,8 +358,8 @@ def test_cli_passes_both_dims(capsys):
 
 
 def test_report_is_up_to_date():
-    from proofs.report import DEFAULT_PATH, render
-    committed = DEFAULT_PATH.read_text(encoding="utf-8")
+    from proofs.report import render
+    committed = (ROOT / "docs" / "error-bounds.md").read_text(encoding="utf-8")
     assert render() == committed, "docs/error-bounds.md is stale: run python -m proofs.report"
 
 
@@ -368,3 +368,45 @@ def test_verifier_never_reads_the_paper_printed_figures():
             "proofs.verify.verify(2);"
             "assert 'proofs.paper_printed' not in sys.modules")
     subprocess.run([sys.executable, "-c", code], check=True, cwd=ROOT)
+
+
+def _fperr_subprocess(args, cwd, module="proofs.cli"):
+    import os
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    return subprocess.run([sys.executable, "-m", module, *args], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=300)
+
+
+def test_library_modules_of_proofs_do_not_use_argparse():
+    """Argument parsing lives in proofs/cli.py only (issue 9, item 5)."""
+    sources = [p for p in (ROOT / "proofs").rglob("*.py") if p.name != "cli.py"]
+    assert len(sources) > 10
+    for p in sources:
+        assert "argparse" not in p.read_text(encoding="utf-8"), p
+    code = ("import sys, proofs.verify, proofs.report, proofs.audit, proofs.constraints;"
+            "assert 'argparse' not in sys.modules, 'argparse imported'")
+    subprocess.run([sys.executable, "-c", code], check=True, cwd=ROOT)
+
+
+def test_verify_report_writes_relative_to_the_current_directory(tmp_path):
+    # no docs/ here: an argparse error before the constraints are decided
+    r = _fperr_subprocess(["verify", "--dim", "2", "--report"], tmp_path)
+    assert r.returncode == 2 and "argument --report: directory docs does not exist" in r.stderr
+    assert r.stdout == "" and list(tmp_path.iterdir()) == []
+    (tmp_path / "docs").mkdir()
+    r = _fperr_subprocess(["verify", "--dim", "2", "--report"], tmp_path)
+    assert r.returncode == 0, r.stderr
+    written = (tmp_path / "docs" / "error-bounds.md").read_text(encoding="utf-8")
+    assert written == (ROOT / "docs" / "error-bounds.md").read_text(encoding="utf-8")
+    r = _fperr_subprocess(["--check"], tmp_path, module="proofs.report")
+    assert r.returncode == 0 and "up to date" in r.stdout
+    (tmp_path / "docs" / "error-bounds.md").write_text("stale\n", encoding="utf-8")
+    r = _fperr_subprocess(["--check"], tmp_path, module="proofs.report")
+    assert r.returncode == 1 and "is stale" in r.stderr
+
+
+def test_report_bad_output_is_an_argument_error(tmp_path):
+    r = _fperr_subprocess(["-o", str(tmp_path / "missing" / "x.md")], tmp_path,
+                          module="proofs.report")
+    assert r.returncode == 2 and "does not exist" in r.stderr
+    assert list(tmp_path.iterdir()) == []

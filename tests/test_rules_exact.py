@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 from fractions import Fraction
 
+import mpmath
 import numpy as np
 import pytest
 import sympy
@@ -29,8 +30,10 @@ from hypothesis import strategies as st
 
 import fperr
 from exact_eval import (BINARY32, BINARY64, FORMATS, MP17, TRACKED, BoundViolation,
-                        Expr, OutOfRange, _Mp, check, check_bounds, coordinates,
-                        round_to_bits, tracked)
+                        Expr, OutOfRange, check, check_bounds, coordinates, eps_of,
+                        tracked)
+from fperr import round_fraction as round_to_bits
+from fperr.ops import BY_RULE
 
 # ---------------------------------------------------------------------------------
 # vector helpers, written once for every number system
@@ -284,8 +287,10 @@ def test_every_rule_is_exercised():
     used = set()
     for e in RULES:
         used |= {y.rule for y in tracked(e).walk()}
-    assert used >= set("ABCDEFGHIJK")
-    assert {e.rule for e in RULES} >= set("ABCDEFGHIJK")
+    every = set(BY_RULE) | {"J", "K"}     # the operator table's rules and the two leaves
+    assert every == set("ABCDEFGHIJK")
+    assert used >= every
+    assert {e.rule for e in RULES} >= every
 
 
 # ---------------------------------------------------------------------------------
@@ -331,10 +336,10 @@ CONSTS = [Fraction(13, 2), Fraction(1215), Fraction(1, 10), Fraction(1, 3), Frac
 def test_constant_rounding_within_bound(q, fmt):
     t = fperr.const(q)
     b = fperr.bounds(t, strict=True)
-    rounded = fmt.value(fmt.const(q))
+    rounded = fmt.to_fraction(fmt.const(q))
     assert rounded == round_to_bits(q, fmt.bits)
     err = abs(rounded - q)
-    E = b.E_at(fmt.eps)
+    E = b.E_at(eps_of(fmt))
     assert sympy.Rational(err.numerator, err.denominator) <= E
     if err:                       # a constant that rounds must be marked inexact
         assert t.a == 1
@@ -350,7 +355,8 @@ def test_native_constant_conversion_is_correctly_rounded(fmt):
         elif fmt is BINARY32:
             native = Fraction(float(np.float32(1) / np.float32(10 if q.denominator == 10 else 3)))
         else:
-            native = MP17.value(MP17.ctx.mpf(1) / q.denominator)
+            with MP17.session():
+                native = MP17.to_fraction(mpmath.mpf(1) / q.denominator)
         assert native == round_to_bits(q, fmt.bits)
 
 
@@ -364,24 +370,26 @@ def test_inexact_constants_carry_one_rounding(q):
     assert t.a == (0 if exact17 else 1)
     for fmt in FORMATS:
         err = abs(round_to_bits(q, fmt.bits) - q)
-        assert err <= abs(q) * t.a * fmt.eps
+        assert err <= abs(q) * t.a * eps_of(fmt)
 
 
 # ---------------------------------------------------------------------------------
 # the checker itself can fail
 
 
-class _Lying(_Mp):
+class _Lying(fperr.MpContext):
     """Claims a 17-bit ε but computes with 12 bits: every bound must catch it."""
 
     def __init__(self):
         super().__init__(17)
-        self.ctx.prec = 12
-        self.name = "lying12"
+        self.format = "lying12"
+
+    def session(self):
+        return mpmath.workprec(12)
 
     def const(self, x):
-        q = Fraction(x)
-        return self.ctx.make_mpf(libmp.from_rational(q.numerator, q.denominator, 12, "n"))
+        q = fperr.to_fraction(x)
+        return mpmath.mp.make_mpf(libmp.from_rational(q.numerator, q.denominator, 12, "n"))
 
 
 @pytest.mark.parametrize("name, coords", [
@@ -447,4 +455,4 @@ def test_bare_quotient_E_is_a_bound():
     computed = 1.0 / math.sqrt(float((A[0] - B[0]) ** 2 + (A[1] - B[1]) ** 2))
     c = Fraction(computed)
     err = abs(sympy.Rational(c.numerator, c.denominator) - 1 / sympy.sqrt(2))
-    assert err <= b.R_at(BINARY64.eps) / sympy.sqrt(2)   # the relative bound holds
+    assert err <= b.R_at(eps_of(BINARY64)) / sympy.sqrt(2)   # the relative bound holds

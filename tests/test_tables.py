@@ -83,3 +83,20 @@ def test_cli_formats(capsys, fmt):
     assert main(["tables", "--dim", "2", "--format", fmt]) == 0
     out = capsys.readouterr().out
     assert ("19" in out) and ("a_hat" in out or r"\hat{a}" in out)
+
+
+def test_notation_is_shared_by_tables_and_report():
+    """L^p, ε^q and the Greek names are spelled once (fperr.notation)."""
+    import sympy
+
+    import predicates.tables as T
+    import proofs.report as R
+    from fperr import notation as N
+    assert (N.lpow(0), N.lpow(1), N.lpow(4), N.lpow(sympy.Rational(3, 2))) == \
+        ("", "L", "L⁴", "L^(3/2)")
+    assert (N.lpow(2, superscript=False), N.lpow(1.5, superscript=False)) == ("L^2", "L^1.5")
+    assert (N.epow(1), N.epow(sympy.Rational(1, 2)), N.epow(sympy.Rational(3, 4))) == \
+        ("ε", "√ε", "ε^(3/4)")
+    assert N.greek("lam", "hi") == "λ+" and N.greek("sigma_hat", "lo") == "σ̂−"
+    assert R.lpow is N.lpow and R.epow is N.epow and R.GREEK is N.GREEK
+    assert T.LATEX_GREEK is N.LATEX_GREEK and T._latex_name("lam") == r"\lambda"

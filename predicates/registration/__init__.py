@@ -8,6 +8,8 @@ One module per step (see :mod:`predicates.registration.pipeline` for how they fi
 * :mod:`~predicates.registration.broadphase` — boxes within a distance, on a grid;
 * :mod:`~predicates.registration.complex` — rank space and simplicial complexes;
 * :mod:`~predicates.registration.levels` — candidates, suppression, the level loop;
+* :mod:`~predicates.registration.refine` — refinement of coarse cutting meshes;
+* :mod:`~predicates.registration.resolution` — L from the cells that can meet, report;
 * :mod:`~predicates.registration.pipeline` — :func:`intersect`, :func:`intersect_files`;
 * :mod:`~predicates.registration.result` — :class:`IntersectionResult`, :class:`KindPairs`;
 * :mod:`~predicates.registration.files` — mesh files in and out;

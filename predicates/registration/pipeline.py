@@ -51,16 +51,21 @@ differs in the predicates.
 """
 from __future__ import annotations
 
-import math
 import os
 import time
+import warnings
 
 import numpy as np
 
+from fperr.warnings import ResolutionError, ResolutionWarning
+
 from ..catalogue import kinds as catalogue_kinds
-from ..tolerances import tolerances as compute_tolerances
+from . import resolution
 from .inputs import max_box_edge, mesh_arrays, scale_points, validate_options, validate_pair
 from .levels import Registration
+from .refine import refine
+from .resolution import (Resolution, cell_boxes, consistent_scale, estimate_cell_pairs,
+                         memory_error, near_cells, shortest_edge, t_plus)
 from .result import IntersectionResult
 
 __all__ = ["CHUNK", "intersect", "intersect_files"]
@@ -70,7 +75,9 @@ CHUNK = 1 << 17
 
 
 def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: bool = False,
-              chunk: int = CHUNK, sim_region=None, cut_region=None) -> IntersectionResult:
+              chunk: int = CHUNK, refine_cut: bool = True, strict: bool = False,
+              memory_limit: int | None = None, sim_region=None,
+              cut_region=None) -> IntersectionResult:
     """Register the intersections of a simulation mesh with a cutting mesh.
 
     ``intersect(sim_points, sim_cells, cut_points, cut_cells)``, ``intersect(sim_mesh,
@@ -83,7 +90,16 @@ def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: b
     ``dtype``: float64 or float32, the working precision (coordinates are converted;
     ``res.rounded_inputs`` says whether that rounded them). ``tolerance_scale``: 1 for the
     robust method, 0 for the naive zero-tolerance baseline (values in [0, 1]).
-    ``progress``: a tqdm bar on stderr (shown after one second). Returns an
+    ``progress``: a tqdm bar on stderr (shown after one second). ``refine_cut``: refine
+    cutting cells coarser than the simulation cells they meet (conforming midpoint
+    splits, :mod:`~predicates.registration.refine`); the registered cutting ids then
+    refer to ``res.cut_points`` / ``res.cut_cells``, the refined mesh (input points keep
+    their ids; ``res.refinement`` maps back). ``strict``: raise
+    :class:`fperr.ResolutionError` (a ValueError) instead of issuing a
+    :class:`fperr.ResolutionWarning` when the tolerances are coarse relative to the
+    elements near the cut (``res.resolution``). ``memory_limit``: bytes (default half
+    the available memory); a run estimated to need more is refused with
+    :class:`fperr.ResolutionError`. Returns an
     :class:`~predicates.registration.result.IntersectionResult`. See the module docstring.
     """
     t0 = time.perf_counter()
@@ -92,57 +108,91 @@ def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: b
     arrays = mesh_arrays(args, sim_region, cut_region)
     sp, sc, cp, cc = arrays
     dim, sim, cut = validate_pair(sp, sc, cp, cc, dtype)
-
-    # exact power-of-two scaling so that L_a + L_b is in [1/2, 1)
-    L_a0 = max_box_edge(sim.points, sim.cells)
-    L_b0 = max_box_edge(cut.points, cut.cells)
-    if L_a0 + L_b0 == 0:
+    if max_box_edge(sim.points, sim.cells) + max_box_edge(cut.points, cut.cells) == 0:
         raise ValueError("every cell of both meshes collapses to a single point (zero "
                          "bounding boxes): the tolerances would be zero")
-    e = math.frexp(L_a0 + L_b0)[1]
+    sim_box = cell_boxes(sim.points, sim.cells)
+    refinement = None
+    if refine_cut and len(cut.cells):
+        t = time.perf_counter()
+        refinement = refine(cut.points, cut.cells, *sim_box)
+        cut.points, cut.cells = refinement.points, refinement.cells
+        timings["refine"] = time.perf_counter() - t
+    cut_box = cell_boxes(cut.points, cut.cells)
+
+    # L over the cells that can meet, then the exact power-of-two scaling from it
+    sc_ = consistent_scale(dim, sim_box, cut_box, dtype)
+    e, tol = sc_.e, sc_.tol
     P_sim = scale_points(sim.points, e, "simulation")
     P_cut = scale_points(cut.points, e, "cutting")
-    # upper bounds, scaled exactly (compute_tolerances rounds them up into dtype)
-    L_a, L_b = math.ldexp(L_a0, -e), math.ldexp(L_b0, -e)
-    tol = compute_tolerances(dim, L_a, L_b, dtype=dtype)
     tol_run = tol if ts == 1 else tol.scaled(dtype.type(ts))
-    eps = float(np.finfo(dtype).eps)
     kinds = catalogue_kinds(dim)
-    reach = {k.name: float(tol.values[k.reach[0]]) * k.reach[1] * (1 + 16 * eps)
-             for k in kinds}
+    report = _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts)
     timings["setup"] = time.perf_counter() - t0
+    _check(report, strict, memory_limit, dim)
 
-    # rank space: vertices ordered lexicographically by coordinates
+    # rank space: vertices ordered lexicographically by coordinates; only the cells that
+    # can meet (they hold every pair within reach, docs/resolution.md)
     t = time.perf_counter()
-    reg = Registration(dim, P_sim, sim.cells, P_cut, cut.cells, tol_run, reach, chunk)
+    ms, mc = sc_.masks
+    reg = Registration(dim, P_sim, sim.cells[ms], P_cut, cut.cells[mc], tol_run, sc_.reach,
+                       chunk)
     timings["ranks"] = time.perf_counter() - t
     pairs = reg.run(progress, timings)
 
     timings["total"] = time.perf_counter() - t0
-    return IntersectionResult(
+    res = IntersectionResult(
         dim=dim, dtype=dtype, kinds=tuple(k.name for k in kinds), pairs=pairs,
-        tolerances=tol_run, scale_exponent=e, tolerance_scale=ts, L_a=L_a0, L_b=L_b0,
+        tolerances=tol_run, scale_exponent=e, tolerance_scale=ts, L_a=sc_.L_a, L_b=sc_.L_b,
         sim_points=sim.points, sim_cells=sim.cells, cut_points=cut.points,
         cut_cells=cut.cells, rounded_inputs=sim.rounded or cut.rounded, timings=timings,
-        notes=arrays.notes, plane=arrays.plane)
+        resolution=report, refinement=refinement, notes=arrays.notes,
+        plane=arrays.plane)
+    return res
+
+
+def _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts) -> Resolution:
+    """The resolution report (before the work): edges near the cut at the final pad."""
+    near_s, near_c = near_cells(sim_box, cut_box, sc_.pad, sc_.masks)
+    ms, mc = sc_.masks
+    pairs = estimate_cell_pairs(sim_box[0][ms], sim_box[1][ms], cut_box[0][mc],
+                                cut_box[1][mc], sc_.pad)
+    ref = None if refinement is None else (refinement.input_cells, len(refinement.cells),
+                                           refinement.rounds)
+    return Resolution(dim, dtype.name, t_plus(dim, sc_), shortest_edge(sim.points, sim.cells,
+                      near_s), shortest_edge(cut.points, cut.cells, near_c), sc_.L_a, sc_.L_b,
+                      sc_.history[0], len(sc_.history) - 1, ref, pairs, ts)
+
+
+def _check(report: Resolution, strict: bool, limit: int | None, dim: int) -> None:
+    """Warn (or raise, ``strict``) when coarse; refuse runs that would exhaust memory.
+    The naive baseline (tolerance_scale 0) is never called coarse."""
+    if report.coarse:
+        if strict:
+            raise ResolutionError(report.message() + " (strict: refused)")
+        warnings.warn(report.message(), ResolutionWarning, stacklevel=3)
+    err = memory_error(report, resolution.memory_limit() if limit is None else limit, dim)
+    if err is not None:
+        raise err
 
 
 def intersect_files(sim: str | os.PathLike, cut: str | os.PathLike, *,
                     output: str | os.PathLike | None = None,
                     plot: str | os.PathLike | None = None,
                     sim_output: str | os.PathLike | None = None, dtype: str = "float64",
-                    naive: bool = False, progress: bool = False, sim_region=None,
-                    cut_region=None, **options) -> IntersectionResult:
+                    naive: bool = False, progress: bool = False, refine_cut: bool = True,
+                    strict: bool = False, sim_region=None, cut_region=None,
+                    **options) -> IntersectionResult:
     """Register two mesh files (any format meshio reads) and write the intersection
-    points to ``output`` (.vtu/.vtk), the simulation mesh with cut-cell data to
+    points to ``output`` (.vtu), the simulation mesh with cut-cell data to
     ``sim_output`` and a 2D picture to ``plot``.
 
     Output paths are checked before any work (format, directory, not an input file), the
     inputs are read under guard, and every problem raises an error naming the file, so
     a refused run writes nothing; files are written atomically. ``naive``: the
-    zero-tolerance baseline (``tolerance_scale=0``); ``sim_region``/``cut_region``: a
-    gmsh physical group or cell block (tag or name); other ``options`` go to
-    :func:`intersect`.
+    zero-tolerance baseline (``tolerance_scale=0``); ``refine_cut``, ``strict`` and other
+    ``options``: as in :func:`intersect`; ``sim_region``/``cut_region``: a gmsh physical
+    group or cell block (tag or name).
     """
     from .files import check_outputs, load_pair, write_results
 
@@ -157,7 +207,8 @@ def intersect_files(sim: str | os.PathLike, cut: str | os.PathLike, *,
         raise ValueError("plots are drawn for 2D meshes only (this case is 3D; open the "
                          "output in ParaView instead)")
     res = intersect(*arrays, dtype=np.dtype(dtype), progress=progress,
-                    tolerance_scale=0.0 if naive else 1.0, **options)
+                    tolerance_scale=0.0 if naive else 1.0, refine_cut=refine_cut,
+                    strict=strict, **options)
     res.notes[:0] = arrays.notes
     res.plane = arrays.plane
     write_results(res, output=output, plot=plot, sim_output=sim_output)

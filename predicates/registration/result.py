@@ -121,6 +121,11 @@ class IntersectionResult:
     timings: dict = field(default_factory=dict)
     notes: list = field(default_factory=list)
     plane: float | None = None
+    #: what the run resolves (a predicates.registration.resolution.Resolution) and the
+    #: cutting mesh's refinement (refine.Refinement: cut_origin, input_weights), or None;
+    #: with a refinement, cut_points / cut_cells are the refined mesh the ids refer to
+    resolution: object = None
+    refinement: object = None
 
     def __post_init__(self):
         # constructed with the tolerances of the scaled run; the public attribute is in
@@ -255,8 +260,12 @@ class IntersectionResult:
         """Inconsistency count: cutting vertices marked ``inside`` (a bool per cutting
         point: known to lie inside the simulation mesh) that are not located exactly
         once — registered with no simulation primitive (the cut falls through a crack)
-        or with several (counted twice). A consistent registration gives 0."""
+        or with several (counted twice). A consistent registration gives 0. With a
+        refined cutting mesh, ``inside`` may cover the input points only (the vertices
+        the refinement appended count as unknown)."""
         inside = np.asarray(inside, dtype=bool)
+        if self.refinement is not None and len(inside) < len(self.cut_points):
+            inside = np.concatenate([inside, np.zeros(len(self.cut_points) - len(inside), bool)])
         used = np.zeros(len(self.cut_points), dtype=bool)
         used[np.unique(self.cut_cells)] = True
         return int(np.sum(inside & used & (self.location_counts("cut") != 1)))
@@ -361,6 +370,13 @@ class IntersectionResult:
                 f"{len(self.sim_cells)} simulation cells, {len(self.cut_cells)} cutting "
                 "cells>")
 
+    def split(self):
+        """The virtual-node split of the simulation mesh along the cut
+        (:func:`predicates.registration.split.split_mesh`; rules in docs/split.md)."""
+        from .split import split_mesh  # lazy: the split is a layer on top of the result
+
+        return split_mesh(self)
+
     def __str__(self):
         dt = "binary64" if self.dtype == np.float64 else "binary32"
         cellname = {2: ("triangles", "segments"), 3: ("tetrahedra", "triangles")}[self.dim]
@@ -376,6 +392,8 @@ class IntersectionResult:
                      f"coordinates scaled by 2^{-self.scale_exponent} (exact)")
         lines.append("tolerances (input units): " + ", ".join(
             f"{n} = {v:.4g}" for n, v in tu.items() if n != "L"))
+        if self.resolution is not None:
+            lines.extend(self.resolution.lines())
         w = max(len(k) for k in self.kinds)
         lines.append(f"{'kind':<{w}}  {'candidates':>10}  {'suppressed':>10}  "
                      f"{'tested':>10}  {'registered':>10}")

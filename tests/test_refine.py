@@ -1,0 +1,120 @@
+"""predicates.registration.refine: conforming refinement of coarse cutting meshes
+(issue 10): conformity, orientation, map back (cut_origin, barycentric rows,
+input_weights), geometry-only (order/orientation invariance), the cell budget."""
+from __future__ import annotations
+
+import itertools
+from collections import Counter
+
+import numpy as np
+import pytest
+
+import fperr
+import predicates
+from predicates.registration.examples import cube_grid, square_grid
+from predicates.registration.refine import refine
+from predicates.registration.resolution import cell_boxes
+from test_resolution import plane_case
+
+
+def _edge_use(cells):
+    cnt = Counter()
+    for t in cells.tolist():
+        for a, b in itertools.combinations(t, 2):
+            cnt[tuple(sorted((a, b)))] += 1
+    return cnt
+
+
+@pytest.fixture(scope="module")
+def refined():
+    sp, sc, cp, cc = plane_case(n=6, half=1e3)
+    return cp, cc, refine(cp, cc, *cell_boxes(sp, sc)), cell_boxes(sp, sc)
+
+
+def test_conforming_oriented_and_mapped_back(refined):
+    cp, cc, R, _ = refined
+    assert R.refined and R.rounds > 5
+    assert np.array_equal(R.points[: len(cp)], cp)  # input points keep their ids
+    use = _edge_use(R.cells)
+    assert set(use.values()) <= {1, 2}
+    # boundary edges (used once) lie on the input's boundary: no hanging vertex anywhere
+    bnd = [e for e, k in use.items() if k == 1]
+    cut_bnd = {(0, 1), (1, 2), (2, 3), (0, 3)}
+    for a, b in bnd:
+        o = set(R.cut_origin[[i for i, t in enumerate(R.cells.tolist()) if a in t and b in t]])
+        assert len(o) == 1
+        Bi = R.bary[[i for i, t in enumerate(R.cells.tolist()) if a in t and b in t][0]]
+        # both endpoints have a zero weight on the same input vertex: on an input edge
+        cell_in = cc[o.pop()]
+        t = R.cells[[i for i, t_ in enumerate(R.cells.tolist()) if a in t_ and b in t_][0]]
+        rows = Bi[[list(t).index(a), list(t).index(b)]]
+        zero = np.flatnonzero((rows == 0).all(axis=0))
+        assert len(zero) == 1
+        e = tuple(sorted(np.delete(cell_in, zero[0])))
+        assert e in cut_bnd
+    n0 = np.cross(cp[1] - cp[0], cp[2] - cp[0])
+    P, T = R.points, R.cells
+    assert (np.cross(P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]]) @ n0 > 0).all()
+    assert (R.bary >= 0).all() and np.allclose(R.bary.sum(axis=2), 1, rtol=0, atol=1e-15)
+    rec = np.einsum("mkj,mjd->mkd", R.bary, cp[cc[R.cut_origin]])
+    assert np.abs(rec - P[T]).max() < 1e-9 * 1e3  # midpoint roundings only
+
+
+def test_refined_near_the_simulation_mesh_only(refined):
+    cp, cc, R, (lo, hi) = refined
+    X = R.points[R.cells]
+    ext = (X.max(1) - X.min(1)).max(1)
+    near = np.all((X.min(1) < hi.max(0) + 0.1) & (X.max(1) > lo.min(0) - 0.1), axis=1)
+    assert ext[near].max() <= (hi - lo).max() * (1 + 1e-12)
+    assert ext.max() > 100  # far away the cut stays coarse
+
+
+def test_input_weights_give_back_the_same_point():
+    sp, sc, cp, cc = plane_case(n=4, half=100.0)
+    res = predicates.intersect(sp, sc, cp, cc)
+    R = res.refinement
+    for kind in ("edge_triangle", "tetrahedron_vertex", "edge_edge"):
+        p = res[kind]
+        assert len(p)
+        cell, w = R.input_weights(p.cut, p.cut_weights)
+        x_ref = p.points(res.cut_points, "cut")
+        x_in = np.einsum("mk,mkd->md", w, cp[cc[cell]])
+        assert np.abs(x_ref - x_in).max() < 1e-10 * 100
+        assert np.allclose(w.sum(1), 1) and (w >= -1e-15).all()
+
+
+def test_geometry_only_not_numbering():
+    sp, sc, cp, cc = plane_case(n=4, half=100.0)
+    boxes = cell_boxes(sp, sc)
+    a = refine(cp, cc, *boxes)
+    perm = np.array([2, 0, 3, 1])
+    inv = np.argsort(perm)
+    b = refine(cp[perm], inv[cc][::-1][:, [1, 2, 0]], *boxes)
+
+    def tris(R):
+        return {tuple(sorted(map(tuple, R.points[t].tolist()))) for t in R.cells}
+    assert tris(a) == tris(b)
+
+
+def test_2d_segments_and_untouched_inputs():
+    sp, sc = square_grid(8)
+    boxes = cell_boxes(sp, sc)
+    cp = np.array([[-100.0, 0.31], [100.0, 0.52], [5.0, 5.0], [6.0, 6.0]])
+    cc = np.array([[0, 1], [2, 3]])
+    R = refine(cp, cc, *boxes)
+    assert set(R.cut_origin.tolist()) == {0, 1}
+    assert (R.cut_origin == 1).sum() == 1  # the far segment is not refined
+    use = Counter(R.cells.ravel().tolist())
+    assert sorted(k for k, v in use.items() if v == 1) == [0, 1, 2, 3]  # a chain
+    near = R.cells[R.cut_origin == 0]
+    X = R.points[near]
+    ext = (X.max(1) - X.min(1)).max(1)
+    mid = np.all((X > -0.2) & (X < 1.2), axis=(1, 2))
+    assert mid.any() and ext[mid].max() <= 0.125
+
+
+def test_cell_budget_refuses_with_a_clear_error():
+    sp, sc = cube_grid(6)
+    cp = np.array([[-1e6, -1e6, 0.51], [1e6, -1e6, 0.51], [0, 1e6, 0.51]])
+    with pytest.raises(fperr.ResolutionError, match="refine_cut=False"):
+        refine(cp, np.array([[0, 1, 2]]), *cell_boxes(sp, sc), max_cells=200)

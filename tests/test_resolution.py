@@ -1,0 +1,287 @@
+"""Issue 10: tolerances from the geometry that can meet, refined coarse cutting meshes,
+the resolution report, ResolutionWarning / ResolutionError, the memory guard
+(docs/resolution.md). Exact references: fractions.Fraction orientations, and the exact
+oracle of test_intersect_oracle for the soundness of the L taken over the cells that
+can meet."""
+from __future__ import annotations
+
+import itertools
+import os
+import subprocess
+import sys
+import warnings
+from fractions import Fraction
+from pathlib import Path
+
+import meshio
+import numpy as np
+import pytest
+
+import fperr
+import predicates
+from predicates.registration import pipeline
+from predicates.registration.examples import cube_grid, square_grid
+from test_intersect_oracle import check_exact
+
+ROOT = Path(__file__).resolve().parents[1]
+SIM_EDGE_KINDS = ("edge_vertex", "edge_edge", "edge_triangle")
+SIM_VERTEX_KINDS = ("vertex_vertex", "vertex_edge", "vertex_triangle")
+
+
+# -- the issue's plane: two triangles of half-width 1e4, rotated, offset --------------------
+def _orient3(a, b, c, x):
+    a, b, c, x = ([Fraction(float(v)) for v in p] for p in (a, b, c, x))
+    u = [b[i] - a[i] for i in range(3)]
+    v = [c[i] - a[i] for i in range(3)]
+    w = [x[i] - a[i] for i in range(3)]
+    d = (u[1] * v[2] - u[2] * v[1]) * w[0] + (u[2] * v[0] - u[0] * v[2]) * w[1] \
+        + (u[0] * v[1] - u[1] * v[0]) * w[2]
+    return (d > 0) - (d < 0)
+
+
+def plane_case(n=10, half=1e4):
+    """Kuhn grid n³ and a rotated plane as two triangles, offset so that every grid
+    vertex is at least 0.02 away from it."""
+    sp, sc = cube_grid(n)
+    # normal ∝ (1, 1, 2): vertex heights lie on levels 1/(n√6) apart (0.041 for n = 10);
+    # the plane halfway between two levels near the centre is ≥ 0.02 from every vertex
+    nrm = np.array([1.0, 1.0, 2.0]) / np.sqrt(6.0)
+    d = (2 * n - 0.5) / (n * np.sqrt(6.0))
+    assert np.min(np.abs(sp @ nrm - d)) > 0.02
+    u = np.cross(nrm, [1.0, 0, 0])
+    u /= np.linalg.norm(u)
+    v = np.cross(nrm, u)
+    c = d * nrm
+    cp = np.array([c + half * (a * u + b * v) for a, b in [(-1, -1), (1, -1), (1, 1), (-1, 1)]])
+    cc = np.array([[0, 1, 2], [0, 2, 3]])
+    return sp, sc, cp, cc
+
+
+def crossing_edges(sp, sc, cp, cc):
+    """Edges of the simulation mesh whose endpoints lie strictly on opposite sides of
+    the cutting plane (exact orientation against each triangle, which must agree)."""
+    edges = {tuple(sorted(e)) for c in sc.tolist() for e in itertools.combinations(c, 2)}
+    side = {}
+    for i in range(len(sp)):
+        o = {_orient3(*cp[t], sp[i]) for t in cc}
+        assert len(o) == 1 and 0 not in o  # both triangles agree, no vertex on the plane
+        side[i] = o.pop()
+    return {e for e in edges if side[e[0]] != side[e[1]]}
+
+
+def registered_sim(res, kinds):
+    out = set()
+    for k in kinds:
+        out |= {tuple(sorted(r)) for r in res[k].sim.tolist()}
+    return out
+
+
+@pytest.fixture(scope="module")
+def plane():
+    return plane_case()
+
+
+@pytest.fixture(scope="module")
+def plane_res(plane):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", fperr.ResolutionWarning)  # resolved: no warning
+        return predicates.intersect(*plane)
+
+
+def test_plane_registers_exactly_the_crossing_edges(plane, plane_res):
+    expect = crossing_edges(*plane)
+    assert len(expect) > 300
+    assert registered_sim(plane_res, SIM_EDGE_KINDS) == expect
+    assert all(plane_res.counts[k] == 0 for k in SIM_VERTEX_KINDS)
+    r = plane_res.resolution
+    assert not r.coarse and r.ratio < 0.01 and r.refined[1] > 100
+    assert r.L_global > 1e3 and plane_res.L_a + plane_res.L_b < 0.25
+    print(f"sigma+/shortest sim edge near the cut: {r.ratio:.3g} (refined)")
+
+
+def test_plane_without_refinement_warns_and_strict_refuses(plane):
+    with pytest.warns(fperr.ResolutionWarning, match="refine"):
+        res = predicates.intersect(*plane, refine_cut=False)
+    assert res.resolution.coarse and res.resolution.ratio > 100
+    assert res.counts["edge_triangle"] == 0  # what the warning is about: no crossing found
+    print(f"sigma+/shortest sim edge near the cut: {res.resolution.ratio:.3g} (as given)")
+    with pytest.raises(ValueError, match="refine_cut=True") as err:
+        predicates.intersect(*plane, refine_cut=False, strict=True)
+    assert isinstance(err.value, fperr.ResolutionError)
+    assert "COARSE" in str(res) and "resolution:" in str(res)
+
+
+def test_refined_plane_against_the_exact_oracle():
+    """Soundness of L over the cells that can meet: the paper's guarantee, checked in
+    exact arithmetic for every pair within 2σ+ (including pairs never processed)."""
+    sp, sc, cp, cc = plane_case(n=3, half=50.0)
+    res = predicates.intersect(sp, sc, cp, cc)
+    assert res.resolution.L_global > 10 > 10 * (res.L_a + res.L_b)
+    stats = check_exact(res)
+    assert stats["registered"] > 20
+
+
+def test_giant_far_tetrahedron_changes_nothing(plane, plane_res):
+    sp, sc, cp, cc = plane
+    nrm = np.cross(cp[1] - cp[0], cp[2] - cp[0])
+    nrm /= np.linalg.norm(nrm)
+    base = np.array([0.5, 0.5, 0.5]) + 1000 * nrm
+    giant = base + 100 * np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
+    sp2 = np.concatenate([sp, giant])
+    sc2 = np.concatenate([sc, len(sp) + np.arange(4)[None]])
+    res = predicates.intersect(sp2, sc2, cp, cc)
+    assert float(res.tolerances.L) == float(plane_res.tolerances.L)
+    assert res.scale_exponent == plane_res.scale_exponent
+
+    def by_coords(r):  # cutting ids differ (the cut is refined near the giant too)
+        return {k: {(tuple(sorted(s)), tuple(sorted(map(tuple, r.cut_points[c].tolist()))))
+                    for s, c in zip(r[k].sim.tolist(), r[k].cut.tolist())} for k in r.kinds}
+    assert by_coords(res) == by_coords(plane_res)
+
+
+def test_2d_float32_long_segment():
+    sp, sc = square_grid(10)
+    # normal ∝ (-1, 2): vertex heights on levels 1/(10√5) = 0.045 apart; halfway: ≥ 0.022
+    nrm = np.array([-1.0, 2.0]) / np.sqrt(5.0)
+    d = np.array([2.0, 1.0]) / np.sqrt(5.0)
+    off = 7.5 / (10 * np.sqrt(5.0))
+    assert np.min(np.abs(sp @ nrm - off)) > 0.02
+    cp = np.array([off * nrm - 1e4 * d, off * nrm + 1e4 * d]).astype(np.float32)
+    cc = np.array([[0, 1]])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", fperr.ResolutionWarning)
+        res = predicates.intersect(sp, sc, cp, cc, dtype=np.float32)
+    sp32 = sp.astype(np.float32)
+    a, b = ([Fraction(float(x)) for x in p] for p in cp)
+
+    def side(x):
+        x = [Fraction(float(v)) for v in x]
+        o = (b[0] - a[0]) * (x[1] - a[1]) - (b[1] - a[1]) * (x[0] - a[0])
+        assert o != 0
+        return o > 0
+    # the grid vertices are > 0.02 from the line (in float32 too: rounding is ~1e-3)
+    assert np.min(np.abs((sp32.astype(np.float64) - cp[0]) @ nrm)) > 0.01
+    sides = [side(x) for x in sp32]
+    edges = {tuple(sorted(e)) for c in sc.tolist() for e in itertools.combinations(c, 2)}
+    expect = {e for e in edges if sides[e[0]] != sides[e[1]]}
+    assert len(expect) > 15
+    assert registered_sim(res, ("edge_vertex", "edge_edge")) == expect
+    assert res.counts["vertex_vertex"] == 0 and res.counts["vertex_edge"] == 0
+    assert res.resolution.ratio < 0.01
+    with pytest.warns(fperr.ResolutionWarning):
+        predicates.intersect(sp, sc, cp, cc, dtype=np.float32, refine_cut=False)
+
+
+# -- item 4: thin bar with slivers, graded mesh in float32 ------------------------------------
+def thin_bar(slivers=True):
+    """A bar 1 × 1e-3 × 1e-3 (Kuhn cubes of 1e-3) with, optionally, a few long sliver
+    tetrahedra (10 long, 1e-3 thin) beside it near the cut x = 0.5003."""
+    sp, sc = cube_grid(1)
+    pts, cells = [], []
+    for i in range(1000):
+        pts.append(sp * 1e-3 + [i * 1e-3, 0, 0])
+        cells.append(sc + 8 * i)
+    if slivers:
+        for j in range(3):
+            y = 2e-3 + j * 1e-3
+            pts.append(np.array([[0.5 - 5, y, 0], [0.5 + 5, y, 0], [0.5, y + 1e-3, 0],
+                                 [0.5, y, 1e-3]]))
+            cells.append(8 * 1000 + 4 * j + np.arange(4)[None])
+    cp = np.array([[0.5003, -1, -1], [0.5003, 1, -1], [0.5003, 0, 1]])
+    return np.concatenate(pts), np.concatenate(cells), cp, np.array([[0, 1, 2]])
+
+
+def test_thin_bar_with_slivers_warns_before_the_work(monkeypatch):
+    case = thin_bar()
+    seen = []
+    real, real_warn = pipeline.Registration, warnings.warn
+
+    def spy(*a, **kw):
+        seen.append("registration")
+        return real(*a, **kw)
+    monkeypatch.setattr(pipeline, "Registration", spy)
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        monkeypatch.setattr(pipeline.warnings, "warn",
+                            lambda *a, **kw: (seen.append("warning"), real_warn(*a, **kw)))
+        res = predicates.intersect(*case)
+    assert seen == ["warning", "registration"]
+    msg = str([x for x in w if x.category is fperr.ResolutionWarning][0].message)
+    assert "sliver" in msg and res.resolution.coarse
+    with pytest.raises(fperr.ResolutionError, match="sliver"):
+        predicates.intersect(*case, strict=True)
+    # without the slivers the same bar is resolved
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", fperr.ResolutionWarning)
+        ok = predicates.intersect(*thin_bar(slivers=False))
+    assert ok.resolution.ratio < 0.1
+
+
+def graded_grid(h0=2e-5, h1=0.25, growth=3.0):
+    """Tensor-product Kuhn grid on [-1, 1]³ with spacing growing geometrically from h0
+    at the centre to about h1: a stand-in for a graded (gmsh) mesh."""
+    x = [h0 / 2]
+    while x[-1] < 1:
+        x.append(x[-1] + min(h0 * growth ** len(x), h1))
+    x = np.array(x)
+    x = np.concatenate([-x[::-1], x])
+    n = len(x) - 1
+    sp, sc = cube_grid(n)
+    idx = np.rint(sp * n).astype(int)
+    return x[idx], sc
+
+
+def test_graded_float32_warns_and_the_memory_guard_refuses():
+    sp, sc = graded_grid()
+    cp = np.array([[1e-6, -2, -2], [1e-6, 2, -2], [1e-6, 0, 2]])
+    cc = np.array([[0, 1, 2]])
+    with pytest.warns(fperr.ResolutionWarning, match="float64"):
+        with pytest.raises(ValueError, match="float64") as err:
+            predicates.intersect(sp, sc, cp, cc, dtype=np.float32, memory_limit=1 << 20)
+    assert isinstance(err.value, fperr.ResolutionError)
+    assert "refused before the work" in str(err.value) and "GiB" in str(err.value)
+    with pytest.raises(fperr.ResolutionError):  # strict refuses before the guard
+        predicates.intersect(sp, sc, cp, cc, dtype=np.float32, strict=True)
+
+
+def test_report_lines_and_dict(plane_res):
+    text = str(plane_res)
+    assert "resolution: sigma+ =" in text and "shortest edge near the cut" in text
+    assert "cutting mesh refined: 2 ->" in text
+    d = plane_res.resolution.to_dict()
+    assert d["coarse"] is False and d["threshold"] == 0.1 and d["refined"][0] == 2
+
+
+def test_permutation_invariance_of_the_scale(plane, plane_res):
+    sp, sc, cp, cc = plane
+    rng = np.random.default_rng(3)
+    perm = rng.permutation(len(sc))
+    res = predicates.intersect(sp, sc[perm][:, ::-1], cp, cc[::-1][:, [0, 2, 1]])
+    assert float(res.tolerances.L) == float(plane_res.tolerances.L)
+    assert res.total == plane_res.total
+
+
+# -- command line ----------------------------------------------------------------------------
+def _fperr(*args, cwd):
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    return subprocess.run([sys.executable, "-m", "fperr", *args], capture_output=True,
+                          text=True, cwd=cwd, env=env, timeout=300)
+
+
+def test_cli_warns_on_stderr_and_strict_exits_1(tmp_path, plane):
+    sp, sc, cp, cc = plane_case(n=4)
+    meshio.Mesh(sp, [("tetra", sc)]).write(tmp_path / "sim.vtu")
+    meshio.Mesh(cp, [("triangle", cc)]).write(tmp_path / "cut.vtu")
+    r = _fperr("intersect", "sim.vtu", "cut.vtu", "--no-refine-cut", "--quiet", cwd=tmp_path)
+    assert r.returncode == 0
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("fperr intersect: warning: coarse")
+    assert "COARSE" in r.stdout
+    r = _fperr("intersect", "sim.vtu", "cut.vtu", "--no-refine-cut", "--strict", "-o",
+               "hits.vtu", "--quiet", cwd=tmp_path)
+    assert r.returncode == 1 and "error: coarse resolution" in r.stderr
+    assert "Traceback" not in r.stderr and not (tmp_path / "hits.vtu").exists()
+    r = _fperr("intersect", "sim.vtu", "cut.vtu", "--strict", "-o", "hits.vtu", "--quiet",
+               cwd=tmp_path)
+    assert r.returncode == 0 and r.stderr == "" and (tmp_path / "hits.vtu").exists()
+    assert "cutting mesh refined" in r.stdout
