@@ -17,7 +17,7 @@ demo_3d.vtu (intersection points with the kind legend, for ParaView), the simula
 meshes with cut-cell data (demo_2d_sim.vtu, demo_3d_sim.vtu) and the cutting meshes
 (demo_2d_cut.vtu, demo_3d_cut.vtu).
 
-The degenerate table runs at resolution min(n, 12): it compares methods, and its
+The degenerate table runs at resolution min(n, 10): it compares methods, and its
 counts do not need large meshes (at n = 64 it would dominate the run time).
 """
 from __future__ import annotations
@@ -35,7 +35,7 @@ from .plot import plot_2d, plot_3d_cells, plot_robust_naive
 __all__ = ["DEGENERATE_MAX_N", "FILES", "ROTATIONS", "degenerate_cases", "demo", "rotation"]
 
 #: the largest resolution of the degenerate-case table
-DEGENERATE_MAX_N = 12
+DEGENERATE_MAX_N = 10
 #: the files the demo writes
 FILES = ("demo_2d.png", "demo_degenerate_2d.png", "demo_3d.png", "demo_2d.vtu",
          "demo_3d.vtu", "demo_2d_sim.vtu", "demo_2d_cut.vtu", "demo_3d_sim.vtu",
