@@ -123,3 +123,17 @@ def test_demo_n64_under_10s_with_progress_and_real_pictures(tmp_path):
 def test_demo_quiet_has_no_progress(tmp_path):
     r = fperr("demo", "--n", "4", "--out", tmp_path, "--quiet", cwd=tmp_path)
     assert r.returncode == 0 and r.stderr == ""
+
+
+@pytest.mark.parametrize("n3", [2, 8, 16])
+def test_demo_3d_example_needs_no_refinement(n3):
+    """The demo runs its 3D example with refine_cut=False: the icosphere is no coarser
+    than the grid, so the refinement has nothing to do and the pairs are the same."""
+    import predicates
+    from predicates.registration.demo import sphere_case
+
+    ex = sphere_case(n3)
+    a = predicates.intersect(*ex["sim"], *ex["cut"])
+    b = predicates.intersect(*ex["sim"], *ex["cut"], refine_cut=False)
+    assert a.refinement is None or a.refinement.rounds == 0
+    assert a.counts == b.counts and len(a.cut_cells) == len(b.cut_cells)
