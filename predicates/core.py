@@ -79,7 +79,16 @@ class Predicate:
     BLOCK = 1 << 15
 
     def _batch(self, pts, tol, ctx):
-        arrs, n = self._batch_points(pts, ctx)
+        """numpy's gufunc convention: every point array has shape (..., dim); the leading
+        shapes broadcast to a batch shape B; ``hit`` has shape B (0-d for single points)
+        and the weights B + (k,)."""
+        arrs, batch = self._batch_points(pts, ctx)
+        hit, weights = self._batch_flat(arrs, tol, ctx)
+        k = len(self.weight_names)
+        return hit.reshape(batch), weights.reshape(batch + (k,))
+
+    def _batch_flat(self, arrs, tol, ctx):
+        n = arrs[0].shape[0]
         k = len(self.weight_names)
         hit = np.zeros(n, dtype=bool)
         weights = np.zeros((n, k), dtype=ctx.dtype)
@@ -109,20 +118,24 @@ class Predicate:
                                  f"coordinates, got {p!r}")
 
     def _batch_points(self, pts, ctx):
+        """The points as (n, dim) arrays over the broadcast batch shape, and that shape."""
         arrs = [np.asarray(p) for p in pts]
         for a, lbl in zip(arrs, self.points):
-            if a.ndim not in (1, 2) or a.shape[-1] != self.dim:
-                raise ValueError(f"{self.name}: {lbl} must have shape (n, {self.dim}) or "
-                                 f"({self.dim},), got {a.shape}")
+            if a.ndim < 1 or a.shape[-1] != self.dim:
+                raise ValueError(f"{self.name}: {lbl} must have shape (..., {self.dim}) "
+                                 f"(e.g. (n, {self.dim}) or ({self.dim},)), got {a.shape}")
             if a.dtype != ctx.dtype:
                 raise TypeError(f"{self.name}: {lbl} has dtype {a.dtype}; all points must "
                                 f"be {ctx.dtype} (convert explicitly: rounding changes the "
                                 "geometry)")
         try:
-            arrs = np.broadcast_arrays(*[a.reshape(-1, self.dim) for a in arrs])
-        except ValueError as e:
-            raise ValueError(f"{self.name}: point arrays have different lengths") from e
-        return arrs, arrs[0].shape[0]
+            batch = np.broadcast_shapes(*[a.shape[:-1] for a in arrs])
+        except ValueError:
+            raise ValueError(f"{self.name}: the points' batch shapes "
+                             f"{', '.join(str(a.shape[:-1]) for a in arrs)} do not "
+                             "broadcast") from None
+        flat = [np.broadcast_to(a, batch + (self.dim,)).reshape(-1, self.dim) for a in arrs]
+        return flat, batch
 
     def _tolerances_for(self, tol: Tolerances, run):
         """``tol`` converted to ``run``'s number type (cached on ``tol`` per type)."""

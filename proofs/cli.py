@@ -51,24 +51,39 @@ def _add_intersect(sub) -> None:
             "Register the intersections of a simulation mesh with a cutting mesh.\n\n"
             "SIM: triangles (2D) or tetrahedra (3D); CUT: line segments (2D) or triangles\n"
             "(3D). Any format meshio reads (Gmsh .msh, .vtu/.vtk, Medit .mesh, .obj, .off,\n"
-            ".stl, .ply, ...). Prints the tolerances and the number of pairs registered\n"
-            "per kind; -o writes the intersection points (kind, vertex ids and barycentric\n"
-            "weights as point data) for ParaView; --plot draws a 2D case with matplotlib,\n"
-            "colour-coded by kind."),
+            ".stl, .ply, ...). Second-order cells are used through their corner nodes; a\n"
+            "tetrahedral CUT through its boundary triangles (both with a note). Prints the\n"
+            "tolerances (in the input's units) and the number of pairs per kind.\n"
+            "-o writes the intersection points (kind code with its legend as field data,\n"
+            "vertex ids, barycentric weights) and --sim-output the simulation mesh with\n"
+            "cell data 'cut', 'cut_kinds' and 'cut_by_KIND' (threshold it in ParaView),\n"
+            "both .vtu; --plot draws a 2D case. Outputs are checked before the run\n"
+            "and written atomically: a refused or failed run leaves no file.\n\n"
+            "Exit status: 0 done, 2 bad arguments or unusable input (one line on stderr)."),
         epilog=("examples:\n"
                 "  fperr intersect grid.msh circle.vtk -o hits.vtu --plot hits.png\n"
-                "  fperr intersect cube.vtu sphere.stl --dtype float32 --quiet\n\n"
+                "  fperr intersect cube.msh sphere.stl --sim-region 1 --sim-output cut.vtu\n"
+                "  fperr intersect cube.vtu sphere.stl --dtype float32 --format json\n\n"
                 "exit status: 0 done (a coarse resolution is warned about on stderr),\n"
                 "1 refused by --strict or the memory guard, 2 bad input or arguments"))
     p.add_argument("sim", help="simulation mesh file (triangles in 2D, tetrahedra in 3D)")
     p.add_argument("cut", help="cutting mesh file (segments in 2D, triangles in 3D)")
     p.add_argument("-o", "--output", metavar="OUT.vtu",
-                   help="write the intersection points (any meshio format, e.g. .vtu)")
+                   help="write the intersection points (.vtu, for ParaView)")
+    p.add_argument("--sim-output", metavar="CELLS.vtu",
+                   help="write the simulation mesh with cut-cell data (.vtu)")
     p.add_argument("--plot", metavar="OUT.png", help="draw a 2D case (png, pdf or svg)")
+    p.add_argument("--sim-region", metavar="TAG|NAME",
+                   help="use only this gmsh physical group (tag or name) or cell block "
+                        "(index) of SIM")
+    p.add_argument("--cut-region", metavar="TAG|NAME", help="the same for CUT")
     p.add_argument("--dtype", choices=("float64", "float32"), default="float64",
                    help="working precision (default float64)")
     p.add_argument("--naive", action="store_true",
                    help="zero tolerances: the naive floating-point baseline, for comparison")
+    p.add_argument("--format", choices=("text", "json"), default="text",
+                   help="summary on stdout: text (default) or json (counts per kind, "
+                        "tolerances in input units, notes, timings)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--strict", action="store_true",
                    help="refuse (exit 1, nothing written) when the tolerances are coarse for "
@@ -109,23 +124,34 @@ def _run_intersect(args) -> int:
         with _dask_client(args) as client, warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", ResolutionWarning)
             res = intersect_files(args.sim, args.cut, output=args.output, plot=args.plot,
-                                  dtype=args.dtype, naive=args.naive,
-                                  progress=not args.quiet and not dask_run, strict=args.strict,
-                                  refine_cut=not args.no_refine_cut,
+                                  sim_output=args.sim_output, dtype=args.dtype,
+                                  naive=args.naive, progress=not args.quiet and not dask_run,
+                                  strict=args.strict, refine_cut=not args.no_refine_cut,
+                                  sim_region=args.sim_region, cut_region=args.cut_region,
                                   partitions="auto" if dask_run else None, scheduler=client)
     except ResolutionError as e:  # valid input this precision cannot resolve: exit 1
         print(f"fperr intersect: error: {e}", file=sys.stderr)
         return 1
-    except (ValueError, TypeError, OSError, ArithmeticError, ImportError) as e:
+    except (ValueError, TypeError, OSError, ArithmeticError, ImportError, MemoryError) as e:
         # bad input (meshes, paths): a message, never a traceback; nothing was written
         return _error("intersect", e)
     for w in caught:  # one line each, no Python warning boilerplate
         print(f"fperr intersect: warning: {w.message}", file=sys.stderr)
+    written = [(f, what) for f, what in ((args.output, f"{res.total} points"),
+                                         (args.sim_output, f"{len(res.sim_cells)} cells, "
+                                          f"{len(res.intersected_cells())} cut"),
+                                         (args.plot, "plot")) if f]
+    if args.format == "json":
+        import json
+
+        d = res.to_dict()
+        d["inputs"] = {"sim": args.sim, "cut": args.cut}
+        d["outputs"] = {f: what for f, what in written}
+        print(json.dumps(d, indent=1))
+        return 0
     print(res)
-    if args.output:
-        print(f"wrote {args.output} ({res.total} points)")
-    if args.plot:
-        print(f"wrote {args.plot}")
+    for f, what in written:
+        print(f"wrote {f} ({what})")
     return 0
 
 
@@ -280,6 +306,10 @@ def _formats(text: str) -> tuple[str, ...]:
     return formats
 
 
+#: audit --dtype names (the same as intersect's and demo's) -> the audit's formats
+AUDIT_DTYPES = {"float64": "binary64", "float32": "binary32", "mp17": "mp17"}
+
+
 def _add_verify(parser: argparse.ArgumentParser) -> None:
     """fperr verify: every tolerance constraint of the paper, decided for all ε ≤ 1e-5.
 
@@ -310,6 +340,10 @@ arguments or an unusable tolerance file. See proofs.verify for the constraints.
     parser.add_argument("--certificate", metavar="FILE", type=_output_file,
                         help="also write a certificate of every decision, checkable with "
                              "python -m proofs.check_certificate FILE")
+    parser.add_argument("--format", choices=("text", "json"), default="text",
+                        help="output format (default text; json: every constraint's name, "
+                             "status and margin)")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
 def _run_verify(args: argparse.Namespace) -> int:
@@ -319,32 +353,34 @@ def _run_verify(args: argparse.Namespace) -> int:
         except argparse.ArgumentTypeError as e:
             args._parser.error(f"argument --report: {e}")
     from proofs import tables
-    from proofs.verify import format_outcome, verify
+    from proofs.verify import verify
     try:
         overrides = tables.load_overrides(args.tolerances) if args.tolerances else None
     except tables.ToleranceFileError as e:
         print(f"fperr verify: {e}", file=sys.stderr)
         return 2
     ok, reports = True, {}
+    as_json = args.format == "json"
     for dim in sorted(set(args.dim or [2, 3])):
         try:
-            rep = verify(dim, overrides, require_paper_argument=args.require_paper_argument)
+            rep = verify(dim, overrides, require_paper_argument=args.require_paper_argument,
+                         progress=not args.quiet)
         except (ValueError, TypeError) as e:
             print(f"fperr verify: {dim}D: {e}", file=sys.stderr)
             return 2
         reports[dim] = rep
-        src = "paper's Figure 1" if dim == 2 else "paper's Figure 5"
-        if overrides and dim in overrides:
-            src += f" with overrides from {args.tolerances}"
-        print(f"{dim}D constraints ({src}), decided for every ε in (0, 1e-5]:")
-        for o in rep.outcomes:
-            print(format_outcome(o, args.verbose))
-        n, nf = len(rep.outcomes), len(rep.failures)
-        print(f"{dim}D: {n} constraints, {n - nf} hold, {nf} fail  ({rep.seconds:.1f} s)")
-        if nf:
-            print(f"{dim}D FAILED: " + ", ".join(o.id for o in rep.failures))
-        print()
         ok = ok and rep.ok
+        if not as_json:
+            _print_report(dim, rep, overrides, args)
+    if as_json:
+        import json
+
+        from proofs.verify import outcome_dict
+        print(json.dumps({"ok": ok, "dims": {str(d): {
+            "constraints": [outcome_dict(o) for o in r.outcomes],
+            "hold": len(r.outcomes) - len(r.failures), "fail": len(r.failures),
+            "seconds": r.seconds} for d, r in reports.items()}}, indent=1))
+    out = sys.stderr if as_json else sys.stdout  # json: stdout holds the document only
     if args.certificate:
         from proofs import certificate
         try:
@@ -352,12 +388,28 @@ def _run_verify(args: argparse.Namespace) -> int:
         except OSError as e:
             print(f"fperr verify: cannot write certificate: {e}", file=sys.stderr)
             return 2
-        print(f"certificate written to {args.certificate}")
+        print(f"certificate written to {args.certificate}", file=out)
     if args.report is not None:
         from proofs.report import write_report
         write_report(args.report)
-        print(f"report written to {args.report}")
+        print(f"report written to {args.report}", file=out)
     return 0 if ok else 1
+
+
+def _print_report(dim, rep, overrides, args) -> None:
+    from proofs.verify import format_outcome
+
+    src = "paper's Figure 1" if dim == 2 else "paper's Figure 5"
+    if overrides and dim in overrides:
+        src += f" with overrides from {args.tolerances}"
+    print(f"{dim}D constraints ({src}), decided for every ε in (0, 1e-5]:")
+    for o in rep.outcomes:
+        print(format_outcome(o, args.verbose))
+    n, nf = len(rep.outcomes), len(rep.failures)
+    print(f"{dim}D: {n} constraints, {n - nf} hold, {nf} fail  ({rep.seconds:.1f} s)")
+    if nf:
+        print(f"{dim}D FAILED: " + ", ".join(o.id for o in rep.failures))
+    print()
 
 
 def _add_audit(parser: argparse.ArgumentParser) -> None:
@@ -378,14 +430,19 @@ Exit status 1 when any violation was found, 2 for bad arguments.
     parser.add_argument("--format", choices=("md", "json"), default="md",
                         help="report format (default md)")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    parser.add_argument("--formats", type=_formats, default="binary64,binary32,mp17",
-                        help="comma-separated working formats (default all three)")
-    parser.add_argument("--dims", type=_dims, default="2,3",
-                        help="dimensions to audit (default 2,3)")
+    parser.add_argument("--dtype", choices=tuple(AUDIT_DTYPES), action="append",
+                        help="working precision to audit, repeatable (default all three: "
+                             "float64, float32 and mp17, mpmath at 17 bits)")
+    parser.add_argument("--dim", type=int, choices=(2, 3), action="append",
+                        help="dimension to audit, repeatable (default both)")
+    # the former names, still accepted and checked (not shown: one name per option)
+    parser.add_argument("--formats", type=_formats, help=argparse.SUPPRESS)
+    parser.add_argument("--dims", type=_dims, help=argparse.SUPPRESS)
     parser.add_argument("--predicates", default="",
                         help="comma-separated predicate names to audit (default all)")
     parser.add_argument("-o", "--output", type=_output_file,
                         help="also write the report to this file")
+    parser.add_argument("--quiet", action="store_true", help="no progress lines")
 
 
 def _run_audit(args: argparse.Namespace) -> int:
@@ -393,13 +450,17 @@ def _run_audit(args: argparse.Namespace) -> int:
 
     from proofs.audit import audit, render_markdown, select_predicates
     names = tuple(p.strip() for p in args.predicates.split(",") if p.strip())
+    args.dims = sorted(set(args.dim or args.dims or [2, 3]))
+    args.formats = ([AUDIT_DTYPES[d] for d in dict.fromkeys(args.dtype)] if args.dtype else
+                    args.formats or ["binary64", "binary32", "mp17"])
     try:
         select_predicates(args.dims, names)  # bad names fail before any work
     except ValueError as e:
         args._parser.error(f"argument --predicates: {e}")
 
     def progress(spec, fmt):
-        print(f"  audited {spec.key} in {fmt}", file=sys.stderr)
+        if not args.quiet:
+            print(f"  audited {spec.key} in {fmt}", file=sys.stderr)
 
     sizes = {k: v for k, v in (("samples", args.samples), ("search_steps", args.search_steps))
              if v is not None}  # None: the library's default

@@ -198,7 +198,7 @@ def constraints(dim: int, overrides: dict | None = None, runs=None) -> list[Cons
 
 
 def verify(dim: int, overrides: dict | None = None, runs=None,
-           require_paper_argument: bool = False) -> Report:
+           require_paper_argument: bool = False, progress: bool = False) -> Report:
     """Decide every constraint of ``dim`` for every ε ∈ (0, 1e-5].
 
     ``overrides``: coefficient overrides ({dim: {name: {"lo"|"mid"|"hi": value}}}, see
@@ -206,13 +206,30 @@ def verify(dim: int, overrides: dict | None = None, runs=None,
     verify instead of ``predicates.ALL[dim]`` (a list, or a dict keyed by the paper
     algorithm whose declared facts apply, e.g. {"edge_vertex": my_variant}). An
     Instrumented run is used as given (its tolerance errors are those it was run with);
-    a Predicate is re-run with the overridden tolerances.
+    a Predicate is re-run with the overridden tolerances. ``progress``: a bar on stderr.
     """
     t0 = time.perf_counter()
     tab = tables.table(dim, overrides)
     cs = constraints(dim, overrides, runs)
+    if progress:
+        import sys
+
+        from tqdm import tqdm
+        cs = tqdm(cs, desc=f"fperr verify {dim}D", unit="constraint", leave=False,
+                  delay=1.0, file=sys.stderr)
     outs = [decide_constraint(c, require_paper_argument) for c in cs]
     return Report(dim, outs, time.perf_counter() - t0, tab)
+
+
+def outcome_dict(o: Outcome) -> dict:
+    """One decided constraint as plain data: name, status, margin (binary64, L = 1)."""
+    d = o.tightest()
+    diff, ratio = d.at64 if d is not None else (None, None)
+    return {"name": o.id, "status": "pass" if o.holds else "fail",
+            "section": o.constraint.section, "statement": o.constraint.statement,
+            "margin": None if diff is None else float(diff),
+            "ratio": None if ratio is None else float(ratio),
+            "established_by": o.established_by or None, "reason": o.reason or None}
 
 
 # -- text --------------------------------------------------------------------------------

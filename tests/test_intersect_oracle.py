@@ -203,8 +203,8 @@ def _integer_coords(points):
 
 def thresholds(res, K, which):
     """Tolerances T− (which=0), T (1) or T+ (2) in integer units, as mpf."""
-    L = mpmath.mpf(Fraction(float(res.tolerances.L)).numerator) / \
-        Fraction(float(res.tolerances.L)).denominator
+    L = mpmath.mpf(Fraction(float(res._scaled_tolerances.L)).numerator) / \
+        Fraction(float(res._scaled_tolerances.L)).denominator
     eps = mpmath.mpf(2) ** (-(np.finfo(res.dtype).nmant + 1))
     out = {}
     for name, spec in TABLES[res.dim].items():

@@ -45,3 +45,19 @@ def test_design_map_lists_every_module():
             elif p.suffix == ".py":
                 actual.add(p.name)
     assert listed == actual
+
+
+def test_quick_start_works_without_global_installs():
+    """Issue 11: a venv line for systems that refuse global pip installs, .venv/ ignored,
+    py.typed shipped as package data."""
+    import tomllib
+
+    text = README.read_text()
+    assert "python3 -m venv .venv && . .venv/bin/activate && python3 -m pip install ." in text
+    root = README.parent
+    assert ".venv/" in (root / ".gitignore").read_text().splitlines()
+    data = tomllib.loads((root / "pyproject.toml").read_text())
+    pkg_data = data["tool"]["setuptools"]["package-data"]
+    for pkg in ("fperr", "predicates", "proofs"):
+        assert (root / pkg / "py.typed").is_file()
+        assert "py.typed" in pkg_data[pkg]

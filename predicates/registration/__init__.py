@@ -15,10 +15,16 @@ One module per step (see :mod:`predicates.registration.pipeline` for how they fi
   — the same run in spatial partitions on Dask (``intersect(..., partitions=k)``);
 * :mod:`~predicates.registration.result` — :class:`IntersectionResult`, :class:`KindPairs`;
 * :mod:`~predicates.registration.files` — mesh files in and out;
-* :mod:`~predicates.registration.plot` — 2D pictures (matplotlib);
+* :mod:`~predicates.registration.io_read` — guarded reading of mesh files;
+* :mod:`~predicates.registration.io_write` — checked outputs, atomic writes;
+* :mod:`~predicates.registration.io_convert` — mesh objects (meshio, pyvista, trimesh);
+* :mod:`~predicates.registration.consistency` — inconsistency counters;
+* :mod:`~predicates.registration.plot` — pictures (matplotlib);
 * :mod:`~predicates.registration.demo` — the built-in examples of ``fperr demo``.
 """
+from .io_read import MeshFileError
 from .pipeline import intersect, intersect_files
-from .result import IntersectionResult, KindPairs
+from .result import KIND_CODES, IntersectionResult, KindPairs
 
-__all__ = ["IntersectionResult", "KindPairs", "intersect", "intersect_files"]
+__all__ = ["KIND_CODES", "IntersectionResult", "KindPairs", "MeshFileError", "intersect",
+           "intersect_files"]

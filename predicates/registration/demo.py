@@ -10,23 +10,37 @@ download): what ``fperr demo`` runs.
    once (IntersectionResult.mislocated), plus cutting edges whose events are not a walk
    through the mesh (IntersectionResult.broken_walks).
 
-Prints the summary tables and writes into the output directory:
-demo_2d.png (plot), demo_2d.vtu, demo_3d.vtu (intersection points, for ParaView) and
-the meshes themselves (demo_2d_sim.vtu, demo_2d_cut.vtu, demo_3d_sim.vtu,
-demo_3d_cut.vtu).
+Prints the summary tables and writes into the output directory: demo_2d.png (the 2D
+registration), demo_degenerate_2d.png (a degenerate 2D case, robust beside naive, the
+naive run's inconsistencies marked), demo_3d.png (the cut tetrahedra), demo_2d.vtu,
+demo_3d.vtu (intersection points with the kind legend, for ParaView), the simulation
+meshes with cut-cell data (demo_2d_sim.vtu, demo_3d_sim.vtu) and the cutting meshes
+(demo_2d_cut.vtu, demo_3d_cut.vtu).
+
+The degenerate table runs at resolution min(n, 10): it compares methods, and its
+counts do not need large meshes (at n = 64 it would dominate the run time).
 """
 from __future__ import annotations
 
 import os
+import sys
 
 import numpy as np
 
 from .examples import example
-from .files import write_mesh
+from .io_write import write_meshio, write_mesh
 from .pipeline import intersect
-from .plot import plot_2d
+from .plot import plot_2d, plot_3d_cells, plot_robust_naive
 
-__all__ = ["ROTATIONS", "degenerate_cases", "demo", "rotation"]
+__all__ = ["DEGENERATE_MAX_N", "FILES", "ROTATIONS", "degenerate_cases", "demo", "rotation",
+           "sphere_case"]
+
+#: the largest resolution of the degenerate-case table
+DEGENERATE_MAX_N = 10
+#: the files the demo writes
+FILES = ("demo_2d.png", "demo_degenerate_2d.png", "demo_3d.png", "demo_2d.vtu",
+         "demo_3d.vtu", "demo_2d_sim.vtu", "demo_2d_cut.vtu", "demo_3d_sim.vtu",
+         "demo_3d_cut.vtu")
 
 
 def rotation(dim, seed=1):
@@ -73,57 +87,95 @@ def demo(out: str | os.PathLike, *, n: int = 16, dtype: str = "float64",
     """Run the three parts of the demo (module docstring) at grid resolution ``n``
     (n×n squares in 2D, n/2 cubes per side in 3D) in the working precision ``dtype``,
     print their tables and write the files into the directory ``out`` (created if
-    missing)."""
-    if int(n) != n or n < 2:
+    missing). ``progress``: a bar on stderr over the demo's steps."""
+    if isinstance(n, bool) or int(n) != n or n < 2:
         raise ValueError(f"n must be an integer >= 2, got {n!r}")
     if os.path.exists(out) and not os.path.isdir(out):
         raise ValueError(f"{out} exists and is not a directory")
     dtype = np.dtype(dtype)
     os.makedirs(out, exist_ok=True)
-    _demo_2d(out, int(n), dtype, progress)
-    _demo_3d(out, max(2, int(n) // 2), dtype, progress)
-    _degenerate_table(int(n), dtype)
-    print(f"\nwrote demo_2d.png, demo_2d.vtu, demo_3d.vtu and the meshes into {out}/")
+    from tqdm import tqdm
+
+    cases = degenerate_cases(min(int(n), DEGENERATE_MAX_N))
+    bar = tqdm(total=3 + sum(len(v) for _, v, _ in cases), disable=not progress,
+               desc="fperr demo", unit="step", leave=False, mininterval=0.5)
+    with bar:
+        _demo_2d(out, int(n), dtype, bar)
+        _demo_3d(out, max(2, int(n) // 2), dtype, bar)
+        _degenerate_picture(out, dtype, bar)
+        _degenerate_table(cases, dtype, bar)
+    print(f"\nwrote {', '.join(FILES)} into {out}/")
 
 
-def _demo_2d(out, n, dtype, progress):
+def _demo_2d(out, n, dtype, bar):
     ex2 = example("circle", n, segments=4 * n)
-    res2 = intersect(*ex2["sim"], *ex2["cut"], dtype=dtype, progress=progress)
-    print(f"== 2D: {n}×{n} grid cut by a {4 * n}-gon ==")
-    print(res2, end="\n\n")
+    res2 = intersect(*ex2["sim"], *ex2["cut"], dtype=dtype)
+    bar.write(f"== 2D: {n}×{n} grid cut by a {4 * n}-gon ==\n{res2}\n", file=sys.stdout)
     plot_2d(res2, os.path.join(out, "demo_2d.png"),
-            title=f"fperr demo: {n}×{n} grid cut by a circle polygon")
-    res2.to_meshio().write(os.path.join(out, "demo_2d.vtu"))
-    write_mesh(os.path.join(out, "demo_2d_sim.vtu"), *ex2["sim"], "triangle")
+            title=f"fperr demo: {n}×{n} grid cut by a {4 * n}-gon, {res2.total} pairs")
+    write_meshio(os.path.join(out, "demo_2d.vtu"), res2.to_meshio())
+    write_meshio(os.path.join(out, "demo_2d_sim.vtu"), res2.sim_mesh())
     write_mesh(os.path.join(out, "demo_2d_cut.vtu"), *ex2["cut"], "line")
+    bar.update()
 
 
-def _demo_3d(out, n3, dtype, progress):
+def sphere_case(n3: int) -> dict:
+    """The 3D example: n3³ cubes × 6 tetrahedra and an icosphere no coarser than them."""
     subdiv = int(np.clip(round(np.log2(max(n3, 2))), 1, 5))
-    ex3 = example("sphere", n3, subdivisions=subdiv)
-    res3 = intersect(*ex3["sim"], *ex3["cut"], dtype=dtype, progress=progress)
-    print(f"== 3D: {n3}³ cubes × 6 tetrahedra cut by an icosphere "
-          f"({len(ex3['cut'][1])} triangles) ==")
-    print(res3, end="\n\n")
-    res3.to_meshio().write(os.path.join(out, "demo_3d.vtu"))
-    write_mesh(os.path.join(out, "demo_3d_sim.vtu"), *ex3["sim"], "tetra")
+    return example("sphere", n3, subdivisions=subdiv)
+
+
+def _demo_3d(out, n3, dtype, bar):
+    ex3 = sphere_case(n3)
+    # the icosphere is generated no coarser than the grid, so the refinement step has
+    # nothing to do (0 rounds, same pairs: tests/test_cli_options.py) but its check costs
+    # most of the demo's time at n = 64: skip it here
+    res3 = intersect(*ex3["sim"], *ex3["cut"], dtype=dtype, refine_cut=False)
+    bar.write(f"== 3D: {n3}³ cubes × 6 tetrahedra cut by an icosphere "
+              f"({len(ex3['cut'][1])} triangles) ==\n{res3}\n", file=sys.stdout)
+    plot_3d_cells(res3, os.path.join(out, "demo_3d.png"),
+                  title=f"fperr demo: {len(res3.intersected_cells())} of "
+                        f"{len(res3.sim_cells)} tetrahedra cut by an icosphere (half shown)")
+    write_meshio(os.path.join(out, "demo_3d.vtu"), res3.to_meshio())
+    write_meshio(os.path.join(out, "demo_3d_sim.vtu"), res3.sim_mesh())
     write_mesh(os.path.join(out, "demo_3d_cut.vtu"), *ex3["cut"], "triangle")
+    bar.update()
 
 
-def _degenerate_table(n, dtype):
-    print("== degenerate cases: robust against naive (zero tolerances) ==")
-    print("inconsistencies = cutting vertices inside the mesh not located exactly once\n"
-          "                + cutting edges whose events are not a walk through the mesh")
+def _degenerate_picture(out, dtype, bar):
+    """The rotated zig-zag through edge midpoints: the first rotation whose naive run
+    is inconsistent, robust beside naive."""
+    ex = example("zigzag", 8, offset=True)
+    inside = np.all((ex["cut"][0] > 0) & (ex["cut"][0] < 1), axis=1)
+    for seed in range(ROTATIONS):
+        R = rotation(2, seed)
+        sim, cut = (ex["sim"][0] @ R.T, ex["sim"][1]), (ex["cut"][0] @ R.T, ex["cut"][1])
+        z = intersect(*sim, *cut, dtype=dtype, tolerance_scale=0)
+        if z.inconsistencies(inside) or seed == ROTATIONS - 1:
+            break
+    r = intersect(*sim, *cut, dtype=dtype)
+    plot_robust_naive(r, z, inside, os.path.join(out, "demo_degenerate_2d.png"),
+                      title="zig-zag cut through edge midpoints of an 8×8 grid, rotated "
+                            f"(rotation {seed}): on the mesh's edges only to rounding")
+    bar.update()
+
+
+def _degenerate_table(cases, dtype, bar):
+    lines = ["== degenerate cases: robust against naive (zero tolerances) ==",
+             "inconsistencies = cutting vertices inside the mesh not located exactly once",
+             "                + cutting edges whose events are not a walk through the mesh"]
     rows = []
-    for name, variants, inside in degenerate_cases(n):
+    for name, variants, inside in cases:
         row = np.zeros(4, dtype=np.int64)
         for sim, cut in variants:
             r = intersect(*sim, *cut, dtype=dtype)
             z = intersect(*sim, *cut, dtype=dtype, tolerance_scale=0)
             row += (r.total, r.inconsistencies(inside), z.total, z.inconsistencies(inside))
+            bar.update()
         rows.append((name, *row.tolist()))
     w = max(len(r[0]) for r in rows)
-    print(f"{'case':<{w}}  {'robust pairs':>12}  {'inconsist.':>10}  {'naive pairs':>11}  "
-          f"{'inconsist.':>10}")
+    lines.append(f"{'case':<{w}}  {'robust pairs':>12}  {'inconsist.':>10}  "
+                 f"{'naive pairs':>11}  {'inconsist.':>10}")
     for name, a, b, c, d in rows:
-        print(f"{name:<{w}}  {a:>12}  {b:>10}  {c:>11}  {d:>10}")
+        lines.append(f"{name:<{w}}  {a:>12}  {b:>10}  {c:>11}  {d:>10}")
+    bar.write("\n".join(lines), file=sys.stdout)

@@ -1,56 +1,59 @@
-"""Mesh files in and out of the registration (section 1 of the paper): reading any
-format meshio knows, writing meshes and results, and checking an output path before any
-work is done (so a refused run writes nothing)."""
+"""Mesh files in and out of the registration (section 1 of the paper): the file-level
+steps of :func:`predicates.registration.intersect_files` — every output checked before
+any work, both inputs read under guard (:mod:`~predicates.registration.io_read`),
+converted and validated with errors naming the file, and the results written atomically
+(:mod:`~predicates.registration.io_write`)."""
 from __future__ import annotations
 
 import os
 
 import numpy as np
 
-__all__ = ["PLOT_FORMATS", "check_output", "read_mesh", "write_mesh"]
+from .inputs import Arrays, validate_mesh
+from .io_convert import common_plane, convert_cut, convert_sim
+from .io_read import MeshFileError, read_mesh
+from .io_write import (MESH_FORMATS, PLOT_FORMATS, check_output, check_outputs,
+                       write_meshio, write_mesh)
 
-#: the image formats :func:`predicates.registration.plot.plot_2d` writes
-PLOT_FORMATS = (".png", ".pdf", ".svg")
+__all__ = ["MESH_FORMATS", "PLOT_FORMATS", "MeshFileError", "check_output", "check_outputs",
+           "load_pair", "read_mesh", "write_mesh", "write_results"]
 
 
-def read_mesh(path: str | os.PathLike):
-    """Read a mesh file with meshio (any format it knows), with a clear error."""
-    import meshio
-
-    if not os.path.isfile(path):
-        raise FileNotFoundError(f"no such mesh file: {path}")
+def load_pair(sim: str | os.PathLike, cut: str | os.PathLike, *, dtype="float64",
+              sim_region=None, cut_region=None) -> Arrays:
+    """Read, convert and validate two mesh files; any problem raises an error that
+    starts with the file's path (:class:`MeshFileError`)."""
+    sim_mesh = read_mesh(sim)
+    cut_mesh = read_mesh(cut)
     try:
-        with np.errstate(all="ignore"):  # meshio's STL reader overflows harmlessly
-            return meshio.read(path)
-    except meshio.ReadError as e:
-        raise ValueError(f"cannot read {path}: {e}") from None
+        dim, s = convert_sim(sim_mesh, sim_region)
+        validate_mesh(s.points, s.cells, "simulation", s.points.shape[1], np.dtype(dtype),
+                      allow_empty=False)
+    except (ValueError, TypeError) as e:
+        raise MeshFileError(sim, e) from None
+    try:
+        c = convert_cut(cut_mesh, dim, cut_region)
+        validate_mesh(c.points, c.cells, "cutting", s.points.shape[1], np.dtype(dtype),
+                      allow_empty=True)
+    except (ValueError, TypeError) as e:
+        raise MeshFileError(cut, e) from None
+    try:
+        plane = common_plane(s, c)
+    except ValueError as e:
+        raise MeshFileError(cut, e) from None
+    notes = [f"{sim}: {n}" for n in s.notes] + [f"{cut}: {n}" for n in c.notes]
+    return Arrays((s.points, s.cells, c.points, c.cells), notes, plane)
 
 
-def check_output(path: str | os.PathLike, kind: str) -> None:
-    """Refuse an output path that cannot be written: its directory is missing, or its
-    extension is not a mesh format meshio knows (``kind="mesh"``) or an image format
-    (``kind="plot"``)."""
-    path = os.fspath(path)
-    parent = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(parent):
-        raise ValueError(f"{path}: directory {parent} does not exist")
-    ext = os.path.splitext(path)[1].lower()
-    if kind == "plot" and ext not in PLOT_FORMATS:
-        raise ValueError(f"{path}: plots are written as {', '.join(PLOT_FORMATS)}")
-    if kind == "mesh":
-        import meshio
+def write_results(res, *, output=None, plot=None, sim_output=None) -> None:
+    """Write the intersection points (``output``), the simulation mesh with its cut-cell
+    data (``sim_output``) and a 2D picture (``plot``), each atomically."""
+    if output is not None:
+        write_meshio(output, res.to_meshio())
+    if sim_output is not None:
+        write_meshio(sim_output, res.sim_mesh())
+    if plot is not None:
+        from .io_write import write_atomic
+        from .plot import plot_2d
 
-        if ext not in meshio.extension_to_filetypes:
-            raise ValueError(f"{path}: meshio cannot write '{ext or 'no extension'}' "
-                             "files (use .vtu for ParaView)")
-
-
-def write_mesh(path: str | os.PathLike, points: np.ndarray, cells: np.ndarray,
-               cell_type: str) -> None:
-    """Write one cell block with meshio (2D points get z = 0, as mesh files expect)."""
-    import meshio
-
-    pts = np.asarray(points, dtype=np.float64)
-    if pts.shape[1] == 2:
-        pts = np.column_stack([pts, np.zeros(len(pts))])
-    meshio.Mesh(pts, [(cell_type, np.asarray(cells))]).write(path)
+        write_atomic(plot, lambda tmp: plot_2d(res, tmp))

@@ -13,8 +13,8 @@ import numpy as np
 
 from .broadphase import boxes_of
 
-__all__ = ["MeshInput", "from_meshio", "max_box_edge", "mesh_arrays", "scale_points",
-           "validate_mesh", "validate_pair"]
+__all__ = ["Arrays", "MeshInput", "from_meshio", "max_box_edge", "mesh_arrays",
+           "scale_points", "validate_mesh", "validate_options", "validate_pair"]
 
 
 @dataclass
@@ -27,7 +27,7 @@ class MeshInput:
     rounded: bool = False  # were the coordinates rounded into the working dtype?
 
 
-def _points(points, role, dtype):
+def _array(points, role):
     name = f"{role} points"
     try:
         arr = np.asarray(points)
@@ -37,16 +37,25 @@ def _points(points, role, dtype):
         raise TypeError(f"{name} must be real numbers (float or int), got dtype {arr.dtype}")
     if arr.ndim != 2 or arr.shape[1] not in (2, 3):
         raise ValueError(f"{name} must have shape (N, 2) or (N, 3), got {arr.shape}")
-    if arr.dtype.kind == "f" and not np.isfinite(arr).all():
-        bad = np.argwhere(~np.isfinite(arr))[0]
-        raise ValueError(f"{name} contain NaN or infinity (point {bad[0]}: {arr[bad[0]]})")
+    return arr
+
+
+def _points(arr, used, role, dtype):
+    """``arr`` in ``dtype``; only the ``used`` rows (referenced by a cell) are checked,
+    the others are set to 0: an unreferenced vertex never matters."""
+    name = f"{role} points"
+    sel = arr[used]
+    if sel.dtype.kind == "f" and not np.isfinite(sel).all():
+        bad = int(np.flatnonzero(used)[np.argwhere(~np.isfinite(sel))[0, 0]])
+        raise ValueError(f"{name} contain NaN or infinity (point {bad}: {arr[bad]})")
     with np.errstate(all="ignore"):
         out = arr.astype(dtype)
+    out[~used] = 0
     if not np.isfinite(out).all():
         raise ValueError(f"{name} overflow {np.dtype(dtype).name}: coordinates up to "
-                         f"{np.abs(arr).max():.3g}")
+                         f"{np.abs(sel).max():.3g}")
     with np.errstate(all="ignore"):
-        rounded = bool(np.any(out.astype(np.result_type(arr.dtype, out.dtype)) != arr))
+        rounded = bool(np.any(out[used].astype(np.result_type(arr.dtype, out.dtype)) != sel))
     return out, rounded
 
 
@@ -81,16 +90,19 @@ def _cells(cells, role, width, n_points, what):
 
 def validate_mesh(points, cells, role, dim, dtype, allow_empty):
     """Check one mesh; returns a :class:`MeshInput` in the working ``dtype``."""
-    pts, rounded = _points(points, role, dtype)
-    if pts.shape[1] != dim:
+    arr = _array(points, role)
+    if arr.shape[1] != dim:
         raise ValueError(f"mixed dimensions: the simulation mesh is {dim}D but the "
-                         f"{role} points are {pts.shape[1]}D")
+                         f"{role} points are {arr.shape[1]}D")
     k = dim + 1 if role == "simulation" else dim
     what = {(2, 3): "triangles", (2, 2): "segments", (3, 4): "tetrahedra",
             (3, 3): "triangles"}[dim, k]
-    c = _cells(cells, role, k, len(pts), f"{what} of a {dim}D {role} mesh")
+    c = _cells(cells, role, k, len(arr), f"{what} of a {dim}D {role} mesh")
     if len(c) == 0 and not allow_empty:
         raise ValueError(f"the {role} mesh is empty (0 cells)")
+    used = np.zeros(len(arr), dtype=bool)
+    used[c.ravel()] = True
+    pts, rounded = _points(arr, used, role, dtype)
     return MeshInput(pts, c, role, rounded)
 
 
@@ -101,94 +113,94 @@ def validate_pair(sim_points, sim_cells, cut_points, cut_cells, dtype):
         raise TypeError(f"dtype must be float64 or float32, not {dtype}")
     sp = np.asarray(sim_points) if not isinstance(sim_points, np.ndarray) else sim_points
     if sp.ndim != 2 or sp.shape[-1] not in (2, 3):
-        _points(sim_points, "simulation", dtype)  # raises the right error
+        _array(sim_points, "simulation")  # raises the right error
     dim = sp.shape[1]
     sim = validate_mesh(sim_points, sim_cells, "simulation", dim, dtype, allow_empty=False)
     cut = validate_mesh(cut_points, cut_cells, "cutting", dim, dtype, allow_empty=True)
     return dim, sim, cut
 
 
-# -- meshio -----------------------------------------------------------------------------
-def _blocks(mesh, cell_type):
-    out = [np.asarray(b.data) for b in mesh.cells if b.type == cell_type]
-    return np.concatenate(out) if out else None
-
-
-def _planar(points, role):
-    """Drop a constant z column of a 2D mesh stored with 3D points (meshio's habit)."""
-    pts = np.asarray(points)
-    if pts.ndim == 2 and pts.shape[1] == 3:
-        z = pts[:, 2]
-        if len(z) and not np.all(z == z[0]):
-            raise ValueError(f"the {role} mesh has 2D cells but its points are not in "
-                             "one plane z = const (mixed dimensions)")
-        return pts[:, :2], (float(z[0]) if len(z) else 0.0)
-    return pts, None
-
-
-def from_meshio(sim, cut):
-    """(sim_points, sim_cells, cut_points, cut_cells) from two ``meshio.Mesh``.
-
-    The simulation mesh decides the dimension: tetrahedra make it 3D (the cutting mesh
-    then contributes its triangles), triangles make it 2D (the cutting mesh's lines).
-    Other cell blocks (boundary facets, vertices) are ignored.
-    """
-    sim_tets = _blocks(sim, "tetra")
-    if sim_tets is not None:
-        cut_tris = _blocks(cut, "triangle")
-        if cut_tris is None:
-            kinds = sorted({b.type for b in cut.cells}) or ["none"]
-            raise ValueError("mixed dimensions: the simulation mesh has tetrahedra (3D) "
-                             "but the cutting mesh has no triangles (cell types: "
-                             f"{', '.join(kinds)})")
-        sp, cp = np.asarray(sim.points), np.asarray(cut.points)
-        for role, p in (("simulation", sp), ("cutting", cp)):
-            if p.ndim != 2 or p.shape[1] != 3:
-                raise ValueError(f"mixed dimensions: 3D meshes need 3D points; the {role} "
-                                 f"mesh's points have shape {p.shape}")
-        return sp, sim_tets, cp, cut_tris
-    sim_tris = _blocks(sim, "triangle")
-    if sim_tris is None:
-        kinds = sorted({b.type for b in sim.cells}) or ["none"]
-        raise ValueError("the simulation mesh has neither tetrahedra nor triangles (cell "
-                         f"types: {', '.join(kinds)}); triangulate it first")
-    cut_lines = _blocks(cut, "line")
-    if cut_lines is None:
-        kinds = sorted({b.type for b in cut.cells}) or ["none"]
-        raise ValueError("mixed dimensions: the simulation mesh has triangles (2D) but the "
-                         f"cutting mesh has no line segments (cell types: {', '.join(kinds)})")
-    sp, zs = _planar(sim.points, "simulation")
-    cp, zc = _planar(cut.points, "cutting")
-    if zs is not None and zc is not None and zs != zc and len(cut_lines):
-        raise ValueError(f"the 2D meshes lie in different planes (z = {zs} and z = {zc})")
-    return sp, sim_tris, cp, cut_lines
+def validate_options(dtype, tolerance_scale, progress, chunk) -> tuple:
+    """(dtype, tolerance_scale) of :func:`~predicates.registration.intersect`, checked:
+    every bad keyword argument is refused with a message naming it."""
+    try:
+        dt = np.dtype(dtype)
+    except TypeError:
+        raise TypeError(f"dtype must be float64 or float32, not {dtype!r}") from None
+    if dt not in (np.dtype(np.float64), np.dtype(np.float32)):
+        raise TypeError(f"dtype must be float64 or float32, not {dt}")
+    if isinstance(tolerance_scale, (bool, np.bool_)) or \
+            not isinstance(tolerance_scale, (int, float, np.integer, np.floating)):
+        raise TypeError(f"tolerance_scale must be a number in [0, 1], got "
+                        f"{tolerance_scale!r}")
+    ts = float(tolerance_scale)
+    if not 0 <= ts <= 1:
+        raise ValueError(f"tolerance_scale must be in [0, 1], got {tolerance_scale!r}")
+    if not isinstance(progress, (bool, np.bool_)):
+        raise TypeError(f"progress must be True or False, got {progress!r}")
+    if isinstance(chunk, (bool, np.bool_)) or not isinstance(chunk, (int, np.integer)):
+        raise TypeError(f"chunk must be a positive integer (pairs per batch), got {chunk!r}")
+    if chunk < 1:
+        raise ValueError(f"chunk must be a positive integer (pairs per batch), got {chunk}")
+    return dt, ts
 
 
 # -- the call's forms and the exact scaling ----------------------------------------------
-def mesh_arrays(args: tuple) -> tuple:
+class Arrays(tuple):
+    """(sim_points, sim_cells, cut_points, cut_cells), with ``notes`` (what the
+    conversion of mesh objects did) and ``plane`` (z of 2D meshes stored in z = c)."""
+
+    notes: list
+    plane: float | None
+
+    def __new__(cls, arrays, notes=(), plane=None):
+        self = super().__new__(cls, arrays)
+        self.notes, self.plane = list(notes), plane
+        return self
+
+
+def from_meshio(sim, cut, sim_region=None, cut_region=None) -> Arrays:
+    """(sim_points, sim_cells, cut_points, cut_cells) from two mesh objects
+    (``meshio.Mesh``, pyvista, trimesh; see :mod:`predicates.registration.io_convert`).
+
+    The simulation mesh decides the dimension: tetrahedra make it 3D (the cutting mesh
+    then contributes its triangles), triangles make it 2D (the cutting mesh's lines).
+    """
+    from .io_convert import convert_pair
+
+    s, c = convert_pair(sim, cut, sim_region, cut_region)
+    return Arrays((s.points, s.cells, c.points, c.cells), s.notes + c.notes, s.plane)
+
+
+def mesh_arrays(args: tuple, sim_region=None, cut_region=None) -> Arrays:
     """(sim_points, sim_cells, cut_points, cut_cells) from the positional arguments of
-    :func:`~predicates.registration.intersect`: four arrays, two ``meshio.Mesh`` or two
-    ``(points, cells)`` tuples."""
+    :func:`~predicates.registration.intersect`: four arrays, two mesh objects
+    (``meshio.Mesh``, pyvista ``UnstructuredGrid``/``PolyData``, trimesh ``Trimesh``) or
+    two ``(points, cells)`` tuples. ``sim_region``/``cut_region`` select a gmsh physical
+    group or cell block of a mesh object (tag, name or block index)."""
     if len(args) == 4:
-        return args
-    if len(args) == 2:
-        out = []
-        for role, m in zip(("simulation", "cutting"), args):
-            if hasattr(m, "points") and hasattr(m, "cells"):
-                out.append(m)
-            elif isinstance(m, (tuple, list)) and len(m) == 2:
-                out.append(tuple(m))
-            else:
-                raise TypeError(f"the {role} mesh must be a meshio.Mesh or a (points, cells) "
-                                f"tuple, got {type(m).__name__}")
-        sim, cut = out
-        if isinstance(sim, tuple) and isinstance(cut, tuple):
-            return (*sim, *cut)
-        if isinstance(sim, tuple) or isinstance(cut, tuple):
-            raise TypeError("pass both meshes as meshio.Mesh or both as (points, cells)")
-        return from_meshio(sim, cut)
-    raise TypeError("intersect(sim_points, sim_cells, cut_points, cut_cells) or "
-                    f"intersect(sim_mesh, cut_mesh); got {len(args)} positional arguments")
+        _no_region(sim_region, cut_region)
+        return Arrays(args)
+    if len(args) != 2:
+        raise TypeError("intersect(sim_points, sim_cells, cut_points, cut_cells) or "
+                        f"intersect(sim_mesh, cut_mesh); got {len(args)} positional arguments")
+    tuples = [isinstance(m, (tuple, list)) for m in args]
+    for role, m, t in zip(("simulation", "cutting"), args, tuples):
+        if t and len(m) != 2:
+            raise TypeError(f"the {role} mesh as a tuple must be (points, cells), got "
+                            f"{len(m)} items")
+    if all(tuples):
+        _no_region(sim_region, cut_region)
+        return Arrays((*args[0], *args[1]))
+    if any(tuples):
+        raise TypeError("pass both meshes as mesh objects or both as (points, cells)")
+    return from_meshio(args[0], args[1], sim_region, cut_region)
+
+
+def _no_region(*regions):
+    if any(r is not None for r in regions):
+        raise TypeError("sim_region/cut_region select a region of a mesh object (meshio, "
+                        "pyvista); with arrays, pass the cells of the region instead")
 
 
 def max_box_edge(points: np.ndarray, cells: np.ndarray) -> float:

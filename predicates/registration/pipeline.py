@@ -66,7 +66,7 @@ from fperr.warnings import ResolutionError, ResolutionWarning
 
 from ..catalogue import kinds as catalogue_kinds
 from . import resolution
-from .inputs import max_box_edge, mesh_arrays, scale_points, validate_pair
+from .inputs import max_box_edge, mesh_arrays, scale_points, validate_options, validate_pair
 from .levels import Registration
 from .refine import refine
 from .resolution import (Resolution, cell_boxes, consistent_scale, estimate_cell_pairs,
@@ -81,12 +81,13 @@ CHUNK = 1 << 17
 
 def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: bool = False,
               chunk: int = CHUNK, refine_cut: bool = True, strict: bool = False,
-              memory_limit: int | None = None, partitions=None,
-              scheduler=None) -> IntersectionResult:
+              memory_limit: int | None = None, partitions=None, scheduler=None,
+              sim_region=None, cut_region=None) -> IntersectionResult:
     """Register the intersections of a simulation mesh with a cutting mesh.
 
     ``intersect(sim_points, sim_cells, cut_points, cut_cells)``, ``intersect(sim_mesh,
-    cut_mesh)`` (``meshio.Mesh``) or ``intersect((sim_points, sim_cells), (cut_points,
+    cut_mesh)`` (``meshio.Mesh``, pyvista, trimesh; ``sim_region``/``cut_region``: a
+    gmsh physical group or cell block, by tag or name) or ``intersect((sim_points, sim_cells), (cut_points,
     cut_cells))``. 2D: triangles (M, 3) vs segments (K, 2), points (N, 2); 3D:
     tetrahedra (M, 4) vs triangles (K, 3), points (N, 3). An empty cutting mesh gives an
     empty result.
@@ -112,7 +113,8 @@ def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: b
     """
     t0 = time.perf_counter()
     timings = {}
-    plan = _plan(args, dtype, tolerance_scale, refine_cut, timings)
+    plan = _plan(args, dtype, tolerance_scale, progress, chunk, refine_cut, timings,
+                 sim_region, cut_region)
     timings["setup"] = time.perf_counter() - t0
     _check(plan.report, strict, memory_limit, plan.dim)
     if partitions is None and scheduler is None:
@@ -128,7 +130,8 @@ def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: b
         tolerances=plan.tol, scale_exponent=sc_.e, tolerance_scale=plan.ts, L_a=sc_.L_a,
         L_b=sc_.L_b, sim_points=sim.points, sim_cells=sim.cells, cut_points=cut.points,
         cut_cells=cut.cells, rounded_inputs=sim.rounded or cut.rounded, timings=timings,
-        resolution=plan.report, refinement=plan.refinement)
+        resolution=plan.report, refinement=plan.refinement, notes=plan.arrays.notes,
+        plane=plan.arrays.plane)
 
 
 class Plan(NamedTuple):
@@ -149,16 +152,16 @@ class Plan(NamedTuple):
     kinds: tuple
     report: object  # resolution.Resolution
     refinement: object
+    arrays: object  # inputs.Arrays: the meshes as arrays, with notes and plane
 
 
-def _plan(args, dtype, tolerance_scale, refine_cut, timings) -> Plan:
+def _plan(args, dtype, tolerance_scale, progress, chunk, refine_cut, timings, sim_region,
+          cut_region) -> Plan:
     """Validation, refinement, L over the cells that can meet, exact scaling,
     tolerances, reach and the resolution report: the global part of the run."""
-    dtype = np.dtype(dtype)
-    ts = float(tolerance_scale)
-    if not 0 <= ts <= 1:
-        raise ValueError(f"tolerance_scale must be in [0, 1], got {tolerance_scale!r}")
-    sp, sc, cp, cc = mesh_arrays(args)
+    dtype, ts = validate_options(dtype, tolerance_scale, progress, chunk)
+    arrays = mesh_arrays(args, sim_region, cut_region)
+    sp, sc, cp, cc = arrays
     dim, sim, cut = validate_pair(sp, sc, cp, cc, dtype)
     if max_box_edge(sim.points, sim.cells) + max_box_edge(cut.points, cut.cells) == 0:
         raise ValueError("every cell of both meshes collapses to a single point (zero "
@@ -180,7 +183,7 @@ def _plan(args, dtype, tolerance_scale, refine_cut, timings) -> Plan:
     report = _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts)
     ms, mc = sc_.masks
     return Plan(dim, dtype, sim, cut, sc_, P_sim, P_cut, sim.cells[ms], cut.cells[mc],
-                tol_run, ts, catalogue_kinds(dim), report, refinement)
+                tol_run, ts, catalogue_kinds(dim), report, refinement, arrays)
 
 
 def _register(plan: Plan, chunk: int, progress: bool, timings: dict) -> dict:
@@ -220,34 +223,38 @@ def _check(report: Resolution, strict: bool, limit: int | None, dim: int) -> Non
 
 def intersect_files(sim: str | os.PathLike, cut: str | os.PathLike, *,
                     output: str | os.PathLike | None = None,
-                    plot: str | os.PathLike | None = None, dtype: str = "float64",
+                    plot: str | os.PathLike | None = None,
+                    sim_output: str | os.PathLike | None = None, dtype: str = "float64",
                     naive: bool = False, progress: bool = False, refine_cut: bool = True,
-                    strict: bool = False, partitions=None,
-                    scheduler=None) -> IntersectionResult:
+                    strict: bool = False, sim_region=None, cut_region=None,
+                    **options) -> IntersectionResult:
     """Register two mesh files (any format meshio reads) and write the intersection
-    points to ``output`` (any format meshio writes) and a 2D picture to ``plot``.
+    points to ``output`` (.vtu), the simulation mesh with cut-cell data to
+    ``sim_output`` and a 2D picture to ``plot``.
 
-    Output paths are checked before any work, and the run is refused (ValueError) before
-    anything is written, so a refused run writes nothing. ``naive``: the zero-tolerance
-    baseline (``tolerance_scale=0``); ``refine_cut``, ``strict``, ``partitions``,
-    ``scheduler``: as in :func:`intersect`.
+    Output paths are checked before any work (format, directory, not an input file), the
+    inputs are read under guard, and every problem raises an error naming the file, so
+    a refused run writes nothing; files are written atomically. ``naive``: the
+    zero-tolerance baseline (``tolerance_scale=0``); ``refine_cut``, ``strict`` and other
+    ``options``: as in :func:`intersect`; ``sim_region``/``cut_region``: a gmsh physical
+    group or cell block (tag or name).
     """
-    from .files import check_output, read_mesh
+    from .files import check_outputs, load_pair, write_results
 
-    if output is not None:
-        check_output(output, "mesh")
-    if plot is not None:
-        check_output(plot, "plot")
-    res = intersect(read_mesh(sim), read_mesh(cut), dtype=np.dtype(dtype), progress=progress,
-                    tolerance_scale=0.0 if naive else 1.0, refine_cut=refine_cut,
-                    strict=strict, partitions=partitions, scheduler=scheduler)
-    if plot is not None and res.dim != 2:
+    validate_options(dtype, 0.0, progress, options.get("chunk", CHUNK))  # before any work
+    if not isinstance(naive, (bool, np.bool_)):
+        raise TypeError(f"naive must be True or False, got {naive!r}")
+    check_outputs({"SIM": sim, "CUT": cut},
+                  {("-o", "mesh"): output, ("--plot", "plot"): plot,
+                   ("--sim-output", "mesh"): sim_output})
+    arrays = load_pair(sim, cut, dtype=dtype, sim_region=sim_region, cut_region=cut_region)
+    if plot is not None and arrays[0].shape[1] != 2:
         raise ValueError("plots are drawn for 2D meshes only (this case is 3D; open the "
                          "output in ParaView instead)")
-    if output is not None:
-        res.to_meshio().write(output)
-    if plot is not None:
-        from .plot import plot_2d
-
-        plot_2d(res, plot)
+    res = intersect(*arrays, dtype=np.dtype(dtype), progress=progress,
+                    tolerance_scale=0.0 if naive else 1.0, refine_cut=refine_cut,
+                    strict=strict, **options)
+    res.notes[:0] = arrays.notes
+    res.plane = arrays.plane
+    write_results(res, output=output, plot=plot, sim_output=sim_output)
     return res

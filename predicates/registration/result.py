@@ -1,12 +1,21 @@
 """The result of :func:`predicates.registration.intersect` (section 1 of the paper):
-registered pairs per kind, readable summary, consistency counts, export."""
+registered pairs per kind, readable summary, consistency counts, analysis and export
+(meshio/ParaView, dict/JSON, pandas)."""
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["IntersectionResult", "KindPairs"]
+from . import consistency
+
+__all__ = ["KIND_CODES", "IntersectionResult", "KindPairs"]
+
+#: one code per kind name, the same in 2D and 3D (0: none), stored with its legend
+KIND_CODES = {"vertex_vertex": 1, "vertex_edge": 2, "edge_vertex": 3, "edge_edge": 4,
+              "triangle_vertex": 5, "vertex_triangle": 6, "edge_triangle": 7,
+              "triangle_edge": 8, "tetrahedron_vertex": 9}
 
 
 @dataclass
@@ -31,9 +40,14 @@ class KindPairs:
     cut_weights: np.ndarray
     candidates: int = 0
     suppressed: int = 0
+    _points: tuple | None = field(default=None, repr=False, compare=False)
 
     def __len__(self):
         return len(self.sim)
+
+    def __repr__(self):
+        return (f"<KindPairs {self.kind}: {len(self)} registered of {self.tested} tested "
+                f"({self.candidates} candidates)>")
 
     @property
     def tested(self) -> int:
@@ -44,24 +58,50 @@ class KindPairs:
         s, c = np.sort(self.sim, axis=1), np.sort(self.cut, axis=1)
         return {(tuple(a), tuple(b)) for a, b in zip(s.tolist(), c.tolist())}
 
-    def points(self, sim_points: np.ndarray, side: str = "sim") -> np.ndarray:
+    def points(self, points: np.ndarray | None = None, side: str = "sim") -> np.ndarray:
         """Intersection points Σ wᵢ·xᵢ on the simulation (``side="sim"``) or cutting
-        primitive, in float64, from the given point array."""
+        primitive, in float64 (m, dim): from the result's own meshes, or from
+        ``points`` (that side's point array) when given."""
+        if side not in ("sim", "cut"):
+            raise ValueError(f"side must be 'sim' or 'cut', got {side!r}")
         ids, w = (self.sim, self.sim_weights) if side == "sim" else (self.cut, self.cut_weights)
-        X = np.asarray(sim_points, dtype=np.float64)[ids]
+        if points is None:
+            if self._points is None:
+                raise ValueError("these pairs are not attached to a result: pass the points")
+            points = self._points[0 if side == "sim" else 1]
+        points = np.asarray(points, dtype=np.float64)
+        if len(ids) == 0:
+            return np.zeros((0, points.shape[1]))
+        X = points[ids]
         return np.einsum("mk,mkd->md", w.astype(np.float64), X)
+
+
+def _input_units(tol, e: int, dim: int):
+    """The :class:`~predicates.Tolerances` ``tol`` (for coordinates scaled by 2^-e) in
+    the input's units: T·2^(e·p), L·2^e (float64; inf/0 if that overflows/underflows
+    binary64 — the registration itself never does)."""
+    from ..tolerance_table import TABLES
+    from ..tolerances import Tolerances
+
+    with np.errstate(all="ignore"):
+        vals = {name: float(np.ldexp(np.float64(tol.values[name]), e * spec.p))
+                for name, spec in TABLES[dim].items() if name in tol.values}
+        L = float(np.ldexp(np.float64(tol.L), e))
+    return Tolerances(tol.dim, L, tol.eps, tol.ctx, vals)
 
 
 @dataclass
 class IntersectionResult:
     """Registered intersections of a simulation mesh with a cutting mesh.
 
-    ``res.kinds``: kind names in registration order; ``res[kind]``: a
-    :class:`KindPairs`; ``res.counts``: {kind: number registered};
-    ``res.tolerances``: the :class:`predicates.Tolerances` used (for the coordinates
-    multiplied by ``2**-res.scale_exponent``, an exact power-of-two scaling);
-    ``res.tolerances_input_units()``: the same in the input's units. ``str(res)`` is a
-    readable summary, ``res.to_meshio()`` the intersection points for ParaView.
+    A mapping from kind name to :class:`KindPairs`: ``res.kinds`` (registration order),
+    ``res[kind]``, ``len(res)`` (number of kinds), ``for kind in res``. ``res.counts``:
+    {kind: number registered}; ``res.tolerances``: the :class:`predicates.Tolerances`
+    used, in the INPUT's units (the run used them on coordinates scaled exactly by
+    ``2**-res.scale_exponent``); ``res.intersected_cells()``: the cut simulation cells;
+    ``res.notes``: what was done to the input (second-order cells, boundaries, regions).
+    ``str(res)``: a readable summary; ``res.to_meshio()`` / ``res.sim_mesh()``: for
+    ParaView; ``res.to_dict()`` / ``res.to_dataframe()``: for analysis.
     """
 
     dim: int
@@ -79,21 +119,42 @@ class IntersectionResult:
     cut_cells: np.ndarray
     rounded_inputs: bool = False
     timings: dict = field(default_factory=dict)
+    notes: list = field(default_factory=list)
+    plane: float | None = None
     #: what the run resolves (a predicates.registration.resolution.Resolution) and the
     #: cutting mesh's refinement (refine.Refinement: cut_origin, input_weights), or None;
     #: with a refinement, cut_points / cut_cells are the refined mesh the ids refer to
     resolution: object = None
     refinement: object = None
 
+    def __post_init__(self):
+        # constructed with the tolerances of the scaled run; the public attribute is in
+        # the input's units, the scaled values stay private
+        self._scaled_tolerances = self.tolerances
+        self.tolerances = _input_units(self.tolerances, self.scale_exponent, self.dim)
+        self.notes = list(self.notes)
+        for p in self.pairs.values():
+            p._points = (self.sim_points, self.cut_points)
+
+    # -- mapping over kinds ----------------------------------------------------------
     def __getitem__(self, kind: str) -> KindPairs:
         try:
             return self.pairs[kind]
-        except KeyError:
+        except (KeyError, TypeError):
             raise KeyError(f"no kind {kind!r} in {self.dim}D; kinds: {', '.join(self.kinds)}") \
                 from None
 
     def __iter__(self):
         return iter(self.kinds)
+
+    def __len__(self):
+        return len(self.kinds)
+
+    def __contains__(self, kind) -> bool:
+        return kind in self.pairs
+
+    def items(self):
+        return [(k, self.pairs[k]) for k in self.kinds]
 
     @property
     def counts(self) -> dict:
@@ -104,31 +165,96 @@ class IntersectionResult:
         return sum(self.counts.values())
 
     def tolerances_input_units(self) -> dict:
-        """Every tolerance (and L) in the input's units: T·2^(e·p) (inf/0 if that
-        overflows/underflows binary64; the registration itself never does)."""
-        from ..tolerance_table import TABLES
+        """``res.tolerances`` as {name: float} with ``L`` (kept for older callers)."""
+        return {"L": float(self.tolerances.L),
+                **{k: float(v) for k, v in self.tolerances.values.items()}}
 
-        e = self.scale_exponent
-        out = {"L": float(np.ldexp(np.float64(self.tolerances.L), e))}
-        with np.errstate(all="ignore"):
-            for name, spec in TABLES[self.dim].items():
-                out[name] = float(np.ldexp(np.float64(self.tolerances.values[name]),
-                                           e * spec.p))
+    # -- analysis ----------------------------------------------------------------------
+    def _kinds(self, kind) -> list:
+        if kind is None:
+            return list(self.kinds)
+        ks = [kind] if isinstance(kind, str) else list(kind)
+        for k in ks:
+            self[k]  # raises a KeyError naming the kinds
+        return ks
+
+    def intersected_cells(self, kind=None) -> np.ndarray:
+        """Indices (sorted) of the simulation cells with at least one registered pair on
+        one of their faces (vertex, edge, face or the cell itself); ``kind``: only pairs
+        of that kind (a name or a list of names)."""
+        return np.flatnonzero(self._cut_mask(self._kinds(kind)))
+
+    def _cut_mask(self, kinds) -> np.ndarray:
+        cells = self.sim_cells
+        hit = np.zeros(len(cells), dtype=bool)
+        k = cells.shape[1]
+        for r in range(1, k + 1):
+            prims = [self.pairs[x].sim for x in kinds if self.pairs[x].sim.shape[1] == r]
+            prims = [p for p in prims if len(p)]
+            if not prims:
+                continue
+            table = np.unique(np.sort(np.concatenate(prims), axis=1), axis=0)
+            combos = list(itertools.combinations(range(k), r))
+            faces = np.sort(cells[:, combos], axis=2).reshape(-1, r)
+            hit |= consistency.rows_in(faces, table).reshape(len(cells), -1).any(axis=1)
+        return hit
+
+    def to_dict(self, pairs: bool = False) -> dict:
+        """Plain data (JSON-ready): sizes, counts per kind, tolerances in input units,
+        notes, timings (and with ``pairs=True`` the ids, weights and points of every
+        pair). A ``resolution`` report is included when the run made one."""
+        out = {"dim": self.dim, "dtype": np.dtype(self.dtype).name,
+               "naive": self.tolerance_scale == 0, "tolerance_scale": self.tolerance_scale,
+               "simulation_cells": len(self.sim_cells), "cutting_cells": len(self.cut_cells),
+               "counts": self.counts, "total": self.total,
+               "candidates": {k: int(self.pairs[k].candidates) for k in self.kinds},
+               "tolerances": self.tolerances_input_units(), "L_a": float(self.L_a),
+               "L_b": float(self.L_b), "scale_exponent": int(self.scale_exponent),
+               "plane_z": self.plane, "rounded_inputs": bool(self.rounded_inputs),
+               "notes": list(self.notes) + self._status_notes(),
+               "timings": {k: float(v) for k, v in self.timings.items()}}
+        res = getattr(self, "resolution", None)
+        if res is not None:
+            out["resolution"] = res.to_dict() if hasattr(res, "to_dict") else res
+        if pairs:
+            out["pairs"] = {k: {"sim": p.sim.tolist(), "cut": p.cut.tolist(),
+                                "sim_weights": p.sim_weights.astype(float).tolist(),
+                                "cut_weights": p.cut_weights.astype(float).tolist(),
+                                "points": p.points().tolist()} for k, p in self.items()}
         return out
 
+    def to_dataframe(self):
+        """One row per registered pair: kind, sim_ids, cut_ids, sim_weights, cut_weights
+        and the point's x, y (, z). Needs pandas (not a dependency of fperr)."""
+        try:
+            import pandas as pd
+        except ImportError:
+            raise ImportError("to_dataframe needs pandas (pip install pandas); "
+                              "res.to_dict(pairs=True) gives the same as plain data") from None
+        cols = {"kind": [], "sim_ids": [], "cut_ids": [], "sim_weights": [],
+                "cut_weights": []}
+        xyz = []
+        for k, p in self.items():
+            cols["kind"] += [k] * len(p)
+            cols["sim_ids"] += [tuple(r) for r in p.sim.tolist()]
+            cols["cut_ids"] += [tuple(r) for r in p.cut.tolist()]
+            cols["sim_weights"] += [tuple(r) for r in p.sim_weights.astype(float).tolist()]
+            cols["cut_weights"] += [tuple(r) for r in p.cut_weights.astype(float).tolist()]
+            xyz.append(p.points())
+        X = np.concatenate(xyz) if xyz else np.zeros((0, self.dim))
+        for j, name in enumerate("xyz"[: self.dim]):
+            cols[name] = X[:, j]
+        df = pd.DataFrame(cols)
+        df["kind"] = pd.Categorical(df["kind"], categories=list(self.kinds))
+        return df
+
+    # -- consistency -----------------------------------------------------------------
     def location_counts(self, side: str = "cut") -> np.ndarray:
         """For every point of the ``side`` mesh ("cut" or "sim"): in how many registered
         pairs that vertex is itself the primitive (vertex_vertex, edge_vertex,
         triangle_vertex, ... for "cut"; vertex_* for "sim"). In a consistent registration
         a cutting vertex inside the simulation mesh is located exactly once."""
-        n = len(self.cut_points if side == "cut" else self.sim_points)
-        counts = np.zeros(n, dtype=np.int64)
-        for k in self.kinds:
-            p = self.pairs[k]
-            ids = p.cut if side == "cut" else p.sim
-            if ids.shape[1] == 1:
-                np.add.at(counts, ids[:, 0], 1)
-        return counts
+        return consistency.location_counts(self, side)
 
     def mislocated(self, inside) -> int:
         """Inconsistency count: cutting vertices marked ``inside`` (a bool per cutting
@@ -166,64 +292,83 @@ class IntersectionResult:
         inside one cell, so each consecutive pair of event primitives must lie in a
         common cell. Only edges with both endpoints located are checked. The robust
         registration gives 0; a naive one breaks walks where two cells disagree about a
-        shared vertex, edge or face. (Pure Python: meant for examples, not for large
-        meshes.)"""
-        import itertools
+        shared vertex, edge or face. Vectorised (:mod:`~predicates.registration.consistency`)."""
+        return consistency.broken_walks(self)
 
-        cells = set()
-        for c in self.sim_cells.tolist():
-            for r in range(1, len(c) + 1):
-                cells.update(frozenset(x) for x in itertools.combinations(c, r))
-        loc = {}
-        events = {}
-        for kind in self.kinds:
-            p = self.pairs[kind]
-            if p.cut.shape[1] == 1:
-                for s, c in zip(p.sim.tolist(), p.cut[:, 0].tolist()):
-                    loc.setdefault(c, []).append(frozenset(s))
-            elif p.cut.shape[1] == 2:
-                for s, c, w in zip(p.sim.tolist(), p.cut.tolist(), p.cut_weights.tolist()):
-                    key = tuple(sorted(c))
-                    t = w[1] if c[0] == key[0] else w[0]  # weight of the larger id
-                    events.setdefault(key, []).append((t, frozenset(s)))
-        broken = 0
-        cut_edges = {tuple(sorted(e)) for c in self.cut_cells.tolist()
-                     for e in itertools.combinations(c, 2)}
-        for a, b in sorted(cut_edges):
-            if len(loc.get(a, ())) != 1 or len(loc.get(b, ())) != 1:
-                continue
-            walk = [loc[a][0]] + [x for _, x in sorted(events.get((a, b), []),
-                                                      key=lambda e: e[0])] + [loc[b][0]]
-            if any(x | y not in cells for x, y in zip(walk, walk[1:])):
-                broken += 1
-        return broken
+    # -- export ------------------------------------------------------------------------
+    def _xyz(self, X: np.ndarray) -> np.ndarray:
+        X = np.asarray(X, dtype=np.float64)
+        if X.shape[1] == 2:  # a 2D mesh goes back into its plane z = c
+            X = np.column_stack([X, np.full(len(X), self.plane or 0.0)])
+        return X
+
+    def kind_legend(self) -> dict:
+        """{kind name: code} of this dimension's kinds (:data:`KIND_CODES`)."""
+        return {k: KIND_CODES[k] for k in self.kinds}
 
     def to_meshio(self):
         """The intersection points as a ``meshio.Mesh`` of vertex cells, with point data
-        ``kind`` (index into ``res.kinds``), ``sim_ids`` / ``cut_ids`` (vertex ids of the
+        ``kind`` (code of :data:`KIND_CODES`, the same in 2D and 3D; its legend is the
+        field data {kind name: [code]}), ``sim_ids`` / ``cut_ids`` (vertex ids of the
         pair's primitives, −1 padded) and ``sim_weights`` / ``cut_weights``. Points are
-        Σ wᵢ·xᵢ on the simulation primitive, in 3D (z = 0 for 2D meshes)."""
+        Σ wᵢ·xᵢ on the simulation primitive, in 3D (a 2D mesh in its plane z = c)."""
         import meshio
 
         pts, kind, sid, cid, sw, cw = [], [], [], [], [], []
         ws, wc = self.dim + 1, self.dim
-        for code, k in enumerate(self.kinds):
-            p = self.pairs[k]
-            m = len(p)
-            pts.append(p.points(self.sim_points, "sim"))
-            kind.append(np.full(m, code, dtype=np.int32))
+        for k, p in self.items():
+            pts.append(p.points())
+            kind.append(np.full(len(p), KIND_CODES[k], dtype=np.int32))
             sid.append(_pad(p.sim, ws, -1))
             cid.append(_pad(p.cut, wc, -1))
             sw.append(_pad(p.sim_weights.astype(np.float64), ws, 0.0))
             cw.append(_pad(p.cut_weights.astype(np.float64), wc, 0.0))
-        X = np.concatenate(pts) if pts else np.zeros((0, self.dim))
-        if X.shape[1] == 2:
-            X = np.column_stack([X, np.zeros(len(X))])
+        X = self._xyz(np.concatenate(pts) if pts else np.zeros((0, self.dim)))
         cells = [("vertex", np.arange(len(X), dtype=np.int64)[:, None])]
         data = {"kind": np.concatenate(kind), "sim_ids": np.concatenate(sid),
                 "cut_ids": np.concatenate(cid), "sim_weights": np.concatenate(sw),
                 "cut_weights": np.concatenate(cw)}
-        return meshio.Mesh(X, cells, point_data=data)
+        legend = {k: np.array([c], dtype=np.int32) for k, c in self.kind_legend().items()}
+        return meshio.Mesh(X, cells, point_data=data, field_data=legend)
+
+    def sim_mesh(self):
+        """The simulation mesh as a ``meshio.Mesh`` with cell data to threshold on:
+        ``cut`` (1 for the cells of :meth:`intersected_cells`), ``cut_kinds`` (bit
+        code−1 set for every kind cutting the cell) and ``cut_by_<kind>`` (0/1 per kind);
+        field data: the kind legend {name: [code]}."""
+        import meshio
+
+        data = {}
+        bits = np.zeros(len(self.sim_cells), dtype=np.int32)
+        for k in self.kinds:
+            m = self._cut_mask([k])
+            data[f"cut_by_{k}"] = m.astype(np.int8)
+            bits |= m.astype(np.int32) << (KIND_CODES[k] - 1)
+        data = {"cut": (bits != 0).astype(np.int8), "cut_kinds": bits, **data}
+        ctype = "tetra" if self.dim == 3 else "triangle"
+        legend = {k: np.array([c], dtype=np.int32) for k, c in self.kind_legend().items()}
+        return meshio.Mesh(self._xyz(self.sim_points), [(ctype, self.sim_cells)],
+                           cell_data={k: [v] for k, v in data.items()}, field_data=legend)
+
+    # -- text --------------------------------------------------------------------------
+    def _status_notes(self) -> list:
+        if len(self.cut_cells) == 0:
+            return ["the cutting mesh is empty: nothing to register"]
+        if self.total:
+            return []
+        box = [(p[np.unique(c)].min(axis=0), p[np.unique(c)].max(axis=0))
+               for p, c in ((self.sim_points, self.sim_cells), (self.cut_points, self.cut_cells))]
+        apart = np.any(box[0][1] < box[1][0]) or np.any(box[1][1] < box[0][0])
+        return ["no intersections: the meshes' bounding boxes do not overlap" if apart else
+                "no intersections: the meshes do not meet"]
+
+    def __repr__(self):
+        dt = np.dtype(self.dtype).name
+        naive = ", naive" if self.tolerance_scale != 1 else ""
+        return (f"<IntersectionResult {self.dim}D {dt}{naive}: {self.total} pairs "
+                f"({', '.join(f'{k} {n}' for k, n in self.counts.items() if n) or 'none'}); "
+                f"{len(self.sim_cells)} simulation cells, {len(self.cut_cells)} cutting "
+                "cells>")
 
     def split(self):
         """The virtual-node split of the simulation mesh along the cut
@@ -241,19 +386,18 @@ class IntersectionResult:
             lines.append(f"NAIVE BASELINE: tolerances × {self.tolerance_scale:g}")
         if self.rounded_inputs:
             lines.append(f"note: input coordinates were rounded to {self.dtype}")
+        lines += [f"note: {n}" for n in self.notes + self._status_notes()]
         tu = self.tolerances_input_units()
         lines.append(f"L_a = {self.L_a:.6g}, L_b = {self.L_b:.6g}, L = {tu['L']:.6g}; "
                      f"coordinates scaled by 2^{-self.scale_exponent} (exact)")
-        names = [n for n in tu if n != "L"]
         lines.append("tolerances (input units): " + ", ".join(
-            f"{n} = {tu[n] * self.tolerance_scale:.4g}" for n in names))
+            f"{n} = {v:.4g}" for n, v in tu.items() if n != "L"))
         if self.resolution is not None:
             lines.extend(self.resolution.lines())
         w = max(len(k) for k in self.kinds)
         lines.append(f"{'kind':<{w}}  {'candidates':>10}  {'suppressed':>10}  "
                      f"{'tested':>10}  {'registered':>10}")
-        for k in self.kinds:
-            p = self.pairs[k]
+        for k, p in self.items():
             lines.append(f"{k:<{w}}  {p.candidates:>10}  {p.suppressed:>10}  {p.tested:>10}  "
                          f"{len(p):>10}")
         lines.append(f"{'total':<{w}}  {'':>10}  {'':>10}  {'':>10}  {self.total:>10}")
