@@ -167,15 +167,15 @@ def _add_cut(sub) -> None:
             "splits every cell into its material fragments and glues them into pieces\n"
             "(rules: docs/split.md). -o writes the split mesh with cell data piece,\n"
             "cell_origin, material (bitmask of material corners), material_count and point\n"
-            "data node_origin (.vtu or .vtk: other formats drop cell data); --explode moves\n"
+            "data node_origin (.vtu: other formats drop cell or field data); --explode moves\n"
             "the pieces apart in the written mesh and the picture; --png draws them."),
         epilog=("examples:\n"
                 "  fperr cut cube.vtu sphere.stl -o pieces.vtu --png pieces.png --explode 0.3\n"
-                "  fperr cut square.msh polyline.vtk -o pieces.vtk"))
+                "  fperr cut square.msh polyline.vtk -o pieces.vtu"))
     p.add_argument("sim", help="simulation mesh file (triangles in 2D, tetrahedra in 3D)")
     p.add_argument("cut", help="cutting mesh file (segments in 2D, triangles in 3D)")
     p.add_argument("-o", "--output", metavar="PIECES.vtu",
-                   help="write the split mesh with its cell data (.vtu or .vtk)")
+                   help="write the split mesh with its cell data (.vtu)")
     p.add_argument("--explode", type=float, default=0.0, metavar="FACTOR",
                    help="move each piece by FACTOR x (its centroid - the mesh centroid), "
                         "in -o and --png (default 0; --png alone uses 0.3)")

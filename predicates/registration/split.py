@@ -203,18 +203,21 @@ def split_mesh(res) -> SplitMesh:
 
 
 #: formats whose meshio writers keep cell data (checked: .msh, .off, .ply, .stl drop it)
-SPLIT_FORMATS = (".vtu", ".vtk")
+SPLIT_FORMATS = (".vtu",)  # meshio's legacy .vtk writer drops field data
 
 
 def cut_files(sim, cut, *, output=None, png=None, explode: float = 0.0,
-              dtype: str = "float64", progress: bool = False):
+              dtype: str = "float64", progress: bool = False, **options):
     """``fperr cut``: register two mesh files, split the simulation mesh, write the split
-    mesh (``output``: .vtu/.vtk, the formats that keep its cell data) and a picture
-    (``png``). Every argument is checked before any work, so a refused run writes
-    nothing. Returns (IntersectionResult, SplitMesh)."""
+    mesh (``output``: .vtu, which keeps its cell data) and a picture (``png``). Every
+    argument is checked before any work (an output naming an input is refused), inputs
+    are read under guard, files are written atomically: a refused run writes nothing.
+    ``options``: as in :func:`~predicates.registration.intersect`. Returns
+    (IntersectionResult, SplitMesh)."""
     import os
 
-    from .files import check_output, read_mesh
+    from .files import check_outputs, load_pair
+    from .io_write import write_atomic, write_meshio
     from .pipeline import intersect
 
     if output is not None:
@@ -223,17 +226,16 @@ def cut_files(sim, cut, *, output=None, png=None, explode: float = 0.0,
             raise ValueError(f"{output}: '{ext or 'no extension'}' files cannot hold the "
                              f"cell data (piece, cell_origin, material); use "
                              f"{' or '.join(SPLIT_FORMATS)}")
-        check_output(output, "mesh")
-    if png is not None:
-        check_output(png, "plot")
     if not np.isfinite(explode) or explode < 0:
         raise ValueError(f"explode must be a finite number >= 0, got {explode}")
-    res = intersect(read_mesh(sim), read_mesh(cut), dtype=np.dtype(dtype), progress=progress)
+    check_outputs({"SIM": sim, "CUT": cut}, {("-o", "mesh"): output, ("--png", "plot"): png})
+    arrays = load_pair(sim, cut, dtype=dtype)
+    res = intersect(*arrays, dtype=np.dtype(dtype), progress=progress, **options)
     sm = res.split()
     if output is not None:
-        sm.to_meshio(explode=explode).write(output)
+        write_meshio(output, sm.to_meshio(explode=explode))
     if png is not None:
         from .split_plot import plot_split
 
-        plot_split(sm, png, explode=explode or 0.3)
+        write_atomic(png, lambda tmp: plot_split(sm, tmp, explode=explode or 0.3))
     return res, sm
