@@ -1,0 +1,72 @@
+"""The ``fperr`` command: the command-line module, on top of every layer.
+
+Every option of every subcommand is declared in this package, and only here (one
+``_add_<cmd>`` / ``_run_<cmd>`` pair per subcommand: :mod:`.mesh_commands` for the
+registration, :mod:`.proof_commands` for the proofs, :mod:`.common` for what they share); the library modules contain no argument parsing, only plain
+functions with typed keyword arguments. Each subcommand imports its library inside its
+run function, so that ``fperr intersect --help`` loads neither sympy nor numpy.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+from .common import RAW as _RAW
+
+from .mesh_commands import _add_cut, _add_demo, _add_intersect
+from .proof_commands import _add_proofs_commands, _add_tables, report_main
+
+__all__ = ["build_parser", "main", "report_main"]
+
+_DESCRIPTION = ("Robust intersections under floating point (Wang, Jiang, Schroeder, Teran),\n"
+                "with derived and verified error bounds. 'fperr COMMAND --help' shows the\n"
+                "options of a command.")
+
+
+# -- the command -----------------------------------------------------------------------
+#: the subcommands declared here, in the order of "fperr --help"
+_NATIVE = (_add_tables, _add_intersect, _add_cut, _add_demo, _add_proofs_commands)
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("fperr")
+    except PackageNotFoundError:  # run from a source tree that is not installed
+        import fperr
+
+        return fperr.__version__
+
+
+def build_parser(argv: list[str]) -> argparse.ArgumentParser:
+    """The parser of ``fperr`` (no library is imported: each run function imports its own)."""
+    parser = argparse.ArgumentParser(prog="fperr", description=_DESCRIPTION,
+                                     formatter_class=_RAW)
+    parser.add_argument("--version", action="version", version=f"fperr {_version()}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for add in _NATIVE:
+        add(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run ``fperr`` with the arguments ``argv`` (default: the command line); returns
+    the exit status. Bad arguments exit with status 2 (argparse's SystemExit)."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    args = build_parser(argv).parse_args(argv)
+    try:
+        status = int(args._run(args) or 0)
+        sys.stdout.flush()  # a closed pipe shows up here, not at interpreter exit
+    except BrokenPipeError:
+        # the reader went away (fperr tables | head -1): stop quietly, as Unix tools do;
+        # Python would otherwise report the failed flush of stdout again at exit
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 141  # 128 + SIGPIPE, the shell's status for a tool killed by the pipe
+    return status
+
+
+if __name__ == "__main__":
+    sys.exit(main())

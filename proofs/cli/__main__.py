@@ -1,0 +1,6 @@
+"""``python -m proofs.cli``: the ``fperr`` command."""
+import sys
+
+from . import main
+
+sys.exit(main())

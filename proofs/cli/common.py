@@ -1,0 +1,50 @@
+"""What every subcommand of ``fperr`` shares: the help formatter, the one-line error,
+the argparse types of paths and numbers."""
+from __future__ import annotations
+
+import argparse
+import sys
+
+RAW = argparse.RawDescriptionHelpFormatter
+
+
+def error(command: str, e: Exception) -> int:
+    """Print ``fperr COMMAND: error: ...`` on stderr; exit status 2 (bad input)."""
+    print(f"fperr {command}: error: {e}", file=sys.stderr)
+    return 2
+
+
+def _at_least_1(text: str) -> int:
+    n = _integer(text)
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {n}")
+    return n
+
+
+def _integer(text: str) -> int:
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+
+
+def _at_least_2(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if n < 2:
+        raise argparse.ArgumentTypeError(f"must be at least 2, got {n}")
+    return n
+
+
+def _output_file(text: str) -> str:
+    """argparse type of a file to write: its directory must exist ("-": stdout)."""
+    from pathlib import Path
+    path = Path(text)
+    if text != "-" and path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text} is a directory, not a file")
+    if text != "-" and not path.resolve().parent.is_dir():
+        raise argparse.ArgumentTypeError(
+            f"directory {path.parent} does not exist (create it first)")
+    return text

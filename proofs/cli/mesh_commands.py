@@ -1,0 +1,206 @@
+"""``fperr intersect``, ``fperr cut``, ``fperr demo``: the registration's commands
+(options only; the work is :mod:`predicates.registration`, imported when run)."""
+from __future__ import annotations
+
+import sys
+
+from .common import RAW as _RAW
+from .common import _at_least_1, _at_least_2, error as _error
+
+# -- intersect -------------------------------------------------------------------------
+def _add_intersect(sub) -> None:
+    p = sub.add_parser(
+        "intersect", help="register intersections of two mesh files", formatter_class=_RAW,
+        description=(
+            "Register the intersections of a simulation mesh with a cutting mesh.\n\n"
+            "SIM: triangles (2D) or tetrahedra (3D); CUT: line segments (2D) or triangles\n"
+            "(3D). Any format meshio reads (Gmsh .msh, .vtu/.vtk, Medit .mesh, .obj, .off,\n"
+            ".stl, .ply, ...). Second-order cells are used through their corner nodes; a\n"
+            "tetrahedral CUT through its boundary triangles (both with a note). Prints the\n"
+            "tolerances (in the input's units) and the number of pairs per kind.\n"
+            "-o writes the intersection points (kind code with its legend as field data,\n"
+            "vertex ids, barycentric weights) and --sim-output the simulation mesh with\n"
+            "cell data 'cut', 'cut_kinds' and 'cut_by_KIND' (threshold it in ParaView),\n"
+            "both .vtu; --plot draws a 2D case. Outputs are checked before the run\n"
+            "and written atomically: a refused or failed run leaves no file.\n\n"
+            "Exit status: 0 done, 2 bad arguments or unusable input (one line on stderr)."),
+        epilog=("examples:\n"
+                "  fperr intersect grid.msh circle.vtk -o hits.vtu --plot hits.png\n"
+                "  fperr intersect cube.msh sphere.stl --sim-region 1 --sim-output cut.vtu\n"
+                "  fperr intersect cube.vtu sphere.stl --dtype float32 --format json\n\n"
+                "exit status: 0 done (a coarse resolution is warned about on stderr),\n"
+                "1 refused by --strict or the memory guard, 2 bad input or arguments"))
+    p.add_argument("sim", help="simulation mesh file (triangles in 2D, tetrahedra in 3D)")
+    p.add_argument("cut", help="cutting mesh file (segments in 2D, triangles in 3D)")
+    p.add_argument("-o", "--output", metavar="OUT.vtu",
+                   help="write the intersection points (.vtu, for ParaView)")
+    p.add_argument("--sim-output", metavar="CELLS.vtu",
+                   help="write the simulation mesh with cut-cell data (.vtu)")
+    p.add_argument("--plot", metavar="OUT.png", help="draw a 2D case (png, pdf or svg)")
+    p.add_argument("--sim-region", metavar="TAG|NAME",
+                   help="use only this gmsh physical group (tag or name) or cell block "
+                        "(index) of SIM")
+    p.add_argument("--cut-region", metavar="TAG|NAME", help="the same for CUT")
+    p.add_argument("--dtype", choices=("float64", "float32"), default="float64",
+                   help="working precision (default float64)")
+    p.add_argument("--naive", action="store_true",
+                   help="zero tolerances: the naive floating-point baseline, for comparison")
+    p.add_argument("--format", choices=("text", "json"), default="text",
+                   help="summary on stdout: text (default) or json (counts per kind, "
+                        "tolerances in input units, notes, timings)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--strict", action="store_true",
+                   help="refuse (exit 1, nothing written) when the tolerances are coarse for "
+                        "the elements near the cut, instead of warning on stderr")
+    p.add_argument("--no-refine-cut", action="store_true",
+                   help="use the cutting mesh as given (default: refine cutting cells "
+                        "coarser than the simulation cells they meet)")
+    p.add_argument("--workers", type=_at_least_1, metavar="N",
+                   help="run in partitions on a local Dask cluster of N processes (same "
+                        "result; needs pip install 'fperr[dask]')")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run in partitions on a running Dask cluster (e.g. tcp://host:8786)")
+    p.set_defaults(_run=_run_intersect)
+
+
+def _dask_client(args):
+    """--workers / --scheduler: a Dask Client (closed on exit), else no client."""
+    import contextlib
+
+    if args.workers is not None and args.scheduler is not None:
+        raise ValueError("--workers starts a local cluster, --scheduler connects to a "
+                         "running one: give one of them")
+    if args.workers is None and args.scheduler is None:
+        return contextlib.nullcontext()
+    from predicates.registration.partition_run import client_for
+
+    return client_for(args.workers, args.scheduler)
+
+
+def _run_intersect(args) -> int:
+    import warnings
+
+    from fperr.warnings import ResolutionError, ResolutionWarning
+    from predicates.registration import intersect_files
+
+    try:
+        dask_run = args.workers is not None or args.scheduler is not None
+        with _dask_client(args) as client, warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", ResolutionWarning)
+            res = intersect_files(args.sim, args.cut, output=args.output, plot=args.plot,
+                                  sim_output=args.sim_output, dtype=args.dtype,
+                                  naive=args.naive, progress=not args.quiet and not dask_run,
+                                  strict=args.strict, refine_cut=not args.no_refine_cut,
+                                  sim_region=args.sim_region, cut_region=args.cut_region,
+                                  partitions="auto" if dask_run else None, scheduler=client)
+    except ResolutionError as e:  # valid input this precision cannot resolve: exit 1
+        print(f"fperr intersect: error: {e}", file=sys.stderr)
+        return 1
+    except (ValueError, TypeError, OSError, ArithmeticError, ImportError, MemoryError) as e:
+        # bad input (meshes, paths): a message, never a traceback; nothing was written
+        return _error("intersect", e)
+    for w in caught:  # one line each, no Python warning boilerplate
+        print(f"fperr intersect: warning: {w.message}", file=sys.stderr)
+    written = [(f, what) for f, what in ((args.output, f"{res.total} points"),
+                                         (args.sim_output, f"{len(res.sim_cells)} cells, "
+                                          f"{len(res.intersected_cells())} cut"),
+                                         (args.plot, "plot")) if f]
+    if args.format == "json":
+        import json
+
+        d = res.to_dict()
+        d["inputs"] = {"sim": args.sim, "cut": args.cut}
+        d["outputs"] = {f: what for f, what in written}
+        print(json.dumps(d, indent=1))
+        return 0
+    print(res)
+    for f, what in written:
+        print(f"wrote {f} ({what})")
+    return 0
+
+
+# -- cut -------------------------------------------------------------------------------
+def _add_cut(sub) -> None:
+    p = sub.add_parser(
+        "cut", help="split a mesh along a cutting mesh (virtual node algorithm)",
+        formatter_class=_RAW,
+        description=(
+            "Cut a simulation mesh along a cutting mesh: the virtual-node split.\n\n"
+            "SIM: triangles (2D) or tetrahedra (3D); CUT: line segments (2D) or triangles\n"
+            "(3D), any format meshio reads. Registers the intersections robustly, then\n"
+            "splits every cell into its material fragments and glues them into pieces\n"
+            "(rules: docs/split.md). -o writes the split mesh with cell data piece,\n"
+            "cell_origin, material (bitmask of material corners), material_count and point\n"
+            "data node_origin (.vtu: other formats drop cell or field data); --explode moves\n"
+            "the pieces apart in the written mesh and the picture; --png draws them."),
+        epilog=("examples:\n"
+                "  fperr cut cube.vtu sphere.stl -o pieces.vtu --png pieces.png --explode 0.3\n"
+                "  fperr cut square.msh polyline.vtk -o pieces.vtu"))
+    p.add_argument("sim", help="simulation mesh file (triangles in 2D, tetrahedra in 3D)")
+    p.add_argument("cut", help="cutting mesh file (segments in 2D, triangles in 3D)")
+    p.add_argument("-o", "--output", metavar="PIECES.vtu",
+                   help="write the split mesh with its cell data (.vtu)")
+    p.add_argument("--explode", type=float, default=0.0, metavar="FACTOR",
+                   help="move each piece by FACTOR x (its centroid - the mesh centroid), "
+                        "in -o and --png (default 0; --png alone uses 0.3)")
+    p.add_argument("--png", metavar="FILE", help="draw the pieces (png, pdf or svg)")
+    p.add_argument("--dtype", choices=("float64", "float32"), default="float64",
+                   help="working precision of the registration (default float64)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(_run=_run_cut)
+
+
+def _run_cut(args) -> int:
+    from predicates.registration.split import cut_files
+
+    try:
+        res, sm = cut_files(args.sim, args.cut, output=args.output, png=args.png,
+                            explode=args.explode, dtype=args.dtype, progress=not args.quiet)
+    except (ValueError, TypeError, OSError, ArithmeticError) as e:
+        return _error("cut", e)
+    print(res)
+    print(sm)
+    if args.output:
+        print(f"wrote {args.output} ({len(sm.cells)} cells, {sm.n_pieces} pieces)")
+    if args.png:
+        print(f"wrote {args.png}")
+    return 0
+
+
+# -- demo ------------------------------------------------------------------------------
+
+
+def _add_demo(sub) -> None:
+    p = sub.add_parser(
+        "demo", help="run the built-in 2D and 3D examples", formatter_class=_RAW,
+        description=(
+            "Run the built-in examples (generated, no download):\n"
+            "1. 2D: an NxN grid of squares (two triangles each) cut by a circle polygon;\n"
+            "2. 3D: the unit cube as N/2 cubes per side, six tetrahedra each, cut by an\n"
+            "   icosphere;\n"
+            "3. degenerate cases (cuts on mesh edges, through vertices, on faces, also\n"
+            "   rotated), the robust registration against the naive zero-tolerance\n"
+            "   baseline, with their inconsistency counts.\n"
+            "Prints the tables and writes demo_2d.png, demo_2d.vtu, demo_3d.vtu and the\n"
+            "meshes (demo_2d_sim.vtu, demo_2d_cut.vtu, demo_3d_sim.vtu, demo_3d_cut.vtu)\n"
+            "into --out."))
+    p.add_argument("--out", default="fperr-demo", metavar="DIR",
+                   help="output directory (default ./fperr-demo, created if missing)")
+    p.add_argument("--n", type=_at_least_2, default=16, metavar="N",
+                   help="grid resolution: NxN squares in 2D, N/2 cubes per side in 3D "
+                        "(default 16, at least 2)")
+    p.add_argument("--dtype", choices=("float64", "float32"), default="float64",
+                   help="working precision (default float64)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(_run=_run_demo)
+
+
+def _run_demo(args) -> int:
+    from predicates.registration.demo import demo
+
+    try:
+        demo(args.out, n=args.n, dtype=args.dtype, progress=not args.quiet)
+    except (ValueError, OSError) as e:  # e.g. --out names a file, or is not writable
+        return _error("demo", e)
+    return 0
+

@@ -1,0 +1,268 @@
+"""``fperr tables``, ``fperr verify``, ``fperr audit`` and ``python -m proofs.report``:
+the proofs' commands (options only; the work is :mod:`predicates.tables` and
+:mod:`proofs`, imported when run)."""
+from __future__ import annotations
+
+import argparse
+import sys
+
+from .common import RAW as _RAW
+from .common import _output_file
+
+# -- tables ----------------------------------------------------------------------------
+def _add_tables(sub) -> None:
+    p = sub.add_parser(
+        "tables", help="derived error bounds of every algorithm (the paper's figures)",
+        formatter_class=_RAW, description=(
+            "The derived error bound of every quantity the paper names, from running the\n"
+            "predicates (and the tolerance computation) instrumented: nothing is typed in\n"
+            "from the paper. Kinds: E (absolute, coefficient*eps*L^power), R (relative,\n"
+            "coefficient*eps) and M (the magnitude bound c*L^power, e.g. m2 <= 12L^4).\n"
+            "Coefficients are the paper's integer form; 'exact' is the exact expression."))
+    p.add_argument("--dim", type=int, choices=(2, 3), help="only this dimension")
+    p.add_argument("--format", choices=("md", "latex", "json"), default="md",
+                   help="output format (default md)")
+    p.set_defaults(_run=_run_tables)
+
+
+def _run_tables(args) -> int:
+    from predicates.tables import records, render
+
+    dims = (args.dim,) if args.dim else (2, 3)
+    print(render(records(dims), args.format))
+    return 0
+
+
+# -- verify, audit, report (proofs/) ---------------------------------------------------------
+
+#: where fperr verify --report and python -m proofs.report write, relative to
+#: the current directory (never inside the installed package)
+REPORT_PATH = "docs/error-bounds.md"
+
+
+def _dims(text: str) -> tuple[int, ...]:
+    """argparse type of --dims: comma-separated dimensions, each 2 or 3."""
+    try:
+        dims = tuple(int(d) for d in text.split(",") if d.strip())
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a comma-separated list of 2 and 3")
+    bad = [d for d in dims if d not in (2, 3)]
+    if bad or not dims:
+        raise argparse.ArgumentTypeError(f"dimension {bad[0] if bad else text!r} is not "
+                                         "supported (choose from 2, 3)")
+    return dims
+
+
+def _formats(text: str) -> tuple[str, ...]:
+    """argparse type of --formats: comma-separated working formats of the audit."""
+    from proofs.audit import FORMATS
+    formats = tuple(f.strip() for f in text.split(",") if f.strip())
+    bad = [f for f in formats if f not in FORMATS]
+    if bad or not formats:
+        raise argparse.ArgumentTypeError(f"unknown format {bad[0] if bad else text!r} "
+                                         f"(choose from {', '.join(FORMATS)})")
+    return formats
+
+
+#: audit --dtype names (the same as intersect's and demo's) -> the audit's formats
+AUDIT_DTYPES = {"float64": "binary64", "float32": "binary32", "mp17": "mp17"}
+
+
+def _add_verify(parser: argparse.ArgumentParser) -> None:
+    """fperr verify: every tolerance constraint of the paper, decided for all ε ≤ 1e-5.
+
+Usage:
+
+    fperr verify                  # 2D and 3D
+    fperr verify --dim 3 -v       # with the derived errors and argument steps
+    fperr verify --tolerances my.toml
+    fperr verify --report         # also write docs/error-bounds.md (current directory)
+
+--tolerances FILE (TOML or JSON, format: proofs.tables) replaces coefficients of
+T−, T, T+. Exit status: 0 when every constraint holds, 1 when any fails, 2 for bad
+arguments or an unusable tolerance file. See proofs.verify for the constraints.
+"""
+    parser.add_argument("--dim", type=int, choices=(2, 3), action="append",
+                        help="dimension to verify (default: both)")
+    parser.add_argument("--tolerances", metavar="FILE",
+                        help="TOML/JSON file replacing coefficients of T−, T, T+")
+    parser.add_argument("-v", "--verbose", action="store_true",
+                        help="show derived errors, inequalities and argument steps")
+    parser.add_argument("--require-paper-argument", action="store_true",
+                        help="fail when the paper's own 5.4.4 argument does not hold "
+                             "for every ε (even if another encoded argument does)")
+    parser.add_argument("--report", metavar="PATH", nargs="?", const=REPORT_PATH,
+                        type=_output_file,
+                        help=f"also write the generated report (default: {REPORT_PATH} "
+                             "in the current directory)")
+    parser.add_argument("--certificate", metavar="FILE", type=_output_file,
+                        help="also write a certificate of every decision, checkable with "
+                             "python -m proofs.check_certificate FILE")
+    parser.add_argument("--format", choices=("text", "json"), default="text",
+                        help="output format (default text; json: every constraint's name, "
+                             "status and margin)")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def _run_verify(args: argparse.Namespace) -> int:
+    if args.report is not None:
+        try:
+            _output_file(args.report)  # the default (const) is not checked by argparse
+        except argparse.ArgumentTypeError as e:
+            args._parser.error(f"argument --report: {e}")
+    from proofs import tables
+    from proofs.verify import verify
+    try:
+        overrides = tables.load_overrides(args.tolerances) if args.tolerances else None
+    except tables.ToleranceFileError as e:
+        print(f"fperr verify: {e}", file=sys.stderr)
+        return 2
+    ok, reports = True, {}
+    as_json = args.format == "json"
+    for dim in sorted(set(args.dim or [2, 3])):
+        try:
+            rep = verify(dim, overrides, require_paper_argument=args.require_paper_argument,
+                         progress=not args.quiet)
+        except (ValueError, TypeError) as e:
+            print(f"fperr verify: {dim}D: {e}", file=sys.stderr)
+            return 2
+        reports[dim] = rep
+        ok = ok and rep.ok
+        if not as_json:
+            _print_report(dim, rep, overrides, args)
+    if as_json:
+        import json
+
+        from proofs.verify import outcome_dict
+        print(json.dumps({"ok": ok, "dims": {str(d): {
+            "constraints": [outcome_dict(o) for o in r.outcomes],
+            "hold": len(r.outcomes) - len(r.failures), "fail": len(r.failures),
+            "seconds": r.seconds} for d, r in reports.items()}}, indent=1))
+    out = sys.stderr if as_json else sys.stdout  # json: stdout holds the document only
+    if args.certificate:
+        from proofs import certificate
+        try:
+            certificate.write(args.certificate, reports, args.require_paper_argument)
+        except OSError as e:
+            print(f"fperr verify: cannot write certificate: {e}", file=sys.stderr)
+            return 2
+        print(f"certificate written to {args.certificate}", file=out)
+    if args.report is not None:
+        from proofs.report import write_report
+        write_report(args.report)
+        print(f"report written to {args.report}", file=out)
+    return 0 if ok else 1
+
+
+def _print_report(dim, rep, overrides, args) -> None:
+    from proofs.verify import format_outcome
+
+    src = "paper's Figure 1" if dim == 2 else "paper's Figure 5"
+    if overrides and dim in overrides:
+        src += f" with overrides from {args.tolerances}"
+    print(f"{dim}D constraints ({src}), decided for every ε in (0, 1e-5]:")
+    for o in rep.outcomes:
+        print(format_outcome(o, args.verbose))
+    n, nf = len(rep.outcomes), len(rep.failures)
+    print(f"{dim}D: {n} constraints, {n - nf} hold, {nf} fail  ({rep.seconds:.1f} s)")
+    if nf:
+        print(f"{dim}D FAILED: " + ", ".join(o.id for o in rep.failures))
+    print()
+
+
+def _add_audit(parser: argparse.ArgumentParser) -> None:
+    """fperr audit: shadow execution, measured floating-point error against the derived
+bounds, in binary64, binary32 and mpmath at 17 bits (see proofs.audit).
+
+    fperr audit                                        # CI size, about 25 s of CPU
+    fperr audit --samples 1500 --search-steps 150 --seed 7 --format json -o audit.json
+
+Exit status 1 when any violation was found, 2 for bad arguments.
+"""
+    parser.add_argument("--samples", type=int,
+                        help="random/adversarial samples per predicate and format "
+                             "(default 100, the CI size)")
+    parser.add_argument("--search-steps", type=int,
+                        help="hill-climbing steps per seed (2 seeds per quantity and check; "
+                             "default 10; 0 disables the search)")
+    parser.add_argument("--format", choices=("md", "json"), default="md",
+                        help="report format (default md)")
+    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    parser.add_argument("--dtype", choices=tuple(AUDIT_DTYPES), action="append",
+                        help="working precision to audit, repeatable (default all three: "
+                             "float64, float32 and mp17, mpmath at 17 bits)")
+    parser.add_argument("--dim", type=int, choices=(2, 3), action="append",
+                        help="dimension to audit, repeatable (default both)")
+    # the former names, still accepted and checked (not shown: one name per option)
+    parser.add_argument("--formats", type=_formats, help=argparse.SUPPRESS)
+    parser.add_argument("--dims", type=_dims, help=argparse.SUPPRESS)
+    parser.add_argument("--predicates", default="",
+                        help="comma-separated predicate names to audit (default all)")
+    parser.add_argument("-o", "--output", type=_output_file,
+                        help="also write the report to this file")
+    parser.add_argument("--quiet", action="store_true", help="no progress lines")
+
+
+def _run_audit(args: argparse.Namespace) -> int:
+    import json
+
+    from proofs.audit import audit, render_markdown, select_predicates
+    names = tuple(p.strip() for p in args.predicates.split(",") if p.strip())
+    args.dims = sorted(set(args.dim or args.dims or [2, 3]))
+    args.formats = ([AUDIT_DTYPES[d] for d in dict.fromkeys(args.dtype)] if args.dtype else
+                    args.formats or ["binary64", "binary32", "mp17"])
+    try:
+        select_predicates(args.dims, names)  # bad names fail before any work
+    except ValueError as e:
+        args._parser.error(f"argument --predicates: {e}")
+
+    def progress(spec, fmt):
+        if not args.quiet:
+            print(f"  audited {spec.key} in {fmt}", file=sys.stderr)
+
+    sizes = {k: v for k, v in (("samples", args.samples), ("search_steps", args.search_steps))
+             if v is not None}  # None: the library's default
+    s = audit(dims=args.dims, formats=args.formats, names=names, seed=args.seed,
+              progress=progress, **sizes)
+    text = json.dumps(s, indent=1) if args.format == "json" else render_markdown(s)
+    print(text)
+    if args.output:
+        with open(args.output, "w") as fh:
+            fh.write(text)
+    return 1 if s["violation_count"] else 0
+
+
+def report_main(argv: list[str] | None = None) -> int:
+    """python -m proofs.report: write docs/error-bounds.md, or check it is current."""
+    from proofs import report
+    p = argparse.ArgumentParser(prog="python -m proofs.report", description=report.__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("-o", "--output", default=REPORT_PATH, type=_output_file,
+                   help=f"file to write or check (default {REPORT_PATH}; '-': stdout)")
+    p.add_argument("--check", action="store_true",
+                   help="do not write; exit 1 when the file differs from a fresh render")
+    a = p.parse_args(argv)
+    if a.check:
+        if not report.is_current(a.output):
+            print(f"{a.output} is stale: regenerate with `python -m proofs.report`",
+                  file=sys.stderr)
+            return 1
+        print(f"{a.output} is up to date")
+        return 0
+    report.write_report(a.output)
+    if a.output != "-":
+        print(f"wrote {a.output}")
+    return 0
+
+
+def _add_proofs_commands(sub) -> None:
+    """verify and audit: their options above, their docstrings as descriptions."""
+    for name, help_, add, run in (
+            ("verify", "check every tolerance constraint for all eps <= 1e-5", _add_verify,
+             _run_verify),
+            ("audit", "shadow execution: measured error against derived bounds", _add_audit,
+             _run_audit)):
+        p = sub.add_parser(name, help=help_, description=add.__doc__, formatter_class=_RAW)
+        add(p)
+        p.set_defaults(_run=run, _parser=p)
+
