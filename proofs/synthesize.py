@@ -34,6 +34,7 @@ from pathlib import Path
 
 import sympy
 
+import predicates
 from fperr import round_fraction
 from fperr.symbols import L, eps
 from predicates.tolerance_table import TABLES
@@ -41,7 +42,7 @@ from predicates.tolerance_table import TABLES
 from . import tables
 from .constraints import GEOMETRIC
 from .decide import decide as _decide
-from .verify import constraints, decide_constraint, verify
+from .verify import constraints, decide_constraint, instrument, verify
 
 #: Bottom-up order of the dependency chain of the declared facts (module docstring).
 ORDER = {2: ("kappa", "sigma_hat", "tau", "sigma"),
@@ -106,7 +107,16 @@ class _Probe:
     inequalities its change touches)."""
 
     def __init__(self, dim: int):
-        self.dim, self.memo, self.count = dim, {}, 0
+        self.dim, self.memo, self.count, self.runs = dim, {}, 0, {}
+
+    def _runs(self, coeffs: dict) -> dict:
+        """Instrumented runs depend only on the T coefficients (the code computes T
+        alone): cached per tuple of ``mid``s, not per table."""
+        key = tuple((n, coeffs[n]["mid"]) for n in sorted(coeffs))
+        if key not in self.runs:
+            tab = tables.table(self.dim, {self.dim: {n: {"mid": m} for n, m in key}})
+            self.runs[key] = {p.name: instrument(p, tab) for p in predicates.ALL[self.dim]}
+        return self.runs[key]
 
     def _decide(self, lhs, rhs, strict=True):
         key = (lhs, rhs, strict)
@@ -116,7 +126,7 @@ class _Probe:
 
     def failing(self, coeffs: dict) -> list[str]:
         self.count += 1
-        cs = constraints(self.dim, {self.dim: coeffs})
+        cs = constraints(self.dim, {self.dim: coeffs}, self._runs(coeffs))
         bad = []
         for c in cs:
             try:
@@ -145,34 +155,58 @@ def _with(coeffs, name, f, value):
     return out
 
 
+def _start(probe: _Probe, coeffs: dict, name: str, f: str):
+    """(coeffs, rational current value); an irrational T+ (ζ+ = 12√3·1521/16) is first
+    replaced by a rational just below it (a fact may hold it with equality), if that
+    verifies (else None)."""
+    x = coeffs[name][f]
+    if x.is_Rational:
+        return coeffs, _frac(x)
+    up = Fraction(str(sympy.Rational(sympy.N(x, 40)))) * (1 - Fraction(1, 10**30))
+    trial = _with(coeffs, name, f, up)
+    return (trial, up) if probe(trial) else (coeffs, None)
+
+
 def _lower(probe: _Probe, coeffs: dict, name: str, f: str) -> dict:
     """Bisect ``coeffs[name][f]`` down to the smallest feasible value (to within 1 %, or
-    on the admissible grid for T)."""
+    on the admissible grid for T); a T− still feasible at 2^-12 of its value has no
+    lower bound in the system and is left there (it is raised again afterwards)."""
     k = int(TABLES[probe.dim][name].q.q)
-    good = _frac(coeffs[name][f])
+    coeffs, good = _start(probe, coeffs, name, f)
+    if good is None:
+        return coeffs
     snap = (lambda x: admissible_mid(x, k)) if f == "mid" else (lambda x: x)
-    if f != "mid" and not coeffs[name][f].is_Rational:
-        good = Fraction(str(sympy.Rational(sympy.N(coeffs[name][f], 30)))) * (1 + Fraction(1, 10**20))
-        if probe(_with(coeffs, name, f, good)):
-            coeffs = _with(coeffs, name, f, good)
-        else:
-            return coeffs
-    bad = Fraction(0)
+    floor, bad = good / 2**12, None
     x = snap(good / 2)  # bracket the boundary by halving first
-    for _ in range(60):
-        if x >= good or not probe(_with(coeffs, name, f, x)):
-            bad = max(bad, x if x < good else bad)
+    while x < good and x >= floor:
+        if not probe(_with(coeffs, name, f, x)):
+            bad = x
             break
         good, x = x, snap(x / 2)
+    if bad is None:
+        return _with(coeffs, name, f, good)
     while good - bad > TOLERANCE * good:
         x = snap((good + bad) / 2)
-        if x >= good:
+        if x >= good or x <= bad:
             break
         if probe(_with(coeffs, name, f, x)):
             good = x
         else:
             bad = x
     return _with(coeffs, name, f, good)
+
+
+def _raise_lo(probe: _Probe, coeffs: dict, name: str) -> dict:
+    """Bisect T− up towards T (to within 1 %): the largest T− keeps the guarantee
+    'inside with T− ⇒ registered' as strong as the windows allow."""
+    good, bad = _frac(coeffs[name]["lo"]), _frac(coeffs[name]["mid"])
+    while bad - good > TOLERANCE * good:
+        x = (good + bad) / 2
+        if probe(_with(coeffs, name, "lo", x)):
+            good = x
+        else:
+            bad = x
+    return _with(coeffs, name, "lo", good)
 
 
 def _fact_equalities(dim: int, coeffs: dict) -> dict[str, sympy.Expr]:
@@ -209,6 +243,9 @@ def synthesize(dim: int, progress=None) -> Synthesis:
             coeffs = _lower(probe, coeffs, name, f)
             if progress:
                 progress(name, f, coeffs[name][f])
+        coeffs = _raise_lo(probe, coeffs, name)
+        if progress:
+            progress(name, "lo (raised)", coeffs[name]["lo"])
     eqs = []
     for n, c in _fact_equalities(dim, coeffs).items():
         trial = {k: dict(v) for k, v in coeffs.items()}
@@ -254,3 +291,8 @@ def write(path: str | Path, results: list[Synthesis]) -> None:
         f"Generated by `fperr synthesize --dim {dims}`: the smallest coefficients the\n"
         "constraint system of `fperr verify` accepts (to within 1 %). Do not edit;\n"
         "regenerate. Coefficients of ε^q·L^p, exact.")))
+
+
+def table_section(text: str) -> str:
+    """The tables of a written file without its comment lines (for staleness checks)."""
+    return "\n".join(l for l in text.splitlines() if l.strip() and not l.startswith("#"))

@@ -82,7 +82,7 @@ CHUNK = 1 << 17
 def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: bool = False,
               chunk: int = CHUNK, refine_cut: bool = True, strict: bool = False,
               memory_limit: int | None = None, partitions=None,
-              scheduler=None) -> IntersectionResult:
+              scheduler=None, tolerances=None) -> IntersectionResult:
     """Register the intersections of a simulation mesh with a cutting mesh.
 
     ``intersect(sim_points, sim_cells, cut_points, cut_cells)``, ``intersect(sim_mesh,
@@ -107,12 +107,14 @@ def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: b
     ("threads", "processes", "synchronous", a ``dask.distributed.Client`` or an
     address): run on Dask in spatial partitions, with the identical result
     (:mod:`predicates.registration.partition_run`; needs ``fperr[dask]``); the default
-    is serial, without Dask. Returns an
+    is serial, without Dask. ``tolerances``: a tolerance table (e.g. from ``fperr
+    synthesize``; see :func:`predicates.tolerance_table.resolve_table`) instead of
+    Figure 1/5 — sound only if ``fperr verify --tolerances`` accepts it. Returns an
     :class:`~predicates.registration.result.IntersectionResult`. See the module docstring.
     """
     t0 = time.perf_counter()
     timings = {}
-    plan = _plan(args, dtype, tolerance_scale, refine_cut, timings)
+    plan = _plan(args, dtype, tolerance_scale, refine_cut, timings, tolerances)
     timings["setup"] = time.perf_counter() - t0
     _check(plan.report, strict, memory_limit, plan.dim)
     if partitions is None and scheduler is None:
@@ -151,7 +153,7 @@ class Plan(NamedTuple):
     refinement: object
 
 
-def _plan(args, dtype, tolerance_scale, refine_cut, timings) -> Plan:
+def _plan(args, dtype, tolerance_scale, refine_cut, timings, tolerances=None) -> Plan:
     """Validation, refinement, L over the cells that can meet, exact scaling,
     tolerances, reach and the resolution report: the global part of the run."""
     dtype = np.dtype(dtype)
@@ -173,7 +175,7 @@ def _plan(args, dtype, tolerance_scale, refine_cut, timings) -> Plan:
     cut_box = cell_boxes(cut.points, cut.cells)
 
     # L over the cells that can meet, then the exact power-of-two scaling from it
-    sc_ = consistent_scale(dim, sim_box, cut_box, dtype)
+    sc_ = consistent_scale(dim, sim_box, cut_box, dtype, table=tolerances)
     P_sim = scale_points(sim.points, sc_.e, "simulation")
     P_cut = scale_points(cut.points, sc_.e, "cutting")
     tol_run = sc_.tol if ts == 1 else sc_.tol.scaled(dtype.type(ts))
@@ -223,7 +225,7 @@ def intersect_files(sim: str | os.PathLike, cut: str | os.PathLike, *,
                     plot: str | os.PathLike | None = None, dtype: str = "float64",
                     naive: bool = False, progress: bool = False, refine_cut: bool = True,
                     strict: bool = False, partitions=None,
-                    scheduler=None) -> IntersectionResult:
+                    scheduler=None, tolerances=None) -> IntersectionResult:
     """Register two mesh files (any format meshio reads) and write the intersection
     points to ``output`` (any format meshio writes) and a 2D picture to ``plot``.
 
@@ -240,7 +242,8 @@ def intersect_files(sim: str | os.PathLike, cut: str | os.PathLike, *,
         check_output(plot, "plot")
     res = intersect(read_mesh(sim), read_mesh(cut), dtype=np.dtype(dtype), progress=progress,
                     tolerance_scale=0.0 if naive else 1.0, refine_cut=refine_cut,
-                    strict=strict, partitions=partitions, scheduler=scheduler)
+                    strict=strict, partitions=partitions, scheduler=scheduler,
+                    tolerances=tolerances)
     if plot is not None and res.dim != 2:
         raise ValueError("plots are drawn for 2D meshes only (this case is 3D; open the "
                          "output in ParaView instead)")

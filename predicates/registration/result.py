@@ -111,7 +111,7 @@ class IntersectionResult:
         e = self.scale_exponent
         out = {"L": float(np.ldexp(np.float64(self.tolerances.L), e))}
         with np.errstate(all="ignore"):
-            for name, spec in TABLES[self.dim].items():
+            for name, spec in (self.tolerances.table or TABLES[self.dim]).items():
                 out[name] = float(np.ldexp(np.float64(self.tolerances.values[name]),
                                            e * spec.p))
         return out
