@@ -67,3 +67,50 @@ TABLES = {2: TABLE_2D, 3: TABLE_3D}
 #: 7 = σ+'s coefficient, the largest tolerance (section 4.1's text says 8: an erratum).
 L_ROOT = {2: R(1, 2), 3: R(1, 4)}
 L_SIGMA_PLUS = 7
+
+
+_FIELD_NAMES = {"lo": "lo", "t-": "lo", "minus": "lo", "mid": "mid", "t": "mid",
+                "hi": "hi", "t+": "hi", "plus": "hi"}
+
+
+def resolve_table(dim: int, table=None) -> dict:
+    """The table (name → :class:`ToleranceSpec`) to compute tolerances with.
+
+    ``table``: None (Figure 1/5), a full mapping name → ToleranceSpec, or coefficient
+    overrides ``{name: {"lo"|"mid"|"hi": value}}``, optionally keyed by dimension first
+    (``{3: {...}}``, the structure of ``fperr verify --tolerances`` files after
+    :func:`proofs.tables.load_overrides`, and of ``fperr synthesize`` tables). Values are
+    exact: ints, Fractions, sympy numbers or strings such as "269/64" or "2*(7/2)**2".
+    """
+    base = dict(TABLES[dim])
+    if table is None:
+        return base
+    if not isinstance(table, dict):
+        raise TypeError(f"a tolerance table must be a dict, got {type(table).__name__}")
+    keyed = {str(k).lower().removesuffix("d"): v for k, v in table.items()}
+    if keyed and set(keyed) <= {"2", "3"}:
+        if str(dim) not in keyed:
+            raise ValueError(f"the tolerance table has no {dim}D entries "
+                             f"(it has {', '.join(sorted(keyed))}D)")
+        table = keyed[str(dim)]
+    for name, fields in table.items():
+        if name not in base:
+            raise ValueError(f"unknown {dim}D tolerance {name!r}; known: {', '.join(base)}")
+        if isinstance(fields, ToleranceSpec):
+            base[name] = fields
+            continue
+        new = {}
+        for key, v in fields.items():
+            f = _FIELD_NAMES.get(str(key).lower())
+            if f is None:
+                raise ValueError(f"{dim}D {name}: unknown field {key!r} (use lo, mid, hi)")
+            x = sympy.sympify(str(v) if not isinstance(v, sympy.Basic) else v, rational=True)
+            if x.free_symbols or not x.is_positive:
+                raise ValueError(f"{dim}D {name}.{f}: must be a positive constant, got {v!r}")
+            if f == "mid" and not x.is_Rational:
+                raise ValueError(f"{dim}D {name}.mid must be rational, got {v!r}")
+            new[f] = x
+        spec = base[name]
+        base[name] = ToleranceSpec(name, new.get("lo", spec.lo), new.get("mid", spec.mid),
+                                   new.get("hi", spec.hi), spec.q, spec.p, spec.description)
+    return base

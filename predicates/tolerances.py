@@ -30,7 +30,7 @@ import numpy as np
 import fperr
 from fperr import round_fraction, to_fraction
 
-from .tolerance_table import L_ROOT, L_SIGMA_PLUS, TABLES
+from .tolerance_table import L_ROOT, L_SIGMA_PLUS, TABLES, resolve_table
 
 
 @dataclass
@@ -47,6 +47,7 @@ class Tolerances:
     eps: object
     ctx: object
     values: dict = field(default_factory=dict)
+    table: dict | None = None  # name → ToleranceSpec computed with (None: Figure 1/5)
 
     def __getattr__(self, name):
         try:
@@ -60,7 +61,11 @@ class Tolerances:
     def scaled(self, factor) -> "Tolerances":
         """The same tolerances times ``factor`` (0 gives the naive zero-tolerance run)."""
         vals = {k: v * factor for k, v in self.values.items()}
-        return Tolerances(self.dim, self.L, self.eps, self.ctx, vals)
+        return Tolerances(self.dim, self.L, self.eps, self.ctx, vals, self.table)
+
+    def spec(self, name: str):
+        """The :class:`ToleranceSpec` (T−, T, T+ coefficients) of ``name``."""
+        return (self.table or TABLES[self.dim])[name]
 
 
 def round_up_bits(x: Fraction, bits: int) -> Fraction:
@@ -119,14 +124,22 @@ def tolerance_values(dim: int, L_power, ctx, table: dict | None = None) -> dict:
         power = int(spec.q * k)
         C = Fraction(int(spec.mid.p), int(spec.mid.q)) ** k
         x = ctx.eps_multiple(C, power)
+        if ctx.bits is not None and ctx.to_fraction(x) != C * Fraction(1, 2**ctx.bits) ** power:
+            raise ValueError(f"{name}: T's coefficient {spec.mid} is not admissible in "
+                             f"this format: its {k}th power {C} must be a dyadic that fits "
+                             f"{ctx.bits} bits (T is computed as root_{k}(C^{k}·ε^{power}))")
         while k > 1:
             x, k = ctx.sqrt(x), k // 2
         out[name] = ctx.name(name, x * L_power(spec.p))
     return out
 
 
-def tolerances(dim: int, L_a, L_b, dtype=np.float64) -> Tolerances:
+def tolerances(dim: int, L_a, L_b, dtype=np.float64, table=None) -> Tolerances:
     """Tolerances for meshes whose primitives' largest bounding-box edges are L_a, L_b.
+
+    ``table``: other coefficients (e.g. an ``fperr synthesize`` table), see
+    :func:`predicates.tolerance_table.resolve_table`; valid only if ``fperr verify
+    --tolerances`` accepts it.
 
     ``dtype``: numpy.float64 / numpy.float32 (values are numpy scalars of that type),
     ``float`` (Python floats, binary64), ``"mp17"``, or anything :func:`fperr.context`
@@ -147,8 +160,9 @@ def tolerances(dim: int, L_a, L_b, dtype=np.float64) -> Tolerances:
         for p, v in powers.items():
             if ctx.to_fraction(v) != ctx.to_fraction(L) ** p:
                 raise ArithmeticError(f"L^{p} is not exact (overflow or underflow: L = {L})")
-        values = tolerance_values(dim, powers.__getitem__, ctx)
-    return Tolerances(dim, L, ctx.eps, ctx, values)
+        tab = None if table is None else resolve_table(dim, table)
+        values = tolerance_values(dim, powers.__getitem__, ctx, tab)
+    return Tolerances(dim, L, ctx.eps, ctx, values, tab)
 
 
 #: Highest power of L any predicate computes: ‖A−B‖², areas (2D); d̂², γ²·m² (3D).

@@ -123,7 +123,10 @@ def instrument(pred: Predicate, table: dict | None = None) -> Instrumented:
 
 # -- deciding ---------------------------------------------------------------------------
 
-def decide_constraint(c: Constraint, require_paper_argument: bool = False) -> Outcome:
+def decide_constraint(c: Constraint, require_paper_argument: bool = False,
+                      decide=decide) -> Outcome:
+    """Decide one constraint; ``decide`` (default :func:`proofs.decide.decide`) may be a
+    memoised wrapper of it (``fperr synthesize`` re-decides unchanged inequalities)."""
     if c.error:
         return Outcome(c, False, reason=c.error)
     try:

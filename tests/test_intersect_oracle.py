@@ -207,7 +207,7 @@ def thresholds(res, K, which):
         Fraction(float(res._scaled_tolerances.L)).denominator
     eps = mpmath.mpf(2) ** (-(np.finfo(res.dtype).nmant + 1))
     out = {}
-    for name, spec in TABLES[res.dim].items():
+    for name, spec in (res.tolerances.table or TABLES[res.dim]).items():
         coef = (spec.lo, spec.mid, spec.hi)[which]
         c = mpmath.mpf(str(coef.evalf(60)))
         q = mpmath.mpf(spec.q.p) / spec.q.q

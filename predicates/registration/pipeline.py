@@ -82,7 +82,7 @@ CHUNK = 1 << 17
 def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: bool = False,
               chunk: int = CHUNK, refine_cut: bool = True, strict: bool = False,
               memory_limit: int | None = None, partitions=None, scheduler=None,
-              sim_region=None, cut_region=None) -> IntersectionResult:
+              sim_region=None, cut_region=None, tolerances=None) -> IntersectionResult:
     """Register the intersections of a simulation mesh with a cutting mesh.
 
     ``intersect(sim_points, sim_cells, cut_points, cut_cells)``, ``intersect(sim_mesh,
@@ -108,13 +108,15 @@ def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: b
     ("threads", "processes", "synchronous", a ``dask.distributed.Client`` or an
     address): run on Dask in spatial partitions, with the identical result
     (:mod:`predicates.registration.partition_run`; needs ``fperr[dask]``); the default
-    is serial, without Dask. Returns an
+    is serial, without Dask. ``tolerances``: a tolerance table (e.g. from ``fperr
+    synthesize``; see :func:`predicates.tolerance_table.resolve_table`) instead of
+    Figure 1/5 — sound only if ``fperr verify --tolerances`` accepts it. Returns an
     :class:`~predicates.registration.result.IntersectionResult`. See the module docstring.
     """
     t0 = time.perf_counter()
     timings = {}
     plan = _plan(args, dtype, tolerance_scale, progress, chunk, refine_cut, timings,
-                 sim_region, cut_region)
+                 sim_region, cut_region, tolerances)
     timings["setup"] = time.perf_counter() - t0
     _check(plan.report, strict, memory_limit, plan.dim)
     if partitions is None and scheduler is None:
@@ -156,7 +158,7 @@ class Plan(NamedTuple):
 
 
 def _plan(args, dtype, tolerance_scale, progress, chunk, refine_cut, timings, sim_region,
-          cut_region) -> Plan:
+          cut_region, tolerances=None) -> Plan:
     """Validation, refinement, L over the cells that can meet, exact scaling,
     tolerances, reach and the resolution report: the global part of the run."""
     dtype, ts = validate_options(dtype, tolerance_scale, progress, chunk)
@@ -176,7 +178,7 @@ def _plan(args, dtype, tolerance_scale, progress, chunk, refine_cut, timings, si
     cut_box = cell_boxes(cut.points, cut.cells)
 
     # L over the cells that can meet, then the exact power-of-two scaling from it
-    sc_ = consistent_scale(dim, sim_box, cut_box, dtype)
+    sc_ = consistent_scale(dim, sim_box, cut_box, dtype, table=tolerances)
     P_sim = scale_points(sim.points, sc_.e, "simulation")
     P_cut = scale_points(cut.points, sc_.e, "cutting")
     tol_run = sc_.tol if ts == 1 else sc_.tol.scaled(dtype.type(ts))

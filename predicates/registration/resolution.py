@@ -80,16 +80,26 @@ def _ldexp_up(x: float, e: int) -> float:
     return y if math.ldexp(y, e) == x else float(np.nextafter(y, np.inf))
 
 
-def scale_for(dim: int, L_a: float, L_b: float, dtype) -> Scale:
+def scale_for(dim: int, L_a: float, L_b: float, dtype, table=None) -> Scale:
     """Tolerances (Algorithms 1/6) for L_a, L_b in input units, computed in the exactly
-    scaled coordinates; reach per kind as in :mod:`predicates.catalogue`."""
+    scaled coordinates; reach per kind as in :mod:`predicates.catalogue` (a ``table``
+    whose T+/T exceeds the paper's widens the reach by the same factor)."""
     e = math.frexp(L_a + L_b)[1]
-    tol = compute_tolerances(dim, _ldexp_up(L_a, e), _ldexp_up(L_b, e), dtype=dtype)
+    tol = compute_tolerances(dim, _ldexp_up(L_a, e), _ldexp_up(L_b, e), dtype=dtype,
+                             table=table)
     eps = float(np.finfo(dtype).eps)
-    reach = {k.name: float(tol.values[k.reach[0]]) * k.reach[1] * (1 + 16 * eps)
-             for k in catalogue_kinds(dim)}
+    reach = {k.name: float(tol.values[k.reach[0]]) * k.reach[1] * _widen(tol, k.reach[0])
+             * (1 + 16 * eps) for k in catalogue_kinds(dim)}
     pad = math.ldexp(max(reach.values()), e)
     return Scale(L_a, L_b, e, tol, reach, pad)
+
+
+def _widen(tol, name: str) -> float:
+    """max(1, (T+/T of the table)/(T+/T of the paper)), rounded up."""
+    from ..tolerance_table import TABLES
+
+    a, b = tol.spec(name), TABLES[tol.dim][name]
+    return max(1.0, float(a.hi / a.mid * b.mid / b.hi) * (1 + 1e-12))
 
 
 def _canonical_near(lo_a, hi_a, lo_b, hi_b, pad):
@@ -116,19 +126,20 @@ def near_cells(sim_box, cut_box, pad, masks):
     return out_s, out_c
 
 
-def consistent_scale(dim: int, sim_box, cut_box, dtype, max_rounds: int = MAX_ROUNDS) -> Scale:
+def consistent_scale(dim: int, sim_box, cut_box, dtype, max_rounds: int = MAX_ROUNDS,
+                     table=None) -> Scale:
     """L from the cells that can meet (module docstring): broad phase -> L -> σ+ until
     the pad no longer shrinks. ``sim_box``, ``cut_box``: (lo, hi) per cell."""
     masks = (np.ones(len(sim_box[0]), bool), np.ones(len(cut_box[0]), bool))
     L_a, L_b = _max_edge(*sim_box, masks[0]), _max_edge(*cut_box, masks[1])
-    cur = scale_for(dim, L_a, L_b, dtype)
+    cur = scale_for(dim, L_a, L_b, dtype, table)
     cur.masks, history = masks, [L_a + L_b]
     for _ in range(max_rounds):
         nxt_masks = near_cells(sim_box, cut_box, cur.pad, cur.masks)
         La, Lb = _max_edge(*sim_box, nxt_masks[0]), _max_edge(*cut_box, nxt_masks[1])
         if La + Lb == 0:  # nothing can meet: keep the last sound scale
             break
-        nxt = scale_for(dim, La, Lb, dtype)
+        nxt = scale_for(dim, La, Lb, dtype, table)
         if not nxt.pad <= cur.pad:  # L_k bounds pairs within cur.pad only
             break
         nxt.masks = nxt_masks
@@ -297,11 +308,10 @@ class Resolution:
 
 def t_plus(dim: int, scale: Scale) -> dict:
     """T+ of the distance tolerances (power 1 of L) in input units."""
-    from ..tolerance_table import TABLES
-
     L = math.ldexp(float(scale.tol.L), scale.e)
     eps = float(scale.tol.eps)
-    return {n: float(s.hi) * eps ** float(s.q) * L for n, s in TABLES[dim].items() if s.p == 1
+    specs = {n: scale.tol.spec(n) for n in scale.tol.values}
+    return {n: float(s.hi) * eps ** float(s.q) * L for n, s in specs.items() if s.p == 1
             and n != "sigma_hat"}
 
 

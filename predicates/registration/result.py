@@ -83,11 +83,12 @@ def _input_units(tol, e: int, dim: int):
     from ..tolerance_table import TABLES
     from ..tolerances import Tolerances
 
+    table = getattr(tol, "table", None)
     with np.errstate(all="ignore"):
         vals = {name: float(np.ldexp(np.float64(tol.values[name]), e * spec.p))
-                for name, spec in TABLES[dim].items() if name in tol.values}
+                for name, spec in (table or TABLES[dim]).items() if name in tol.values}
         L = float(np.ldexp(np.float64(tol.L), e))
-    return Tolerances(tol.dim, L, tol.eps, tol.ctx, vals)
+    return Tolerances(tol.dim, L, tol.eps, tol.ctx, vals, table)
 
 
 @dataclass

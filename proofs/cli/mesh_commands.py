@@ -60,6 +60,9 @@ def _add_intersect(sub) -> None:
                         "result; needs pip install 'fperr[dask]')")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="run in partitions on a running Dask cluster (e.g. tcp://host:8786)")
+    p.add_argument("--tolerances", metavar="FILE",
+                   help="tolerance table (TOML/JSON as for fperr verify --tolerances, e.g. "
+                        "from fperr synthesize) instead of the paper's Figure 1/5")
     p.set_defaults(_run=_run_intersect)
 
 
@@ -83,6 +86,13 @@ def _run_intersect(args) -> int:
     from fperr.warnings import ResolutionError, ResolutionWarning
     from predicates.registration import intersect_files
 
+    table = None
+    if args.tolerances:
+        from proofs.tables import ToleranceFileError, load_overrides
+        try:
+            table = load_overrides(args.tolerances)
+        except ToleranceFileError as e:
+            return _error("intersect", e)
     try:
         dask_run = args.workers is not None or args.scheduler is not None
         with _dask_client(args) as client, warnings.catch_warnings(record=True) as caught:
@@ -92,7 +102,8 @@ def _run_intersect(args) -> int:
                                   naive=args.naive, progress=not args.quiet and not dask_run,
                                   strict=args.strict, refine_cut=not args.no_refine_cut,
                                   sim_region=args.sim_region, cut_region=args.cut_region,
-                                  partitions="auto" if dask_run else None, scheduler=client)
+                                  partitions="auto" if dask_run else None, scheduler=client,
+                                  tolerances=table)
     except ResolutionError as e:  # valid input this precision cannot resolve: exit 1
         print(f"fperr intersect: error: {e}", file=sys.stderr)
         return 1

@@ -8,6 +8,7 @@ import sys
 
 from .common import RAW as _RAW
 from .common import _output_file
+from .common import error as _error
 
 # -- tables ----------------------------------------------------------------------------
 def _add_tables(sub) -> None:
@@ -232,6 +233,57 @@ def _run_audit(args: argparse.Namespace) -> int:
     return 1 if s["violation_count"] else 0
 
 
+def _add_synthesize(parser: argparse.ArgumentParser) -> None:
+    """fperr synthesize: the smallest tolerance coefficients the proofs accept.
+
+    fperr synthesize --dim 2 -o synth_2d.toml
+    fperr synthesize --dim 3 --check proofs/data/synth_3d.toml
+
+Every coefficient of T−, T, T+ is bisected (to within 1 %) against the decision
+procedure of fperr verify, bottom-up along the declared facts (proofs.synthesize);
+the table written is accepted by fperr verify --tolerances. Prints, per tolerance,
+the paper's and the synthesized coefficients and their ratios. --check FILE: exit 1
+when FILE differs from a fresh synthesis (stale). Exit status 2 for bad arguments.
+"""
+    parser.add_argument("--dim", type=int, choices=(2, 3), action="append",
+                        help="dimension (default: both)")
+    parser.add_argument("-o", "--output", metavar="FILE", type=_output_file,
+                        help="write the table (TOML) for fperr verify --tolerances")
+    parser.add_argument("--check", metavar="FILE",
+                        help="exit 1 when FILE is not what a fresh synthesis writes")
+
+
+def _run_synthesize(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from proofs.synthesize import ratio_table, synthesize, to_toml, write
+    results = []
+    for dim in sorted(set(args.dim or [2, 3])):
+        r = synthesize(dim, progress=lambda n, f, v: print(f"  {dim}D {n}.{f} = {v}",
+                                                           file=sys.stderr))
+        print(ratio_table(r))
+        print(f"{dim}D: {r.probes} probes, {r.seconds:.1f} s; T+ set by a fact equality: "
+              f"{', '.join(r.equalities) or 'none'}; all {len(r.report.outcomes)} "
+              "constraints hold")
+        results.append(r)
+    if args.output:
+        write(args.output, results)
+        print(f"wrote {args.output}")
+    if args.check:
+        from proofs.synthesize import table_section
+        try:
+            old = Path(args.check).read_text()
+        except OSError as e:
+            return _error("synthesize", e)
+        if table_section(old) != table_section(to_toml(results)):
+            print(f"{args.check} is stale: regenerate with fperr synthesize "
+                  f"--dim {','.join(str(r.dim) for r in results)} -o {args.check}",
+                  file=sys.stderr)
+            return 1
+        print(f"{args.check} is up to date")
+    return 0
+
+
 def report_main(argv: list[str] | None = None) -> int:
     """python -m proofs.report: write docs/error-bounds.md, or check it is current."""
     from proofs import report
@@ -261,7 +313,9 @@ def _add_proofs_commands(sub) -> None:
             ("verify", "check every tolerance constraint for all eps <= 1e-5", _add_verify,
              _run_verify),
             ("audit", "shadow execution: measured error against derived bounds", _add_audit,
-             _run_audit)):
+             _run_audit),
+            ("synthesize", "the smallest tolerance coefficients the proofs accept",
+             _add_synthesize, _run_synthesize)):
         p = sub.add_parser(name, help=help_, description=add.__doc__, formatter_class=_RAW)
         add(p)
         p.set_defaults(_run=run, _parser=p)
