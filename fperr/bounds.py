@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import sympy
 
+from .notation import lpow
 from .symbols import EPS_MAX, L, eps
 from .tracked import InvalidBound, Tracked
 
@@ -44,12 +45,8 @@ class Bounds:
         if self.R_int is not None:
             parts.append(f"R ≤ {self.R_int}ε")
         if self.E_int is not None:
-            parts.append(f"E ≤ {self.E_int}ε{_lpow(self.power)}")
+            parts.append(f"E ≤ {self.E_int}ε{lpow(self.power, superscript=False)}")
         return ", ".join(parts) or f"E ≤ {self.E}"
-
-
-def _lpow(p) -> str:
-    return "" if p == 0 else ("L" if p == 1 else f"L^{p}")
 
 
 def paper_integer(coefficient: sympy.Expr, b_term: sympy.Expr = sympy.Integer(0)) -> int | None:

@@ -83,18 +83,16 @@ def interval(expr: sympy.Expr, env: dict | None = None, prec: int = _PREC):
             e = {}
             for k, v in (env or {}).items():
                 lo, hi = (v, v) if not isinstance(v, tuple) else v
-                e[k] = iv.mpf([_mpf_down(lo, prec), _mpf_up(hi, prec)])
+                e[k] = iv.mpf([_enclose(lo).a, _enclose(hi).b])
             return _iv(expr, e)
         finally:
             iv.prec = old
 
 
-def _mpf_down(q: Fraction, prec: int):
+def _enclose(q: Fraction):
+    """An interval holding the rational q (iv division rounds outward)."""
     return iv.mpf(int(q.numerator)) / iv.mpf(int(q.denominator)) if q.denominator != 1 \
         else iv.mpf(int(q.numerator))
-
-
-_mpf_up = _mpf_down  # iv division already yields an enclosing interval
 
 
 def sign(expr: sympy.Expr, env: dict | None = None) -> int:
