@@ -124,3 +124,33 @@ def test_boxes_of_equals_gathered_min_max(dim, k):
     P32 = rng.normal(size=(500, dim)).astype(np.float32)
     lo32, _ = boxes_of(P32, rows)
     assert lo32.dtype == np.float64 and np.array_equal(lo32, P32[rows].min(axis=1))
+
+
+def test_near_flags_do_not_depend_on_the_order_of_the_boxes():
+    """The grid size is a mean of the extents, summed in sorted order: permuting the
+    boxes permutes the flags (resolution.consistent_scale relies on it for L)."""
+    rng = np.random.default_rng(7)
+    for _ in range(20):
+        n_a, n_b = rng.integers(50, 400, size=2)
+        lo_a = rng.random((n_a, 3)) * 10
+        hi_a = lo_a + rng.random((n_a, 3)) ** 3 * rng.choice([0.01, 0.1, 3.0])
+        lo_b = rng.random((n_b, 3)) * 10
+        hi_b = lo_b + rng.random((n_b, 3)) ** 3
+        pad = float(rng.choice([0.0, 1e-3, 0.3]))
+        fa, fb = near_flags(lo_a, hi_a, lo_b, hi_b, pad)
+        pa, pb = rng.permutation(n_a), rng.permutation(n_b)
+        ga, gb = near_flags(lo_a[pa], hi_a[pa], lo_b[pb], hi_b[pb], pad)
+        assert np.array_equal(ga, fa[pa]) and np.array_equal(gb, fb[pb])
+
+
+def test_the_grid_size_is_the_same_for_any_order_of_the_boxes():
+    from predicates.registration.broadphase import _mean_extent
+    rng = np.random.default_rng(3)
+    # one huge extent among many small ones: a sum in another order rounds differently
+    ext = np.concatenate([[2.0 ** 53], np.ones(4999), rng.random(5000)])
+    lo = np.zeros((len(ext), 3))
+    hi = np.repeat(ext[:, None], 3, axis=1)
+    h = _mean_extent(lo, hi)
+    for _ in range(5):
+        p = rng.permutation(len(lo))
+        assert _mean_extent(lo[p], hi[p]) == h  # bit for bit

@@ -155,10 +155,13 @@ def _colmax(x):
 
 
 def _mean_extent(lo, hi, cap=np.inf):
-    """The largest per-axis mean box extent (extents capped at ``cap``): a cell size."""
+    """The largest per-axis mean box extent (extents capped at ``cap``): a cell size.
+    The extents are summed in sorted order, so the grid, and with it every flag and
+    pair, does not depend on the order of the boxes (e.g. of the cells in the file)."""
     if len(lo) == 0:
         return 0.0
-    return max(float(np.minimum(hi[:, ax] - lo[:, ax], cap).mean()) for ax in range(lo.shape[1]))
+    return max(float(np.sort(np.minimum(hi[:, ax] - lo[:, ax], cap)).mean())
+               for ax in range(lo.shape[1]))
 
 
 def _fit(lo_a, hi_a, lo_bx, hi_bx, origin, top, h, budget):

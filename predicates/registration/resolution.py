@@ -102,25 +102,16 @@ def _widen(tol, name: str) -> float:
     return max(1.0, float(a.hi / a.mid * b.mid / b.hi) * (1 + 1e-12))
 
 
-def _canonical_near(lo_a, hi_a, lo_b, hi_b, pad):
-    """near_flags on boxes in a canonical (sorted) order, so that the result does not
-    depend on the cells' order (the grid's size is a mean, whose rounding would)."""
-    oa = np.lexsort(np.concatenate([lo_a, hi_a], axis=1).T[::-1])
-    ob = np.lexsort(np.concatenate([lo_b, hi_b], axis=1).T[::-1])
-    fa, fb = near_flags(lo_a[oa], hi_a[oa], lo_b[ob], hi_b[ob], pad)
-    na, nb = np.empty_like(fa), np.empty_like(fb)
-    na[oa], nb[ob] = fa, fb
-    return na, nb
-
-
 def near_cells(sim_box, cut_box, pad, masks):
     """Masks of the cells (among ``masks``) sharing a broad-phase grid cell with a cell
     of the other mesh enlarged by ``pad``: a superset of the cells within ``pad``."""
     ms, mc = masks
     out_s, out_c = np.zeros_like(ms), np.zeros_like(mc)
     if ms.any() and mc.any():
-        ns, nc = _canonical_near(sim_box[0][ms], sim_box[1][ms], cut_box[0][mc],
-                                 cut_box[1][mc], pad)
+        # near_flags does not depend on the cells' order (its grid size is a mean
+        # summed in sorted order), so neither does L
+        ns, nc = near_flags(sim_box[0][ms], sim_box[1][ms], cut_box[0][mc], cut_box[1][mc],
+                            pad)
         out_s[np.flatnonzero(ms)[ns]] = True
         out_c[np.flatnonzero(mc)[nc]] = True
     return out_s, out_c
