@@ -12,7 +12,8 @@ download): what ``fperr demo`` runs.
 
 Prints the summary tables and writes into the output directory: demo_2d.png (the 2D
 registration), demo_degenerate_2d.png (a degenerate 2D case, robust beside naive, the
-naive run's inconsistencies marked), demo_3d.png (the cut tetrahedra), demo_2d.vtu,
+naive run's inconsistencies marked), demo_3d.png (the cut tetrahedra), demo_split_3d.png (the virtual-node split of a cube
+by a sphere and by a plane through grid vertices), demo_2d.vtu,
 demo_3d.vtu (intersection points with the kind legend, for ParaView), the simulation
 meshes with cut-cell data (demo_2d_sim.vtu, demo_3d_sim.vtu) and the cutting meshes
 (demo_2d_cut.vtu, demo_3d_cut.vtu).
@@ -38,7 +39,8 @@ __all__ = ["DEGENERATE_MAX_N", "FILES", "ROTATIONS", "degenerate_cases", "demo",
 #: the largest resolution of the degenerate-case table
 DEGENERATE_MAX_N = 10
 #: the files the demo writes
-FILES = ("demo_2d.png", "demo_degenerate_2d.png", "demo_3d.png", "demo_2d.vtu",
+FILES = ("demo_2d.png", "demo_degenerate_2d.png", "demo_3d.png", "demo_split_3d.png",
+         "demo_2d.vtu",
          "demo_3d.vtu", "demo_2d_sim.vtu", "demo_2d_cut.vtu", "demo_3d_sim.vtu",
          "demo_3d_cut.vtu")
 
@@ -97,12 +99,13 @@ def demo(out: str | os.PathLike, *, n: int = 16, dtype: str = "float64",
     from tqdm import tqdm
 
     cases = degenerate_cases(min(int(n), DEGENERATE_MAX_N))
-    bar = tqdm(total=3 + sum(len(v) for _, v, _ in cases), disable=not progress,
+    bar = tqdm(total=4 + sum(len(v) for _, v, _ in cases), disable=not progress,
                desc="fperr demo", unit="step", leave=False, mininterval=0.5)
     with bar:
         _demo_2d(out, int(n), dtype, bar)
         _demo_3d(out, max(2, int(n) // 2), dtype, bar)
         _degenerate_picture(out, dtype, bar)
+        _split_picture(out, bar)
         _degenerate_table(cases, dtype, bar)
     print(f"\nwrote {', '.join(FILES)} into {out}/")
 
@@ -127,10 +130,9 @@ def sphere_case(n3: int) -> dict:
 
 def _demo_3d(out, n3, dtype, bar):
     ex3 = sphere_case(n3)
-    # the icosphere is generated no coarser than the grid, so the refinement step has
-    # nothing to do (0 rounds, same pairs: tests/test_cli_options.py) but its check costs
-    # most of the demo's time at n = 64: skip it here
-    res3 = intersect(*ex3["sim"], *ex3["cut"], dtype=dtype, refine_cut=False)
+    # the icosphere is generated no coarser than the grid: the refinement has nothing to
+    # do (0 rounds, same pairs: tests), and its check is one pass over the edges
+    res3 = intersect(*ex3["sim"], *ex3["cut"], dtype=dtype)
     bar.write(f"== 3D: {n3}³ cubes × 6 tetrahedra cut by an icosphere "
               f"({len(ex3['cut'][1])} triangles) ==\n{res3}\n", file=sys.stdout)
     plot_3d_cells(res3, os.path.join(out, "demo_3d.png"),
@@ -157,6 +159,18 @@ def _degenerate_picture(out, dtype, bar):
     plot_robust_naive(r, z, inside, os.path.join(out, "demo_degenerate_2d.png"),
                       title="zig-zag cut through edge midpoints of an 8×8 grid, rotated "
                             f"(rotation {seed}): on the mesh's edges only to rounding")
+    bar.update()
+
+
+def _split_picture(out, bar):
+    """The virtual-node split (docs/split.md): a cube of 8³ × 6 tetrahedra cut by an
+    icosphere and by the plane z = 1/2 through grid vertices, pieces exploded."""
+    from .split_plot import demo_figure
+
+    s_sphere, s_plane = demo_figure(os.path.join(out, "demo_split_3d.png"), n=8)
+    bar.write(f"== split: cube cut by a sphere -> {s_sphere.n_pieces} pieces; by the plane "
+              f"z = 1/2 through grid vertices -> {s_plane.n_pieces} pieces ==\n",
+              file=sys.stdout)
     bar.update()
 
 

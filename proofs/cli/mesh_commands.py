@@ -192,9 +192,11 @@ def _add_demo(sub) -> None:
             "3. degenerate cases (cuts on mesh edges, through vertices, on faces, also\n"
             "   rotated), the robust registration against the naive zero-tolerance\n"
             "   baseline, with their inconsistency counts.\n"
-            "Prints the tables and writes demo_2d.png, demo_2d.vtu, demo_3d.vtu and the\n"
-            "meshes (demo_2d_sim.vtu, demo_2d_cut.vtu, demo_3d_sim.vtu, demo_3d_cut.vtu)\n"
-            "into --out."))
+            "Prints the tables and writes into --out the pictures demo_2d.png,\n"
+            "demo_degenerate_2d.png (robust beside naive), demo_3d.png (cut tetrahedra),\n"
+            "demo_split_3d.png (the virtual-node split of a cube by a sphere and by a\n"
+            "plane through grid vertices), the results demo_2d.vtu, demo_3d.vtu and the\n"
+            "meshes (demo_2d_sim.vtu, demo_2d_cut.vtu, demo_3d_sim.vtu, demo_3d_cut.vtu)."))
     p.add_argument("--out", default="fperr-demo", metavar="DIR",
                    help="output directory (default ./fperr-demo, created if missing)")
     p.add_argument("--n", type=_at_least_2, default=16, metavar="N",
