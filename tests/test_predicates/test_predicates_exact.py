@@ -58,86 +58,15 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-import fperr
 import predicates
-from predicates import catalogue
-from geometry_exact import (DataSource, RngSource, Units, construct,
-                            exact_eval, frac, max_difference, place, weight_error_bounds)
+from geometry_exact import (DataSource, RngSource, exact_eval, frac, max_difference,
+                            weight_error_bounds)
+from shared_cases import FORMATS, OFFSETS, PREDICATES, SCALES, Format, build
 
 LONG = os.environ.get("FPERR_LONG") == "1"
-FIXTURES = pathlib.Path(__file__).parent / "fixtures"
+FIXTURES = pathlib.Path(__file__).resolve().parents[1] / "fixtures"
 
-PREDICATES = [p for d in (2, 3) for p in predicates.ALL[d]]
 PRED_IDS = [f"{p.dim}d-{p.name}" for p in PREDICATES]
-
-
-# ---------------------------------------------------------------------------------
-# number systems under test
-
-
-class Format:
-    """One number system: how to get its tolerances and run a predicate in it."""
-
-    def __init__(self, name, bits, tol_dtype, kind, np_dtype=None):
-        self.name, self.bits, self.tol_dtype, self.kind = name, bits, tol_dtype, kind
-        self.np_dtype = np_dtype
-        self.eps = Fraction(1, 2**bits)
-
-    def __repr__(self):
-        return self.name
-
-    def tolerances(self, dim, L_a, L_b):
-        return predicates.tolerances(dim, L_a, L_b, dtype=self.tol_dtype)
-
-    def tol_call(self, dim, L_a, L_b) -> str:
-        dt = {"f64": "float", "np64": "np.float64", "np32": "np.float32",
-              "mp17": "'mp17'"}[self.name]
-        return f"predicates.tolerances({dim}, {L_a!r}, {L_b!r}, dtype={dt})"
-
-    def run(self, pred, configs, tol):
-        """(hits, weights) of ``pred`` on exact configurations; weights as Fractions."""
-        if not configs:
-            return [], []
-        if self.kind == "batch":
-            arrs = [np.array([[float(c) for c in cfg[i]] for cfg in configs], dtype=self.np_dtype)
-                    for i in range(len(configs[0]))]
-            hit, w = pred(*arrs, tol)
-            assert hit.dtype == bool and hit.shape == (len(configs),)
-            assert w.dtype == self.np_dtype and w.shape == (len(configs), len(pred.weight_names))
-            return [bool(h) for h in hit], [tuple(frac(x) for x in row) for row in w]
-        hits, weights = [], []
-        ctx = fperr.MpContext(17) if self.kind == "mp" else None
-        for cfg in configs:
-            pts = [tuple(float(c) for c in p) for p in cfg]
-            h, w = pred(*pts, tol, ctx=ctx) if ctx else pred(*pts, tol)
-            assert isinstance(h, bool) and len(w) == len(pred.weight_names)
-            hits.append(h)
-            weights.append(tuple(frac(x) for x in w))
-        return hits, weights
-
-    def degenerate(self, pred, configs, tol):
-        """For each configuration: would a lower-level pair be registered?"""
-        out = [False] * len(configs)
-        for lower, idx in catalogue.sub_pairs(pred):
-            todo = [k for k in range(len(configs)) if not out[k]]
-            hits, _ = self.run(lower, [tuple(configs[k][i] for i in idx)
-                                                     for k in todo], tol)
-            for k, h in zip(todo, hits):
-                out[k] = out[k] or h
-        return out
-
-
-FORMATS = {
-    "f64": Format("f64", 53, float, "scalar"),
-    "np64": Format("np64", 53, np.float64, "batch", np.float64),
-    "np32": Format("np32", 24, np.float32, "batch", np.float32),
-    "mp17": Format("mp17", 17, "mp17", "mp"),
-}
-
-#: (L_a, L_b) choices: exact in every format (short dyadics).
-SCALES = [(1.0, 1.0), (0.75, 0.0), (3.0, 0.25), (0.00146484375, 0.0), (96.0, 32.0)]
-#: where the configuration's box starts, in units of L (exact: L has a short significand)
-OFFSETS = [0.0, -0.5, 3.0, 64.0]
 
 
 # ---------------------------------------------------------------------------------
@@ -191,20 +120,6 @@ def run_configs(pred, fmt: Format, configs, tol, scale, stats: Counter):
             stats["degenerate"] += 1
             continue
         check_case(pred, fmt, cfg, tol, h, w, scale, stats)
-
-
-def build(pred, fmt: Format, src, tol, offset: float, attempts: int = 8):
-    """One constructed configuration, exact in ``fmt`` (None when every attempt left the
-    box)."""
-    u = Units.of(tol)
-    L = frac(tol.L)
-    for _ in range(attempts):
-        with np.errstate(all="ignore"):
-            pts = construct(pred.name, src, u)
-        cfg = place(pts, Fraction(offset) * L, L, fmt.bits)
-        if cfg is not None:
-            return cfg
-    return None
 
 
 # ---------------------------------------------------------------------------------

@@ -1,7 +1,7 @@
 """Exact consistency of the registration (paper section 3, eq. (1)) on every example and
 on randomly rotated, rescaled, translated and jittered copies: every pair without a
 registered sub-pair agrees with exact arithmetic through the T−/T+ brackets, at every
-level (see tests/test_intersect_oracle.py for the oracle). FPERR_LONG=1 runs more and
+level (see tests/support/shared_cases.py for the oracle). FPERR_LONG=1 runs more and
 larger cases."""
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import pytest
 
 import predicates
 from predicates.registration.examples import example
-from test_intersect_oracle import check_exact
+from shared_cases import check_exact, transformed
 
 LONG = os.environ.get("FPERR_LONG") == "1"
 
@@ -40,32 +40,6 @@ def test_examples_agree_with_exact_arithmetic(case, dtype):
     res = predicates.intersect(*ex["sim"], *ex["cut"], dtype=dtype)
     stats = check_exact(res)
     assert stats["registered"] == res.total
-
-
-def transformed(ex, rng, jitter=(0.1, 10.0), frac=0.5):
-    """A random rotation, a non-power-of-two scale and a translation (the same map for
-    both meshes, so coincident vertices stay coincident), then a jitter of
-    jitter[0]..jitter[1] tolerances τ on a random fraction of each mesh's vertices."""
-    dim = ex["dim"]
-    Q, _ = np.linalg.qr(rng.normal(size=(dim, dim)))
-    scale = float(np.exp(rng.uniform(-8, 8)))
-    shift = rng.normal(size=dim) * scale * rng.choice([0.0, 1.0, 100.0])
-
-    def apply(p):
-        return (p @ Q.T) * scale + shift
-
-    sp, cp = apply(ex["sim"][0]), apply(ex["cut"][0])
-    tau = predicates.intersect(sp, ex["sim"][1], cp, ex["cut"][1]) \
-        .tolerances_input_units()["tau"]
-    out = []
-    for p in (sp, cp):
-        p = p.copy()
-        pick = rng.random(len(p)) < frac
-        d = rng.normal(size=(pick.sum(), dim))
-        d /= np.linalg.norm(d, axis=1)[:, None]
-        p[pick] += d * (tau * rng.uniform(*jitter, size=pick.sum()))[:, None]
-        out.append(p)
-    return out[0], ex["sim"][1], out[1], ex["cut"][1]
 
 
 SEEDS = range(12 if LONG else 3)

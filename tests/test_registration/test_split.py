@@ -22,7 +22,7 @@ import predicates
 from predicates.registration.examples import circle_polygon, cube_grid, grid_plane, icosphere, square_grid
 from predicates.registration.split_rules import components
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 # -- exact ground truth ---------------------------------------------------------------------

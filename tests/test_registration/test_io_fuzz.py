@@ -20,7 +20,7 @@ import pytest
 
 from predicates.registration.examples import example
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
+ROOT = pathlib.Path(__file__).resolve().parents[2]
 ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
 FORMATS = {".off": {}, ".ply": {}, ".vtu": {}, ".msh": {"file_format": "gmsh"},
            ".stl": {}, ".obj": {}}

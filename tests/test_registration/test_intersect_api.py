@@ -9,8 +9,7 @@ import predicates
 from predicates.registration.broadphase import box_pairs, box_pairs_bruteforce
 from predicates.catalogue import kinds
 from predicates.registration.examples import example, cube_grid, grid_plane, square_grid
-from test_intersect_exact import transformed
-from test_intersect_oracle import check_exact
+from shared_cases import check_exact, transformed
 
 
 def run(ex, **kw):

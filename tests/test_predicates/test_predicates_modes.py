@@ -37,7 +37,7 @@ from predicates.core import Predicate
 
 PREDICATES = [p for d in (2, 3) for p in predicates.ALL[d]]
 PRED_IDS = [f"{p.dim}d-{p.name}" for p in PREDICATES]
-DOC = pathlib.Path(__file__).resolve().parents[1] / "docs" / "custom-predicates.md"
+DOC = pathlib.Path(__file__).resolve().parents[2] / "docs" / "custom-predicates.md"
 
 SCALES = [(1.0, 1.0), (0.75, 0.0), (3.0, 0.25), (96.0, 32.0)]
 

@@ -23,7 +23,7 @@ from hypothesis import strategies as st
 from proofs import check_certificate as C
 from proofs.verify import constraints
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _run(*args):

@@ -1,4 +1,14 @@
-"""Exact-arithmetic oracle for :func:`predicates.intersect`, and its own sanity tests.
+"""Definitions shared by several test modules (so that no test module imports another).
+
+* :func:`check_exact` and its helpers: the exact-arithmetic oracle for
+  :func:`predicates.intersect` (its own sanity tests: test_registration/test_intersect_oracle.py);
+* :func:`transformed` and :func:`plane_case`: registration inputs (randomly moved copies
+  of the examples; a Kuhn grid cut by a rotated plane);
+* :class:`Format`, :data:`FORMATS`, :data:`SCALES`, :data:`OFFSETS`, :data:`PREDICATES`,
+  :func:`build`: the number systems and constructions of
+  test_predicates/test_predicates_exact.py, also used by tests/fixtures/harvest.py.
+
+The oracle:
 
 :func:`check_exact` re-derives, independently of the implementation, every primitive of
 both meshes and every pair of every kind whose boxes are within 2σ+ (a plain numpy
@@ -32,11 +42,13 @@ from fractions import Fraction
 
 import mpmath
 import numpy as np
-import pytest
 
-from predicates.tolerance_table import TABLES
-from predicates.registration.examples import example
+import fperr
 import predicates
+from predicates import catalogue
+from predicates.registration.examples import cube_grid
+from predicates.tolerance_table import TABLES
+from geometry_exact import Units, construct, frac, place
 
 KIND_DIMS = {2: {"vertex_vertex": (0, 0), "vertex_edge": (0, 1), "edge_vertex": (1, 0),
                  "edge_edge": (1, 1), "triangle_vertex": (2, 0)},
@@ -304,27 +316,132 @@ def check_weights(res, sigma_plus_scaled):
     return bad
 
 
-# -- sanity tests of the oracle itself -------------------------------------------------------------
-def test_oracle_conditions_on_textbook_cases():
-    T = {"sigma": 1, "tau": 1, "gamma": 1, "delta": 1}
-    assert vv((0, 0), (1, 0), T) and not vv((0, 0), (2, 0), T)
-    assert ev((0, 0), (10, 0), (5, 1), T) and not ev((0, 0), (10, 0), (11, 0), T)
-    assert ee2((0, 0), (2, 2), (0, 2), (2, 0), T) and not ee2((0, 0), (2, 2), (3, 3), (4, 0), T)
-    assert tv2((0, 0), (4, 0), (0, 4), (1, 1), T) and not tv2((0, 0), (4, 0), (0, 4), (2, 2), T)
-    assert te((0, 0, 0), (4, 0, 0), (0, 4, 0), (1, 1, -1), (1, 1, 1), T)
-    assert not te((0, 0, 0), (4, 0, 0), (0, 4, 0), (1, 1, 0), (1, 1, 1), T)
-    assert tetv((0, 0, 0), (4, 0, 0), (0, 4, 0), (0, 0, 4), (1, 1, 1), T)
-    assert ee3((0, 0, 0), (4, 0, 0), (2, -2, 1), (2, 2, 1), T)
-    assert not ee3((0, 0, 0), (4, 0, 0), (2, -2, 2), (2, 2, 2), T)
-    assert tv3((0, 0, 0), (4, 0, 0), (0, 4, 0), (1, 1, 1), T)
-    assert not tv3((0, 0, 0), (4, 0, 0), (0, 4, 0), (1, 1, 2), T)
+# -- registration inputs ------------------------------------------------------------------------
+def transformed(ex, rng, jitter=(0.1, 10.0), frac=0.5):
+    """A random rotation, a non-power-of-two scale and a translation (the same map for
+    both meshes, so coincident vertices stay coincident), then a jitter of
+    jitter[0]..jitter[1] tolerances τ on a random fraction of each mesh's vertices."""
+    dim = ex["dim"]
+    Q, _ = np.linalg.qr(rng.normal(size=(dim, dim)))
+    scale = float(np.exp(rng.uniform(-8, 8)))
+    shift = rng.normal(size=dim) * scale * rng.choice([0.0, 1.0, 100.0])
+
+    def apply(p):
+        return (p @ Q.T) * scale + shift
+
+    sp, cp = apply(ex["sim"][0]), apply(ex["cut"][0])
+    tau = predicates.intersect(sp, ex["sim"][1], cp, ex["cut"][1]) \
+        .tolerances_input_units()["tau"]
+    out = []
+    for p in (sp, cp):
+        p = p.copy()
+        pick = rng.random(len(p)) < frac
+        d = rng.normal(size=(pick.sum(), dim))
+        d /= np.linalg.norm(d, axis=1)[:, None]
+        p[pick] += d * (tau * rng.uniform(*jitter, size=pick.sum()))[:, None]
+        out.append(p)
+    return out[0], ex["sim"][1], out[1], ex["cut"][1]
 
 
-def test_oracle_catches_a_wrong_registration():
-    ex = example("diagonal", 4)
-    res = predicates.intersect(*ex["sim"], *ex["cut"])
-    check_exact(res)
-    p = res["vertex_vertex"]
-    p.sim = p.sim[::-1].copy()  # pair every cut vertex with the wrong simulation vertex
-    with pytest.raises(AssertionError):
-        check_exact(res)
+def plane_case(n=10, half=1e4):
+    """Kuhn grid n³ and a rotated plane as two triangles, offset so that every grid
+    vertex is at least 0.02 away from it."""
+    sp, sc = cube_grid(n)
+    # normal ∝ (1, 1, 2): vertex heights lie on levels 1/(n√6) apart (0.041 for n = 10);
+    # the plane halfway between two levels near the centre is ≥ 0.02 from every vertex
+    nrm = np.array([1.0, 1.0, 2.0]) / np.sqrt(6.0)
+    d = (2 * n - 0.5) / (n * np.sqrt(6.0))
+    assert np.min(np.abs(sp @ nrm - d)) > 0.02
+    u = np.cross(nrm, [1.0, 0, 0])
+    u /= np.linalg.norm(u)
+    v = np.cross(nrm, u)
+    c = d * nrm
+    cp = np.array([c + half * (a * u + b * v) for a, b in [(-1, -1), (1, -1), (1, 1), (-1, 1)]])
+    cc = np.array([[0, 1, 2], [0, 2, 3]])
+    return sp, sc, cp, cc
+
+
+# ---------------------------------------------------------------------------------
+# number systems under test
+
+
+class Format:
+    """One number system: how to get its tolerances and run a predicate in it."""
+
+    def __init__(self, name, bits, tol_dtype, kind, np_dtype=None):
+        self.name, self.bits, self.tol_dtype, self.kind = name, bits, tol_dtype, kind
+        self.np_dtype = np_dtype
+        self.eps = Fraction(1, 2**bits)
+
+    def __repr__(self):
+        return self.name
+
+    def tolerances(self, dim, L_a, L_b):
+        return predicates.tolerances(dim, L_a, L_b, dtype=self.tol_dtype)
+
+    def tol_call(self, dim, L_a, L_b) -> str:
+        dt = {"f64": "float", "np64": "np.float64", "np32": "np.float32",
+              "mp17": "'mp17'"}[self.name]
+        return f"predicates.tolerances({dim}, {L_a!r}, {L_b!r}, dtype={dt})"
+
+    def run(self, pred, configs, tol):
+        """(hits, weights) of ``pred`` on exact configurations; weights as Fractions."""
+        if not configs:
+            return [], []
+        if self.kind == "batch":
+            arrs = [np.array([[float(c) for c in cfg[i]] for cfg in configs], dtype=self.np_dtype)
+                    for i in range(len(configs[0]))]
+            hit, w = pred(*arrs, tol)
+            assert hit.dtype == bool and hit.shape == (len(configs),)
+            assert w.dtype == self.np_dtype and w.shape == (len(configs), len(pred.weight_names))
+            return [bool(h) for h in hit], [tuple(frac(x) for x in row) for row in w]
+        hits, weights = [], []
+        ctx = fperr.MpContext(17) if self.kind == "mp" else None
+        for cfg in configs:
+            pts = [tuple(float(c) for c in p) for p in cfg]
+            h, w = pred(*pts, tol, ctx=ctx) if ctx else pred(*pts, tol)
+            assert isinstance(h, bool) and len(w) == len(pred.weight_names)
+            hits.append(h)
+            weights.append(tuple(frac(x) for x in w))
+        return hits, weights
+
+    def degenerate(self, pred, configs, tol):
+        """For each configuration: would a lower-level pair be registered?"""
+        out = [False] * len(configs)
+        for lower, idx in catalogue.sub_pairs(pred):
+            todo = [k for k in range(len(configs)) if not out[k]]
+            hits, _ = self.run(lower, [tuple(configs[k][i] for i in idx)
+                                                     for k in todo], tol)
+            for k, h in zip(todo, hits):
+                out[k] = out[k] or h
+        return out
+
+
+FORMATS = {
+    "f64": Format("f64", 53, float, "scalar"),
+    "np64": Format("np64", 53, np.float64, "batch", np.float64),
+    "np32": Format("np32", 24, np.float32, "batch", np.float32),
+    "mp17": Format("mp17", 17, "mp17", "mp"),
+}
+
+#: (L_a, L_b) choices: exact in every format (short dyadics).
+SCALES = [(1.0, 1.0), (0.75, 0.0), (3.0, 0.25), (0.00146484375, 0.0), (96.0, 32.0)]
+#: where the configuration's box starts, in units of L (exact: L has a short significand)
+OFFSETS = [0.0, -0.5, 3.0, 64.0]
+
+
+PREDICATES = [p for d in (2, 3) for p in predicates.ALL[d]]
+
+
+def build(pred, fmt: Format, src, tol, offset: float, attempts: int = 8):
+    """One constructed configuration, exact in ``fmt`` (None when every attempt left the
+    box)."""
+    u = Units.of(tol)
+    L = frac(tol.L)
+    for _ in range(attempts):
+        with np.errstate(all="ignore"):
+            pts = construct(pred.name, src, u)
+        cfg = place(pts, Fraction(offset) * L, L, fmt.bits)
+        if cfg is not None:
+            return cfg
+    return None

@@ -12,7 +12,7 @@ the same expression — same operation order — is computed in binary64, binary
   |coord| <= L/2, the tightest admissible L),
 * |F[x] − x| <= R·|x| = (aε + bε²)·|x| when r holds.
 
-See ``tests/exact_eval.py`` for the machinery; ``test_checker_*`` show that it fails
+See ``tests/support/exact_eval.py`` for the machinery; ``test_checker_*`` show that it fails
 when it should.
 """
 from __future__ import annotations

@@ -14,7 +14,7 @@ import predicates
 from predicates.registration.examples import cube_grid, square_grid
 from predicates.registration.refine import refine
 from predicates.registration.resolution import cell_boxes
-from test_resolution import plane_case
+from shared_cases import plane_case
 
 
 def _edge_use(cells):

@@ -21,9 +21,9 @@ import fperr
 import predicates
 from predicates.registration import pipeline
 from predicates.registration.examples import cube_grid, square_grid
-from test_intersect_oracle import check_exact
+from shared_cases import check_exact, plane_case
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SIM_EDGE_KINDS = ("edge_vertex", "edge_edge", "edge_triangle")
 SIM_VERTEX_KINDS = ("vertex_vertex", "vertex_edge", "vertex_triangle")
 
@@ -37,24 +37,6 @@ def _orient3(a, b, c, x):
     d = (u[1] * v[2] - u[2] * v[1]) * w[0] + (u[2] * v[0] - u[0] * v[2]) * w[1] \
         + (u[0] * v[1] - u[1] * v[0]) * w[2]
     return (d > 0) - (d < 0)
-
-
-def plane_case(n=10, half=1e4):
-    """Kuhn grid n³ and a rotated plane as two triangles, offset so that every grid
-    vertex is at least 0.02 away from it."""
-    sp, sc = cube_grid(n)
-    # normal ∝ (1, 1, 2): vertex heights lie on levels 1/(n√6) apart (0.041 for n = 10);
-    # the plane halfway between two levels near the centre is ≥ 0.02 from every vertex
-    nrm = np.array([1.0, 1.0, 2.0]) / np.sqrt(6.0)
-    d = (2 * n - 0.5) / (n * np.sqrt(6.0))
-    assert np.min(np.abs(sp @ nrm - d)) > 0.02
-    u = np.cross(nrm, [1.0, 0, 0])
-    u /= np.linalg.norm(u)
-    v = np.cross(nrm, u)
-    c = d * nrm
-    cp = np.array([c + half * (a * u + b * v) for a, b in [(-1, -1), (1, -1), (1, 1), (-1, 1)]])
-    cc = np.array([[0, 1, 2], [0, 2, 3]])
-    return sp, sc, cp, cc
 
 
 def crossing_edges(sp, sc, cp, cc):

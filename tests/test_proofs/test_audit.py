@@ -254,7 +254,7 @@ def test_cli_json_and_exit_status(capsys, monkeypatch):
 # --------------------------------------------------------------------------------------
 # bad arguments are argparse errors, before any work
 # --------------------------------------------------------------------------------------
-ROOT = __import__("pathlib").Path(__file__).resolve().parent.parent
+ROOT = __import__("pathlib").Path(__file__).resolve().parents[2]
 
 
 def _fperr(args, cwd):

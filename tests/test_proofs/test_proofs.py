@@ -21,7 +21,7 @@ from proofs import tables
 from proofs.cli import main as fperr_main
 from proofs.verify import instrument, verify
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 R = sympy.Rational
 
 

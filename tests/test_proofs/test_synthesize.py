@@ -23,9 +23,9 @@ from predicates.tolerance_table import TABLES
 from proofs import tables
 from proofs.synthesize import (ORDER, _Probe, _fact_equalities, _frac, admissible_mid,
                                table_section)
-from test_intersect_oracle import check_exact
+from shared_cases import check_exact
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "proofs" / "data"
 SYNTH = {2: DATA / "synth_2d.toml", 3: DATA / "synth_3d.toml"}
 LONG = os.environ.get("FPERR_LONG") == "1"
@@ -188,7 +188,7 @@ CASES = {2: [("circle", 6, {"segments": 24}), ("zigzag", 8, {"dx": 2, "dy": 6}),
                          ids=lambda x: x if isinstance(x, int) else x[0])
 @pytest.mark.parametrize("dtype", [np.float64, np.float32])
 def test_oracle_with_synthesized_table(dim, case, dtype):
-    from test_intersect_exact import transformed
+    from shared_cases import transformed
     name, n, kw = case
     ex = example(name, n, **kw)
     res = predicates.intersect(*ex["sim"], *ex["cut"], dtype=dtype, tolerances=_table(dim))

@@ -18,7 +18,7 @@ import predicates
 from predicates.registration.examples import example
 from predicates.registration.result import KIND_CODES
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
+ROOT = pathlib.Path(__file__).resolve().parents[2]
 ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
 
 

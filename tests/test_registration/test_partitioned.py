@@ -20,7 +20,7 @@ from predicates.registration.examples import example
 from predicates.registration.partition import assign, split
 
 dask = pytest.importorskip("dask")
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 KS = (1, 2, 3, 7, 16)
 
 
