@@ -37,7 +37,7 @@ from fractions import Fraction
 import mpmath
 import numpy as np
 
-from .exact import floor_log2, round_fraction, to_fraction
+from .exact import floor_log2, rational_sqrt, round_fraction, to_fraction
 
 
 class Context:
@@ -275,15 +275,13 @@ class ExactContext(FloatContext):
 
     def sqrt(self, x):
         x = to_fraction(x)
-        if x < 0:
-            raise ValueError(f"square root of a negative value {x}")
-        n, d = x.numerator, x.denominator
-        rn, rd = math.isqrt(n), math.isqrt(d)
-        if rn * rn == n and rd * rd == d:
-            return Fraction(rn, rd)
+        root = rational_sqrt(x)
+        if root is not None:
+            return root
         if self.sqrt_bits is None:
             raise ValueError(f"sqrt({x}) is irrational: no exact rational value")
-        nd = n * d
+        n, d = x.numerator, x.denominator
+        nd = n * d  # √(n/d) = √(n·d)/d, truncated to sqrt_bits bits
         k = max(0, self.sqrt_bits - nd.bit_length() // 2)
         return Fraction(math.isqrt(nd << (2 * k)), d << k)
 

@@ -124,6 +124,15 @@ def round_fraction(q, bits: int, rounding: str = "nearest", min_exp: int | None 
     return -v if neg else v
 
 
+def rational_sqrt(q: Fraction) -> Fraction | None:
+    """√q exactly when it is rational (numerator and denominator perfect squares), else
+    None. Raises ValueError for q < 0."""
+    if q < 0:
+        raise ValueError(f"square root of a negative value {q}")
+    rn, rd = math.isqrt(q.numerator), math.isqrt(q.denominator)
+    return Fraction(rn, rd) if rn * rn == q.numerator and rd * rd == q.denominator else None
+
+
 def ulp(q, bits: int) -> Fraction:
     """The spacing of ``bits``-bit numbers at ``q`` (q ≠ 0; unbounded exponent)."""
     k = floor_log2(Fraction(q)) - bits + 1

@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 from fractions import Fraction
 
-from .exact import floor_log2, round_fraction
+from .exact import floor_log2, rational_sqrt, round_fraction
 
 __all__ = ["REFERENCE_PREC", "RInterval", "compare", "exact_abs", "exact_add", "exact_div",
            "exact_mul", "exact_neg", "exact_sqrt", "exact_sub", "interval_from_float",
@@ -165,12 +165,9 @@ def exact_sqrt(q):
     if q is None:
         return None
     if type(q) is Fraction:
-        if q < 0:
-            raise ValueError(f"square root of a negative exact value {q}")
-        n, d = q.numerator, q.denominator
-        rn, rd = math.isqrt(n), math.isqrt(d)
-        if rn * rn == n and rd * rd == d:
-            return Fraction(rn, rd)
+        root = rational_sqrt(q)
+        if root is not None:
+            return root
         return RInterval(_sqrt_bound(q, False), _sqrt_bound(q, True))
     return q.sqrt()
 

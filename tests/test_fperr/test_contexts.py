@@ -189,3 +189,14 @@ def test_eps_multiple_is_the_exact_constant():
         assert ctx.to_fraction(v) == 21 * Fraction(1, 2**ctx.bits) ** 2
     t = fperr.context("tracked").eps_multiple(Fraction(21), 2)
     assert t.rule == "J" and t.a == 0 and str(t.s) == "[21*eps**2]"
+
+
+def test_exact_context_square_roots():
+    from fractions import Fraction
+    assert fperr.ExactContext().sqrt(Fraction(9, 4)) == Fraction(3, 2)   # rational: exact
+    r = fperr.ExactContext(sqrt_bits=64).sqrt(Fraction(2))                # else truncated
+    assert r * r <= 2 < (r + Fraction(1, 2**60)) ** 2
+    with pytest.raises(ValueError, match="irrational"):
+        fperr.ExactContext(sqrt_bits=None).sqrt(Fraction(2))
+    with pytest.raises(ValueError, match="negative"):
+        fperr.ExactContext().sqrt(Fraction(-1))
