@@ -7,7 +7,6 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 from functools import lru_cache
 
-import numpy as np
 import sympy
 
 import fperr
@@ -28,9 +27,9 @@ SCALES = [(0.5, 0.5), (0.9, 0.1), (0.1, 0.9), (0.999, 0.001), (0.001, 0.999),
 
 #: Distance tolerance of a near-incidence between faces of i and j vertices: the bracket
 #: of the 3D predicate deciding such a pair (the catalogue's), used in 2D too as a scale.
-NEAR_TOL = {(i, j): pair_predicate(3, i, j)[0].bracket
+NEAR_TOL = {(i, j): found[0].bracket
             for i in range(1, 4) for j in range(1, 4)
-            if pair_predicate(3, i, j) and pair_predicate(3, i, j)[0].bracket}
+            if (found := pair_predicate(3, i, j)) and found[0].bracket}
 
 DEFAULT_SAMPLES = 100
 DEFAULT_SEARCH = 10

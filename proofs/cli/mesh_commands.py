@@ -7,6 +7,17 @@ import sys
 from .common import RAW as _RAW
 from .common import _at_least_1, _at_least_2, error as _error
 
+def _mesh_files(p) -> None:
+    p.add_argument("sim", help="simulation mesh file (triangles in 2D, tetrahedra in 3D)")
+    p.add_argument("cut", help="cutting mesh file (segments in 2D, triangles in 3D)")
+
+
+def _precision_and_quiet(p) -> None:
+    p.add_argument("--dtype", choices=("float64", "float32"), default="float64",
+                   help="working precision (default float64)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
 # -- intersect -------------------------------------------------------------------------
 def _add_intersect(sub) -> None:
     p = sub.add_parser(
@@ -30,8 +41,7 @@ def _add_intersect(sub) -> None:
                 "  fperr intersect cube.vtu sphere.stl --dtype float32 --format json\n\n"
                 "exit status: 0 done (a coarse resolution is warned about on stderr),\n"
                 "1 refused by --strict or the memory guard, 2 bad input or arguments"))
-    p.add_argument("sim", help="simulation mesh file (triangles in 2D, tetrahedra in 3D)")
-    p.add_argument("cut", help="cutting mesh file (segments in 2D, triangles in 3D)")
+    _mesh_files(p)
     p.add_argument("-o", "--output", metavar="OUT.vtu",
                    help="write the intersection points (.vtu, for ParaView)")
     p.add_argument("--sim-output", metavar="CELLS.vtu",
@@ -41,14 +51,12 @@ def _add_intersect(sub) -> None:
                    help="use only this gmsh physical group (tag or name) or cell block "
                         "(index) of SIM")
     p.add_argument("--cut-region", metavar="TAG|NAME", help="the same for CUT")
-    p.add_argument("--dtype", choices=("float64", "float32"), default="float64",
-                   help="working precision (default float64)")
+    _precision_and_quiet(p)
     p.add_argument("--naive", action="store_true",
                    help="zero tolerances: the naive floating-point baseline, for comparison")
     p.add_argument("--format", choices=("text", "json"), default="text",
                    help="summary on stdout: text (default) or json (counts per kind, "
                         "tolerances in input units, notes, timings)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--strict", action="store_true",
                    help="refuse (exit 1, nothing written) when the tolerances are coarse for "
                         "the elements near the cut, instead of warning on stderr")
@@ -147,17 +155,14 @@ def _add_cut(sub) -> None:
         epilog=("examples:\n"
                 "  fperr cut cube.vtu sphere.stl -o pieces.vtu --png pieces.png --explode 0.3\n"
                 "  fperr cut square.msh polyline.vtk -o pieces.vtu"))
-    p.add_argument("sim", help="simulation mesh file (triangles in 2D, tetrahedra in 3D)")
-    p.add_argument("cut", help="cutting mesh file (segments in 2D, triangles in 3D)")
+    _mesh_files(p)
     p.add_argument("-o", "--output", metavar="PIECES.vtu",
                    help="write the split mesh with its cell data (.vtu)")
     p.add_argument("--explode", type=float, default=0.0, metavar="FACTOR",
                    help="move each piece by FACTOR x (its centroid - the mesh centroid), "
                         "in -o and --png (default 0; --png alone uses 0.3)")
     p.add_argument("--png", metavar="FILE", help="draw the pieces (png, pdf or svg)")
-    p.add_argument("--dtype", choices=("float64", "float32"), default="float64",
-                   help="working precision of the registration (default float64)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    _precision_and_quiet(p)
     p.set_defaults(_run=_run_cut)
 
 
@@ -202,9 +207,7 @@ def _add_demo(sub) -> None:
     p.add_argument("--n", type=_at_least_2, default=16, metavar="N",
                    help="grid resolution: NxN squares in 2D, N/2 cubes per side in 3D "
                         "(default 16, at least 2)")
-    p.add_argument("--dtype", choices=("float64", "float32"), default="float64",
-                   help="working precision (default float64)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    _precision_and_quiet(p)
     p.set_defaults(_run=_run_demo)
 
 
