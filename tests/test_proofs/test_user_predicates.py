@@ -10,6 +10,7 @@ import math
 import os
 import pathlib
 import random
+import re
 import subprocess
 import sys
 import textwrap
@@ -82,11 +83,55 @@ def test_broken_user_table_fails_and_names_its_constraints(tmp_path):
     assert r.returncode == 1 and "  FAIL  2D.incircle.window.omega[det]" in r.stdout
 
 
-def test_synthesized_example_table_is_current_verified_and_certified(tmp_path):
-    out, cert = tmp_path / "t.toml", tmp_path / "c.json"
-    r = _cli("synthesize", "--predicates", "incircle2d", "-o", str(out), "--check", str(SYNTH))
-    assert r.returncode == 0, r.stdout + r.stderr
-    assert "declared (T−, T, T+)" in r.stdout and "T+ set by a fact equality: omega" in r.stdout
+def _doc_commands():
+    """(command, expected stdout lines, exit status) of the console blocks of the
+    user-tolerances section of docs/custom-predicates.md."""
+    text = (ROOT / "docs" / "custom-predicates.md").read_text()
+    section = text.split("## Your own tolerances", 1)[1].split("\n## ", 1)[0]
+    out = []
+    for block in re.findall(r"```console\n(.*?)```", section, re.S):
+        for chunk in re.split(r"^\$ ", block, flags=re.M)[1:]:
+            cmd, *lines = chunk.rstrip("\n").split("\n")
+            out.append((cmd, lines, 1 if any("FAILED" in x for x in lines) else 0))
+    return out
+
+
+_TIME = re.compile(r"\d+\.\d s\b")
+
+
+@pytest.mark.parametrize("cmd, lines, status", _doc_commands(),
+                         ids=[f"{i}-{c.split()[2]}" for i, (c, _, _) in
+                              enumerate(_doc_commands())])
+def test_doc_console_commands(cmd, lines, status, tmp_path):
+    """Each command of the worked example runs as shown: the lines shown appear in
+    order (timings aside), the exit status is 1 where the page shows a failure."""
+    cmd, _, comment = cmd.partition("   # ")
+    m = re.match(r"(\S+): (\[[^\]]+\]) (.*)", comment)
+    if m:  # "# bad.toml: [2.omega] lo = 200": the file the command reads
+        (tmp_path / m[1]).write_text(f"{m[2]}\n{m[3]}\n")
+    words = cmd.split()
+    assert words[:2] == ["PYTHONPATH=docs/examples", "fperr"], cmd
+    args = [str(tmp_path / w) if m and w == m[1] else w for w in words[2:]]
+    synth_out = None
+    if "-o" in args:  # write the synthesized table beside, and compare with the cached one
+        i = args.index("-o") + 1
+        synth_out, args[i] = args[i], str(tmp_path / "synth.toml")
+    r = _cli(*args, "--quiet") if args[0] == "verify" else _cli(*args)
+    assert r.returncode == status, r.stdout + r.stderr
+    got = [_TIME.sub("T", x) for x in r.stdout.splitlines()]
+    want = [_TIME.sub("T", x.replace(synth_out or "\0", str(tmp_path / "synth.toml")))
+            for x in lines if x != "..."]
+    it = iter(got)
+    missing = [x for x in want if not any(x == g for g in it)]
+    assert not missing, "\n".join(missing) + "\n--- got:\n" + r.stdout
+    if synth_out:
+        from proofs.synthesize import table_section
+        assert table_section((tmp_path / "synth.toml").read_text()) == \
+            table_section((ROOT / synth_out).read_text()), "stale: regenerate " + synth_out
+
+
+def test_synthesized_example_table_verifies_and_is_certified(tmp_path):
+    cert = tmp_path / "c.json"
     r = _cli("verify", "--predicates", "incircle2d", "--tolerances", str(SYNTH), "--quiet",
              "--certificate", str(cert))
     assert r.returncode == 0 and "7 hold, 0 fail" in r.stdout, r.stdout + r.stderr
