@@ -13,8 +13,6 @@ from the instrumented predicates, and every declared fact, decided for every ε 
 """
 from __future__ import annotations
 
-from pathlib import Path
-
 from .user_predicates import PredicateTolerances, verify
 from .verify import Report, format_outcome
 
@@ -27,8 +25,6 @@ def assert_tolerances_hold(module: str | PredicateTolerances, tolerances=None,
     predicates and tolerances (a module name, or a :class:`PredicateTolerances`);
     ``tolerances``: coefficient overrides, a mapping keyed by dimension or a file as
     ``fperr synthesize --predicates ... -o FILE`` writes. Returns {dim: Report}."""
-    if isinstance(tolerances, Path):
-        tolerances = str(tolerances)
     reports = verify(module, tolerances, require_paper_argument)
     failures = [o for rep in reports.values() for o in rep.failures]
     if failures:

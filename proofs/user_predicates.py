@@ -333,10 +333,12 @@ class PredicateTolerances:
         return new
 
     def degree(self) -> int:
-        """The highest power of L of a quantity the predicates compare."""
-        tab = self.table()
-        return max([max(c.lhs.state.p, c.rhs.state.p) for ins in self.runs(tab).values()
-                    for c in ins.checks if c.lhs.v and c.rhs.v] + [1])
+        """The highest power of L of a quantity the predicates name, compare or return
+        (what must neither overflow nor underflow)."""
+        ts = [t for ins in self.runs(self.table()).values()
+              for t in [*ins.quantities.values(), *ins.weights,
+                        *(x for c in ins.checks for x in (c.lhs, c.rhs))]]
+        return max([int(t.state.p) for t in ts if t.v] + [1])
 
     def tolerances(self, L_bound, dtype=None) -> Tolerances:
         """The tolerances in a working format, for inputs whose coordinates satisfy
@@ -399,8 +401,13 @@ def verify(module, overrides=None, require_paper_argument: bool = False,
     """{dim: Report} of a module's declarations (a module name or a declaration);
     ``overrides``: coefficients keyed by dimension (or a file)."""
     decls = load(module) if isinstance(module, str) else [module]
-    out = {}
+    out, used = {}, False
     for d in decls:
         ov = d.load_overrides(overrides) if isinstance(overrides, (str, Path)) else overrides
-        out[d.dim] = d.verify(d.coefficients(ov), require_paper_argument, progress)
+        coeffs = d.coefficients(ov)
+        used = used or bool(coeffs)
+        out[d.dim] = d.verify(coeffs, require_paper_argument, progress)
+    if overrides and not used:  # e.g. a 3D file for 2D predicates: say so, never ignore it
+        raise DeclarationError(f"the tolerance overrides {overrides} have no entries for "
+                               f"the {'/'.join(f'{d.dim}D' for d in decls)} declaration")
     return out

@@ -328,3 +328,27 @@ def test_tolerance_model_holds_against_exact_arithmetic(table):
         seen["near_alpha"] += above(area2, "lo") != above(area2, "hi")
         seen["near_omega"] += om["lo"] < det <= om["hi"]
     assert seen["near_alpha"] > 0 and seen["near_omega"] > 0 and 0 < seen["hit"] < 3000, seen
+
+
+def test_runtime_tolerances_are_the_exact_table_values():
+    """T = root_k(C^k·ε^(qk))·L^p in each format (ω: q = 1, exact; α: q = 1/2, one
+    correctly rounded square root), L rounded up to ⌊prec/4⌋ bits."""
+    import numpy as np
+    decl = _example()
+    assert decl.degree() == 4
+    for dtype, bits in ((np.float64, 53), (np.float32, 24)):
+        tol = decl.tolerances(1.5, dtype)
+        Lq, e = Fraction(float(tol.L)), Fraction(1, 2**bits)
+        assert Lq >= Fraction(3, 2) and tol.omega.dtype == np.dtype(dtype)
+        assert Fraction(float(tol.omega)) == 300 * e * Lq**4
+        a = Fraction(float(tol.alpha)) / Lq**2   # ≈ 24·√ε, within half an ulp
+        assert abs(a * a - 576 * e) <= 576 * e * Fraction(3, 2**bits)
+    with pytest.raises(ArithmeticError, match="outside the safe range"):
+        decl.tolerances(2.0**60, np.float32)      # L⁴ would overflow binary32
+
+
+def test_overrides_for_another_dimension_are_not_ignored():
+    with pytest.raises(DeclarationError, match="have no entries for the 2D declaration"):
+        assert_tolerances_hold("incircle2d", {3: {"omega": {"lo": 1}}})
+    with pytest.raises(DeclarationError, match="unknown 2D tolerance 'kappa'"):
+        assert_tolerances_hold("incircle2d", {2: {"kappa": {"lo": 1}}})
