@@ -76,6 +76,9 @@ def test_broken_user_table_fails_and_names_its_constraints(tmp_path):
     assert "  FAIL  2D.incircle.window.omega[det]" in r.stdout
     assert ("2D FAILED: 2D.tolerances.bracket.omega, 2D.incircle.window.omega[det]"
             in r.stdout)
+    # nothing to synthesize from: exit 1, naming the first failing constraint
+    r = _cli("synthesize", "--predicates", "broken_incircle", extra=[tmp_path])
+    assert r.returncode == 1 and "does not verify (2D.tolerances.bracket.omega)" in r.stderr
     # the same table as an override file of the example
     bad = tmp_path / "bad.toml"
     bad.write_text("[2.omega]\nhi = 200\n")
