@@ -77,6 +77,31 @@ def is_admissible_mid(c: Fraction, k: int) -> bool:
     return admissible_mid(c, k) == c
 
 
+class PaperSystem:
+    """The constraint system ``fperr verify`` decides for the paper's predicates of one
+    dimension. A user's declaration (:class:`proofs.user_predicates.PredicateTolerances`)
+    has the same attributes and methods, and is synthesized the same way."""
+
+    label = "paper"
+
+    def __init__(self, dim: int):
+        self.dim, self.base, self.order = dim, TABLES[dim], ORDER[dim]
+        self.facts = [f for (d, _), fs in GEOMETRIC.items() if d == dim for f in fs]
+
+    def table(self, coeffs: dict) -> dict:
+        """The table with ``coeffs`` ({name: {lo|mid|hi: value}}) applied."""
+        return tables.table(self.dim, {self.dim: coeffs})
+
+    def runs(self, tab: dict) -> dict:
+        return {p.name: instrument(p, tab) for p in predicates.ALL[self.dim]}
+
+    def constraints(self, coeffs: dict, runs: dict) -> list:
+        return constraints(self.dim, {self.dim: coeffs}, runs)
+
+    def verify(self, coeffs: dict):
+        return verify(self.dim, {self.dim: coeffs})
+
+
 @dataclass
 class Synthesis:
     """A synthesized table: coefficients (name → {lo, mid, hi} as exact sympy numbers),
@@ -88,15 +113,17 @@ class Synthesis:
     seconds: float = 0.0
     equalities: list = field(default_factory=list)   # T+ set from a fact
     report: object = None
+    base: dict | None = None   # the table started from (None: the paper's)
+    label: str = "paper"
 
     def overrides(self) -> dict:
         return {self.dim: {n: dict(f) for n, f in self.coefficients.items()}}
 
     def ratios(self) -> dict:
-        """name → (lo, mid, hi) ratios synthesized / paper."""
+        """name → (lo, mid, hi) ratios synthesized / paper (or the table started from)."""
         out = {}
         for n, f in self.coefficients.items():
-            spec = TABLES[self.dim][n]
+            spec = (self.base or TABLES[self.dim])[n]
             out[n] = tuple(float(f[k] / getattr(spec, k)) for k in FIELDS)
         return out
 
@@ -106,16 +133,17 @@ class _Probe:
     (the real decision procedure, memoised per inequality: a probe re-decides only the
     inequalities its change touches)."""
 
-    def __init__(self, dim: int):
+    def __init__(self, dim: int, system=None):
         self.dim, self.memo, self.count, self.runs = dim, {}, 0, {}
+        self.system = system or PaperSystem(dim)
 
     def _runs(self, coeffs: dict) -> dict:
         """Instrumented runs depend only on the T coefficients (the code computes T
         alone): cached per tuple of ``mid``s, not per table."""
         key = tuple((n, coeffs[n]["mid"]) for n in sorted(coeffs))
         if key not in self.runs:
-            tab = tables.table(self.dim, {self.dim: {n: {"mid": m} for n, m in key}})
-            self.runs[key] = {p.name: instrument(p, tab) for p in predicates.ALL[self.dim]}
+            self.runs[key] = self.system.runs(self.system.table({n: {"mid": m}
+                                                                for n, m in key}))
         return self.runs[key]
 
     def _decide(self, lhs, rhs, strict=True):
@@ -126,7 +154,7 @@ class _Probe:
 
     def failing(self, coeffs: dict) -> list[str]:
         self.count += 1
-        cs = constraints(self.dim, {self.dim: coeffs}, self._runs(coeffs))
+        cs = self.system.constraints(coeffs, self._runs(coeffs))
         bad = []
         for c in cs:
             try:
@@ -171,7 +199,7 @@ def _lower(probe: _Probe, coeffs: dict, name: str, f: str) -> dict:
     """Bisect ``coeffs[name][f]`` down to the smallest feasible value (to within 1 %, or
     on the admissible grid for T); a T− still feasible at 2^-12 of its value has no
     lower bound in the system and is left there (it is raised again afterwards)."""
-    k = int(TABLES[probe.dim][name].q.q)
+    k = int(probe.system.base[name].q.q)
     coeffs, good = _start(probe, coeffs, name, f)
     if good is None:
         return coeffs
@@ -209,36 +237,41 @@ def _raise_lo(probe: _Probe, coeffs: dict, name: str) -> dict:
     return _with(coeffs, name, "lo", good)
 
 
-def _fact_equalities(dim: int, coeffs: dict) -> dict[str, sympy.Expr]:
-    """T+ coefficients fixed by facts the paper prints as equalities, for this table."""
-    v = tables.Values(tables.table(dim, {dim: coeffs}))
+def _fact_equalities(dim: int, coeffs: dict, system=None) -> dict[str, sympy.Expr]:
+    """T+ coefficients fixed by facts the paper (or a user) prints as equalities."""
+    system = system or PaperSystem(dim)
+    v = tables.Values(system.table(coeffs))
     out = {}
-    for facts in (fs for (d, _), fs in GEOMETRIC.items() if d == dim):
-        for f in facts:
-            if not f.equality:
-                continue
-            lhs, rhs = f.relation(v)
-            for n in coeffs:
-                if sympy.simplify(rhs - v.hi(n)) == 0:
-                    spec = v.tab[n]
-                    c = sympy.simplify(lhs / (eps**spec.q * L**spec.p))
-                    if not c.free_symbols and c.is_positive:
-                        out[n] = min(out.get(n, c), c, key=lambda e: float(e))
+    for f in system.facts:
+        if not f.equality:
+            continue
+        lhs, rhs = f.relation(v)
+        for n in coeffs:
+            if sympy.simplify(rhs - v.hi(n)) == 0:
+                spec = v.tab[n]
+                c = sympy.simplify(lhs / (eps**spec.q * L**spec.p))
+                if not c.free_symbols and c.is_positive:
+                    out[n] = min(out.get(n, c), c, key=lambda e: float(e))
     return out
 
 
-def synthesize(dim: int, progress=None) -> Synthesis:
+def synthesize(dim: int, progress=None, system=None) -> Synthesis:
     """The smallest coefficients (bottom-up order :data:`ORDER`; T−, T, T+) for which
     every constraint of ``fperr verify`` holds for every ε ≤ 1e-5, to within 1 %.
-    ``progress(name, field, value)`` is called after each coefficient."""
+    ``progress(name, field, value)`` is called after each coefficient. ``system``: the
+    constraint system (default :class:`PaperSystem`; a user's declaration, with its own
+    table, facts and order)."""
     if dim not in (2, 3):
         raise ValueError(f"dim must be 2 or 3, not {dim!r}")
     t0 = time.perf_counter()
-    probe = _Probe(dim)
-    coeffs = {n: {f: getattr(s, f) for f in FIELDS} for n, s in TABLES[dim].items()}
+    system = system or PaperSystem(dim)
+    probe = _Probe(dim, system)
+    coeffs = {n: {f: getattr(s, f) for f in FIELDS} for n, s in system.base.items()}
     if not probe(coeffs):
-        raise RuntimeError(f"the paper's {dim}D table does not verify: nothing to start from")
-    for name in ORDER[dim]:
+        bad = ", ".join(probe.failing(coeffs))
+        raise RuntimeError(f"the {system.label} {dim}D table does not verify ({bad}): "
+                           "nothing to start from")
+    for name in system.order:
         for f in FIELDS:
             coeffs = _lower(probe, coeffs, name, f)
             if progress:
@@ -247,16 +280,17 @@ def synthesize(dim: int, progress=None) -> Synthesis:
         if progress:
             progress(name, "lo (raised)", coeffs[name]["lo"])
     eqs = []
-    for n, c in _fact_equalities(dim, coeffs).items():
+    for n, c in _fact_equalities(dim, coeffs, system).items():
         trial = {k: dict(v) for k, v in coeffs.items()}
         trial[n]["hi"] = c
         if probe(trial):
             coeffs, eqs = trial, eqs + [n]
-    rep = verify(dim, {dim: coeffs})   # the authoritative check, no memo
+    rep = system.verify(coeffs)   # the authoritative check, no memo
     if not rep.ok:
         raise RuntimeError("synthesized table does not verify: "
                            + ", ".join(o.id for o in rep.failures))
-    return Synthesis(dim, coeffs, probe.count, time.perf_counter() - t0, eqs, rep)
+    return Synthesis(dim, coeffs, probe.count, time.perf_counter() - t0, eqs, rep,
+                     dict(system.base), system.label)
 
 
 def _text(x: sympy.Expr) -> str:
@@ -275,20 +309,21 @@ def to_toml(results: list[Synthesis], header: str = "") -> str:
 
 def ratio_table(r: Synthesis) -> str:
     """One line per tolerance: paper and synthesized T−, T, T+ and their ratios."""
-    out = [f"{r.dim}D  tolerance   paper (T−, T, T+)            synthesized (T−, T, T+)"
+    out = [f"{r.dim}D  tolerance   {r.label + ' (T−, T, T+)':<28} synthesized (T−, T, T+)"
            "        ratio (T−, T, T+)"]
     for n, (a, b, c) in r.ratios().items():
-        spec = TABLES[r.dim][n]
+        spec = (r.base or TABLES[r.dim])[n]
         pap = ", ".join(f"{float(getattr(spec, k)):.4g}" for k in FIELDS)
         syn = ", ".join(f"{float(r.coefficients[n][k]):.4g}" for k in FIELDS)
         out.append(f"    {n:<10} {pap:<28} {syn:<30} {a:.3f}, {b:.3f}, {c:.3f}")
     return "\n".join(out)
 
 
-def write(path: str | Path, results: list[Synthesis]) -> None:
+def write(path: str | Path, results: list[Synthesis], module: str | None = None) -> None:
     dims = ",".join(str(r.dim) for r in results)
+    how = f"--predicates {module}" if module else f"--dim {dims}"
     Path(path).write_text(to_toml(results, (
-        f"Generated by `fperr synthesize --dim {dims}`: the smallest coefficients the\n"
+        f"Generated by `fperr synthesize {how}`: the smallest coefficients the\n"
         "constraint system of `fperr verify` accepts (to within 1 %). Do not edit;\n"
         "regenerate. Coefficients of ε^q·L^p, exact.")))
 

@@ -69,22 +69,26 @@ def _coefficient(v, where: str) -> sympy.Expr:
     return x
 
 
-def parse_overrides(data: dict) -> dict[int, dict[str, dict[str, sympy.Expr]]]:
-    """Validate the structure of an override mapping (see module docstring)."""
+def parse_overrides(data: dict, known: dict | None = None
+                    ) -> dict[int, dict[str, dict[str, sympy.Expr]]]:
+    """Validate the structure of an override mapping (see module docstring); ``known``:
+    the tables whose names it may override ({dim: {name: ...}}, default Figures 1/5)."""
+    known = TABLES if known is None else known
     if not isinstance(data, dict):
         raise ToleranceFileError("top level must be a table/object keyed by dimension")
     out: dict[int, dict[str, dict[str, sympy.Expr]]] = {}
     for dkey, entries in data.items():
         d = str(dkey).lower().removesuffix("d")
-        if d not in ("2", "3"):
-            raise ToleranceFileError(f"unknown dimension {dkey!r} (use \"2\" or \"3\")")
+        if d not in ("2", "3") or int(d) not in known:
+            raise ToleranceFileError(f"unknown dimension {dkey!r} (use "
+                                     + " or ".join(f'"{k}"' for k in sorted(known)) + ")")
         dim = int(d)
         if not isinstance(entries, dict):
             raise ToleranceFileError(f"[{dkey}] must map tolerance names to fields")
         for name, fields in entries.items():
-            if name not in TABLES[dim]:
+            if name not in known[dim]:
                 raise ToleranceFileError(
-                    f"unknown {dim}D tolerance {name!r}; known: {', '.join(TABLES[dim])}")
+                    f"unknown {dim}D tolerance {name!r}; known: {', '.join(known[dim])}")
             if not isinstance(fields, dict):
                 raise ToleranceFileError(f"[{dkey}.{name}] must map lo/mid/hi to values")
             for fkey, v in fields.items():
@@ -100,8 +104,10 @@ def parse_overrides(data: dict) -> dict[int, dict[str, dict[str, sympy.Expr]]]:
     return out
 
 
-def load_overrides(path: str | Path) -> dict[int, dict[str, dict[str, sympy.Expr]]]:
-    """Read a TOML (``.toml``) or JSON file of coefficient overrides."""
+def load_overrides(path: str | Path, known: dict | None = None
+                   ) -> dict[int, dict[str, dict[str, sympy.Expr]]]:
+    """Read a TOML (``.toml``) or JSON file of coefficient overrides (``known``: as for
+    :func:`parse_overrides`)."""
     p = Path(path)
     try:
         raw = p.read_bytes()
@@ -119,7 +125,7 @@ def load_overrides(path: str | Path) -> dict[int, dict[str, dict[str, sympy.Expr
                 data = tomllib.loads(raw.decode())
     except (ValueError, tomllib.TOMLDecodeError) as e:
         raise ToleranceFileError(f"{path}: not valid TOML/JSON: {e}") from None
-    return parse_overrides(data)
+    return parse_overrides(data, known)
 
 
 def table(dim: int, overrides: dict | None = None) -> dict[str, ToleranceSpec]:

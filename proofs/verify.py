@@ -214,6 +214,14 @@ def verify(dim: int, overrides: dict | None = None, runs=None,
     t0 = time.perf_counter()
     tab = tables.table(dim, overrides)
     cs = constraints(dim, overrides, runs)
+    return decide_all(dim, cs, tab, t0, require_paper_argument, progress)
+
+
+def decide_all(dim: int, cs: list[Constraint], tab: dict, t0: float,
+               require_paper_argument: bool = False, progress: bool = False) -> Report:
+    """Decide the constraints ``cs`` of the table ``tab`` (generated since ``t0``,
+    :func:`time.perf_counter`); also the path of a user's predicates
+    (:mod:`proofs.user_predicates`)."""
     if progress:
         import sys
 

@@ -78,10 +78,14 @@ Usage:
     fperr verify --dim 3 -v       # with the derived errors and argument steps
     fperr verify --tolerances my.toml
     fperr verify --report         # also write docs/error-bounds.md (current directory)
+    fperr verify --predicates mypkg.mypreds   # a module's own predicates and table
 
 --tolerances FILE (TOML or JSON, format: proofs.tables) replaces coefficients of
-T−, T, T+. Exit status: 0 when every constraint holds, 1 when any fails, 2 for bad
-arguments or an unusable tolerance file. See proofs.verify for the constraints.
+T−, T, T+. --predicates MODULE imports MODULE and decides the constraints of the
+predicates and tolerance table it declares in FPERR_TOLERANCES (proofs.user_predicates,
+docs/custom-predicates.md) instead of the paper's. Exit status: 0 when every
+constraint holds, 1 when any fails, 2 for bad arguments, an unusable tolerance file
+or declaration. See proofs.verify for the constraints.
 """
     parser.add_argument("--dim", type=int, choices=(2, 3), action="append",
                         help="dimension to verify (default: both)")
@@ -103,6 +107,27 @@ arguments or an unusable tolerance file. See proofs.verify for the constraints.
                         help="output format (default text; json: every constraint's name, "
                              "status and margin)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.add_argument("--predicates", metavar="MODULE",
+                        help="verify the predicates and tolerances MODULE declares in "
+                             "FPERR_TOLERANCES instead of the paper's")
+
+
+def _user_systems(args, command: str):
+    """The declarations of --predicates MODULE for the selected dimensions, or an exit
+    status (2) after printing why they cannot be used."""
+    from proofs.user_predicates import DeclarationError, load
+    try:
+        decls = load(args.predicates)
+    except DeclarationError as e:
+        print(f"fperr {command}: {e}", file=sys.stderr)
+        return 2
+    chosen = [d for d in decls if not args.dim or d.dim in args.dim]
+    if not chosen:
+        print(f"fperr {command}: {args.predicates} declares no "
+              f"{'/'.join(f'{d}D' for d in sorted(set(args.dim)))} predicates "
+              f"(it has {', '.join(f'{d.dim}D' for d in decls)})", file=sys.stderr)
+        return 2
+    return {d.dim: d for d in chosen}
 
 
 def _run_verify(args: argparse.Namespace) -> int:
@@ -111,26 +136,39 @@ def _run_verify(args: argparse.Namespace) -> int:
             _output_file(args.report)  # the default (const) is not checked by argparse
         except argparse.ArgumentTypeError as e:
             args._parser.error(f"argument --report: {e}")
+        if args.predicates:
+            args._parser.error("--report writes the paper's report; it does not apply to "
+                               "--predicates")
     from proofs import tables
     from proofs.verify import verify
+    systems = _user_systems(args, "verify") if args.predicates else None
+    if isinstance(systems, int):
+        return systems
+    known = {d: s.base for d, s in systems.items()} if systems else None
     try:
-        overrides = tables.load_overrides(args.tolerances) if args.tolerances else None
+        overrides = tables.load_overrides(args.tolerances, known) if args.tolerances else None
     except tables.ToleranceFileError as e:
         print(f"fperr verify: {e}", file=sys.stderr)
         return 2
     ok, reports = True, {}
     as_json = args.format == "json"
-    for dim in sorted(set(args.dim or [2, 3])):
+    for dim in sorted(systems or set(args.dim or [2, 3])):
         try:
-            rep = verify(dim, overrides, require_paper_argument=args.require_paper_argument,
-                         progress=not args.quiet)
+            if systems:
+                s = systems[dim]
+                rep = s.verify((overrides or {}).get(dim), args.require_paper_argument,
+                               progress=not args.quiet)
+            else:
+                rep = verify(dim, overrides,
+                             require_paper_argument=args.require_paper_argument,
+                             progress=not args.quiet)
         except (ValueError, TypeError) as e:
             print(f"fperr verify: {dim}D: {e}", file=sys.stderr)
             return 2
         reports[dim] = rep
         ok = ok and rep.ok
         if not as_json:
-            _print_report(dim, rep, overrides, args)
+            _print_report(dim, rep, overrides, args, systems and systems[dim])
     if as_json:
         import json
 
@@ -155,10 +193,13 @@ def _run_verify(args: argparse.Namespace) -> int:
     return 0 if ok else 1
 
 
-def _print_report(dim, rep, overrides, args) -> None:
+def _print_report(dim, rep, overrides, args, system=None) -> None:
     from proofs.verify import format_outcome
 
     src = "paper's Figure 1" if dim == 2 else "paper's Figure 5"
+    if system is not None:
+        src = (f"{', '.join(p.name for p in system.predicates)}: the table declared in "
+               f"{system.name}")
     if overrides and dim in overrides:
         src += f" with overrides from {args.tolerances}"
     print(f"{dim}D constraints ({src}), decided for every ε in (0, 1e-5]:")
@@ -238,12 +279,16 @@ def _add_synthesize(parser: argparse.ArgumentParser) -> None:
 
     fperr synthesize --dim 2 -o synth_2d.toml
     fperr synthesize --dim 3 --check proofs/data/synth_3d.toml
+    fperr synthesize --predicates mypkg.mypreds -o mypreds.toml
 
 Every coefficient of T−, T, T+ is bisected (to within 1 %) against the decision
 procedure of fperr verify, bottom-up along the declared facts (proofs.synthesize);
 the table written is accepted by fperr verify --tolerances. Prints, per tolerance,
 the paper's and the synthesized coefficients and their ratios. --check FILE: exit 1
-when FILE differs from a fresh synthesis (stale). Exit status 2 for bad arguments.
+when FILE differs from a fresh synthesis (stale). --predicates MODULE synthesizes the
+table MODULE declares in FPERR_TOLERANCES (its order, facts and predicates; ratios to
+the declared table). Exit status 1 when the declared table does not verify (nothing to
+start from), 2 for bad arguments or an unusable declaration.
 """
     parser.add_argument("--dim", type=int, choices=(2, 3), action="append",
                         help="dimension (default: both)")
@@ -251,23 +296,35 @@ when FILE differs from a fresh synthesis (stale). Exit status 2 for bad argument
                         help="write the table (TOML) for fperr verify --tolerances")
     parser.add_argument("--check", metavar="FILE",
                         help="exit 1 when FILE is not what a fresh synthesis writes")
+    parser.add_argument("--predicates", metavar="MODULE",
+                        help="synthesize the table MODULE declares in FPERR_TOLERANCES")
 
 
 def _run_synthesize(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from proofs.synthesize import ratio_table, synthesize, to_toml, write
+    systems = _user_systems(args, "synthesize") if args.predicates else {}
+    if isinstance(systems, int):
+        return systems
     results = []
-    for dim in sorted(set(args.dim or [2, 3])):
-        r = synthesize(dim, progress=lambda n, f, v: print(f"  {dim}D {n}.{f} = {v}",
-                                                           file=sys.stderr))
+    for dim in sorted(systems or set(args.dim or [2, 3])):
+        try:
+            r = synthesize(dim, progress=lambda n, f, v: print(f"  {dim}D {n}.{f} = {v}",
+                                                               file=sys.stderr),
+                           system=systems.get(dim))
+        except RuntimeError as e:  # the declared table does not verify
+            print(f"fperr synthesize: {e}", file=sys.stderr)
+            return 1
+        except ValueError as e:    # a declaration whose predicates cannot run
+            return _error("synthesize", e)
         print(ratio_table(r))
         print(f"{dim}D: {r.probes} probes, {r.seconds:.1f} s; T+ set by a fact equality: "
               f"{', '.join(r.equalities) or 'none'}; all {len(r.report.outcomes)} "
               "constraints hold")
         results.append(r)
     if args.output:
-        write(args.output, results)
+        write(args.output, results, args.predicates)
         print(f"wrote {args.output}")
     if args.check:
         from proofs.synthesize import table_section
@@ -276,8 +333,10 @@ def _run_synthesize(args: argparse.Namespace) -> int:
         except OSError as e:
             return _error("synthesize", e)
         if table_section(old) != table_section(to_toml(results)):
+            how = (f"--predicates {args.predicates}" if args.predicates else
+                   f"--dim {','.join(str(r.dim) for r in results)}")
             print(f"{args.check} is stale: regenerate with fperr synthesize "
-                  f"--dim {','.join(str(r.dim) for r in results)} -o {args.check}",
+                  f"{how} -o {args.check}",
                   file=sys.stderr)
             return 1
         print(f"{args.check} is up to date")

@@ -35,14 +35,14 @@ procedure set L = 1 (:mod:`proofs.decide`).
 """
 from __future__ import annotations
 
-from .facts import (GEOMETRIC, M_LOWER, NONZERO, PROTECTED, Bound, Fact,
+from .facts import (GEOMETRIC, M_LOWER, NONZERO, PAPER, PROTECTED, Bound, Declared, Fact,
                     geometric_constraints, table_constraints)
 from .generated import exact_value, run_constraints, tolerance_nodes
 from .model import (LENGTHS, Argument, Constraint, Inequality, Step, bounds,
                     fmt, label)
 from .special import special_argument
 
-__all__ = ["Argument", "Bound", "Constraint", "Fact", "GEOMETRIC", "Inequality",
-           "LENGTHS", "M_LOWER", "NONZERO", "PROTECTED", "Step", "bounds",
+__all__ = ["Argument", "Bound", "Constraint", "Declared", "Fact", "GEOMETRIC", "Inequality",
+           "LENGTHS", "M_LOWER", "NONZERO", "PAPER", "PROTECTED", "Step", "bounds",
            "exact_value", "fmt", "geometric_constraints", "label", "run_constraints",
            "special_argument", "table_constraints", "tolerance_nodes"]

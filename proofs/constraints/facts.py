@@ -4,7 +4,7 @@ tests and divisions, and the table-wide facts of sections 3, 4.1 and 5.1."""
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
+from typing import Callable, NamedTuple
 
 import sympy
 
@@ -150,8 +150,19 @@ M_LOWER: dict[tuple[int, str], Bound] = {
 }
 
 
-def table_constraints(dim: int, v: Values) -> list[Constraint]:
-    """Section 3 (brackets) and section 4.1/5.1 (the scale L) facts of a table."""
+class Declared(NamedTuple):
+    """The declared facts a constraint system uses, keyed by (dim, algorithm): the
+    paper's (:data:`PAPER`) or a user's (:mod:`proofs.user_predicates`)."""
+
+    geometric: dict
+    protected: dict
+    nonzero: dict
+    m_lower: dict
+
+
+def table_constraints(dim: int, v: Values, setup: bool = True) -> list[Constraint]:
+    """Section 3 (brackets) and section 4.1/5.1 (the scale L) facts of a table;
+    ``setup=False``: the brackets only (a user's table has no σ+ that sizes L)."""
     out = []
     for name in v.tab:
         lo, mid, hi = v.all(name)
@@ -161,6 +172,8 @@ def table_constraints(dim: int, v: Values) -> list[Constraint]:
             [Inequality(lo, sympy.Integer(0), label=f"{greek(name, 'lo')} > 0"),
              Inequality(mid, lo, label=f"{greek(name)} > {greek(name, 'lo')}"),
              Inequality(hi, mid, label=f"{greek(name, 'hi')} > {greek(name)}")]))
+    if not setup:
+        return out
     sec = "4.1" if dim == 2 else "5.1"
     for name in LENGTHS[dim]:
         if name == "sigma":
@@ -180,9 +193,11 @@ def table_constraints(dim: int, v: Values) -> list[Constraint]:
     return out
 
 
-def geometric_constraints(dim: int, algorithm: str, v: Values) -> list[Constraint]:
+def geometric_constraints(dim: int, algorithm: str, v: Values,
+                          declared: Declared | None = None) -> list[Constraint]:
+    """The declared geometric facts of ``algorithm`` (the paper's unless ``declared``)."""
     out = []
-    for f in GEOMETRIC.get((dim, algorithm), []):
+    for f in (declared or PAPER).geometric.get((dim, algorithm), []):
         lhs, rhs = f.relation(v)
         c = Constraint(f"{dim}D.{algorithm}.geometric.{f.key}", dim, algorithm, f.section,
                        "geometric", f.statement, [Inequality(lhs, rhs, f.strict)],
@@ -192,3 +207,7 @@ def geometric_constraints(dim: int, algorithm: str, v: Values) -> list[Constrain
         out.append(c)
     return out
 
+
+
+#: the paper's declared facts (sections 4 and 5)
+PAPER = Declared(GEOMETRIC, PROTECTED, NONZERO, M_LOWER)

@@ -12,7 +12,7 @@ from fperr.notation import greek
 from fperr.ops import BY_RULE
 
 from ..tables import Values
-from .facts import M_LOWER, NONZERO, PROTECTED
+from .facts import PAPER, Declared
 from .model import Constraint, Inequality, _ids, bounds, fmt, label
 from .special import special_argument
 
@@ -113,8 +113,9 @@ def _window_constraint(dim, alg, w: _Window, v: Values) -> Constraint:
 class _Run:
     """The constraints of one instrumented run, built check by check (section 3)."""
 
-    def __init__(self, ins, v: Values, alg: str):
+    def __init__(self, ins, v: Values, alg: str, declared: Declared = PAPER):
         self.ins, self.v, self.dim, self.alg = ins, v, ins.dim, alg
+        self.declared = declared
         self.names = set(v.tab)
         self.checks = list(ins.checks)
         self.out: list[Constraint] = []
@@ -178,7 +179,8 @@ class _Run:
             return
         try:
             self.out.append(special_argument(self.dim, self.alg, chk, x, tt, T, q, lower[0],
-                                             self.v, M_LOWER.get((self.dim, self.alg)),
+                                             self.v,
+                                             self.declared.m_lower.get((self.dim, self.alg)),
                                              lower[1]))
         except InvalidBound as e:
             self.fail(f"special.line{chk.line}", chk, str(e))
@@ -194,7 +196,7 @@ class _Run:
             return
         R_x = bounds(x).R
         prot = self.protected_by_check.get(id(x))
-        declared = PROTECTED.get((self.dim, self.alg), {})
+        declared = self.declared.protected.get((self.dim, self.alg), {})
         if R_x is not None:
             key = ("relative", sympy.srepr(R_x))
             entry = self.signs.setdefault(key, {"labels": [], "lines": [], "kind": "relative",
@@ -260,11 +262,13 @@ class _Run:
         return c
 
 
-def run_constraints(ins, v: Values, algorithm: str | None = None) -> list[Constraint]:
+def run_constraints(ins, v: Values, algorithm: str | None = None,
+                    declared: Declared = PAPER) -> list[Constraint]:
     """The floating-point constraints generated from one instrumented run: windows of
     the comparisons against tolerances first (they also record which sign tests they
-    protect), then the sign tests, then the declared divisors."""
-    run = _Run(ins, v, algorithm or ins.algorithm)
+    protect), then the sign tests, then the declared divisors. ``declared``: the facts
+    keyed by (dim, algorithm), the paper's by default (a user's predicates bring theirs)."""
+    run = _Run(ins, v, algorithm or ins.algorithm, declared)
     for chk in run.checks:
         if not chk.is_sign_test:
             run.comparison(chk)
@@ -273,7 +277,8 @@ def run_constraints(ins, v: Values, algorithm: str | None = None) -> list[Constr
         if chk.is_sign_test:
             run.sign(chk)
     run.out += [run.sign_constraint(e) for e in run.signs.values()]
-    run.out += [run.nonzero(q, b) for q, b in NONZERO.get((run.dim, run.alg), {}).items()]
+    run.out += [run.nonzero(q, b) for q, b in
+                run.declared.nonzero.get((run.dim, run.alg), {}).items()]
     return run.out
 
 
