@@ -432,6 +432,7 @@ def _join(sa, ca, sb, q_cell, masks, gbox_a, gbox_b, bx):
 cell_index = _cell_index  # cell of each coordinate, clipped to the grid
 linear_key = _linear      # linear key of a cell index (d,) in a grid of shape G
 runs = _runs              # unique keys of a sorted array, start and length of each run
+pair_test = _test         # positions of the pairs passing box_pairs' exact test
 
 
 def cell_entries(i0: np.ndarray, i1: np.ndarray, G: np.ndarray, sort: bool = True):

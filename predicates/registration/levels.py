@@ -15,8 +15,9 @@ import time
 import numpy as np
 
 from ..catalogue import kinds as catalogue_kinds
-from .broadphase import box_pairs, boxes_of, near_flags, tighten_flags
+from .broadphase import boxes_of, near_flags, tighten_flags
 from .complex import Side
+from .facepairs import FacePairs
 from .result import KindPairs
 
 __all__ = ["Registration"]
@@ -58,12 +59,11 @@ class Registration:
             return
         sim.build(near_s)
         cut.build(near_c)
+        self.faces = FacePairs(sim, cut, self.reach, catalogue_kinds(self.dim), 2 * self.chunk)
         self.empty = False
 
     def _candidates(self, kind, i, j):
-        yield from box_pairs(*boxes_of(self.sim.P, self.sim.cx.S[i]),
-                             *boxes_of(self.cut.P, self.cut.cx.S[j]), self.reach[kind],
-                             chunk=2 * self.chunk)
+        yield from self.faces.candidates(kind, i, j)
 
     # -- suppression --------------------------------------------------------------------
     def _blocked(self, i, j, s, c):
