@@ -74,22 +74,22 @@ class Registration:
             return blocked
         sflag = np.zeros(len(s), dtype=bool)
         for a in {a for a, _ in lower}:
-            sflag |= self.sim_involved[a][self.sim.cx.face(i, a)[s]].any(axis=1)
+            sflag |= self.sim_involved[a].take(_faces(self.sim.cx, i, a, s)).any(axis=1)
         cflag = np.zeros(len(c), dtype=bool)
         for b in {b for _, b in lower}:
-            cflag |= self.cut_involved[b][self.cut.cx.face(j, b)[c]].any(axis=1)
+            cflag |= self.cut_involved[b].take(_faces(self.cut.cx, j, b, c)).any(axis=1)
         maybe = np.flatnonzero(sflag & cflag)
         if maybe.size == 0:
             return blocked
         s, c = s[maybe], c[maybe]
         hit = np.zeros(len(maybe), dtype=bool)
         for a, b in lower:
-            A = self.sim.cx.face(i, a)[s]
-            B = self.cut.cx.face(j, b)[c]
+            A = _faces(self.sim.cx, i, a, s)
+            B = _faces(self.cut.cx, j, b, c)
             keys = (A[:, :, None] * self.cut.count(b) + B[:, None, :]).reshape(len(s), -1)
             R = self.registered[a, b]
             pos = np.searchsorted(R, keys).clip(max=len(R) - 1)
-            hit |= (R[pos] == keys).any(axis=1)
+            hit |= (R.take(pos) == keys).any(axis=1)
         blocked[maybe] = hit
         return blocked
 
@@ -169,3 +169,11 @@ class Registration:
         order = np.lexsort(both.T[::-1]) if len(both) else np.zeros(0, dtype=np.int64)
         return KindPairs(kind, sid[order], cid[order], sw[order], cw[order],
                          candidates=ncand, suppressed=nsup)
+
+
+def _faces(cx, k, j, idx):
+    """The j-faces (n, C(k+1, j+1)) of the k-simplices ``idx`` (``take``: faster than
+    fancy indexing; the simplex itself when j == k)."""
+    if j == k:
+        return idx[:, None]
+    return cx.face(k, j).take(idx, axis=0)
