@@ -19,27 +19,30 @@ __all__ = ["Complex", "Side", "unique_rows"]
 def unique_rows(rows: np.ndarray, n: int):
     """Unique rows (sorted lexicographically) and the inverse map, for ids < n."""
     w = rows.shape[1]
-    if w == 1:
-        return _unique_keys(rows[:, 0].astype(np.int64), rows)
-    if n ** w < 2 ** 62:
-        key = rows[:, 0].astype(np.int64)
-        for c in range(1, w):
+    per = 1  # columns per int64 key: n^per < 2^62
+    while per < w and n ** (per + 1) < 2 ** 62:
+        per += 1
+    keys = []
+    for start in range(0, w, per):
+        key = rows[:, start].astype(np.int64)
+        for c in range(start + 1, min(w, start + per)):
             key = key * n + rows[:, c]
-        return _unique_keys(key, rows)
-    u, inv = np.unique(rows, axis=0, return_inverse=True)
-    return u, inv.ravel()
+        keys.append(key)
+    return _unique_keys(keys, rows)
 
 
-def _unique_keys(key: np.ndarray, rows: np.ndarray):
-    """``np.unique(key, return_index=True, return_inverse=True)`` without its stable
-    (merge) sort: equal keys are equal rows, so any representative will do, and the
-    unique keys and inverse map are the same."""
-    order = np.argsort(key)
-    ks = key[order]
-    new = np.empty(len(ks), dtype=bool)
+def _unique_keys(keys: list, rows: np.ndarray):
+    """``np.unique`` of the rows encoded by ``keys`` (lexicographic: the first key
+    most significant), with the inverse map, without np.unique's stable (merge) sort or
+    its structured view of the rows: equal keys are equal rows, so any representative
+    will do, and the unique rows and inverse map are the same."""
+    order = np.argsort(keys[0]) if len(keys) == 1 else np.lexsort(keys[::-1])
+    new = np.zeros(len(order), dtype=bool)
     new[:1] = True
-    np.not_equal(ks[1:], ks[:-1], out=new[1:])
-    inv = np.empty(len(ks), dtype=np.int64)
+    for key in keys:
+        ks = key[order]
+        new[1:] |= ks[1:] != ks[:-1]
+    inv = np.empty(len(order), dtype=np.int64)
     inv[order] = np.cumsum(new) - 1
     return rows[order[new]], inv
 

@@ -200,3 +200,20 @@ def test_face_pairs_from_cell_pairs_equal_box_pairs_per_kind(dim, chunk):
         assert set(got) == set(zip(*(x.tolist() for x in ref))), k.name
         total += len(got)
     assert total > 200  # the meshes do come close
+
+
+@pytest.mark.parametrize("n", [7, 2 ** 20, 2 ** 31 - 1])
+@pytest.mark.parametrize("w", [1, 2, 3, 4])
+def test_unique_rows_equal_numpy_unique(n, w):
+    """complex.unique_rows (ids packed into one or several int64 keys, lexsorted)
+    gives np.unique(axis=0)'s rows and inverse, also when n^w overflows one key."""
+    from predicates.registration.complex import unique_rows
+
+    rng = np.random.default_rng(n % 1000 + w)
+    base = rng.integers(0, n, (300, w), dtype=np.int64)
+    base[:, 0] = rng.integers(0, 3, 300)  # many rows share their first ids
+    rows = base[rng.integers(0, 300, 2000)]  # repeated rows
+    u, inv = unique_rows(rows, n)
+    ref, ref_inv = np.unique(rows, axis=0, return_inverse=True)
+    assert np.array_equal(u, ref) and np.array_equal(inv, ref_inv.ravel())
+    assert np.array_equal(u[inv], rows)
