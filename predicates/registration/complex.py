@@ -54,12 +54,13 @@ class Complex:
     (n_k, C(k+1, j+1)): indices into ``S[j]`` of the j-faces of each k-simplex.
     """
 
-    def __init__(self, cells: np.ndarray, n: int):
+    def __init__(self, cells: np.ndarray, n: int, unique: bool = False):
         self.top = cells.shape[1] - 1
         top = self.top
         self.S = {}
         self.F = {}
-        self.S[top], _ = unique_rows(cells, n)
+        # unique: the caller's cells are already unique_rows' output
+        self.S[top] = cells if unique else unique_rows(cells, n)[0]
         for k in range(top, 0, -1):
             rows = self.S[k]
             combos = list(itertools.combinations(range(k + 1), k))
@@ -99,6 +100,15 @@ class Side:
     def build(self, mask):
         """The complex of the cells selected by ``mask`` (all their faces)."""
         self.cx = Complex(self.cells[mask], len(self.P))
+
+    def unique_cells(self, mask):
+        """The distinct cells selected by ``mask``, sorted (rows of ranks)."""
+        return unique_rows(self.cells[mask], len(self.P))[0]
+
+    def build_unique(self, cells):
+        """The complex of ``cells``, rows of :meth:`unique_cells` (the top simplices
+        are then exactly these rows, in this order)."""
+        self.cx = Complex(cells, len(self.P), unique=True)
 
     def count(self, k):
         return len(self.cx.S[k])

@@ -31,7 +31,22 @@ import numpy as np
 
 from .broadphase import box_pairs, boxes_of, pair_test
 
-__all__ = ["FacePairs", "owned_table"]
+__all__ = ["FacePairs", "cell_pairs", "owned_table"]
+
+
+def cell_pairs(P_sim, sim_cells, P_cut, cut_cells, pad: float, chunk: int):
+    """The pairs of cells (rows of ``sim_cells`` × rows of ``cut_cells``, coordinates
+    ``P_sim``, ``P_cut``) whose boxes are within ``pad``: (T, C, keep_s, keep_c), with
+    ``keep_*`` the masks of the cells in some pair and T, C indices into the kept rows."""
+    lo_s, hi_s = boxes_of(P_sim, sim_cells)
+    lo_c, hi_c = boxes_of(P_cut, cut_cells)
+    parts = list(box_pairs(lo_s, hi_s, lo_c, hi_c, pad, chunk=chunk))
+    T = np.concatenate([p[0] for p in parts]) if parts else np.zeros(0, np.int64)
+    C = np.concatenate([p[1] for p in parts]) if parts else np.zeros(0, np.int64)
+    keep_s, keep_c = np.zeros(len(sim_cells), bool), np.zeros(len(cut_cells), bool)
+    keep_s[T] = True
+    keep_c[C] = True
+    return ((np.cumsum(keep_s) - 1)[T], (np.cumsum(keep_c) - 1)[C], keep_s, keep_c)
 
 
 def owned_table(F: np.ndarray, n_faces: int) -> np.ndarray:
@@ -55,10 +70,12 @@ class FacePairs:
     """Candidate pairs of one registration, kind by kind (module docstring).
 
     ``sim``, ``cut``: :class:`~predicates.registration.complex.Side` with their
-    complexes built; ``reach``: {kind name: reach}; ``kinds``: the catalogue's kinds
-    (each with ``name``, ``i``, ``j``) in the order they will be asked for."""
+    complexes built; ``T``, ``C``: every pair of their top simplices (indices) whose
+    boxes are within the largest reach (:func:`cell_pairs`), each once; ``reach``:
+    {kind name: reach}; ``kinds``: the catalogue's kinds (each with ``name``, ``i``,
+    ``j``) in the order they will be asked for."""
 
-    def __init__(self, sim, cut, reach: dict, kinds, chunk: int):
+    def __init__(self, sim, cut, T, C, reach: dict, kinds, chunk: int):
         self.sim, self.cut, self.reach, self.chunk = sim, cut, reach, chunk
         self.top_s, self.top_c = sim.cx.top, cut.cx.top
         self._boxes = {}  # (side, level) -> (lo, hi) columns
@@ -70,12 +87,7 @@ class FacePairs:
         self._level_reach = {}
         for k in kinds:
             self._level_reach[k.i] = max(self._level_reach.get(k.i, 0.0), reach[k.name])
-        pad = max(self._level_reach.values())
-        lo_s, hi_s = self._box("sim", self.top_s)
-        lo_c, hi_c = self._box("cut", self.top_c)
-        parts = list(box_pairs(lo_s.T, hi_s.T, lo_c.T, hi_c.T, pad, chunk=chunk))
-        self.T = np.concatenate([p[0] for p in parts]) if parts else np.zeros(0, np.int64)
-        self.C = np.concatenate([p[1] for p in parts]) if parts else np.zeros(0, np.int64)
+        self.T, self.C = T, C
 
     def _box(self, side, k):
         if (side, k) not in self._boxes:

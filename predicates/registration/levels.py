@@ -17,7 +17,7 @@ import numpy as np
 from ..catalogue import kinds as catalogue_kinds
 from .broadphase import boxes_of, near_flags, tighten_flags
 from .complex import Side
-from .facepairs import FacePairs
+from .facepairs import FacePairs, cell_pairs
 from .result import KindPairs
 
 __all__ = ["Registration"]
@@ -40,8 +40,9 @@ class Registration:
     def _near(self):
         """Keep only the cells of each mesh that share a grid cell with a cell of the
         other mesh enlarged by σ+ (a superset of the cells within σ+ of the other mesh:
-        every candidate pair of every kind is made of their faces), and build the
-        simplicial complexes of those cells only."""
+        every candidate pair of every kind is made of their faces), find the pairs of
+        those cells within σ+, and build the simplicial complexes of the cells in some
+        pair only (:mod:`~predicates.registration.facepairs`)."""
         sim, cut = self.sim, self.cut
         if len(sim.cells) == 0 or len(cut.cells) == 0:
             return
@@ -57,9 +58,15 @@ class Registration:
         del box_s, box_c
         if not (near_s.any() and near_c.any()):
             return
-        sim.build(near_s)
-        cut.build(near_c)
-        self.faces = FacePairs(sim, cut, self.reach, catalogue_kinds(self.dim), 2 * self.chunk)
+        # the pairs of distinct cells within σ+; complexes of the cells in some pair only
+        tops_s, tops_c = sim.unique_cells(near_s), cut.unique_cells(near_c)
+        T, C, keep_s, keep_c = cell_pairs(sim.P, tops_s, cut.P, tops_c, pad, 2 * self.chunk)
+        if len(T) == 0:
+            return
+        sim.build_unique(tops_s[keep_s])
+        cut.build_unique(tops_c[keep_c])
+        self.faces = FacePairs(sim, cut, T, C, self.reach, catalogue_kinds(self.dim),
+                               2 * self.chunk)
         self.empty = False
 
     def _candidates(self, kind, i, j):

@@ -158,7 +158,8 @@ def test_the_grid_size_is_the_same_for_any_order_of_the_boxes():
 
 def _random_side(rng, dim, k, n_cells, size):
     """A Side of ``n_cells`` random simplices (k vertices) of about ``size`` sharing
-    vertices of a small pool, plus a repeated cell and a collapsed one."""
+    vertices of a small pool, plus a repeated cell and a collapsed one; its complex
+    of every cell."""
     from predicates.registration.complex import Side
 
     P = rng.uniform(0, 1, (max(k, n_cells // 2), dim))
@@ -176,12 +177,13 @@ def _random_side(rng, dim, k, n_cells, size):
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("chunk", [1 << 20, 37])
 def test_face_pairs_from_cell_pairs_equal_box_pairs_per_kind(dim, chunk):
-    """FacePairs (faces' candidates derived from the cell pairs within σ+, each face
-    proposed by its owner cell only) gives, per kind, exactly the pairs of the
-    primitives' boxes within the kind's reach — each once."""
+    """cell_pairs + FacePairs (the complexes of the cells in some pair within σ+ only;
+    faces' candidates derived from the cell pairs, each face proposed by its owner cell
+    only) give, per kind, exactly the pairs of all the primitives' boxes within the
+    kind's reach — each once."""
     from predicates.catalogue import kinds
     from predicates.registration.broadphase import boxes_of
-    from predicates.registration.facepairs import FacePairs
+    from predicates.registration.facepairs import FacePairs, cell_pairs
 
     rng = np.random.default_rng(dim * 100 + chunk % 7)
     sim = _random_side(rng, dim, dim + 1, 300, 0.05)
@@ -189,15 +191,21 @@ def test_face_pairs_from_cell_pairs_equal_box_pairs_per_kind(dim, chunk):
     ks = kinds(dim)
     values = rng.permutation(np.resize([0.0, 0.004, 0.02, 0.05], len(ks)))
     reach = {k.name: float(r) for k, r in zip(ks, values)}
-    fp = FacePairs(sim, cut, reach, ks, chunk)
+    full = {k: (sim.cx.S[k.i], cut.cx.S[k.j]) for k in ks}  # every cell's faces
+    T, C, keep_s, keep_c = cell_pairs(sim.P, sim.cx.S[dim], cut.P, cut.cx.S[dim - 1],
+                                      max(reach.values()), chunk)
+    assert 0 < keep_s.sum() < len(keep_s)  # some cells have no partner: dropped
+    sim.build_unique(sim.cx.S[dim][keep_s])
+    cut.build_unique(cut.cx.S[dim - 1][keep_c])
+    fp = FacePairs(sim, cut, T, C, reach, ks, chunk)
     total = 0
     for k in ks:
-        got = [(int(a), int(b)) for s, c in fp.candidates(k.name, k.i, k.j)
-               for a, b in zip(s, c)]
+        got = [(tuple(sim.cx.S[k.i][a]), tuple(cut.cx.S[k.j][b]))
+               for s, c in fp.candidates(k.name, k.i, k.j) for a, b in zip(s, c)]
         assert len(got) == len(set(got)), f"{k.name}: a pair was proposed twice"
-        ref = box_pairs_bruteforce(*boxes_of(sim.P, sim.cx.S[k.i]),
-                                   *boxes_of(cut.P, cut.cx.S[k.j]), reach[k.name])
-        assert set(got) == set(zip(*(x.tolist() for x in ref))), k.name
+        S, Q = full[k]
+        ia, ib = box_pairs_bruteforce(*boxes_of(sim.P, S), *boxes_of(cut.P, Q), reach[k.name])
+        assert set(got) == {(tuple(S[a]), tuple(Q[b])) for a, b in zip(ia, ib)}, k.name
         total += len(got)
     assert total > 200  # the meshes do come close
 
