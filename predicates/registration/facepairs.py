@@ -60,6 +60,14 @@ def owned_table(F: np.ndarray, n_faces: int) -> np.ndarray:
     return np.where(owner[F] == np.arange(n)[:, None], F, -1)
 
 
+def _owned(tab, cells):
+    """(face, position in ``cells``) for every face the ``cells`` own (owned table
+    ``tab``), in the order of ``cells``."""
+    A = tab.take(cells, axis=0)
+    flat = np.flatnonzero(A >= 0)  # flat: ~4x faster than a 2D nonzero + 2D indexing
+    return A.ravel().take(flat), flat // A.shape[1]
+
+
 def _columns(points, rows):
     """Boxes of the simplices ``points[rows]`` as (d, n) columns (lo, hi)."""
     lo, hi = boxes_of(points, rows)
@@ -118,10 +126,9 @@ class FacePairs:
         step = max(1, self.chunk // tab.shape[1])
         fs, cs = [], []
         for lo in range(0, len(self.T), step):
-            A = tab[self.T[lo: lo + step]]
-            rows, cols = np.nonzero(A >= 0)
-            f, C = self._test(self._level_reach[i], i, self.top_c, A[rows, cols],
-                              self.C[lo: lo + step][rows])
+            f, rows = _owned(tab, self.T[lo: lo + step])
+            f, C = self._test(self._level_reach[i], i, self.top_c, f,
+                              self.C[lo: lo + step].take(rows))
             fs.append(f)
             cs.append(C)
         if not fs:
@@ -146,9 +153,8 @@ class FacePairs:
         for lo in range(0, len(f_all), step):
             f, C = f_all[lo: lo + step], C_all[lo: lo + step]
             if tab is not None:
-                B = tab[C]
-                rows, cols = np.nonzero(B >= 0)
-                f, C = f[rows], B[rows, cols]
+                C, rows = _owned(tab, C)
+                f = f.take(rows)
             s, c = self._test(pad, i, j, f, C)
             if len(s):
                 yield s, c
