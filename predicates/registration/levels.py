@@ -15,7 +15,7 @@ import time
 import numpy as np
 
 from ..catalogue import kinds as catalogue_kinds
-from .broadphase import boxes_of, near_flags, tighten_flags
+from .broadphase import boxes_of, tighten_flags
 from .complex import Side
 from .facepairs import FacePairs, cell_pairs
 from .result import KindPairs
@@ -39,23 +39,17 @@ class Registration:
     # -- broad phase ------------------------------------------------------------------
     def _near(self):
         """Keep only the cells of each mesh that share a grid cell with a cell of the
-        other mesh enlarged by σ+ (a superset of the cells within σ+ of the other mesh:
-        every candidate pair of every kind is made of their faces), find the pairs of
-        those cells within σ+, and build the simplicial complexes of the cells in some
-        pair only (:mod:`~predicates.registration.facepairs`)."""
+        other mesh enlarged by σ+ (``tighten_flags``: a superset of the cells within σ+
+        of the other mesh; the plan's masks already dropped the far ones), find the
+        pairs of those cells within σ+ (every candidate pair of every kind is made of
+        their faces), and build the simplicial complexes of the cells in some pair only
+        (:mod:`~predicates.registration.facepairs`)."""
         sim, cut = self.sim, self.cut
         if len(sim.cells) == 0 or len(cut.cells) == 0:
             return
         pad = max(self.reach.values())
-        box_s, box_c = boxes_of(sim.P, sim.cells), boxes_of(cut.P, cut.cells)
-        near_s, near_c = near_flags(*box_s, *box_c, pad)
-        # a second, finer grid over the survivors only: fewer primitives for every kind
-        si, ci = np.flatnonzero(near_s), np.flatnonzero(near_c)
-        fine_s, fine_c = tighten_flags(box_s[0][si], box_s[1][si], box_c[0][ci],
-                                       box_c[1][ci], pad)
-        near_s[si[~fine_s]] = False
-        near_c[ci[~fine_c]] = False
-        del box_s, box_c
+        near_s, near_c = tighten_flags(*boxes_of(sim.P, sim.cells),
+                                       *boxes_of(cut.P, cut.cells), pad)
         if not (near_s.any() and near_c.any()):
             return
         # the pairs of distinct cells within σ+; complexes of the cells in some pair only
