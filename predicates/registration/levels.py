@@ -67,22 +67,34 @@ class Registration:
         yield from self.faces.candidates(kind, i, j)
 
     # -- suppression --------------------------------------------------------------------
-    def _blocked(self, i, j, s, c):
+    def _suspects(self, i, j):
+        """(lower, flag_s, flag_c) for kind (i, j): the registered lower kinds (pairs of
+        sub-simplex levels) and, per i-simplex / j-simplex, whether one of its faces
+        is in a registered pair of such a level — once per kind, for every simplex
+        (cheaper than per candidate). None when no lower pair is registered."""
         lower = [(a, b) for (a, b), keys in self.registered.items()
                  if a <= i and b <= j and (a, b) != (i, j) and len(keys)]
-        blocked = np.zeros(len(s), dtype=bool)
         if not lower:
-            return blocked
-        sflag = np.zeros(len(s), dtype=bool)
+            return None
+        flag_s = np.zeros(self.sim.count(i), dtype=bool)
         for a in {a for a, _ in lower}:
-            sflag |= self.sim_involved[a].take(_faces(self.sim.cx, i, a, s)).any(axis=1)
-        cflag = np.zeros(len(c), dtype=bool)
+            flag_s |= _any_face(self.sim.cx, i, a, self.sim_involved[a])
+        flag_c = np.zeros(self.cut.count(j), dtype=bool)
         for b in {b for _, b in lower}:
-            cflag |= self.cut_involved[b].take(_faces(self.cut.cx, j, b, c)).any(axis=1)
-        maybe = np.flatnonzero(sflag & cflag)
+            flag_c |= _any_face(self.cut.cx, j, b, self.cut_involved[b])
+        return lower, flag_s, flag_c
+
+    def _blocked(self, i, j, s, c, suspects):
+        """Per candidate (s, c): is a pair of its sub-simplices (the pair itself
+        excluded) registered? ``suspects`` from :meth:`_suspects`."""
+        blocked = np.zeros(len(s), dtype=bool)
+        if suspects is None:
+            return blocked
+        lower, flag_s, flag_c = suspects
+        maybe = np.flatnonzero(flag_s.take(s) & flag_c.take(c))
         if maybe.size == 0:
             return blocked
-        s, c = s[maybe], c[maybe]
+        s, c = s.take(maybe), c.take(maybe)
         hit = np.zeros(len(maybe), dtype=bool)
         for a, b in lower:
             A = _faces(self.sim.cx, i, a, s)
@@ -127,9 +139,10 @@ class Registration:
         s_all, c_all, sw_all, cw_all = [], [], [], []
         ncand = nsup = 0
         if not self.empty:
+            suspects = self._suspects(i, j)
             for s, c in self._candidates(kind, i, j):
                 ncand += len(s)
-                blocked = self._blocked(i, j, s, c)
+                blocked = self._blocked(i, j, s, c, suspects)
                 nsup += int(blocked.sum())
                 s, c = s[~blocked], c[~blocked]
                 for lo in range(0, len(s), self.chunk):
@@ -178,3 +191,14 @@ def _faces(cx, k, j, idx):
     if j == k:
         return idx[:, None]
     return cx.face(k, j).take(idx, axis=0)
+
+
+def _any_face(cx, k, j, involved):
+    """Per k-simplex: is one of its j-faces flagged in ``involved`` (per j-simplex)?"""
+    if j == k:
+        return involved
+    F = cx.face(k, j)
+    out = involved.take(F[:, 0])
+    for col in range(1, F.shape[1]):
+        out |= involved.take(F[:, col])
+    return out
