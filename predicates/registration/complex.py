@@ -67,8 +67,12 @@ class Complex:
             sub = rows[:, combos].reshape(-1, k)
             self.S[k - 1], inv = unique_rows(sub, n)
             self.F[k, k - 1] = inv.reshape(len(rows), k + 1)
+        # vertices: a rank -> vertex id table (rows ascend, so do their ids): no sort
+        vid = np.zeros(n, dtype=np.int64)
+        vid[self.S[0][:, 0]] = np.arange(len(self.S[0]))
         for k in range(2, top + 1):
-            for j in range(k - 2, -1, -1):
+            self.F[k, 0] = vid.take(self.S[k])
+            for j in range(k - 2, 0, -1):
                 g = self.F[k - 1, j][self.F[k, k - 1]].reshape(len(self.S[k]), -1)
                 g.sort(axis=1)
                 self.F[k, j] = np.ascontiguousarray(g[:, :: k - j])

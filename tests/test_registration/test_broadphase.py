@@ -225,3 +225,21 @@ def test_unique_rows_equal_numpy_unique(n, w):
     ref, ref_inv = np.unique(rows, axis=0, return_inverse=True)
     assert np.array_equal(u, ref) and np.array_equal(inv, ref_inv.ravel())
     assert np.array_equal(u[inv], rows)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_complex_face_maps_are_the_faces(dim):
+    """Complex.face(k, j)[t]: the ids of the j-faces of k-simplex t, ascending — by
+    their definition (every (j+1)-subset of the simplex's vertices, looked up)."""
+    from itertools import combinations
+
+    rng = np.random.default_rng(dim)
+    for k_top, side in ((dim, _random_side(rng, dim, dim + 1, 120, 0.1)),
+                        (dim - 1, _random_side(rng, dim, dim, 80, 0.1))):
+        cx = side.cx
+        for k in range(1, k_top + 1):
+            for j in range(k):
+                ids = {tuple(r): n for n, r in enumerate(cx.S[j].tolist())}
+                ref = [sorted(ids[f] for f in combinations(row, j + 1))
+                       for row in cx.S[k].tolist()]
+                assert cx.face(k, j).tolist() == ref, (k, j)
