@@ -160,22 +160,12 @@ class _SimScale:
 
     def __init__(self, lo, hi):
         self.lo, self.hi = lo, hi
-        self.ext = np.zeros(len(lo))  # each cell's largest box edge, column by column
-        for ax in range(lo.shape[1]):
-            np.maximum(self.ext, hi[:, ax] - lo[:, ax], out=self.ext)
+        self.ext = (hi - lo).max(axis=1) if len(lo) else np.zeros(0)
         self.fine = float(np.median(self.ext)) if len(lo) else 0.0
-        self._mid = None  # the centres: only coarse size classes need them
+        self.mid = 0.5 * (lo + hi)  # the bins' key: the cells' box centres
+        self._extremes = None  # min |centre| > 0, max |centre|: on demand (_exact)
         self._bins = {}
         self._hash = {}
-
-    def _centres(self):
-        """The bins' key: the cells' box centres (and the extremes of |centre|)."""
-        if self._mid is None:
-            self._mid = 0.5 * (self.lo + self.hi)
-            a = np.abs(self._mid)
-            self._mmin = float(a[a > 0].min()) if (a > 0).any() else np.inf
-            self._mmax = float(a.max()) if a.size else 0.0
-        return self._mid
 
     def boxes(self, g: float):
         if g <= self.fine:
@@ -189,7 +179,7 @@ class _SimScale:
                 key0, lo0, hi0, ext0 = self._bins[finer]
                 key = np.floor(key0 / (g / finer))
             else:
-                key = np.floor(self._centres() / g)
+                key = np.floor(self.mid / g)
                 lo0, hi0, ext0 = self.lo, self.hi, self.ext
             u, inv = _group(key)
             lo = np.full((len(u), self.lo.shape[1]), np.inf)
@@ -205,8 +195,12 @@ class _SimScale:
         """Every centre / f and centre / g is exact (normal or zero, finite): scaling by
         a power of two then loses nothing, so the keys of g follow from those of f."""
         tiny = np.finfo(np.float64).tiny
-        self._centres()  # sets _mmin, _mmax
-        return bool(self._mmin / g > tiny and np.isfinite(self._mmax / f))
+        if self._extremes is None:
+            a = np.abs(self.mid)
+            self._extremes = (float(a[a > 0].min()) if (a > 0).any() else np.inf,
+                              float(a.max()) if a.size else 0.0)
+        mmin, mmax = self._extremes
+        return bool(mmin / g > tiny and np.isfinite(mmax / f))
 
     def marks(self, g: float, qlo, qhi, qext):
         """Per query box (edges of class g, box edge ``qext``): is qext > thr > 0, thr
