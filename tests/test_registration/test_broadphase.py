@@ -154,3 +154,92 @@ def test_the_grid_size_is_the_same_for_any_order_of_the_boxes():
     for _ in range(5):
         p = rng.permutation(len(lo))
         assert _mean_extent(lo[p], hi[p]) == h  # bit for bit
+
+
+def _random_side(rng, dim, k, n_cells, size):
+    """A Side of ``n_cells`` random simplices (k vertices) of about ``size`` sharing
+    vertices of a small pool, plus a repeated cell and a collapsed one; its complex
+    of every cell."""
+    from predicates.registration.complex import Side
+
+    P = rng.uniform(0, 1, (max(k, n_cells // 2), dim))
+    P = np.concatenate([P, P[:5] + rng.uniform(-size, size, (5, dim))])
+    cells = np.array([rng.choice(len(P), k, replace=False) for _ in range(n_cells)])
+    near = np.argsort(((P[:, None] - P[None, cells[:, 0]]) ** 2).sum(-1), axis=0)
+    cells[:, 1:] = near[1:k].T  # cells from near neighbours: small, overlapping
+    P = np.concatenate([P, np.repeat(P[:1], k, axis=0)])  # a collapsed cell
+    cells = np.concatenate([cells, cells[:1], np.arange(len(P) - k, len(P))[None]])
+    side = Side(P, cells)
+    side.build(np.ones(len(cells), dtype=bool))
+    return side
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("chunk", [1 << 20, 37])
+def test_face_pairs_from_cell_pairs_equal_box_pairs_per_kind(dim, chunk):
+    """cell_pairs + FacePairs (the complexes of the cells in some pair within σ+ only;
+    faces' candidates derived from the cell pairs, each face proposed by its owner cell
+    only) give, per kind, exactly the pairs of all the primitives' boxes within the
+    kind's reach — each once."""
+    from predicates.catalogue import kinds
+    from predicates.registration.broadphase import boxes_of
+    from predicates.registration.facepairs import FacePairs, cell_pairs
+
+    rng = np.random.default_rng(dim * 100 + chunk % 7)
+    sim = _random_side(rng, dim, dim + 1, 300, 0.05)
+    cut = _random_side(rng, dim, dim, 200, 0.05)
+    ks = kinds(dim)
+    values = rng.permutation(np.resize([0.0, 0.004, 0.02, 0.05], len(ks)))
+    reach = {k.name: float(r) for k, r in zip(ks, values)}
+    full = {k: (sim.cx.S[k.i], cut.cx.S[k.j]) for k in ks}  # every cell's faces
+    T, C, keep_s, keep_c = cell_pairs(sim.P, sim.cx.S[dim], cut.P, cut.cx.S[dim - 1],
+                                      max(reach.values()), chunk)
+    assert 0 < keep_s.sum() < len(keep_s)  # some cells have no partner: dropped
+    sim.build_unique(sim.cx.S[dim][keep_s])
+    cut.build_unique(cut.cx.S[dim - 1][keep_c])
+    fp = FacePairs(sim, cut, T, C, reach, ks, chunk)
+    total = 0
+    for k in ks:
+        got = [(tuple(sim.cx.S[k.i][a]), tuple(cut.cx.S[k.j][b]))
+               for s, c in fp.candidates(k.name, k.i, k.j) for a, b in zip(s, c)]
+        assert len(got) == len(set(got)), f"{k.name}: a pair was proposed twice"
+        S, Q = full[k]
+        ia, ib = box_pairs_bruteforce(*boxes_of(sim.P, S), *boxes_of(cut.P, Q), reach[k.name])
+        assert set(got) == {(tuple(S[a]), tuple(Q[b])) for a, b in zip(ia, ib)}, k.name
+        total += len(got)
+    assert total > 200  # the meshes do come close
+
+
+@pytest.mark.parametrize("n", [7, 2 ** 20, 2 ** 31 - 1])
+@pytest.mark.parametrize("w", [1, 2, 3, 4])
+def test_unique_rows_equal_numpy_unique(n, w):
+    """complex.unique_rows (ids packed into one or several int64 keys, lexsorted)
+    gives np.unique(axis=0)'s rows and inverse, also when n^w overflows one key."""
+    from predicates.registration.complex import unique_rows
+
+    rng = np.random.default_rng(n % 1000 + w)
+    base = rng.integers(0, n, (300, w), dtype=np.int64)
+    base[:, 0] = rng.integers(0, 3, 300)  # many rows share their first ids
+    rows = base[rng.integers(0, 300, 2000)]  # repeated rows
+    u, inv = unique_rows(rows, n)
+    ref, ref_inv = np.unique(rows, axis=0, return_inverse=True)
+    assert np.array_equal(u, ref) and np.array_equal(inv, ref_inv.ravel())
+    assert np.array_equal(u[inv], rows)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_complex_face_maps_are_the_faces(dim):
+    """Complex.face(k, j)[t]: the ids of the j-faces of k-simplex t, ascending — by
+    their definition (every (j+1)-subset of the simplex's vertices, looked up)."""
+    from itertools import combinations
+
+    rng = np.random.default_rng(dim)
+    for k_top, side in ((dim, _random_side(rng, dim, dim + 1, 120, 0.1)),
+                        (dim - 1, _random_side(rng, dim, dim, 80, 0.1))):
+        cx = side.cx
+        for k in range(1, k_top + 1):
+            for j in range(k):
+                ids = {tuple(r): n for n, r in enumerate(cx.S[j].tolist())}
+                ref = [sorted(ids[f] for f in combinations(row, j + 1))
+                       for row in cx.S[k].tolist()]
+                assert cx.face(k, j).tolist() == ref, (k, j)
