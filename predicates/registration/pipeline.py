@@ -66,7 +66,7 @@ from fperr.warnings import ResolutionError, ResolutionWarning
 
 from ..catalogue import kinds as catalogue_kinds
 from . import resolution
-from .inputs import max_box_edge, mesh_arrays, scale_points, validate_options, validate_pair
+from .inputs import mesh_arrays, scale_points, validate_options, validate_pair
 from .levels import Registration
 from .refine import refine
 from .resolution import (Resolution, cell_boxes, consistent_scale, estimate_cell_pairs,
@@ -165,10 +165,10 @@ def _plan(args, dtype, tolerance_scale, progress, chunk, refine_cut, timings, si
     arrays = mesh_arrays(args, sim_region, cut_region)
     sp, sc, cp, cc = arrays
     dim, sim, cut = validate_pair(sp, sc, cp, cc, dtype)
-    if max_box_edge(sim.points, sim.cells) + max_box_edge(cut.points, cut.cells) == 0:
+    sim_box = cell_boxes(sim.points, sim.cells)  # once: the check, refine and L use it
+    if _flat(sim_box) and _flat(cell_boxes(cut.points, cut.cells)):
         raise ValueError("every cell of both meshes collapses to a single point (zero "
                          "bounding boxes): the tolerances would be zero")
-    sim_box = cell_boxes(sim.points, sim.cells)
     refinement = None
     if refine_cut and len(cut.cells):
         t = time.perf_counter()
@@ -186,6 +186,11 @@ def _plan(args, dtype, tolerance_scale, progress, chunk, refine_cut, timings, si
     ms, mc = sc_.masks
     return Plan(dim, dtype, sim, cut, sc_, P_sim, P_cut, sim.cells[ms], cut.cells[mc],
                 tol_run, ts, catalogue_kinds(dim), report, refinement, arrays)
+
+
+def _flat(box) -> bool:
+    """Every box is a single point (the largest box edge is 0)."""
+    return all(np.array_equal(box[0][:, ax], box[1][:, ax]) for ax in range(box[0].shape[1]))
 
 
 def _register(plan: Plan, chunk: int, progress: bool, timings: dict) -> dict:

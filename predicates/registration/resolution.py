@@ -50,10 +50,13 @@ def cell_boxes(points: np.ndarray, cells: np.ndarray):
 
 
 def _max_edge(lo, hi, mask) -> float:
-    """Largest box edge of the selected cells, rounded up one ulp (upper bound)."""
+    """Largest box edge of the selected cells, rounded up one ulp (upper bound). Axis
+    by axis, without copying the boxes when every cell is selected (max is exact, so
+    the order does not matter)."""
     if not mask.any():
         return 0.0
-    d = float((hi[mask] - lo[mask]).max())
+    sel = slice(None) if mask.all() else mask
+    d = max(float((hi[sel, ax] - lo[sel, ax]).max()) for ax in range(lo.shape[1]))
     return float(np.nextafter(d, np.inf)) if d > 0 else 0.0
 
 
@@ -107,6 +110,8 @@ def near_cells(sim_box, cut_box, pad, masks):
     of the other mesh enlarged by ``pad``: a superset of the cells within ``pad``."""
     ms, mc = masks
     out_s, out_c = np.zeros_like(ms), np.zeros_like(mc)
+    if ms.all() and mc.all() and len(ms) and len(mc):  # round 1: no copies of the boxes
+        return near_flags(*sim_box, *cut_box, pad)
     if ms.any() and mc.any():
         # near_flags does not depend on the cells' order (its grid size is a mean
         # summed in sorted order), so neither does L
@@ -203,9 +208,14 @@ def shortest_edge(points: np.ndarray, cells: np.ndarray, mask) -> float | None:
     """Shortest edge (binary64 length) of the selected cells, None if none."""
     if not mask.any():
         return None
-    X = points.astype(np.float64, copy=False)[cells[mask]]
-    k = cells.shape[1]
-    d = [np.sqrt(((X[:, a] - X[:, b]) ** 2).sum(1)) for a in range(k) for b in range(a + 1, k)]
+    cols = np.ascontiguousarray(points.T, dtype=np.float64)
+    C = np.ascontiguousarray(cells[mask].T)
+    k, dim = cells.shape[1], points.shape[1]
+    # per axis 1D takes (no (n, k, d) gather); the squares are summed as an (n, d)
+    # array's .sum(1), exactly as before (same summation order, same values)
+    X = [[cols[ax].take(C[v]) for ax in range(dim)] for v in range(k)]
+    d = [np.sqrt((np.stack([X[a][ax] - X[b][ax] for ax in range(dim)], axis=1) ** 2).sum(1))
+         for a in range(k) for b in range(a + 1, k)]
     return float(np.min(d))
 
 
