@@ -11,7 +11,6 @@ imported only here, only when a partitioned run is asked for.
 from __future__ import annotations
 
 import contextlib
-import math
 import os
 import resource
 import time
@@ -107,7 +106,7 @@ def _count(partitions, client, n_cells: int) -> int:
 def run_part(part: Part, dim: int, tol, reach: dict, chunk: int) -> tuple[dict, dict]:
     """One Dask task: the serial levels on the partition's slice; returns its owned
     pairs (global ids) and statistics (time, peak RSS of the worker process, bytes)."""
-    t = time.perf_counter()
+    t, cpu = time.perf_counter(), time.thread_time()
     reg = Registration(dim, part.P_sim, part.sim_cells, part.P_cut, part.cut_cells, tol,
                        reach, chunk)
     pairs = owned(part, reg.run(False, {}))
@@ -116,7 +115,8 @@ def run_part(part: Part, dim: int, tol, reach: dict, chunk: int) -> tuple[dict, 
     stats = {"part": part.index, "owned_cells": part.owned_cells,
              "sim_cells": len(part.sim_cells), "cut_cells": len(part.cut_cells),
              "bytes_in": part.nbytes, "bytes_out": sent_back,
-             "seconds": time.perf_counter() - t, "pid": os.getpid(),
+             "seconds": time.perf_counter() - t, "cpu_s": time.thread_time() - cpu,
+             "pid": os.getpid(),
              "peak_rss_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
     return pairs, stats
 
@@ -130,11 +130,9 @@ def run_partitioned(plan, partitions, scheduler, chunk: int, timings: dict) -> d
     k = _count(partitions, client, len(plan.sim_cells))
     t = time.perf_counter()
     reach = plan.scale.reach
-    # every scaled cell's box edge ≤ L_a·2^-e (one ulp up in case the scaling rounded)
-    extent = math.nextafter(math.ldexp(plan.scale.L_a, -plan.scale.e), math.inf)
     parts = [] if len(plan.cut_cells) == 0 or len(plan.sim_cells) == 0 else list(
         split(plan.P_sim, plan.sim_cells, plan.P_cut, plan.cut_cells, k,
-              max(reach.values()), extent))
+              max(reach.values())))
     timings["partition"] = time.perf_counter() - t
     t = time.perf_counter()
     args = (plan.dim, plan.tol, reach, chunk)

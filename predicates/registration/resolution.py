@@ -29,6 +29,7 @@ import numpy as np
 from ..catalogue import kinds as catalogue_kinds
 from ..tolerances import tolerances as compute_tolerances
 from .broadphase import boxes_of, near_flags
+from .gridsums import _corners
 
 __all__ = ["COARSE_RATIO", "MAX_ROUNDS", "Resolution", "Scale", "cell_boxes",
            "consistent_scale", "estimate_cell_pairs", "memory_limit", "near_cells"]
@@ -167,11 +168,46 @@ def estimate_cell_pairs(lo_a, hi_a, lo_b, hi_b, pad: float) -> int:
         if na.sum() + nb.sum() <= budget:
             break
         g *= 2
+    fast = _dense_pair_count(ia0, ia1, ib0, ib1, budget)
+    if fast is not None:
+        return fast
     ka, kb = _cell_keys(ia0, ia1), _cell_keys(ib0, ib1)
     ua, ca = np.unique(ka, return_counts=True)
     ub, cb = np.unique(kb, return_counts=True)
     _, ja, jb = np.intersect1d(ua, ub, assume_unique=True, return_indices=True)
     return int(np.dot(ca[ja].astype(np.float64), cb[jb].astype(np.float64)))
+
+
+def _dense_pair_count(ia0, ia1, ib0, ib1, budget: int):
+    """Σ over grid cells of (a boxes covering it) × (b boxes covering it) from two
+    count grids (difference arrays, :func:`~predicates.registration.gridsums` corners),
+    without expanding the boxes into cells — the same integer as the keyed count when
+    :func:`_cell_keys` is injective on the grid (every index < its radix, no int64
+    overflow) and the float64 dot of the keyed count is exact (< 2^53); None otherwise
+    (or when the grid has more than ``budget`` cells), and the caller counts by keys."""
+    i0 = np.concatenate([ia0, ib0]).astype(np.int64)
+    i1 = np.concatenate([ia1, ib1]).astype(np.int64)
+    G = i1.max(axis=0) + 1
+    top = float(G[0])
+    for g in G[1:]:
+        top *= _KEY_RADIX
+    if np.any(G[1:] > _KEY_RADIX) or top >= 2.0 ** 62 or float(np.prod(G + 1.0)) > budget:
+        return None
+    na = len(ia0)
+    counts = []
+    for lo, hi in ((i0[:na], i1[:na]), (i0[na:], i1[na:])):
+        diff = np.zeros(int(np.prod(G + 1)), dtype=np.int64)
+        for key, sign in _corners(lo, hi, G):
+            diff += (-sign if len(G) % 2 else sign) * np.bincount(key, minlength=diff.size)
+        c = diff.reshape(tuple((G + 1)[::-1]))
+        for ax in range(c.ndim):
+            np.cumsum(c, axis=ax, out=c)
+        counts.append(c.ravel())
+    total = int(np.dot(counts[0], counts[1]))
+    return total if total < 2 ** 53 else None
+
+
+_KEY_RADIX = 1_000_003  # the per-axis radix of _cell_keys
 
 
 def _cell_keys(i0, i1):
@@ -184,7 +220,7 @@ def _cell_keys(i0, i1):
     key = np.zeros(box.size, dtype=np.int64)
     for ax in range(c.shape[1]):
         cb = c[box, ax]
-        key = key * 1_000_003 + (i0[box, ax] + t % cb)
+        key = key * _KEY_RADIX + (i0[box, ax] + t % cb)
         t //= cb
     return key
 

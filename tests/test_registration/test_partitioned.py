@@ -132,7 +132,7 @@ def test_partitions_cover_and_halos_hold_owned_stars():
     ref = predicates.intersect(sp, sc, cp, cc)
     for k in (2, 3, 7):
         pos, owner = assign(sp, sc, k)
-        parts = list(split(sp, sc, cp, cc, k, pad=0.5, extent=0.25))
+        parts = list(split(sp, sc, cp, cc, k, pad=0.5))
         assert sum(p.owned_cells for p in parts) == len(sc)
         assert [p.index for p in parts] == list(range(k))
         border = np.zeros(len(sp), dtype=bool)  # vertices of cells of 2+ partitions
@@ -155,9 +155,8 @@ def test_partitions_get_every_cutting_cell_within_reach(k):
 
     sp, sc, cp, cc = CASES["sphere"](11)
     pad = 0.05
-    X, Y = sp[sc], cp[cc]
-    extent = float((X.max(axis=1) - X.min(axis=1)).max())
-    for p in split(sp, sc, cp, cc, k, pad=pad, extent=np.nextafter(extent, np.inf)):
+    Y = cp[cc]
+    for p in split(sp, sc, cp, cc, k, pad=pad):
         Xp = p.P_sim[p.sim_cells]
         _, ib = box_pairs_bruteforce(Xp.min(axis=1), Xp.max(axis=1), Y.min(axis=1),
                                      Y.max(axis=1), pad)
