@@ -124,24 +124,26 @@ def run_part(part: Part, dim: int, tol, reach: dict, chunk: int) -> tuple[dict, 
 def run_partitioned(plan, partitions, scheduler, chunk: int, timings: dict) -> dict:
     """Steps 3, 5, 6 in partitions on Dask: {kind: KindPairs}, identical to the serial
     run. ``timings`` gets "partition" (client-side split), "dask" (the tasks) and
-    "merge"; ``timings["partitions"]`` the per-partition statistics."""
+    "merge" (wall seconds), "cpu_partition", "cpu_dask", "cpu_merge" (the client
+    process's CPU seconds: "cpu_dask" is Dask's serialisation and event loop while the
+    tasks run) and ``timings["partitions"]``: the per-partition statistics."""
     dask = _dask()
     client = _client("threads" if scheduler is None else scheduler)
     k = _count(partitions, client, len(plan.sim_cells))
-    t = time.perf_counter()
+    clock = _Clock(timings)
     reach = plan.scale.reach
-    parts = [] if len(plan.cut_cells) == 0 or len(plan.sim_cells) == 0 else list(
-        split(plan.P_sim, plan.sim_cells, plan.P_cut, plan.cut_cells, k,
-              max(reach.values())))
-    timings["partition"] = time.perf_counter() - t
-    t = time.perf_counter()
+    parts = [] if len(plan.cut_cells) == 0 or len(plan.sim_cells) == 0 else [
+        p for p in split(plan.P_sim, plan.sim_cells, plan.P_cut, plan.cut_cells, k,
+                         max(reach.values()))
+        if len(p.cut_cells)]  # no cutting cell within reach of its halo: nothing to own
+    clock("partition")
     args = (plan.dim, plan.tol, reach, chunk)
     try:
         if not parts:  # no cells can meet: nothing to register
             out = []
         elif client is not None:
-            futures = client.map(run_part, client.scatter(parts),
-                                 *[[a] * len(parts) for a in args])
+            futures = [client.submit(run_part, p, *args, pure=False)
+                       for p in client.scatter(parts, hash=False)]
             out = client.gather(futures)
         else:
             tasks = [dask.delayed(run_part, pure=False)(p, *args) for p in parts]
@@ -150,12 +152,25 @@ def run_partitioned(plan, partitions, scheduler, chunk: int, timings: dict) -> d
         if client is not None and isinstance(scheduler, str):
             client.close()  # we connected to the address: we disconnect
     del parts
-    timings["dask"] = time.perf_counter() - t
-    t = time.perf_counter()
+    clock("dask")
     pairs = merge(plan.kinds, [o[0] for o in out], plan.dtype)
-    timings["merge"] = time.perf_counter() - t
+    clock("merge")
     timings["partitions"] = [o[1] for o in out]
     return pairs
+
+
+class _Clock:
+    """Wall seconds (``timings[step]``) and client-process CPU seconds
+    (``timings["cpu_" + step]``) of consecutive steps."""
+
+    def __init__(self, timings: dict):
+        self.timings = timings
+        self.t, self.c = time.perf_counter(), time.process_time()
+
+    def __call__(self, step: str) -> None:
+        t, c = time.perf_counter(), time.process_time()
+        self.timings[step], self.timings["cpu_" + step] = t - self.t, c - self.c
+        self.t, self.c = t, c
 
 
 def write_parts(res, k: int, pattern: str) -> list[str]:

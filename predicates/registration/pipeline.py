@@ -113,11 +113,12 @@ def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: b
     Figure 1/5 — sound only if ``fperr verify --tolerances`` accepts it. Returns an
     :class:`~predicates.registration.result.IntersectionResult`. See the module docstring.
     """
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     timings = {}
     plan = _plan(args, dtype, tolerance_scale, progress, chunk, refine_cut, timings,
                  sim_region, cut_region, tolerances)
     timings["setup"] = time.perf_counter() - t0
+    timings["cpu_setup"] = time.process_time() - c0
     _check(plan.report, strict, memory_limit, plan.dim)
     if partitions is None and scheduler is None:
         pairs = _register(plan, chunk, progress, timings)
