@@ -91,10 +91,17 @@ def client_for(workers: int | None = None, address: str | None = None):
         yield client
 
 
+def _slots(client, scheduler) -> int:
+    """Partitions that can run at once: the cluster's worker threads, one for the
+    synchronous scheduler, the CPUs for the other local schedulers."""
+    if client is not None:
+        return max(1, sum(w["nthreads"] for w in client.scheduler_info()["workers"].values()))
+    return 1 if scheduler == "synchronous" else os.cpu_count() or 1
+
+
 def _count(partitions, client, n_cells: int) -> int:
     if isinstance(partitions, str) and partitions == "auto" or partitions is None:
-        workers = (sum(w["nthreads"] for w in client.scheduler_info()["workers"].values())
-                   if client is not None else os.cpu_count() or 1)
+        workers = _slots(client, "threads")
         return max(1, min(n_cells, max(workers, -(-n_cells // CELLS_PER_PART))))
     if isinstance(partitions, (bool, np.bool_)) or not isinstance(partitions, (int, np.integer)):
         raise TypeError(f"partitions must be a positive int or 'auto', got {partitions!r}")
@@ -121,7 +128,8 @@ def run_part(part: Part, dim: int, tol, reach: dict, chunk: int) -> tuple[dict, 
     return pairs, stats
 
 
-def run_partitioned(plan, partitions, scheduler, chunk: int, timings: dict) -> dict:
+def run_partitioned(plan, partitions, scheduler, chunk: int, timings: dict,
+                    check=None) -> dict:
     """Steps 3, 5, 6 in partitions on Dask: {kind: KindPairs}, identical to the serial
     run. ``timings`` gets "partition" (client-side split), "dask" (the tasks) and
     "merge" (wall seconds), "cpu_partition", "cpu_dask", "cpu_merge" (the client
@@ -130,6 +138,8 @@ def run_partitioned(plan, partitions, scheduler, chunk: int, timings: dict) -> d
     dask = _dask()
     client = _client("threads" if scheduler is None else scheduler)
     k = _count(partitions, client, len(plan.sim_cells))
+    if check is not None:  # the resolution report's checks, before any work
+        check(share=min(k, _slots(client, scheduler)) / k, stacklevel=4)
     clock = _Clock(timings)
     reach = plan.scale.reach
     parts = [] if len(plan.cut_cells) == 0 or len(plan.sim_cells) == 0 else [

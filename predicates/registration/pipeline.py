@@ -58,6 +58,7 @@ from __future__ import annotations
 import os
 import time
 import warnings
+from functools import partial
 from typing import NamedTuple
 
 import numpy as np
@@ -119,13 +120,16 @@ def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: b
                  sim_region, cut_region, tolerances)
     timings["setup"] = time.perf_counter() - t0
     timings["cpu_setup"] = time.process_time() - c0
-    _check(plan.report, strict, memory_limit, plan.dim)
+    check = partial(_check, plan.report, strict, memory_limit, plan.dim)
     if partitions is None and scheduler is None:
+        check()
         pairs = _register(plan, chunk, progress, timings)
     else:
         from .partition_run import run_partitioned
 
-        pairs = run_partitioned(plan, partitions, scheduler, chunk, timings)
+        # checked there, before any task: the memory guard counts the partitions held
+        # at once, not the whole run
+        pairs = run_partitioned(plan, partitions, scheduler, chunk, timings, check)
     timings["total"] = time.perf_counter() - t0
     sim, cut, sc_ = plan.sim, plan.cut, plan.scale
     return IntersectionResult(
@@ -217,14 +221,18 @@ def _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts) -> Reso
                       sc_.history[0], len(sc_.history) - 1, ref, pairs, ts)
 
 
-def _check(report: Resolution, strict: bool, limit: int | None, dim: int) -> None:
-    """Warn (or raise, ``strict``) when coarse; refuse runs that would exhaust memory.
-    The naive baseline (tolerance_scale 0) is never called coarse."""
+def _check(report: Resolution, strict: bool, limit: int | None, dim: int,
+           share: float = 1.0, stacklevel: int = 3) -> None:
+    """Warn (or raise, ``strict``) when coarse; refuse runs that would exhaust memory
+    (``share``: the fraction of the cell pairs held at once, see
+    :func:`~predicates.registration.resolution.memory_error`). The naive baseline
+    (tolerance_scale 0) is never called coarse; ``stacklevel``: the user's frame."""
     if report.coarse:
         if strict:
             raise ResolutionError(report.message() + " (strict: refused)")
-        warnings.warn(report.message(), ResolutionWarning, stacklevel=3)
-    err = memory_error(report, resolution.memory_limit() if limit is None else limit, dim)
+        warnings.warn(report.message(), ResolutionWarning, stacklevel=stacklevel)
+    err = memory_error(report, resolution.memory_limit() if limit is None else limit, dim,
+                       share)
     if err is not None:
         raise err
 

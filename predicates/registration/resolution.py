@@ -352,11 +352,13 @@ def t_plus(dim: int, scale: Scale) -> dict:
             and n != "sigma_hat"}
 
 
-def memory_error(res: Resolution, limit: int, dim: int):
-    """The memory guard's error (a :class:`fperr.ResolutionError`), or None."""
+def memory_error(res: Resolution, limit: int, dim: int, share: float = 1.0):
+    """The memory guard's error (a :class:`fperr.ResolutionError`), or None. ``share``:
+    the fraction of the cell pairs held at once (a partitioned run: its concurrent
+    partitions' share, docs/partitioned.md)."""
     from fperr.warnings import ResolutionError
 
-    need = res.cell_pairs * BYTES_PER_CELL_PAIR
+    need = res.cell_pairs * BYTES_PER_CELL_PAIR * share
     if need <= limit:
         return None
     what = "simulation" if dim == 3 else "2D simulation"

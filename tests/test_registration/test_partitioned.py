@@ -401,3 +401,20 @@ def test_partitioned_result_to_dict_is_json():
         assert d["timings"][key] >= 0
     for p in d["timings"]["partitions"]:
         assert p["bytes_in"] > 0 and p["cpu_s"] >= 0 and p["cut_cells"] > 0
+
+
+def test_memory_guard_counts_the_partitions_held_at_once():
+    """The guard refuses before any work what would not fit; a partitioned run holds
+    only the partitions running at once (one at a time under "synchronous")."""
+    from fperr import ResolutionError
+    from predicates.registration.resolution import BYTES_PER_CELL_PAIR
+
+    args = CASES["sphere"]()
+    ref = predicates.intersect(*args)
+    limit = ref.resolution.cell_pairs * BYTES_PER_CELL_PAIR // 2
+    with pytest.raises(ResolutionError, match="refused before the work"):
+        predicates.intersect(*args, memory_limit=limit)
+    with pytest.raises(ResolutionError, match="refused before the work"):
+        predicates.intersect(*args, memory_limit=limit, partitions=1, scheduler="synchronous")
+    assert_identical(ref, predicates.intersect(*args, memory_limit=limit, partitions=4,
+                                               scheduler="synchronous"))
