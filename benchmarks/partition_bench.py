@@ -4,16 +4,20 @@ n = 120, 10.4 M tetrahedra × 327,680 triangles).
 
     python benchmarks/partition_bench.py [--n 48] [--subdivisions 5] [--workers 2]
                                          [--partitions 2,4] [--reps 2] [--rounds 2]
-                                         [--skip-serial] [--json OUT.json]
+                                         [--skip-serial] [--memory-limit GIB]
+                                         [--json OUT.json]
 
 Each mode runs in its own subprocess (its own peak RSS). Serial: ``intersect`` as is.
 Partitioned: a LocalCluster (``partition_run.client_for``: single-threaded worker
 processes) is started first (its start-up time is reported apart), then ``intersect(...,
 partitions=k, scheduler=client)`` runs ``--reps`` times; ``--rounds`` alternates the
-modes' child processes (the machine is shared: each mode sees the same load); wall time
-is the best run of each mode. Reported per partition: cells received (own + halo),
-cutting cells, bytes sent to the worker and back, task seconds, and the worker process's
-peak RSS.
+modes' child processes (the machine is shared: each mode sees the same load). Reported
+per mode: the best wall time with the 1-minute load average of every run, and — since
+wall time on a shared machine measures the other sessions as much as this code — the
+CPU critical path: the client's serial CPU (plan, split, merge: ``res.timings``
+"cpu_*") plus the busiest worker's task CPU (thread CPU of its tasks), against the
+serial run's CPU. Per partition: cells received (own + halo), cutting cells, bytes sent
+to the worker and back, task wall and CPU seconds, the worker process's peak RSS.
 Every partitioned result is checked against the serial one (SHA-256 of every pair and
 weight array, per kind).
 """
@@ -45,7 +49,7 @@ def digest(res) -> str:
 
 
 def child(mode: str, n: int, subdivisions: int, workers: int, k: int, reps: int,
-          refine_cut: bool = True) -> dict:
+          refine_cut: bool = True, memory_gib: float | None = None) -> dict:
     import predicates
     from predicates.registration.examples import cube_grid, icosphere
 
@@ -54,9 +58,12 @@ def child(mode: str, n: int, subdivisions: int, workers: int, k: int, reps: int,
     out = {"mode": mode, "n": n, "sim_cells": len(sc), "cut_cells": len(cc), "runs": [],
            "cpu": [], "loads": []}
 
+    limit = None if memory_gib is None else int(memory_gib * 2**30)
+
     def timed(**kw):
         t, c = time.perf_counter(), time.process_time()
-        res = predicates.intersect(sp, sc, cp, cc, refine_cut=refine_cut, **kw)
+        res = predicates.intersect(sp, sc, cp, cc, refine_cut=refine_cut, **kw,
+                                   memory_limit=limit)
         out["runs"].append(time.perf_counter() - t)
         out["cpu"].append(time.process_time() - c)  # the client process: every thread
         out["loads"].append(load1())
@@ -86,7 +93,7 @@ def child(mode: str, n: int, subdivisions: int, workers: int, k: int, reps: int,
                                ("dask_client_cpu", tm["cpu_dask"])):
                     out.setdefault(key, []).append(v)
             res = predicates.intersect(sp, sc, cp, cc, refine_cut=refine_cut, partitions=k,
-                                       scheduler=client)  # untimed: its statistics only
+                                       scheduler=client, memory_limit=limit)  # statistics
         out["partitions"] = res.timings["partitions"]
         out["split_s"] = res.timings["partition"]
         out["merge_s"] = res.timings["merge"]
@@ -107,7 +114,8 @@ def load1() -> float:
 def run(mode, args, k=0) -> dict:
     cmd = [sys.executable, __file__, "--child", mode, "--n", str(args.n), "--subdivisions",
            str(args.subdivisions), "--workers", str(args.workers), "--k", str(k),
-           "--reps", str(args.reps)] + (["--no-refine-cut"] if args.no_refine_cut else [])
+           "--reps", str(args.reps)] + (["--no-refine-cut"] if args.no_refine_cut else []) \
+        + ([] if args.memory_limit is None else ["--memory-limit", str(args.memory_limit)])
     r = subprocess.run(cmd, capture_output=True, text=True)
     if r.returncode:
         raise SystemExit(f"{mode} failed:\n{r.stderr[-3000:]}")
@@ -185,13 +193,16 @@ def main(argv=None):
     ap.add_argument("--skip-serial", action="store_true", help="partitioned runs only")
     ap.add_argument("--no-refine-cut", action="store_true",
                     help="intersect(..., refine_cut=False): without the (global) refinement")
+    ap.add_argument("--memory-limit", type=float, metavar="GIB",
+                    help="intersect(memory_limit=): the memory guard's limit in GiB (default "
+                    "half the available memory; W4's serial estimate is 7.1 GiB)")
     ap.add_argument("--json")
     ap.add_argument("--child")
     ap.add_argument("--k", type=int, default=0)
     args = ap.parse_args(argv)
     if args.child:
         print(json.dumps(child(args.child, args.n, args.subdivisions, args.workers, args.k,
-                               args.reps, not args.no_refine_cut)))
+                               args.reps, not args.no_refine_cut, args.memory_limit)))
         return
     serial = {"n": args.n, "sim_cells": 0, "cut_cells": 0, "best_s": float("nan"),
               "runs": [], "cpu": [], "loads": [], "client_peak_rss_mib": float("nan"),
