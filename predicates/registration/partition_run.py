@@ -131,15 +131,25 @@ def run_part(part: Part, dim: int, tol, reach: dict, chunk: int) -> tuple[dict, 
 def run_partitioned(plan, partitions, scheduler, chunk: int, timings: dict,
                     check=None) -> dict:
     """Steps 3, 5, 6 in partitions on Dask: {kind: KindPairs}, identical to the serial
-    run. ``timings`` gets "partition" (client-side split), "dask" (the tasks) and
-    "merge" (wall seconds), "cpu_partition", "cpu_dask", "cpu_merge" (the client
-    process's CPU seconds: "cpu_dask" is Dask's serialisation and event loop while the
-    tasks run) and ``timings["partitions"]``: the per-partition statistics."""
+    run. ``check(share=, stacklevel=)``: the resolution report's checks, called before
+    any work with the fraction of the cell pairs held at once. ``timings`` gets
+    "partition" (client-side split), "dask" (the tasks) and "merge" (wall seconds),
+    "cpu_partition", "cpu_dask", "cpu_merge" (the client process's CPU seconds:
+    "cpu_dask" is Dask's serialisation and event loop while the tasks run) and
+    ``timings["partitions"]``: the per-partition statistics."""
     dask = _dask()
     client = _client("threads" if scheduler is None else scheduler)
+    try:
+        return _run(dask, client, plan, partitions, scheduler, chunk, timings, check)
+    finally:
+        if client is not None and isinstance(scheduler, str):
+            client.close()  # we connected to the address: we disconnect (errors too)
+
+
+def _run(dask, client, plan, partitions, scheduler, chunk, timings, check) -> dict:
     k = _count(partitions, client, len(plan.sim_cells))
-    if check is not None:  # the resolution report's checks, before any work
-        check(share=min(k, _slots(client, scheduler)) / k, stacklevel=4)
+    if check is not None:  # before any work
+        check(share=min(k, _slots(client, scheduler)) / k, stacklevel=5)
     clock = _Clock(timings)
     reach = plan.scale.reach
     parts = [] if len(plan.cut_cells) == 0 or len(plan.sim_cells) == 0 else [
@@ -148,19 +158,15 @@ def run_partitioned(plan, partitions, scheduler, chunk: int, timings: dict,
         if len(p.cut_cells)]  # no cutting cell within reach of its halo: nothing to own
     clock("partition")
     args = (plan.dim, plan.tol, reach, chunk)
-    try:
-        if not parts:  # no cells can meet: nothing to register
-            out = []
-        elif client is not None:
-            futures = [client.submit(run_part, p, *args, pure=False)
-                       for p in client.scatter(parts, hash=False)]
-            out = client.gather(futures)
-        else:
-            tasks = [dask.delayed(run_part, pure=False)(p, *args) for p in parts]
-            out = dask.compute(*tasks, scheduler=scheduler or "threads")
-    finally:
-        if client is not None and isinstance(scheduler, str):
-            client.close()  # we connected to the address: we disconnect
+    if not parts:  # no cells can meet: nothing to register
+        out = []
+    elif client is not None:
+        futures = [client.submit(run_part, p, *args, pure=False)
+                   for p in client.scatter(parts, hash=False)]
+        out = client.gather(futures)
+    else:
+        tasks = [dask.delayed(run_part, pure=False)(p, *args) for p in parts]
+        out = dask.compute(*tasks, scheduler=scheduler or "threads")
     del parts
     clock("dask")
     pairs = merge(plan.kinds, [o[0] for o in out], plan.dtype)
