@@ -21,12 +21,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .broadphase import near_flags
+from .broadphase import boxes_of, near_flags
 from .result import KindPairs
 
 __all__ = ["Part", "assign", "merge", "morton_order", "owned", "split"]
-
-_SUBBOXES = 64  # boxes per partition for choosing its cutting cells (tight, cheap)
 
 
 @dataclass
@@ -88,21 +86,16 @@ def morton_order(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
     return pos
 
 
-def _cut_near(first, halo, extent, clo, chi, pad) -> np.ndarray:
-    """Indices of the cutting cells (boxes ``clo``, ``chi``) within ``pad`` of some
-    block of the ``halo`` cells (given in Morton order, so blocks are compact). A block's
-    box is its cells' first vertices' box enlarged by ``extent`` (≥ every cell's box
-    edge), rounded outwards: it contains each of its cells' boxes, and the test
-    F[lo − hi] ≤ pad is monotone, so the result is a superset of the cutting cells
-    within pad of a halo cell — without gathering every vertex of every cell."""
-    if len(clo) == 0 or len(halo) == 0:
+def _cut_near(P_sim, halo_cells, clo, chi, pad) -> np.ndarray:
+    """Indices of the cutting cells (boxes ``clo``, ``chi``) that share a broad-phase
+    grid cell with the box of a ``halo_cells`` cell, the cutting boxes enlarged by
+    ``pad`` (:func:`~predicates.registration.broadphase.near_flags`): a superset of the
+    cutting cells within ``pad`` of a halo cell (same float test), and a tight one —
+    the grid is about a cell's size, so a partition gets the cutting cells over its own
+    region plus a border, not every cutting cell its region's bounding box spans."""
+    if len(clo) == 0 or len(halo_cells) == 0:
         return np.zeros(0, dtype=np.int64)
-    starts = np.linspace(0, len(halo), min(_SUBBOXES, len(halo)) + 1).astype(np.int64)[:-1]
-    v = first[halo]
-    with np.errstate(over="ignore"):
-        blo = np.nextafter(np.minimum.reduceat(v, starts, axis=0) - extent, -np.inf)
-        bhi = np.nextafter(np.maximum.reduceat(v, starts, axis=0) + extent, np.inf)
-    _, near = near_flags(blo, bhi, clo, chi, pad)
+    _, near = near_flags(*boxes_of(P_sim, halo_cells), clo, chi, pad)
     return np.flatnonzero(near)
 
 
@@ -131,17 +124,14 @@ def assign(P_sim: np.ndarray, sim_cells: np.ndarray, k: int):
     return pos, owner
 
 
-def split(P_sim, sim_cells, P_cut, cut_cells, k: int, pad: float, extent: float):
+def split(P_sim, sim_cells, P_cut, cut_cells, k: int, pad: float):
     """Yield the :class:`Part` of each non-empty partition of k (cells in Morton
-    order, cut into k runs of equal size ± 1); ``pad``: the largest broad-phase reach;
-    ``extent``: an upper bound of every simulation cell's box edge (L_a). Any
-    assignment of cells to partitions gives the serial result; Morton runs keep them
+    order, cut into k runs of equal size ± 1); ``pad``: the largest broad-phase reach.
+    Any assignment of cells to partitions gives the serial result; Morton runs keep them
     compact, so halos and cutting slices stay small."""
     m, n = len(sim_cells), len(P_sim)
     pos, owner = assign(P_sim, sim_cells, k)
-    first = P_sim[sim_cells[:, 0]].astype(np.float64)
-    Y = P_cut[cut_cells].astype(np.float64)
-    clo, chi = Y.min(axis=1), Y.max(axis=1)
+    clo, chi = boxes_of(P_cut, cut_cells)
     by_pos = np.empty(m, dtype=np.int64)
     by_pos[pos] = np.arange(m, dtype=np.int64)
     for r in range(k):
@@ -152,7 +142,7 @@ def split(P_sim, sim_cells, P_cut, cut_cells, k: int, pad: float, extent: float)
         touched[sim_cells[own].ravel()] = True
         halo = np.flatnonzero(touched[sim_cells].any(axis=1))  # includes own cells
         Ps, cs, sid = _local(P_sim, sim_cells, halo)
-        cut_keep = _cut_near(first, halo[np.argsort(pos[halo])], extent, clo, chi, pad)
+        cut_keep = _cut_near(P_sim, sim_cells[halo], clo, chi, pad)
         Pc, cc, cid = _local(P_cut, cut_cells, cut_keep)
         yield Part(r, Ps, cs, sid, owner[sid] == r, Pc, cc, cid, int(own.size))
 
@@ -171,10 +161,14 @@ def owned(part: Part, pairs: dict) -> dict:
 
 
 def merge(kinds, results: list[dict], dtype) -> dict:
-    """{kind: KindPairs}: the partitions' owned pairs concatenated and sorted as the
-    serial run sorts them (by sorted sim ids, then sorted cut ids). ``candidates`` and
-    ``suppressed`` are summed: per-run work statistics (halo pairs are counted by every
-    partition that proposed them), not part of the result."""
+    """{kind: KindPairs}: the partitions' owned pairs in the serial run's order (by
+    sorted sim ids, then sorted cut ids). Each partition's pairs come in that order
+    already (its run sorts by local ids, and local order is global order) and all pairs
+    with the same smallest sim id belong to one partition (its owner), so a stable sort
+    by the smallest sim id alone merges them — O(n log k) on k sorted runs, not a
+    lexsort of every column. ``candidates`` and ``suppressed`` are summed: per-run work
+    statistics (halo pairs are counted by every partition that proposed them), not part
+    of the result."""
     out = {}
     for k in kinds:
         got = [r[k.name] for r in results if k.name in r]
@@ -182,11 +176,12 @@ def merge(kinds, results: list[dict], dtype) -> dict:
         cid = np.concatenate([g.cut for g in got] + [np.zeros((0, k.j + 1), np.int64)])
         sw = np.concatenate([g.sim_weights for g in got] + [np.zeros((0, k.i + 1), dtype)])
         cw = np.concatenate([g.cut_weights for g in got] + [np.zeros((0, k.j + 1), dtype)])
-        both = np.concatenate([np.sort(sid, axis=1), np.sort(cid, axis=1)], axis=1)
-        order = np.lexsort(both.T[::-1]) if len(both) else np.zeros(0, dtype=np.int64)
-        both = both[order]
-        if len(both) > 1 and np.any(np.all(both[1:] == both[:-1], axis=1)):
-            raise RuntimeError(f"{k.name}: a pair was registered by two partitions (an "
+        first = sid.min(axis=1) if len(sid) else np.zeros(0, dtype=np.int64)
+        order = np.argsort(first, kind="stable")
+        part = np.repeat(np.arange(len(got)), [len(g.sim) for g in got])[order]
+        first = first[order]
+        if np.any((first[1:] == first[:-1]) & (part[1:] != part[:-1])):
+            raise RuntimeError(f"{k.name}: two partitions kept pairs of the same vertex (an "
                                "ownership bug; please report it)")
         out[k.name] = KindPairs(k.name, sid[order], cid[order], sw[order], cw[order],
                                 candidates=sum(g.candidates for g in got),

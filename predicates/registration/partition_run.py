@@ -11,7 +11,6 @@ imported only here, only when a partitioned run is asked for.
 from __future__ import annotations
 
 import contextlib
-import math
 import os
 import resource
 import time
@@ -92,10 +91,17 @@ def client_for(workers: int | None = None, address: str | None = None):
         yield client
 
 
+def _slots(client, scheduler) -> int:
+    """Partitions that can run at once: the cluster's worker threads, one for the
+    synchronous scheduler, the CPUs for the other local schedulers."""
+    if client is not None:
+        return max(1, sum(w["nthreads"] for w in client.scheduler_info()["workers"].values()))
+    return 1 if scheduler == "synchronous" else os.cpu_count() or 1
+
+
 def _count(partitions, client, n_cells: int) -> int:
     if isinstance(partitions, str) and partitions == "auto" or partitions is None:
-        workers = (sum(w["nthreads"] for w in client.scheduler_info()["workers"].values())
-                   if client is not None else os.cpu_count() or 1)
+        workers = _slots(client, "threads")
         return max(1, min(n_cells, max(workers, -(-n_cells // CELLS_PER_PART))))
     if isinstance(partitions, (bool, np.bool_)) or not isinstance(partitions, (int, np.integer)):
         raise TypeError(f"partitions must be a positive int or 'auto', got {partitions!r}")
@@ -107,7 +113,7 @@ def _count(partitions, client, n_cells: int) -> int:
 def run_part(part: Part, dim: int, tol, reach: dict, chunk: int) -> tuple[dict, dict]:
     """One Dask task: the serial levels on the partition's slice; returns its owned
     pairs (global ids) and statistics (time, peak RSS of the worker process, bytes)."""
-    t = time.perf_counter()
+    t, cpu = time.perf_counter(), time.thread_time()
     reg = Registration(dim, part.P_sim, part.sim_cells, part.P_cut, part.cut_cells, tol,
                        reach, chunk)
     pairs = owned(part, reg.run(False, {}))
@@ -116,48 +122,71 @@ def run_part(part: Part, dim: int, tol, reach: dict, chunk: int) -> tuple[dict, 
     stats = {"part": part.index, "owned_cells": part.owned_cells,
              "sim_cells": len(part.sim_cells), "cut_cells": len(part.cut_cells),
              "bytes_in": part.nbytes, "bytes_out": sent_back,
-             "seconds": time.perf_counter() - t, "pid": os.getpid(),
+             "seconds": time.perf_counter() - t, "cpu_s": time.thread_time() - cpu,
+             "pid": os.getpid(),
              "peak_rss_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
     return pairs, stats
 
 
-def run_partitioned(plan, partitions, scheduler, chunk: int, timings: dict) -> dict:
+def run_partitioned(plan, partitions, scheduler, chunk: int, timings: dict,
+                    check=None) -> dict:
     """Steps 3, 5, 6 in partitions on Dask: {kind: KindPairs}, identical to the serial
-    run. ``timings`` gets "partition" (client-side split), "dask" (the tasks) and
-    "merge"; ``timings["partitions"]`` the per-partition statistics."""
+    run. ``check(share=, stacklevel=)``: the resolution report's checks, called before
+    any work with the fraction of the cell pairs held at once. ``timings`` gets
+    "partition" (client-side split), "dask" (the tasks) and "merge" (wall seconds),
+    "cpu_partition", "cpu_dask", "cpu_merge" (the client process's CPU seconds:
+    "cpu_dask" is Dask's serialisation and event loop while the tasks run) and
+    ``timings["partitions"]``: the per-partition statistics."""
     dask = _dask()
     client = _client("threads" if scheduler is None else scheduler)
-    k = _count(partitions, client, len(plan.sim_cells))
-    t = time.perf_counter()
-    reach = plan.scale.reach
-    # every scaled cell's box edge ≤ L_a·2^-e (one ulp up in case the scaling rounded)
-    extent = math.nextafter(math.ldexp(plan.scale.L_a, -plan.scale.e), math.inf)
-    parts = [] if len(plan.cut_cells) == 0 or len(plan.sim_cells) == 0 else list(
-        split(plan.P_sim, plan.sim_cells, plan.P_cut, plan.cut_cells, k,
-              max(reach.values()), extent))
-    timings["partition"] = time.perf_counter() - t
-    t = time.perf_counter()
-    args = (plan.dim, plan.tol, reach, chunk)
     try:
-        if not parts:  # no cells can meet: nothing to register
-            out = []
-        elif client is not None:
-            futures = client.map(run_part, client.scatter(parts),
-                                 *[[a] * len(parts) for a in args])
-            out = client.gather(futures)
-        else:
-            tasks = [dask.delayed(run_part, pure=False)(p, *args) for p in parts]
-            out = dask.compute(*tasks, scheduler=scheduler or "threads")
+        return _run(dask, client, plan, partitions, scheduler, chunk, timings, check)
     finally:
         if client is not None and isinstance(scheduler, str):
-            client.close()  # we connected to the address: we disconnect
+            client.close()  # we connected to the address: we disconnect (errors too)
+
+
+def _run(dask, client, plan, partitions, scheduler, chunk, timings, check) -> dict:
+    k = _count(partitions, client, len(plan.sim_cells))
+    if check is not None:  # before any work
+        check(share=min(k, _slots(client, scheduler)) / k, stacklevel=5)
+    clock = _Clock(timings)
+    reach = plan.scale.reach
+    parts = [] if len(plan.cut_cells) == 0 or len(plan.sim_cells) == 0 else [
+        p for p in split(plan.P_sim, plan.sim_cells, plan.P_cut, plan.cut_cells, k,
+                         max(reach.values()))
+        if len(p.cut_cells)]  # no cutting cell within reach of its halo: nothing to own
+    clock("partition")
+    args = (plan.dim, plan.tol, reach, chunk)
+    if not parts:  # no cells can meet: nothing to register
+        out = []
+    elif client is not None:
+        futures = [client.submit(run_part, p, *args, pure=False)
+                   for p in client.scatter(parts, hash=False)]
+        out = client.gather(futures)
+    else:
+        tasks = [dask.delayed(run_part, pure=False)(p, *args) for p in parts]
+        out = dask.compute(*tasks, scheduler=scheduler or "threads")
     del parts
-    timings["dask"] = time.perf_counter() - t
-    t = time.perf_counter()
+    clock("dask")
     pairs = merge(plan.kinds, [o[0] for o in out], plan.dtype)
-    timings["merge"] = time.perf_counter() - t
+    clock("merge")
     timings["partitions"] = [o[1] for o in out]
     return pairs
+
+
+class _Clock:
+    """Wall seconds (``timings[step]``) and client-process CPU seconds
+    (``timings["cpu_" + step]``) of consecutive steps."""
+
+    def __init__(self, timings: dict):
+        self.timings = timings
+        self.t, self.c = time.perf_counter(), time.process_time()
+
+    def __call__(self, step: str) -> None:
+        t, c = time.perf_counter(), time.process_time()
+        self.timings[step], self.timings["cpu_" + step] = t - self.t, c - self.c
+        self.t, self.c = t, c
 
 
 def write_parts(res, k: int, pattern: str) -> list[str]:

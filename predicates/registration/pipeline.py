@@ -58,6 +58,7 @@ from __future__ import annotations
 import os
 import time
 import warnings
+from functools import partial
 from typing import NamedTuple
 
 import numpy as np
@@ -66,7 +67,7 @@ from fperr.warnings import ResolutionError, ResolutionWarning
 
 from ..catalogue import kinds as catalogue_kinds
 from . import resolution
-from .inputs import max_box_edge, mesh_arrays, scale_points, validate_options, validate_pair
+from .inputs import mesh_arrays, scale_points, validate_options, validate_pair
 from .levels import Registration
 from .refine import refine
 from .resolution import (Resolution, cell_boxes, consistent_scale, estimate_cell_pairs,
@@ -113,18 +114,22 @@ def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: b
     Figure 1/5 — sound only if ``fperr verify --tolerances`` accepts it. Returns an
     :class:`~predicates.registration.result.IntersectionResult`. See the module docstring.
     """
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     timings = {}
     plan = _plan(args, dtype, tolerance_scale, progress, chunk, refine_cut, timings,
                  sim_region, cut_region, tolerances)
     timings["setup"] = time.perf_counter() - t0
-    _check(plan.report, strict, memory_limit, plan.dim)
+    timings["cpu_setup"] = time.process_time() - c0
+    check = partial(_check, plan.report, strict, memory_limit, plan.dim)
     if partitions is None and scheduler is None:
+        check()
         pairs = _register(plan, chunk, progress, timings)
     else:
         from .partition_run import run_partitioned
 
-        pairs = run_partitioned(plan, partitions, scheduler, chunk, timings)
+        # checked there, before any task: the memory guard counts the partitions held
+        # at once, not the whole run
+        pairs = run_partitioned(plan, partitions, scheduler, chunk, timings, check)
     timings["total"] = time.perf_counter() - t0
     sim, cut, sc_ = plan.sim, plan.cut, plan.scale
     return IntersectionResult(
@@ -165,10 +170,10 @@ def _plan(args, dtype, tolerance_scale, progress, chunk, refine_cut, timings, si
     arrays = mesh_arrays(args, sim_region, cut_region)
     sp, sc, cp, cc = arrays
     dim, sim, cut = validate_pair(sp, sc, cp, cc, dtype)
-    if max_box_edge(sim.points, sim.cells) + max_box_edge(cut.points, cut.cells) == 0:
+    sim_box = cell_boxes(sim.points, sim.cells)  # once: the check, refine and L use it
+    if _flat(sim_box) and _flat(cell_boxes(cut.points, cut.cells)):
         raise ValueError("every cell of both meshes collapses to a single point (zero "
                          "bounding boxes): the tolerances would be zero")
-    sim_box = cell_boxes(sim.points, sim.cells)
     refinement = None
     if refine_cut and len(cut.cells):
         t = time.perf_counter()
@@ -186,6 +191,11 @@ def _plan(args, dtype, tolerance_scale, progress, chunk, refine_cut, timings, si
     ms, mc = sc_.masks
     return Plan(dim, dtype, sim, cut, sc_, P_sim, P_cut, sim.cells[ms], cut.cells[mc],
                 tol_run, ts, catalogue_kinds(dim), report, refinement, arrays)
+
+
+def _flat(box) -> bool:
+    """Every box is a single point (the largest box edge is 0)."""
+    return all(np.array_equal(box[0][:, ax], box[1][:, ax]) for ax in range(box[0].shape[1]))
 
 
 def _register(plan: Plan, chunk: int, progress: bool, timings: dict) -> dict:
@@ -211,14 +221,18 @@ def _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts) -> Reso
                       sc_.history[0], len(sc_.history) - 1, ref, pairs, ts)
 
 
-def _check(report: Resolution, strict: bool, limit: int | None, dim: int) -> None:
-    """Warn (or raise, ``strict``) when coarse; refuse runs that would exhaust memory.
-    The naive baseline (tolerance_scale 0) is never called coarse."""
+def _check(report: Resolution, strict: bool, limit: int | None, dim: int,
+           share: float = 1.0, stacklevel: int = 3) -> None:
+    """Warn (or raise, ``strict``) when coarse; refuse runs that would exhaust memory
+    (``share``: the fraction of the cell pairs held at once, see
+    :func:`~predicates.registration.resolution.memory_error`). The naive baseline
+    (tolerance_scale 0) is never called coarse; ``stacklevel``: the user's frame."""
     if report.coarse:
         if strict:
             raise ResolutionError(report.message() + " (strict: refused)")
-        warnings.warn(report.message(), ResolutionWarning, stacklevel=3)
-    err = memory_error(report, resolution.memory_limit() if limit is None else limit, dim)
+        warnings.warn(report.message(), ResolutionWarning, stacklevel=stacklevel)
+    err = memory_error(report, resolution.memory_limit() if limit is None else limit, dim,
+                       share)
     if err is not None:
         raise err
 

@@ -29,6 +29,7 @@ import numpy as np
 from ..catalogue import kinds as catalogue_kinds
 from ..tolerances import tolerances as compute_tolerances
 from .broadphase import boxes_of, near_flags
+from .gridsums import _corners
 
 __all__ = ["COARSE_RATIO", "MAX_ROUNDS", "Resolution", "Scale", "cell_boxes",
            "consistent_scale", "estimate_cell_pairs", "memory_limit", "near_cells"]
@@ -62,7 +63,7 @@ def _max_edge(ext, mask) -> float:
     up one ulp (upper bound)."""
     if not mask.any():
         return 0.0
-    d = float(ext[mask].max())
+    d = float(ext.max() if mask.all() else ext[mask].max())  # no copy when all selected
     return float(np.nextafter(d, np.inf)) if d > 0 else 0.0
 
 
@@ -116,6 +117,8 @@ def near_cells(sim_box, cut_box, pad, masks):
     of the other mesh enlarged by ``pad``: a superset of the cells within ``pad``."""
     ms, mc = masks
     out_s, out_c = np.zeros_like(ms), np.zeros_like(mc)
+    if ms.all() and mc.all() and len(ms) and len(mc):  # round 1: no copies of the boxes
+        return near_flags(*sim_box, *cut_box, pad)
     if ms.any() and mc.any():
         # near_flags does not depend on the cells' order (its grid size is a mean
         # summed in sorted order), so neither does L
@@ -176,11 +179,46 @@ def estimate_cell_pairs(lo_a, hi_a, lo_b, hi_b, pad: float) -> int:
         if na.sum() + nb.sum() <= budget:
             break
         g *= 2
+    fast = _dense_pair_count(ia0, ia1, ib0, ib1, budget)
+    if fast is not None:
+        return fast
     ka, kb = _cell_keys(ia0, ia1), _cell_keys(ib0, ib1)
     ua, ca = np.unique(ka, return_counts=True)
     ub, cb = np.unique(kb, return_counts=True)
     _, ja, jb = np.intersect1d(ua, ub, assume_unique=True, return_indices=True)
     return int(np.dot(ca[ja].astype(np.float64), cb[jb].astype(np.float64)))
+
+
+def _dense_pair_count(ia0, ia1, ib0, ib1, budget: int):
+    """Σ over grid cells of (a boxes covering it) × (b boxes covering it) from two
+    count grids (difference arrays, :func:`~predicates.registration.gridsums` corners),
+    without expanding the boxes into cells — the same integer as the keyed count when
+    :func:`_cell_keys` is injective on the grid (every index < its radix, no int64
+    overflow) and the float64 dot of the keyed count is exact (< 2^53); None otherwise
+    (or when the grid has more than ``budget`` cells), and the caller counts by keys."""
+    i0 = np.concatenate([ia0, ib0]).astype(np.int64)
+    i1 = np.concatenate([ia1, ib1]).astype(np.int64)
+    G = i1.max(axis=0) + 1
+    top = float(G[0])
+    for g in G[1:]:
+        top *= _KEY_RADIX
+    if np.any(G[1:] > _KEY_RADIX) or top >= 2.0 ** 62 or float(np.prod(G + 1.0)) > budget:
+        return None
+    na = len(ia0)
+    counts = []
+    for lo, hi in ((i0[:na], i1[:na]), (i0[na:], i1[na:])):
+        diff = np.zeros(int(np.prod(G + 1)), dtype=np.int64)
+        for key, sign in _corners(lo, hi, G):
+            diff += (-sign if len(G) % 2 else sign) * np.bincount(key, minlength=diff.size)
+        c = diff.reshape(tuple((G + 1)[::-1]))
+        for ax in range(c.ndim):
+            np.cumsum(c, axis=ax, out=c)
+        counts.append(c.ravel())
+    total = int(np.dot(counts[0], counts[1]))
+    return total if total < 2 ** 53 else None
+
+
+_KEY_RADIX = 1_000_003  # the per-axis radix of _cell_keys
 
 
 def _cell_keys(i0, i1):
@@ -193,7 +231,7 @@ def _cell_keys(i0, i1):
     key = np.zeros(box.size, dtype=np.int64)
     for ax in range(c.shape[1]):
         cb = c[box, ax]
-        key = key * 1_000_003 + (i0[box, ax] + t % cb)
+        key = key * _KEY_RADIX + (i0[box, ax] + t % cb)
         t //= cb
     return key
 
@@ -217,9 +255,14 @@ def shortest_edge(points: np.ndarray, cells: np.ndarray, mask) -> float | None:
     """Shortest edge (binary64 length) of the selected cells, None if none."""
     if not mask.any():
         return None
-    X = points.astype(np.float64, copy=False)[cells[mask]]
-    k = cells.shape[1]
-    d = [np.sqrt(((X[:, a] - X[:, b]) ** 2).sum(1)) for a in range(k) for b in range(a + 1, k)]
+    cols = np.ascontiguousarray(points.T, dtype=np.float64)
+    C = np.ascontiguousarray(cells[mask].T)
+    k, dim = cells.shape[1], points.shape[1]
+    # per axis 1D takes (no (n, k, d) gather); the squares are summed as an (n, d)
+    # array's .sum(1), exactly as before (same summation order, same values)
+    X = [[cols[ax].take(C[v]) for ax in range(dim)] for v in range(k)]
+    d = [np.sqrt((np.stack([X[a][ax] - X[b][ax] for ax in range(dim)], axis=1) ** 2).sum(1))
+         for a in range(k) for b in range(a + 1, k)]
     return float(np.min(d))
 
 
@@ -320,11 +363,13 @@ def t_plus(dim: int, scale: Scale) -> dict:
             and n != "sigma_hat"}
 
 
-def memory_error(res: Resolution, limit: int, dim: int):
-    """The memory guard's error (a :class:`fperr.ResolutionError`), or None."""
+def memory_error(res: Resolution, limit: int, dim: int, share: float = 1.0):
+    """The memory guard's error (a :class:`fperr.ResolutionError`), or None. ``share``:
+    the fraction of the cell pairs held at once (a partitioned run: its concurrent
+    partitions' share, docs/partitioned.md)."""
     from fperr.warnings import ResolutionError
 
-    need = res.cell_pairs * BYTES_PER_CELL_PAIR
+    need = res.cell_pairs * BYTES_PER_CELL_PAIR * share
     if need <= limit:
         return None
     what = "simulation" if dim == 3 else "2D simulation"

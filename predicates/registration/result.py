@@ -213,7 +213,8 @@ class IntersectionResult:
                "L_b": float(self.L_b), "scale_exponent": int(self.scale_exponent),
                "plane_z": self.plane, "rounded_inputs": bool(self.rounded_inputs),
                "notes": list(self.notes) + self._status_notes(),
-               "timings": {k: float(v) for k, v in self.timings.items()}}
+               "timings": {k: v if isinstance(v, list) else float(v)  # list: partitions
+                           for k, v in self.timings.items()}}
         res = getattr(self, "resolution", None)
         if res is not None:
             out["resolution"] = res.to_dict() if hasattr(res, "to_dict") else res

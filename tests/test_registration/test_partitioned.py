@@ -25,9 +25,11 @@ KS = (1, 2, 3, 7, 16)
 
 
 def assert_identical(ref, res):
-    """Same kinds, same pairs in the same order, bit-identical weights, same counts."""
+    """Same kinds, same pairs in the same order, bit-identical weights, same counts,
+    the same global quantities and resolution report."""
     assert res.kinds == ref.kinds and res.counts == ref.counts
     assert res.scale_exponent == ref.scale_exponent and res.L_a == ref.L_a
+    assert res.L_b == ref.L_b and res.resolution.to_dict() == ref.resolution.to_dict()
     for kind in ref.kinds:
         a, b = ref[kind], res[kind]
         for x, y in ((a.sim, b.sim), (a.cut, b.cut), (a.sim_weights, b.sim_weights),
@@ -132,7 +134,7 @@ def test_partitions_cover_and_halos_hold_owned_stars():
     ref = predicates.intersect(sp, sc, cp, cc)
     for k in (2, 3, 7):
         pos, owner = assign(sp, sc, k)
-        parts = list(split(sp, sc, cp, cc, k, pad=0.5, extent=0.25))
+        parts = list(split(sp, sc, cp, cc, k, pad=0.5))
         assert sum(p.owned_cells for p in parts) == len(sc)
         assert [p.index for p in parts] == list(range(k))
         border = np.zeros(len(sp), dtype=bool)  # vertices of cells of 2+ partitions
@@ -155,9 +157,8 @@ def test_partitions_get_every_cutting_cell_within_reach(k):
 
     sp, sc, cp, cc = CASES["sphere"](11)
     pad = 0.05
-    X, Y = sp[sc], cp[cc]
-    extent = float((X.max(axis=1) - X.min(axis=1)).max())
-    for p in split(sp, sc, cp, cc, k, pad=pad, extent=np.nextafter(extent, np.inf)):
+    Y = cp[cc]
+    for p in split(sp, sc, cp, cc, k, pad=pad):
         Xp = p.P_sim[p.sim_cells]
         _, ib = box_pairs_bruteforce(Xp.min(axis=1), Xp.max(axis=1), Y.min(axis=1),
                                      Y.max(axis=1), pad)
@@ -272,3 +273,148 @@ def test_cli_workers(tmp_path):
              block_dask=True)
     assert r.returncode == 2 and "pip install 'fperr[dask]'" in r.stderr
     assert "Traceback" not in r.stderr and not out.exists()
+
+
+# -- the split of the work: partitions without cutting cells, the cell that sets L,
+#    the merge, and the plan's helpers the partitioned run relies on ----------------------
+
+def _corner_cut():
+    """An 8^3 grid cut by two small triangles near one corner only: most partitions of
+    a Morton split of all its cells hold no cutting cell within reach."""
+    sp, sc = example("plane", 8)["sim"]
+    cp = np.array([[0.05, 0.05, 0.1], [0.1, 0.05, 0.1], [0.05, 0.1, 0.1], [0.1, 0.1, 0.1]])
+    cc = np.array([[0, 1, 2], [1, 3, 2]])
+    return sp, sc, cp, cc
+
+
+def test_partitions_without_cutting_cells_are_skipped():
+    """Partitions of every simulation cell (a superset of the run's cells, which gives
+    the same pairs): those with an empty cutting slice run no task, and the merged
+    result is still the serial one."""
+    from predicates.registration import pipeline
+    from predicates.registration.partition_run import run_partitioned
+
+    sp, sc, cp, cc = _corner_cut()
+    ref = predicates.intersect(sp, sc, cp, cc)
+    assert ref.total > 0
+    plan = pipeline._plan((sp, sc, cp, cc), np.float64, 1.0, False, pipeline.CHUNK, True,
+                          {}, None, None)
+    plan = plan._replace(sim_cells=sc)  # every cell, not only those that can meet
+    pad = max(plan.scale.reach.values())
+    for k in (3, 7, 16):
+        parts = list(split(plan.P_sim, sc, plan.P_cut, plan.cut_cells, k, pad))
+        assert sum(len(p.cut_cells) == 0 for p in parts) >= k // 2  # what it claims
+        timings = {}
+        pairs = run_partitioned(plan, k, "synchronous", pipeline.CHUNK, timings)
+        assert 0 < len(timings["partitions"]) < k  # no task for an empty slice
+        for kind in ref.kinds:
+            for name in ("sim", "cut", "sim_weights", "cut_weights"):
+                assert getattr(pairs[kind], name).tobytes() == getattr(ref[kind], name).tobytes()
+
+
+def test_one_partition_holds_the_cell_that_sets_L():
+    """One stretched cell near the cut sets L_a (the largest box edge of the cells
+    that can meet): every partitioning gives the serial L_a, tolerances and pairs."""
+    sp, sc, cp, cc = CASES["plane_offset"](None)
+    sp = sp.copy()
+    v = np.argmin(np.linalg.norm(sp - cp.mean(axis=0), axis=1))  # a vertex by the cut
+    sp[v, 0] += 0.1  # its cells get a larger box
+    ref = predicates.intersect(sp, sc, cp, cc)
+    X = sp[sc]
+    edge = (X.max(axis=1) - X.min(axis=1)).max(axis=1)
+    assert ref.L_a >= edge.max() > 1.3 * np.median(edge)  # L_a is the stretched cell's
+    for k in KS:
+        assert_identical(ref, predicates.intersect(sp, sc, cp, cc, partitions=k,
+                                                   scheduler="synchronous"))
+
+
+def _kp(kind, sim, cut):
+    from predicates.registration.result import KindPairs
+
+    sim, cut = np.asarray(sim, np.int64), np.asarray(cut, np.int64)
+    return KindPairs(kind, sim, cut, sim.astype(float) / 7, cut.astype(float) / 3)
+
+
+def test_merge_restores_the_serial_order_and_refuses_a_shared_vertex():
+    from predicates.catalogue import kinds
+    from predicates.registration.partition import merge
+
+    kind = kinds(2)[3]  # edge_edge: (2, 2) ids per pair
+    serial = _kp(kind.name, [[0, 3], [0, 4], [1, 2], [2, 5], [2, 6], [4, 5]],
+                 [[1, 2], [0, 1], [3, 4], [0, 2], [1, 3], [5, 6]])
+    owner = np.array([1, 0, 1, 0, 1, 0, 0])  # per vertex: the partition keeping it
+    first = serial.sim.min(axis=1)
+    parts = []
+    for r in (0, 1):  # each partition's pairs in the serial order (a subsequence)
+        keep = owner[first] == r
+        parts.append({kind.name: _kp(kind.name, serial.sim[keep], serial.cut[keep])})
+    got = merge([kind], parts, np.float64)[kind.name]
+    for a, b in ((got.sim, serial.sim), (got.cut, serial.cut),
+                 (got.sim_weights, serial.sim_weights), (got.cut_weights, serial.cut_weights)):
+        assert a.tobytes() == b.tobytes()
+    parts[1] = {kind.name: _kp(kind.name, [[2, 7]], [[0, 1]])}  # vertex 2 is part 0's
+    parts[0] = {kind.name: _kp(kind.name, [[2, 5]], [[0, 2]])}
+    with pytest.raises(RuntimeError, match="ownership bug"):
+        merge([kind], parts, np.float64)
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 10**6), dim=st.sampled_from([2, 3]))
+def test_plan_counts_match_their_reference_forms(seed, dim):
+    """The plan's faster forms give the same numbers: the dense cell-pair count against
+    the keyed one, the shortest edge against the (n, k, d) gather."""
+    from predicates.registration import resolution as R
+
+    rng = np.random.default_rng(seed)
+    sc_ = 10.0 ** rng.uniform(-3, 3)
+
+    def boxes(n):
+        lo = rng.normal(size=(n, dim)) * sc_
+        return lo, lo + np.abs(rng.normal(size=(n, dim))) * sc_ * rng.choice([0.01, 0.3])
+
+    (la, ha), (lb, hb) = boxes(rng.integers(1, 200)), boxes(rng.integers(1, 200))
+    pad = sc_ * rng.choice([0.0, 1e-3, 0.2])
+    fast = R.estimate_cell_pairs(la, ha, lb, hb, pad)
+    keyed = R._dense_pair_count
+    try:
+        R._dense_pair_count = lambda *a: None
+        assert fast == R.estimate_cell_pairs(la, ha, lb, hb, pad)
+    finally:
+        R._dense_pair_count = keyed
+    P = rng.normal(size=(50, dim)) * sc_
+    C = np.array([rng.choice(50, dim + 1, replace=False) for _ in range(40)])
+    mask = rng.random(40) < 0.5
+    mask[0] = True
+    X = P[C[mask]]
+    d = [np.sqrt(((X[:, a] - X[:, b]) ** 2).sum(1)) for a in range(dim + 1)
+         for b in range(a + 1, dim + 1)]
+    assert R.shortest_edge(P, C, mask) == float(np.min(d))
+
+
+def test_partitioned_result_to_dict_is_json():
+    import json
+
+    res = predicates.intersect(*CASES["sphere"](), partitions=2, scheduler="synchronous")
+    d = json.loads(json.dumps(res.to_dict()))
+    assert len(d["timings"]["partitions"]) == 2
+    for key in ("cpu_setup", "cpu_partition", "cpu_dask", "cpu_merge"):
+        assert d["timings"][key] >= 0
+    for p in d["timings"]["partitions"]:
+        assert p["bytes_in"] > 0 and p["cpu_s"] >= 0 and p["cut_cells"] > 0
+
+
+def test_memory_guard_counts_the_partitions_held_at_once():
+    """The guard refuses before any work what would not fit; a partitioned run holds
+    only the partitions running at once (one at a time under "synchronous")."""
+    from fperr import ResolutionError
+    from predicates.registration.resolution import BYTES_PER_CELL_PAIR
+
+    args = CASES["sphere"]()
+    ref = predicates.intersect(*args)
+    limit = ref.resolution.cell_pairs * BYTES_PER_CELL_PAIR // 2
+    with pytest.raises(ResolutionError, match="refused before the work"):
+        predicates.intersect(*args, memory_limit=limit)
+    with pytest.raises(ResolutionError, match="refused before the work"):
+        predicates.intersect(*args, memory_limit=limit, partitions=1, scheduler="synchronous")
+    assert_identical(ref, predicates.intersect(*args, memory_limit=limit, partitions=4,
+                                               scheduler="synchronous"))
