@@ -154,9 +154,9 @@ class _SimScale:
     they span; the scale found is then the largest over a slightly larger region (a
     heuristic of where to refine only: soundness comes from the L computed afterwards).
 
-    Each set of boxes (the cells, or the bins of one class) gets ONE static grid per run
-    (:class:`_BoxHash`), queried each round with the new edges only: a round costs
-    O(its new edges + the pairs they meet), not a pass over every simulation cell."""
+    Each set of boxes (the cells, or the bins of one class) gets ONE
+    :class:`~.refine_index.LevelIndex` per run, queried each round with the new edges
+    only: a round costs O(its new edges), not a pass over every simulation cell."""
 
     def __init__(self, lo, hi):
         self.lo, self.hi = lo, hi
@@ -183,13 +183,12 @@ class _SimScale:
             else:
                 key = np.floor(self.mid / g)
                 lo0, hi0, ext0 = self.lo, self.hi, self.ext
-            u, inv = _group(key)
-            lo = np.full((len(u), self.lo.shape[1]), np.inf)
-            hi = np.full((len(u), self.lo.shape[1]), -np.inf)
-            ext = np.zeros(len(u))
-            np.minimum.at(lo, inv, lo0)
-            np.maximum.at(hi, inv, hi0)
-            np.maximum.at(ext, inv, ext0)
+            # min / max are exact: grouping by a sort and reduceat gives the same boxes
+            # as any other order of reduction
+            u, order, starts = _group(key)
+            lo = np.minimum.reduceat(lo0[order], starts, axis=0)
+            hi = np.maximum.reduceat(hi0[order], starts, axis=0)
+            ext = np.maximum.reduceat(ext0[order], starts)
             self._bins[g] = (u, lo, hi, ext)
         return self._bins[g][1:]
 
@@ -211,19 +210,24 @@ class _SimScale:
 
 
 def _group(key):
-    """Unique rows of the float integer-valued ``key`` (sorted) and the inverse map;
-    one int64 sort when the index ranges fit, else numpy's row unique."""
-    if len(key):
-        k0 = key.min(axis=0)
-        span = key.max(axis=0) - k0 + 1
-        if (span < 2.0 ** 52).all() and np.prod(span) < 2.0 ** 62:  # exact differences
-            lin = np.zeros(len(key), dtype=np.int64)
-            for ax in range(key.shape[1]):
-                lin = lin * int(span[ax]) + (key[:, ax] - k0[ax]).astype(np.int64)
-            _, first, inv = np.unique(lin, return_index=True, return_inverse=True)
-            return key[first], inv.ravel()
-    u, inv = np.unique(key, axis=0, return_inverse=True)
-    return u, inv.ravel()
+    """The rows of the float integer-valued ``key`` (n ≥ 1) by group: (unique rows,
+    sorted; ``order`` listing the rows group by group; ``starts`` of each group in it),
+    for ``reduceat``. One int64 sort when the index ranges fit, else a lexsort."""
+    k0 = key.min(axis=0)
+    span = key.max(axis=0) - k0 + 1
+    if (span < 2.0 ** 52).all() and np.prod(span) < 2.0 ** 62:  # exact differences
+        lin = np.zeros(len(key), dtype=np.int64)
+        for ax in range(key.shape[1]):
+            lin = lin * int(span[ax]) + (key[:, ax] - k0[ax]).astype(np.int64)
+        order = np.argsort(lin, kind="stable")
+        s = lin[order]
+        brk = np.flatnonzero(s[1:] != s[:-1]) + 1
+    else:
+        order = np.lexsort(key.T[::-1])
+        s = key[order]
+        brk = np.flatnonzero(np.any(s[1:] != s[:-1], axis=1)) + 1
+    starts = np.concatenate([[0], brk])
+    return key[order[starts]], order, starts
 
 
 def _too_long(P, E, sim):

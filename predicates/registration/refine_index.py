@@ -34,10 +34,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from .broadphase import cell_entries
+
 __all__ = ["LevelIndex", "max_over_bruteforce"]
 
 _BITS = 20  # grid cell at least span·2^-20: cell indices fit comfortably in int64 keys
-_CHUNK = 1 << 21  # boxes listed per batch of undecided queries
+_CHUNK = 1 << 20  # grid cells per batch of undecided queries
 
 
 def max_over_bruteforce(lo, hi, val, qlo, qhi) -> np.ndarray:
@@ -79,6 +81,16 @@ class _Level:
         ncell = int(np.prod(G))
         cnt = np.bincount(key, minlength=ncell)
         self.start = np.concatenate([[0], np.cumsum(cnt)])
+        # per grid cell: the hull of its boxes' lower and upper corners and the largest
+        # value (empty cells: a hull no query meets, never read)
+        nz = np.flatnonzero(cnt)
+        st = self.start[nz]
+        self.hull = np.full((4, ncell, d), np.nan)
+        for i, (x, red) in enumerate([(self.lo, np.minimum), (self.lo, np.maximum),
+                                      (self.hi, np.minimum), (self.hi, np.maximum)]):
+            self.hull[i, nz] = red.reduceat(x, st, axis=0)
+        self.cvmax = np.zeros(ncell)
+        self.cvmax[nz] = np.maximum.reduceat(self.val, st)
         S = np.zeros(tuple(int(g) + 1 for g in G[::-1]), dtype=np.int64)
         S[(slice(1, None),) * d] = cnt.reshape(tuple(G[::-1]))
         for ax in range(d):
@@ -132,29 +144,35 @@ class _Level:
         tot[empty] = 0
         return tot
 
-    def listed(self, a, b, qid):
-        """(query id, box position) of every box whose cell lies in the query's range:
-        per grid row (all axes but the first fixed) one contiguous run of boxes."""
-        d = a.shape[1]
-        rows = np.prod(b[:, 1:] - a[:, 1:] + 1, axis=1) if d > 1 else np.ones(len(a), np.int64)
-        rows = np.where(np.any(a > b, axis=1), 0, rows)
-        r = np.repeat(np.arange(len(a)), rows)
-        t = np.arange(r.size, dtype=np.int64) - np.repeat(np.cumsum(rows) - rows, rows)
-        k0 = a[r, 0].copy()
-        k1 = b[r, 0].copy()
-        mul = 1
-        for ax in range(1, d):
-            mul *= int(self.G[ax - 1])
-            span = b[r, ax] - a[r, ax] + 1
-            step = (a[r, ax] + t % span) * mul
-            k0 += step
-            k1 += step
-            t //= span
-        s0, s1 = self.start[k0], self.start[k1 + 1]
-        n = s1 - s0
-        row = np.repeat(np.arange(r.size), n)
-        pos = np.arange(row.size, dtype=np.int64) + np.repeat(s0 - (np.cumsum(n) - n), n)
-        return qid[r[row]], pos
+    def max_over(self, qlo, qhi, out) -> None:
+        """out = max(out, val of every box of this level meeting the query), exactly:
+        per grid cell of the outer range, a cell whose boxes' corner hull shows that all
+        of them meet Q adds its largest value, one that shows none does nothing, and the
+        boxes of the others are tested one by one. In batches of about ``_CHUNK``
+        grid cells."""
+        (a, b), _ = self.ranges(qlo, qhi)
+        q = np.flatnonzero(np.all(a <= b, axis=1))
+        ends = np.cumsum(np.prod(b[q] - a[q] + 1, axis=1))
+        i = 0
+        while i < q.size:
+            j = max(int(np.searchsorted(ends, (ends[i - 1] if i else 0) + _CHUNK)), i + 1)
+            r, key = cell_entries(a[q[i:j]], b[q[i:j]], self.G, sort=False)
+            qi = q[i:j][r]
+            s0, s1 = self.start[key], self.start[key + 1]
+            qi, key, s0, s1 = qi[s1 > s0], key[s1 > s0], s0[s1 > s0], s1[s1 > s0]
+            h = self.hull[:, key]
+            lq, hq = qlo[qi], qhi[qi]
+            every = np.all((h[1] <= hq) & (lq <= h[2]), axis=1)
+            some = np.all((h[0] <= hq) & (lq <= h[3]), axis=1)
+            np.maximum.at(out, qi[every], self.cvmax[key[every]])
+            part = some & ~every
+            qi, s0, n = qi[part], s0[part], (s1 - s0)[part]
+            row = np.repeat(np.arange(qi.size), n)
+            pos = np.arange(row.size, dtype=np.int64) + np.repeat(s0 - (np.cumsum(n) - n), n)
+            qi = qi[row]
+            meet = np.all((self.lo[pos] <= qhi[qi]) & (qlo[qi] <= self.hi[pos]), axis=1)
+            np.maximum.at(out, qi[meet], self.val[pos[meet]])
+            i = j
 
 
 class LevelIndex:
@@ -211,19 +229,10 @@ class LevelIndex:
         return out
 
     def max_over(self, qlo, qhi) -> np.ndarray:
-        """max(0, max val over the boxes meeting each query box), listing the boxes of
-        the outer ranges in batches of about ``_CHUNK``."""
+        """max(0, max val over the boxes meeting each query box), exactly."""
         qlo = np.asarray(qlo, dtype=np.float64)
         qhi = np.asarray(qhi, dtype=np.float64)
         out = np.zeros(len(qlo))
         for lv in self.levels:
-            (a, b), _ = lv.ranges(qlo, qhi)
-            ends = np.cumsum(lv.count(a, b))
-            i = 0
-            while i < len(qlo):
-                j = max(int(np.searchsorted(ends, (ends[i - 1] if i else 0) + _CHUNK)), i + 1)
-                qi, pos = lv.listed(a[i:j], b[i:j], np.arange(i, j))
-                meet = np.all((lv.lo[pos] <= qhi[qi]) & (qlo[qi] <= lv.hi[pos]), axis=1)
-                np.maximum.at(out, qi[meet], lv.val[pos[meet]])
-                i = j
+            lv.max_over(qlo, qhi, out)
         return out
