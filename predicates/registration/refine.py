@@ -12,10 +12,12 @@ split edge gets ONE new vertex shared by both triangles on it: the mesh stays co
 (a hanging midpoint, rounded, would not lie on the neighbour's edge and would open a gap
 in the cutting surface). Rounds repeat until no edge is marked. An edge that was not
 marked never is (its geometry and the simulation mesh do not change), so each round
-tests only the edges it created, against static grids over the simulation cells (and
-over their bins per size class) built once per run: no round passes over every
-simulation cell. A test is decided from per-grid-cell maxima where the query's cell
-range decides it, box by box otherwise (benchmarks/README.md, "Refinement").
+tests only the edges it created, against one index over the simulation cells (and one
+over their bins per size class) built once per run (:mod:`.refine_index`): a test is
+decided from summed-area counts of the boxes that certainly / possibly meet the query,
+a constant number of look-ups, and only the rare undecided ones look at boxes. The
+marks are exactly those of the pairwise test; the refinement is linear in the cells it
+creates (benchmarks/README.md, "Refinement").
 
 Midpoints are 0.5·a + 0.5·b in binary64, then rounded to the working dtype: the refined
 surface lies within one rounding of the input surface, and the guarantees of the paper
@@ -173,6 +175,11 @@ class _SimScale:
         if g <= self.fine:
             return self.lo, self.hi, self.ext
         if g not in self._bins:
+            # classes come coarse first: bin the cells once, for the finest class that
+            # uses bins (the smallest 4^c above fine: fine < 2^e), and derive the others
+            g0 = math.ldexp(1.0, 2 * -(-math.frexp(self.fine)[1] // 2))
+            if self.fine > 0 and g0 < g and math.isfinite(g0) and g0 not in self._bins:
+                self.boxes(g0)
             finer = max((f for f in self._bins if f < g), default=None)
             if finer is not None and self._exact(finer, g):
                 # bins of g are unions of bins of finer: floor(floor(x)/4^j) = floor(x/4^j)
