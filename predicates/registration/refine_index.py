@@ -66,6 +66,7 @@ class _Level:
         self.m = np.where(m > 0, np.nextafter(m, 0.0), 0.0)
         self.o = self.lo.min(axis=0)
         top = self.lo.max(axis=0)
+        self.lomax, self.himin, self.himax = top, self.hi.min(axis=0), self.hi.max(axis=0)
         hg = h / 2
         while True:
             self.hg = hg
@@ -121,8 +122,12 @@ class _Level:
             lo_out = qlo - self.h  # rounded: ≤ f-monotone bound, see module docstring
             y = np.nextafter(qlo - self.m, np.inf)  # ≥ lo_Q − m exactly
         top = self._cell(qhi, G)
-        outer = (np.maximum(self._cell(lo_out, G), 0), np.minimum(top, G - 1))
-        inner = (np.maximum(self._cell(y, G) + 1, 0), np.minimum(top - 1, G - 1))
+        # the level's own hull settles an axis whatever the cells: qlo > max hi_b (no
+        # box reaches Q), qlo ≤ min hi_b or qhi ≥ max lo_b (every box does, on that side)
+        outer = (np.where(qlo > self.himax, G, np.maximum(self._cell(lo_out, G), 0)),
+                 np.minimum(top, G - 1))
+        inner = (np.where(qlo <= self.himin, 0, np.maximum(self._cell(y, G) + 1, 0)),
+                 np.where(qhi >= self.lomax, G - 1, np.minimum(top - 1, G - 1)))
         return outer, inner
 
     def count(self, a, b):
