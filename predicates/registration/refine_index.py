@@ -61,7 +61,7 @@ class _Level:
         self.h = h
         self.vmin, self.vmax = float(self.val.min()), float(self.val.max())
         d = lo.shape[1]
-        # exact hi − lo > nextafter(fl(hi − lo), 0) (round to nearest): a lower bound
+        # exact hi − lo ≥ nextafter(fl(hi − lo), 0) (round to nearest): a lower bound
         m = (self.hi - self.lo).min(axis=0)
         self.m = np.where(m > 0, np.nextafter(m, 0.0), 0.0)
         self.o = self.lo.min(axis=0)
@@ -82,17 +82,19 @@ class _Level:
         ncell = int(np.prod(G))
         cnt = np.bincount(key, minlength=ncell)
         self.start = np.concatenate([[0], np.cumsum(cnt)])
-        # per grid cell: the hull of its boxes' lower and upper corners and the largest
-        # value (empty cells: a hull no query meets, never read)
+        # per non-empty grid cell (slot): the hull of its boxes' lower and upper corners
+        # and their largest value
         nz = np.flatnonzero(cnt)
         st = self.start[nz]
-        self.hull = np.full((4, ncell, d), np.nan)
-        for i, (x, red) in enumerate([(self.lo, np.minimum), (self.lo, np.maximum),
-                                      (self.hi, np.minimum), (self.hi, np.maximum)]):
-            self.hull[i, nz] = red.reduceat(x, st, axis=0)
-        self.cvmax = np.zeros(ncell)
-        self.cvmax[nz] = np.maximum.reduceat(self.val, st)
-        S = np.zeros(tuple(int(g) + 1 for g in G[::-1]), dtype=np.int64)
+        self.slot = np.full(ncell, -1, dtype=np.int64)
+        self.slot[nz] = np.arange(nz.size)
+        self.hull = np.stack([red.reduceat(x, st, axis=0) for x, red in
+                              [(self.lo, np.minimum), (self.lo, np.maximum),
+                               (self.hi, np.minimum), (self.hi, np.maximum)]])
+        self.cvmax = np.maximum.reduceat(self.val, st)
+        # counts ≤ n: int32 halves the table below 2^31 boxes
+        S = np.zeros(tuple(int(g) + 1 for g in G[::-1]),
+                     dtype=np.int32 if len(ids) < 1 << 31 else np.int64)
         S[(slice(1, None),) * d] = cnt.reshape(tuple(G[::-1]))
         for ax in range(d):
             np.cumsum(S, axis=ax, out=S)
@@ -119,7 +121,7 @@ class _Level:
         (empty where a > b on some axis)."""
         G = self.G
         with np.errstate(all="ignore"):
-            lo_out = qlo - self.h  # rounded: ≤ f-monotone bound, see module docstring
+            lo_out = qlo - self.h  # lo_b > lo_Q − h exactly, so lo_b ≥ fl(lo_Q − h)
             y = np.nextafter(qlo - self.m, np.inf)  # ≥ lo_Q − m exactly
         top = self._cell(qhi, G)
         # the level's own hull settles an axis whatever the cells: qlo > max hi_b (no
@@ -165,11 +167,12 @@ class _Level:
             qi = q[i:j][r]
             s0, s1 = self.start[key], self.start[key + 1]
             qi, key, s0, s1 = qi[s1 > s0], key[s1 > s0], s0[s1 > s0], s1[s1 > s0]
-            h = self.hull[:, key]
+            sl = self.slot[key]
+            h = self.hull[:, sl]
             lq, hq = qlo[qi], qhi[qi]
             every = np.all((h[1] <= hq) & (lq <= h[2]), axis=1)
             some = np.all((h[0] <= hq) & (lq <= h[3]), axis=1)
-            np.maximum.at(out, qi[every], self.cvmax[key[every]])
+            np.maximum.at(out, qi[every], self.cvmax[sl[every]])
             part = some & ~every
             qi, s0, n = qi[part], s0[part], (s1 - s0)[part]
             row = np.repeat(np.arange(qi.size), n)
@@ -185,7 +188,7 @@ class LevelIndex:
     queried by other boxes: :meth:`marks` (e > thr > 0) and :meth:`max_over` (thr),
     exactly as the pairwise test would give them. See the module docstring."""
 
-    def __init__(self, lo: np.ndarray, hi: np.ndarray, val: np.ndarray, per_box: int = 8):
+    def __init__(self, lo: np.ndarray, hi: np.ndarray, val: np.ndarray, per_box: int = 4):
         lo = np.asarray(lo, dtype=np.float64)
         hi = np.asarray(hi, dtype=np.float64)
         val = np.asarray(val, dtype=np.float64)
