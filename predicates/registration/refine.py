@@ -12,10 +12,12 @@ split edge gets ONE new vertex shared by both triangles on it: the mesh stays co
 (a hanging midpoint, rounded, would not lie on the neighbour's edge and would open a gap
 in the cutting surface). Rounds repeat until no edge is marked. An edge that was not
 marked never is (its geometry and the simulation mesh do not change), so each round
-tests only the edges it created, against static grids over the simulation cells (and
-over their bins per size class) built once per run: no round passes over every
-simulation cell. A test is decided from per-grid-cell maxima where the query's cell
-range decides it, box by box otherwise (benchmarks/README.md, "Refinement").
+tests only the edges it created, against one index over the simulation cells (and one
+over their bins per size class) built once per run (:mod:`.refine_index`): a test is
+decided from summed-area counts of the boxes that certainly / possibly meet the query,
+a constant number of look-ups, and only the rare undecided ones look at boxes. The
+marks are exactly those of the pairwise test; the refinement is linear in the cells it
+creates (benchmarks/README.md, "Refinement").
 
 Midpoints are 0.5·a + 0.5·b in binary64, then rounded to the working dtype: the refined
 surface lies within one rounding of the input surface, and the guarantees of the paper
@@ -36,8 +38,8 @@ import numpy as np
 
 from fperr.warnings import ResolutionError
 
-from .broadphase import cell_entries, cell_index, linear_key, runs
 from .complex import unique_rows
+from .refine_index import LevelIndex
 
 __all__ = ["MAX_CELLS", "Refinement", "refine"]
 
@@ -154,9 +156,9 @@ class _SimScale:
     they span; the scale found is then the largest over a slightly larger region (a
     heuristic of where to refine only: soundness comes from the L computed afterwards).
 
-    Each set of boxes (the cells, or the bins of one class) gets ONE static grid per run
-    (:class:`_BoxHash`), queried each round with the new edges only: a round costs
-    O(its new edges + the pairs they meet), not a pass over every simulation cell."""
+    Each set of boxes (the cells, or the bins of one class) gets ONE
+    :class:`~.refine_index.LevelIndex` per run, queried each round with the new edges
+    only: a round costs O(its new edges), not a pass over every simulation cell."""
 
     def __init__(self, lo, hi):
         self.lo, self.hi = lo, hi
@@ -165,12 +167,17 @@ class _SimScale:
         self.mid = 0.5 * (lo + hi)  # the bins' key: the cells' box centres
         self._extremes = None  # min |centre| > 0, max |centre|: on demand (_exact)
         self._bins = {}
-        self._hash = {}
+        self._index = {}
 
     def boxes(self, g: float):
         if g <= self.fine:
             return self.lo, self.hi, self.ext
         if g not in self._bins:
+            # classes come coarse first: bin the cells once, for the finest class that
+            # uses bins (the smallest 4^c above fine: fine < 2^e), and derive the others
+            g0 = math.ldexp(1.0, 2 * -(-math.frexp(self.fine)[1] // 2))
+            if self.fine > 0 and g0 < g and math.isfinite(g0) and g0 not in self._bins:
+                self.boxes(g0)
             finer = max((f for f in self._bins if f < g), default=None)
             if finer is not None and self._exact(finer, g):
                 # bins of g are unions of bins of finer: floor(floor(x)/4^j) = floor(x/4^j)
@@ -181,13 +188,12 @@ class _SimScale:
             else:
                 key = np.floor(self.mid / g)
                 lo0, hi0, ext0 = self.lo, self.hi, self.ext
-            u, inv = _group(key)
-            lo = np.full((len(u), self.lo.shape[1]), np.inf)
-            hi = np.full((len(u), self.lo.shape[1]), -np.inf)
-            ext = np.zeros(len(u))
-            np.minimum.at(lo, inv, lo0)
-            np.maximum.at(hi, inv, hi0)
-            np.maximum.at(ext, inv, ext0)
+            # min / max are exact: grouping by a sort and reduceat gives the same boxes
+            # as any other order of reduction
+            u, order, starts = _group(key)
+            lo = np.minimum.reduceat(lo0[order], starts, axis=0)
+            hi = np.maximum.reduceat(hi0[order], starts, axis=0)
+            ext = np.maximum.reduceat(ext0[order], starts)
             self._bins[g] = (u, lo, hi, ext)
         return self._bins[g][1:]
 
@@ -205,140 +211,33 @@ class _SimScale:
     def marks(self, g: float, qlo, qhi, qext):
         """Per query box (edges of class g, box edge ``qext``): is qext > thr > 0, thr
         the largest box edge of the boxes of class g (cells or bins, :meth:`boxes`)
-        meeting it (closed boxes)? See :class:`_BoxHash`."""
-        # grid of about the queries' size (box edge < 4g, so each covers ≤ 4 cells per
-        # axis) and no finer than the cells: proposals stay a few times the true pairs
-        h = max(4 * g, self.fine) if g <= self.fine else 4 * g
-        name = ("cells" if g <= self.fine else g, h)
-        if name not in self._hash:
-            self._hash[name] = _BoxHash(*self.boxes(g), h)
-        return self._hash[name].marks(qlo, qhi, qext)
-
-
-def _cells_of(i0, i1):
-    """(box id, grid index (d,)) of every grid cell each box's range i0..i1 covers."""
-    c = i1 - i0 + 1
-    per = np.prod(c, axis=1)
-    box = np.repeat(np.arange(len(c)), per)
-    t = np.arange(box.size, dtype=np.int64) - np.repeat(np.cumsum(per) - per, per)
-    idx = np.empty((box.size, c.shape[1]), dtype=np.int64)
-    for ax in range(c.shape[1]):
-        cb = c[box, ax]
-        idx[:, ax] = i0[box, ax] + t % cb
-        t //= cb
-    return box, idx
+        meeting it (closed boxes)? One :class:`~.refine_index.LevelIndex` per set of
+        boxes, built on first use: a constant number of look-ups per query."""
+        name = "cells" if g <= self.fine else g
+        if name not in self._index:
+            self._index[name] = LevelIndex(*self.boxes(g))
+        return self._index[name].marks(qlo, qhi, qext)
 
 
 def _group(key):
-    """Unique rows of the float integer-valued ``key`` (sorted) and the inverse map;
-    one int64 sort when the index ranges fit, else numpy's row unique."""
-    if len(key):
-        k0 = key.min(axis=0)
-        span = key.max(axis=0) - k0 + 1
-        if (span < 2.0 ** 52).all() and np.prod(span) < 2.0 ** 62:  # exact differences
-            lin = np.zeros(len(key), dtype=np.int64)
-            for ax in range(key.shape[1]):
-                lin = lin * int(span[ax]) + (key[:, ax] - k0[ax]).astype(np.int64)
-            _, first, inv = np.unique(lin, return_index=True, return_inverse=True)
-            return key[first], inv.ravel()
-    u, inv = np.unique(key, axis=0, return_inverse=True)
-    return u, inv.ravel()
-
-
-class _BoxHash:
-    """A uniform grid over fixed boxes (built once), queried by other boxes: for each
-    query, the largest value of the boxes meeting it. The grid only proposes; each pair
-    is tested exactly as :func:`~.broadphase.box_pairs` with pad 0 does
-    (``lo_b − hi_a ≤ 0`` and ``lo_a − hi_b ≤ 0`` per axis), so the result is the maximum
-    over exactly the pairs that broad phase would return."""
-
-    def __init__(self, lo, hi, val, h: float, chunk: int = 1 << 21):
-        self.lo, self.hi, self.val, self.chunk = lo, hi, val, chunk
-        self.origin, self.top = lo.min(axis=0), hi.max(axis=0)
-        span = float((self.top - self.origin).max())
-        if not h > 0:  # degenerate boxes: about one box per cell
-            h = span / max(1.0, len(lo) ** (1 / lo.shape[1]))
-        h = max(h, span * 2.0 ** -20, np.finfo(np.float64).tiny)
-        budget = 16 * len(lo) + (1 << 20)
-        while True:  # coarsen while a few huge boxes would cover too many cells
-            G = (np.floor((self.top - self.origin) / h).astype(np.int64) + 1).clip(1, (1 << 20) + 1)
-            i0, i1 = (cell_index(x, self.origin, h, G) for x in (lo, hi))
-            if np.prod(i1 - i0 + 1, axis=1).sum() <= budget or np.all(G == 1):
-                break
-            h *= 2
-        self.h, self.G, self.i0 = h, G, i0
-        self.box, key = cell_entries(i0, i1, G)
-        self.keys, self.start, self.count = runs(key)
-        # the largest value entered in each grid cell (for the interior shortcut)
-        self.cellmax = (np.maximum.reduceat(val[self.box], self.start) if key.size
-                        else np.zeros(0))
-
-    def marks(self, qlo, qhi, qext):
-        """qext > thr > 0 per query, thr = :meth:`max_over`. Decided from the grid
-        cells alone where possible: a box entered in a cell strictly inside the query's
-        cell range (or beyond the grid's span on that side) meets the query (the cell
-        index is monotone), and every box meeting it is entered in its range. So
-        ib = max over interior cells ≥ qext decides False, ub = max over the range
-        < qext with ib > 0 decides True, ub ≤ 0 decides False; only the rest are tested
-        box by box. The marks equal those from the exact maximum."""
-        out = np.zeros(len(qlo), dtype=bool)
-        q = np.flatnonzero(np.all((qlo <= self.top) & (qhi >= self.origin), axis=1))
-        if q.size == 0 or self.keys.size == 0:
-            return out
-        j0 = cell_index(qlo[q], self.origin, self.h, self.G)
-        j1 = cell_index(qhi[q], self.origin, self.h, self.G)
-        qi, idx = _cells_of(j0, j1)
-        key = linear_key(idx, self.G)
-        pos = np.searchsorted(self.keys, key).clip(0, self.keys.size - 1)
-        cm = np.where(self.keys[pos] == key, self.cellmax[pos], 0.0)
-        inner = np.all(((idx > j0[qi]) | (qlo[q][qi] < self.origin))
-                       & ((idx < j1[qi]) | (qhi[q][qi] > self.top)), axis=1)
-        ub = np.zeros(q.size)
-        ib = np.full(q.size, -np.inf)
-        np.maximum.at(ub, qi, cm)
-        np.maximum.at(ib, qi[inner], cm[inner])
-        e = qext[q]
-        yes = (ub < e) & (ib > 0)
-        no = (ib >= e) | (ub <= 0)
-        out[q[yes]] = True
-        rest = q[~yes & ~no]
-        if rest.size:
-            thr = self.max_over(qlo[rest], qhi[rest])
-            out[rest] = (thr > 0) & (qext[rest] > thr)
-        return out
-
-    def max_over(self, qlo, qhi):
-        out = np.zeros(len(qlo))
-        # a box meeting the query lies in [origin, top]: other queries meet nothing, and
-        # for the rest the clipped cell ranges hold every point they share with a box
-        q = np.flatnonzero(np.all((qlo <= self.top) & (qhi >= self.origin), axis=1))
-        if q.size == 0 or self.keys.size == 0:
-            return out
-        j0 = cell_index(qlo[q], self.origin, self.h, self.G)
-        j1 = cell_index(qhi[q], self.origin, self.h, self.G)
-        ends = np.cumsum(np.prod(j1 - j0 + 1, axis=1))
-        a = 0
-        while a < q.size:  # chunks of about `chunk` grid-cell lookups
-            b = max(int(np.searchsorted(ends, (ends[a - 1] if a else 0) + self.chunk)), a + 1)
-            self._query(q[a:b], j0[a:b], j1[a:b], qlo, qhi, out)
-            a = b
-        return out
-
-    def _query(self, q, j0, j1, qlo, qhi, out):
-        qi, key = cell_entries(j0, j1, self.G, sort=False)
-        pos = np.searchsorted(self.keys, key).clip(0, self.keys.size - 1)
-        hit = self.keys[pos] == key
-        qi, key, pos = qi[hit], key[hit], pos[hit]
-        cnt = self.count[pos]
-        row = np.repeat(np.arange(qi.size), cnt)
-        off = np.arange(row.size, dtype=np.int64) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-        ib = self.box[self.start[pos][row] + off]
-        ia = qi[row]
-        # each pair once: in the cell of the lower corner of the two boxes' overlap
-        keep = linear_key(np.maximum(j0[ia], self.i0[ib]), self.G) == key[row]
-        ia, ib = q[ia[keep]], ib[keep]
-        ok = np.all((self.lo[ib] - qhi[ia] <= 0.0) & (qlo[ia] - self.hi[ib] <= 0.0), axis=1)
-        np.maximum.at(out, ia[ok], self.val[ib[ok]])
+    """The rows of the float integer-valued ``key`` (n ≥ 1) by group: (unique rows,
+    sorted; ``order`` listing the rows group by group; ``starts`` of each group in it),
+    for ``reduceat``. One int64 sort when the index ranges fit, else a lexsort."""
+    k0 = key.min(axis=0)
+    span = key.max(axis=0) - k0 + 1
+    if (span < 2.0 ** 52).all() and np.prod(span) < 2.0 ** 62:  # exact differences
+        lin = np.zeros(len(key), dtype=np.int64)
+        for ax in range(key.shape[1]):
+            lin = lin * int(span[ax]) + (key[:, ax] - k0[ax]).astype(np.int64)
+        order = np.argsort(lin, kind="stable")
+        s = lin[order]
+        brk = np.flatnonzero(s[1:] != s[:-1]) + 1
+    else:
+        order = np.lexsort(key.T[::-1])
+        s = key[order]
+        brk = np.flatnonzero(np.any(s[1:] != s[:-1], axis=1)) + 1
+    starts = np.concatenate([[0], brk])
+    return key[order[starts]], order, starts
 
 
 def _too_long(P, E, sim):

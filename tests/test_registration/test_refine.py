@@ -211,6 +211,100 @@ def test_refined_output_pinned(name):
     assert _digest(R) == PINNED[name]
 
 
+# --- the marks' index (refine_index.LevelIndex) against the pairwise definition -----------
+
+def _random_boxes(rng, n, d, grid):
+    """Boxes of mixed sizes (zero extent included) on a coarse lattice shifted by a
+    non-dyadic offset: many exact touchings, and rounding in every cell index."""
+    off = rng.uniform(-3, 3, d) + 0.1
+    lo = rng.integers(0, grid, (n, d)) * 0.25 + off
+    size = rng.choice([0.0, 0.25, 0.5, 1.0, 3.0, 8.0], size=(n, d), p=[.1, .3, .3, .15, .1, .05])
+    val = np.where(rng.random(n) < 0.1, 0.0, (size.max(axis=1) + rng.random(n)))
+    return lo, lo + size, val, off
+
+
+def _check_index(lo, hi, val, qlo, qhi, qext):
+    from predicates.registration.refine_index import LevelIndex, max_over_bruteforce
+
+    index = LevelIndex(lo, hi, val)
+    ref = max_over_bruteforce(lo, hi, val, qlo, qhi)
+    assert np.array_equal(index.max_over(qlo, qhi), ref)
+    with np.errstate(invalid="ignore"):
+        want = (ref > 0) & (qext > ref)
+    assert np.array_equal(index.marks(qlo, qhi, qext), want)
+
+
+@pytest.mark.parametrize("d", [2, 3])
+@pytest.mark.parametrize("seed", range(4))
+def test_level_index_equals_pairwise_maximum(d, seed):
+    rng = np.random.default_rng(seed)
+    lo, hi, val, off = _random_boxes(rng, 400, d, 40)
+    m = 600
+    qlo = rng.integers(-4, 44, (m, d)) * 0.25 + off
+    qlo[: m // 3] += rng.uniform(-0.3, 0.3, (m // 3, d))  # off the lattice too
+    qhi = qlo + rng.choice([0.0, 0.25, 1.0, 2.5, 12.0], size=(m, d))
+    qext = rng.choice([0.0, 0.5, 1.0, 1.5, 3.0, 9.0], size=m)
+    qext[:20] = val[:20]  # thresholds equal to values: ties decide "not marked"
+    _check_index(lo, hi, val, qlo, qhi, qext)
+
+
+try:
+    from hypothesis import given, settings, strategies as st
+except ImportError:  # pragma: no cover
+    given = None
+
+if given is not None:
+    @settings(max_examples=60, deadline=None)
+    @given(st.integers(0, 2 ** 32 - 1), st.sampled_from([2, 3]), st.integers(1, 60),
+           st.floats(1e-6, 1e6))
+    def test_level_index_random_scales(seed, d, n, scale):
+        """Any scale and count (one box, all boxes equal, coarse grids)."""
+        rng = np.random.default_rng(seed)
+        lo, hi, val, off = _random_boxes(rng, n, d, int(rng.integers(1, 12)))
+        lo, hi, val = lo * scale, hi * scale, val * scale
+        qlo = (rng.integers(-4, 16, (50, d)) * 0.25 + off) * scale
+        qhi = qlo + rng.choice([0.0, 0.25, 1.0, 4.0], size=(50, d)) * scale
+        qext = rng.choice([0.0, 0.5, 1.0, 3.0], size=50) * scale
+        _check_index(lo, hi, val, qlo, qhi, qext)
+
+
+def test_level_index_nan_queries_and_bad_boxes():
+    from predicates.registration.refine_index import LevelIndex
+
+    lo = np.zeros((3, 2))
+    hi = np.ones((3, 2))
+    val = np.array([1.0, 2.0, 0.5])
+    index = LevelIndex(lo, hi, val)
+    qlo = np.array([[np.nan, 0.0], [-1.0, -1.0], [-np.inf, 0.5]])
+    qhi = np.array([[2.0, 2.0], [2.0, 2.0], [np.inf, 0.5]])
+    assert index.max_over(qlo, qhi).tolist() == [0.0, 2.0, 2.0]
+    assert index.marks(qlo, qhi, np.array([5.0, np.nan, 3.0])).tolist() == [False, False, True]
+    with pytest.raises(ValueError, match="finite"):
+        LevelIndex(lo, hi, np.array([1.0, np.nan, 0.5]))
+
+
+def test_level_index_decides_from_counts_inside_a_uniform_mesh(monkeypatch):
+    """Queries well inside a uniform mesh are decided by the summed-area counts alone:
+    no box is listed (the constant-work path of the refinement's marks)."""
+    from predicates.registration import refine_index
+
+    sp, sc = cube_grid(12)
+    lo, hi = cell_boxes(sp, sc)
+    ext = (hi - lo).max(axis=1)
+    index = refine_index.LevelIndex(lo, hi, ext)
+    rng = np.random.default_rng(5)
+    c = rng.uniform(0.3, 0.7, (200, 3))
+    e = rng.uniform(0.1, 0.2, 200)  # longer than every cell (1/12): all marked
+    qlo, qhi = c - e[:, None], c + e[:, None]
+
+    def listed(*a):
+        raise AssertionError("a query inside the mesh was resolved box by box")
+    monkeypatch.setattr(refine_index._Level, "max_over", listed)
+    assert index.marks(qlo, qhi, e).all()
+    # shorter than every cell near it: a box of value ≥ e certainly meets, not marked
+    assert not index.marks(qlo, qhi, np.full(200, 0.05)).any()
+
+
 if __name__ == "__main__":  # print the digests (to pin them)
     for n in ["plane3d", "plane3d_f32", "plane3d_issue", "graded3d_rotated", "slab3d", "segments2d",
               "segments2d_f32", "graded2d_polyline"]:
