@@ -1,0 +1,289 @@
+"""The worst-case search (:mod:`proofs.audit`): for every named quantity, the largest
+error the real floating-point code can be driven to, in units of ε·L^p.
+
+L is the largest bounding-box edge of the predicate's input points (the strictest reading
+of the paper's L, "the maximum edge length of the bounding box surrounding each primitive
+pair"), with the box inside [−L/2, L/2]^d as rule K assumes (else L = 2·max|coordinate|);
+p is the quantity's degree. The derived bound E = c(ε)·L^p is c(ε)/ε in these units.
+
+Per quantity and format, three phases (a budget bounds each, see :class:`Budget`):
+
+1. *Configurations*: maximise the first-order attainable error A = Σ|∂x/∂y_k|·½ulp(y_k)
+   (:mod:`proofs.audit.first_order`) over structured inputs
+   (:mod:`proofs.audit.worst_inputs`: scale just above a binade edge, coordinates at
+   the box extremes and binade edges, the last point on the hull where a proximity
+   check must pass) by an evolutionary search on numpy lanes.
+2. *Bit-level hill climbing* on the *measured* error (the shadow run,
+   :func:`proofs.audit.shadow_run.run_shadow`, exact reference) from the best
+   configurations: ±k ulps (k = 1, 2, 4, …, 256) per coordinate, best move kept.
+3. *Exhaustive sweep* of small ulp offsets around the best: every coordinate by ±1..±4
+   ulps, every pair of coordinates by ±1 ulp each; restarted after an improvement.
+
+Reachability: the shadow run follows the working path, so a quantity behind a failing
+check is simply not measured (no sample). Every measured error is also checked against
+its bound (ratio > 1 is a soundness violation, reported, never hidden).
+
+Slack: where worst/bound < 1/2, the record says where the slack is. If the measured
+worst reaches at least half of the largest first-order attainable error found, the
+search has done what rounding allows at the configurations found and the rest of the
+gap is in the *rules* (E/A: the magnitude bounds treat each operand on its own, e.g. a
+coordinate difference by L, a product of two by L², and cannot see that all points share
+one box). Otherwise the slack is in the *search* (it did not align the rounding errors).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from fractions import Fraction
+
+import numpy as np
+
+from fperr import round_fraction, ulp
+
+from .first_order import attainable
+from .shadow_run import run_shadow
+from .spec import FORMATS, Config, PredicateSpec
+from .worst_inputs import Lanes, StructuredInputs, scale_units
+
+__all__ = ["Budget", "CI_BUDGET", "WorstCase", "WorstCaseSearch", "thorough_budget"]
+
+
+@dataclass(frozen=True)
+class Budget:
+    """Work per quantity and format: phase-1 generations × lanes, phase-2 and phase-3
+    shadow runs, and a wall-clock cap (seconds; None: counts only). With a cap, the
+    phases end at 35 % / 80 % / 100 % of it, so a loaded machine still finishes."""
+
+    rounds: int
+    lanes: int
+    climb: int
+    sweep: int
+    seconds: float | None = None
+
+
+#: The CI-size search of the default ``fperr audit`` (deterministic: counts only).
+CI_BUDGET = Budget(rounds=3, lanes=128, climb=48, sweep=24)
+
+
+def thorough_budget(seconds: float = 6.0) -> Budget:
+    """``fperr audit --thorough``: ``seconds`` of wall clock per quantity and format."""
+    if not seconds > 0:
+        raise ValueError(f"the per-quantity budget must be positive, got {seconds!r}")
+    return Budget(rounds=10**9, lanes=256, climb=10**9, sweep=10**9, seconds=seconds)
+
+
+@dataclass
+class WorstCase:
+    """The worst measured error of one quantity in one format (units of ε·L^p)."""
+
+    units: float = -1.0                 # worst measured |F[x] − x| / (ε·L^p)
+    ratio: float = 0.0                  # |F[x] − x| / E[x] at that input (≤ 1: sound)
+    config: Config | None = None
+    L: float = 0.0
+    first_order: float = 0.0            # largest A/(ε·L^p) over phase-1 lanes
+    first_order_config: list = field(default_factory=list)
+    runs: int = 0
+    lanes: int = 0
+    seconds: float = 0.0
+
+
+def units_of(spec: PredicateSpec, cfg: Config) -> dict:
+    """Run the shadow code on ``cfg``: quantity -> (units, ratio, L) for every quantity
+    it reached. Units: |F[x] − x| / (ε·L^p) with L of :func:`scale_units`."""
+    fmt = FORMATS[cfg.fmt_name]
+    ctx = run_shadow(spec, cfg)
+    pts = cfg.points
+    edge = max(max(p[a] for p in pts) - min(p[a] for p in pts) for a in range(cfg.dim))
+    L = max(edge, 2 * max(abs(c) for p in pts for c in p))
+    eps = Fraction(1, 2 ** fmt.bits)
+    out = {}
+    for name, s in ctx.quantities.items():
+        q = spec.quantities.get(name)
+        err = s.error() if q is not None and q.E is not None else None
+        if err is None or L == 0:
+            continue
+        Lp = L ** q.power
+        out[name] = (float(err / (eps * Lp)), float(err / (q.E1[cfg.fmt_name] * Lp)),
+                     float(L))
+    return out
+
+
+class WorstCaseSearch:
+    """The search of the module docstring for one predicate in one format.
+
+    ``found[name]`` is the :class:`WorstCase` of each quantity; ``violations`` lists
+    measured errors above their bound (soundness bugs). ``seeds``: name -> configurations
+    to start phase 2 from as well (e.g. the random audit's worst samples)."""
+
+    def __init__(self, spec: PredicateSpec, fmt_name: str, budget: Budget, seed: int = 0,
+                 seeds: dict | None = None):
+        spec.bound_coefficients(fmt_name)
+        self.spec, self.fmt_name, self.budget = spec, fmt_name, budget
+        self.bits = FORMATS[fmt_name].bits
+        self.rng = np.random.default_rng(seed)
+        self.inputs = StructuredInputs(spec.pred, fmt_name, self.bits, self.rng)
+        self.seeds = seeds or {}
+        self.found = {n: WorstCase() for n, q in spec.quantities.items() if q.E is not None}
+        self.violations: list = []
+
+    # measurement ------------------------------------------------------------------------
+    def measure(self, cfg: Config) -> dict:
+        got = units_of(self.spec, cfg)
+        for name, (units, ratio, L) in got.items():
+            wc = self.found[name]
+            wc.runs += 1
+            if units > wc.units:
+                wc.units, wc.ratio, wc.config, wc.L = units, ratio, cfg, L
+            if ratio > 1:
+                self.violations.append({"type": "worst-case", "predicate": self.spec.key,
+                                        "format": self.fmt_name, "quantity": name,
+                                        "ratio": ratio, "config": cfg.to_json()})
+        return got
+
+    def first_order(self, lanes: Lanes) -> dict:
+        q = attainable(self.spec.pred, lanes.X, self.bits,
+                       self.inputs.tolerances(lanes.L))
+        Lu = scale_units(lanes.X)
+        scores = {}
+        for name, (A, reached, _) in q.items():
+            if name not in self.found:
+                continue
+            p = self.spec.quantities[name].power
+            s = np.where(reached & (Lu > 0), A / (2.0 ** -self.bits * Lu ** p), -1.0)
+            s = np.nan_to_num(s, nan=-1.0, posinf=-1.0)
+            scores[name] = s
+            k = int(np.argmax(s))
+            wc = self.found[name]
+            wc.lanes += len(s)
+            if s[k] > wc.first_order:
+                wc.first_order = float(s[k])
+                wc.first_order_config = lanes.X[k].tolist()
+        return scores
+
+    def config(self, X: np.ndarray) -> Config:
+        """A Config of the lane coordinates; the tolerances' L_a = L_b = L/2 with L the
+        scale rounded up to 1/64 (so the tolerance L bounds every coordinate difference)."""
+        pts = tuple(tuple(Fraction(float(c)) for c in p) for p in X)
+        Lq = float(np.ceil(scale_units(X[None])[0] * 64) / 64) or 1.0
+        return Config(self.spec.dim, self.fmt_name, (Lq / 2, Lq / 2), pts, "worst-case")
+
+    # the phases ---------------------------------------------------------------------------
+    def run(self, names=None) -> "WorstCaseSearch":
+        """Search every quantity (or ``names``) in turn, within the budget each."""
+        for name in (names or list(self.found)):
+            t0 = time.perf_counter()
+            deadline = None if self.budget.seconds is None else t0 + self.budget.seconds
+            start = self.phase_configurations(name, deadline)
+            self.phase_climb(name, start, deadline)
+            self.phase_sweep(name, deadline)
+            self.found[name].seconds += time.perf_counter() - t0
+        return self
+
+    def _time_left(self, deadline, share):
+        if deadline is None:
+            return True
+        total = self.budget.seconds
+        return time.perf_counter() < deadline - total * (1 - share)
+
+    def phase_configurations(self, name: str, deadline) -> list:
+        """Phase 1: evolve lanes toward the largest A of ``name``; returns the best
+        configurations (distinct), best first."""
+        b, gen = self.budget, self.inputs
+        pop, pop_s = None, None
+        for r in range(b.rounds):
+            if r and not self._time_left(deadline, 0.35):
+                break
+            lanes = gen.fresh(b.lanes) if pop is None else Lanes.concat(
+                [gen.fresh(b.lanes // 4), gen.mutate(pop, b.lanes - b.lanes // 4)])
+            s = self.first_order(lanes).get(name)
+            if s is None:
+                continue
+            if pop is not None:
+                lanes, s = Lanes.concat([pop, lanes]), np.concatenate([pop_s, s])
+            _, uniq = np.unique(lanes.X.reshape(len(s), -1), axis=0, return_index=True)
+            keep = uniq[np.argsort(-s[uniq])][:16]
+            keep = keep[s[keep] > 0]
+            if len(keep):
+                pop, pop_s = lanes.take(keep), s[keep]
+        return [] if pop is None else [pop.X[k] for k in range(min(6, len(pop_s)))]
+
+    def phase_climb(self, name: str, start: list, deadline) -> None:
+        """Phase 2: measure the starting configurations, then bit-level hill climbing
+        (±2^j ulps per coordinate, j = 0..8) from the best three in turn."""
+        b = self.budget
+        runs = 0
+        tops = []
+        cands = [self.config(X) for X in start] + list(self.seeds.get(name, ()))[:3]
+        for cfg in cands:
+            v = self.measure(cfg).get(name)
+            runs += 1
+            if v is not None:
+                tops.append([v[0], cfg, 0])
+        tops.sort(key=lambda t: -t[0])
+        tops = tops[:3]
+        if not tops:
+            return
+        n_coord = len(tops[0][1].points) * self.spec.dim
+        order = self.rng.permutation(n_coord)
+        turn = 0
+        while runs < b.climb and self._time_left(deadline, 0.8):
+            t = tops[turn % len(tops)]
+            turn += 1
+            ci = int(order[t[2] % n_coord])
+            t[2] += 1
+            best = None
+            for k in (1 << j for j in range(9)):
+                for sgn in (1, -1):
+                    cand = self.moved(t[1], ((ci, sgn * k),))
+                    if cand is None:
+                        continue
+                    v = self.measure(cand).get(name)
+                    runs += 1
+                    if v is not None and v[0] > t[0] and (best is None or v[0] > best[0]):
+                        best = (v[0], cand)
+            if best is not None:
+                t[0], t[1] = best
+
+    def phase_sweep(self, name: str, deadline) -> None:
+        """Phase 3: every coordinate by ±1..±4 ulps and every pair by ±1 ulp each around
+        the best; restart around a better one."""
+        b = self.budget
+        runs = 0
+        improved = True
+        while improved and runs < b.sweep and self._time_left(deadline, 1.0):
+            improved = False
+            wc = self.found[name]
+            if wc.config is None:
+                return
+            base, base_v = wc.config, wc.units
+            n_coord = len(base.points) * self.spec.dim
+            moves = [((i, s * k),) for i in range(n_coord) for k in (1, 2, 3, 4)
+                     for s in (1, -1)]
+            moves += [((i, s), (j, t)) for i in range(n_coord) for j in range(i + 1, n_coord)
+                      for s in (1, -1) for t in (1, -1)]
+            for mv in moves:
+                if runs >= b.sweep or not self._time_left(deadline, 1.0):
+                    return
+                cand = self.moved(base, mv)
+                if cand is None:
+                    continue
+                runs += 1
+                v = self.measure(cand).get(name)
+                if v is not None and v[0] > base_v:
+                    improved = True
+                    break
+
+    def moved(self, cfg: Config, moves) -> Config | None:
+        """``cfg`` with coordinate ``i`` (flat index) moved by ``k`` ulps of the format,
+        for each (i, k); None when a move leaves the box [−L/2, L/2] of the tolerances."""
+        d = self.spec.dim
+        pts = [list(p) for p in cfg.points]
+        h = Fraction(cfg.L_ab[0] + cfg.L_ab[1]) / 2
+        for i, k in moves:
+            c = pts[i // d][i % d]
+            step = ulp(c, self.bits) if c else ulp(h, self.bits) * 2 ** -8
+            v = round_fraction(c + k * step, self.bits)
+            if abs(v) > h:
+                return None
+            pts[i // d][i % d] = v
+        return cfg.with_points(tuple(tuple(p) for p in pts), "worst-case")

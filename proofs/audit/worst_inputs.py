@@ -1,0 +1,138 @@
+"""Structured inputs for the worst-case search (:mod:`proofs.audit.worst_case`), many at
+once as numpy lanes (lanes × points × dim, float64 holding values of the working format).
+
+Where rounding hurts most relative to L (section 2's standard model: |e| ≤ ½ulp(y) ≤ ε|y|,
+with equality just above a power of two): the scale L just above a binade edge (so the
+coordinate differences near L, and their products near L^p, sit just above one too),
+coordinates at the box extremes ±L/2 and just above / below binade edges (so a
+difference of two coordinates with different exponents must round), uniform values,
+zero, copies of another coordinate. Reachability: when the predicate's first primitive
+spans a lower-dimensional hull (an edge for edge-vertex, a triangle's plane), a share of
+the lanes puts the last point on it (a convex combination of the others), so the
+proximity checks before the later quantities pass (P within τ of AB, PQ meeting AB, P
+within δ of ABC).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from predicates.tolerance_table import TABLES
+
+from .spec import tolerance_info
+
+__all__ = ["Lanes", "StructuredInputs", "round_bits", "scale_units"]
+
+
+def round_bits(x: np.ndarray, bits: int) -> np.ndarray:
+    """Round float64 values to ``bits`` significant bits (nearest, ties to even)."""
+    if bits >= 53:
+        return np.asarray(x, dtype=np.float64)
+    m, e = np.frexp(x)
+    return np.ldexp(np.round(np.ldexp(m, bits)), e - bits)
+
+
+def scale_units(X: np.ndarray) -> np.ndarray:
+    """Per lane: L = max(largest bounding-box edge, 2·max|coordinate|) — the largest
+    bounding-box edge of the points when their box lies in [−L/2, L/2]^d, as rule K
+    assumes (the strictest L the derived bounds hold for)."""
+    edge = (X.max(axis=1) - X.min(axis=1)).max(axis=1)
+    return np.maximum(edge, 2 * np.abs(X).max(axis=(1, 2)))
+
+
+class Lanes:
+    """A batch: coordinates X, scale L (per lane), hull weights W (None: free lane)."""
+
+    def __init__(self, X, L, W, hull):
+        self.X, self.L, self.W, self.hull = X, L, W, hull
+
+    def take(self, idx) -> "Lanes":
+        return Lanes(self.X[idx], self.L[idx], self.W[idx], self.hull[idx])
+
+    @staticmethod
+    def concat(parts) -> "Lanes":
+        return Lanes(*(np.concatenate([getattr(p, a) for p in parts])
+                       for a in ("X", "L", "W", "hull")))
+
+
+class StructuredInputs:
+    """Random structured lanes and mutations for one predicate in one format."""
+
+    def __init__(self, pred, fmt_name: str, bits: int, rng: np.random.Generator):
+        self.pred, self.bits, self.rng = pred, bits, rng
+        self.n, self.d = len(pred.points), pred.dim
+        self.u = 2.0 ** -bits
+        # last point on the hull of the others: only when that hull is lower-dimensional
+        self.can_hull = 3 <= self.n <= self.d + 1
+        info = tolerance_info(self.d, fmt_name, 0.5, 0.5)   # L_a + L_b = 1
+        self.tol_ref = {k: (v, TABLES[self.d][k].p) for k, v in info.floats.items()}
+
+    def tolerances(self, L: np.ndarray) -> dict:
+        """Per-lane tolerances for scale L (T ∝ L^p; reachability only)."""
+        return {k: v * L ** p for k, (v, p) in self.tol_ref.items()}
+
+    # generation -------------------------------------------------------------------------
+    def scales(self, k: int) -> np.ndarray:
+        r = self.rng.random(k)
+        just_above = 1 + 2 * self.u * self.rng.integers(1, 4, k)
+        near = 1 + 2.0 ** -self.rng.integers(4, 14, k).astype(float)
+        anywhere = 1 + self.rng.random(k)
+        L = np.where(r < 0.5, just_above, np.where(r < 0.75, near, anywhere))
+        return round_bits(L, self.bits)
+
+    def coordinates(self, h: np.ndarray, shape) -> np.ndarray:
+        """Coordinates of the kinds in the module docstring; h broadcasts against shape."""
+        rng, u = self.rng, self.u
+        h = np.broadcast_to(h, shape)
+        kind = rng.choice(5, size=shape, p=(0.35, 0.25, 0.28, 0.06, 0.06))
+        sign = rng.choice((-1.0, 1.0), size=shape)
+        edge = 2.0 ** -rng.integers(1, 4, shape).astype(float)
+        edge = edge * (1 + 2 * u * rng.integers(-4, 5, shape))
+        small = 2.0 ** -rng.integers(2, 40, shape).astype(float)
+        out = np.select([kind == 0, kind == 1, kind == 2, kind == 3],
+                        [h, np.minimum(edge, h), rng.uniform(-1, 1, shape) * h, small],
+                        0.0)
+        return round_bits(np.clip(sign * out, -h, h), self.bits)
+
+    def fresh(self, k: int) -> Lanes:
+        L = self.scales(k)
+        h = L[:, None, None] / 2
+        X = self.coordinates(h, (k, self.n, self.d))
+        W = self.rng.dirichlet(np.ones(self.n - 1), k)
+        hull = (self.rng.random(k) < 0.6) & self.can_hull
+        return self.fix(Lanes(X, L, W, hull))
+
+    def fix(self, lanes: Lanes) -> Lanes:
+        """Put the last point of hull lanes on the hull of the others (rounded)."""
+        if lanes.hull.any():
+            P = np.einsum("kj,kjd->kd", lanes.W, lanes.X[:, :-1, :])
+            X = lanes.X.copy()
+            X[lanes.hull, -1, :] = round_bits(P[lanes.hull], self.bits)
+            lanes = Lanes(X, lanes.L, lanes.W, lanes.hull)
+        return lanes
+
+    def mutate(self, parents: Lanes, k: int) -> Lanes:
+        """k children: one or two coordinates redrawn, the scale changed (coordinates at
+        the old extremes follow), or the hull weights redrawn."""
+        idx = self.rng.integers(0, len(parents.L), k)
+        ch = parents.take(idx)
+        X, L, W = ch.X.copy(), ch.L.copy(), ch.W.copy()
+        r = self.rng.random(k)
+        rows = np.arange(k)
+        for j in range(2):
+            i = self.rng.integers(0, self.n, k)
+            a = self.rng.integers(0, self.d, k)
+            new = self.coordinates(L / 2, (k,))
+            pick = (r < 0.7) & ((j == 0) | (self.rng.random(k) < 0.5))
+            X[rows[pick], i[pick], a[pick]] = new[pick]
+        rescale = (r >= 0.7) & (r < 0.85)
+        if rescale.any():
+            L2 = self.scales(k)
+            at_edge = np.abs(X) == (L / 2)[:, None, None]
+            Xs = np.where(at_edge, np.sign(X) * L2[:, None, None] / 2,
+                          np.clip(X, -L2[:, None, None] / 2, L2[:, None, None] / 2))
+            X = np.where(rescale[:, None, None], round_bits(Xs, self.bits), X)
+            L = np.where(rescale, L2, L)
+        rew = r >= 0.85
+        W[rew] = self.rng.dirichlet(np.ones(self.n - 1), int(rew.sum()))
+        hull = ch.hull ^ ((self.rng.random(k) < 0.05) & self.can_hull)
+        return self.fix(Lanes(X, L, W, hull))
