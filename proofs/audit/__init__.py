@@ -53,14 +53,17 @@ from __future__ import annotations
 from .inputs import Generator
 from .markdown import render_markdown
 from .search import Audit, Stat, audit, select_predicates
+from .worst_case import (CI_BUDGET, Budget, WorstCase, WorstCaseSearch, records,
+                         thorough_budget, units_of)
 from .shadow_run import (Outcome, evaluate, lower_pairs, real_context,
                          registered_sub_pairs, replay, run_shadow, working_points)
 from .spec import (DEFAULT_SAMPLES, DEFAULT_SEARCH, FORMATS, SCALES, CheckSpec,
                    Config, PredicateSpec, QuantitySpec, ToleranceInfo, spec_for,
                    tolerance_info)
 
-__all__ = ["Audit", "CheckSpec", "Config", "DEFAULT_SAMPLES", "DEFAULT_SEARCH",
-           "FORMATS", "Generator", "Outcome", "PredicateSpec", "QuantitySpec", "SCALES",
+__all__ = ["Audit", "Budget", "CI_BUDGET", "CheckSpec", "Config", "DEFAULT_SAMPLES",
+           "DEFAULT_SEARCH", "FORMATS", "Generator", "Outcome", "PredicateSpec", "QuantitySpec", "SCALES",
            "Stat", "ToleranceInfo", "audit", "evaluate", "lower_pairs", "real_context",
-           "registered_sub_pairs", "render_markdown", "replay", "run_shadow",
-           "select_predicates", "spec_for", "tolerance_info", "working_points"]
+           "records", "registered_sub_pairs", "render_markdown", "replay", "run_shadow",
+           "select_predicates", "spec_for", "thorough_budget", "tolerance_info",
+           "units_of", "working_points", "WorstCase", "WorstCaseSearch"]

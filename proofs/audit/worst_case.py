@@ -15,7 +15,8 @@ Per quantity and format, three phases (a budget bounds each, see :class:`Budget`
    check must pass) by an evolutionary search on numpy lanes.
 2. *Bit-level hill climbing* on the *measured* error (the shadow run,
    :func:`proofs.audit.shadow_run.run_shadow`, exact reference) from the best
-   configurations: ±k ulps (k = 1, 2, 4, …, 256) per coordinate, best move kept.
+   configurations: ±k ulps (k = 1, 2, 4, …, 256, …, 2^20, and random k < 2^24: a new
+   rounding pattern) per coordinate, best move kept.
 3. *Exhaustive sweep* of small ulp offsets around the best: every coordinate by ±1..±4
    ulps, every pair of coordinates by ±1 ulp each; restarted after an improvement.
 
@@ -60,6 +61,10 @@ class Budget:
     sweep: int
     seconds: float | None = None
 
+
+#: Phase-2 moves in ulps (besides six random ones of up to 2^24 ulps per step, which
+#: redraw the low bits and with them the rounding pattern).
+CLIMB_STEPS = (1, 2, 4, 8, 16, 32, 64, 128, 256, 1 << 10, 1 << 13, 1 << 16, 1 << 20)
 
 #: The CI-size search of the default ``fperr audit`` (deterministic: counts only).
 CI_BUDGET = Budget(rounds=3, lanes=128, climb=48, sweep=24)
@@ -149,7 +154,8 @@ class WorstCaseSearch:
             if name not in self.found:
                 continue
             p = self.spec.quantities[name].power
-            s = np.where(reached & (Lu > 0), A / (2.0 ** -self.bits * Lu ** p), -1.0)
+            with np.errstate(all="ignore"):
+                s = np.where(reached & (Lu > 0), A / (2.0 ** -self.bits * Lu ** p), -1.0)
             s = np.nan_to_num(s, nan=-1.0, posinf=-1.0)
             scores[name] = s
             k = int(np.argmax(s))
@@ -209,7 +215,7 @@ class WorstCaseSearch:
 
     def phase_climb(self, name: str, start: list, deadline) -> None:
         """Phase 2: measure the starting configurations, then bit-level hill climbing
-        (±2^j ulps per coordinate, j = 0..8) from the best three in turn."""
+        (±k ulps per coordinate, k in CLIMB_STEPS and random) from the best three in turn."""
         b = self.budget
         runs = 0
         tops = []
@@ -232,13 +238,13 @@ class WorstCaseSearch:
             ci = int(order[t[2] % n_coord])
             t[2] += 1
             best = None
-            for k in (1 << j for j in range(9)):
+            for k in CLIMB_STEPS + tuple(int(x) for x in self.rng.integers(1, 1 << 24, 6)):
                 for sgn in (1, -1):
                     cand = self.moved(t[1], ((ci, sgn * k),))
+                    runs += 1  # a move out of the box counts too: the loop must end
                     if cand is None:
                         continue
                     v = self.measure(cand).get(name)
-                    runs += 1
                     if v is not None and v[0] > t[0] and (best is None or v[0] > best[0]):
                         best = (v[0], cand)
             if best is not None:
@@ -265,9 +271,9 @@ class WorstCaseSearch:
                 if runs >= b.sweep or not self._time_left(deadline, 1.0):
                     return
                 cand = self.moved(base, mv)
+                runs += 1
                 if cand is None:
                     continue
-                runs += 1
                 v = self.measure(cand).get(name)
                 if v is not None and v[0] > base_v:
                     improved = True
@@ -275,10 +281,11 @@ class WorstCaseSearch:
 
     def moved(self, cfg: Config, moves) -> Config | None:
         """``cfg`` with coordinate ``i`` (flat index) moved by ``k`` ulps of the format,
-        for each (i, k); None when a move leaves the box [−L/2, L/2] of the tolerances."""
+        for each (i, k); None when a move leaves the box [−L/2, L/2] of the tolerances' L
+        (which must bound every coordinate difference, as the tolerances assume)."""
         d = self.spec.dim
         pts = [list(p) for p in cfg.points]
-        h = Fraction(cfg.L_ab[0] + cfg.L_ab[1]) / 2
+        h = cfg.info.L / 2
         for i, k in moves:
             c = pts[i // d][i % d]
             step = ulp(c, self.bits) if c else ulp(h, self.bits) * 2 ** -8
@@ -287,3 +294,48 @@ class WorstCaseSearch:
                 return None
             pts[i // d][i % d] = v
         return cfg.with_points(tuple(tuple(p) for p in pts), "worst-case")
+
+
+#: worst/bound below this: the record explains where the slack is
+SLACK_RATIO = 0.5
+
+
+def slack(worst: float, bound: float, first_order: float) -> str | None:
+    """Where the slack of a loose ratio is (module docstring); None when worst/bound is
+    at least SLACK_RATIO."""
+    if worst < 0:
+        return "not reached: no input passed the checks before this quantity"
+    if worst >= SLACK_RATIO * bound:
+        return None
+    a, w = first_order / bound, worst / first_order if first_order > 0 else 0.0
+    if worst >= SLACK_RATIO * first_order:
+        return (f"rules: the largest first-order attainable error found is {a:.2f} of "
+                f"the bound and the search measured {w:.2f} of it; the magnitude bounds "
+                "take each operand on its own (a coordinate difference up to L, products "
+                "of such) and cannot see that all points share one box")
+    return (f"search: the measured worst is only {w:.2f} of the largest first-order "
+            f"attainable error found ({a:.2f} of the bound): the rounding errors were not "
+            "aligned")
+
+
+def records(search: WorstCaseSearch) -> list:
+    """JSON records of a search: dim, algorithm, quantity (the names of ``fperr tables``),
+    format, worst_error_units, bound_units (c(ε)/ε of E = c(ε)·L^p), ratio,
+    first_order_units, slack, L, power, shadow_runs, first_order_lanes, seconds, config."""
+    spec, fmt = search.spec, search.fmt_name
+    out = []
+    for name, wc in search.found.items():
+        q = spec.quantities[name]
+        bound = float(q.E1[fmt] * 2 ** FORMATS[fmt].bits)
+        reached = wc.config is not None
+        out.append({
+            "dim": spec.dim, "algorithm": spec.name, "quantity": name, "format": fmt,
+            "power": q.power, "bound": q.text,
+            "worst_error_units": wc.units if reached else None,
+            "bound_units": bound, "ratio": wc.ratio if reached else None,
+            "first_order_units": wc.first_order,
+            "slack": slack(wc.units, bound, wc.first_order),
+            "L": wc.L, "shadow_runs": wc.runs, "first_order_lanes": wc.lanes,
+            "seconds": round(wc.seconds, 3),
+            "config": wc.config.to_json() if reached else None})
+    return out

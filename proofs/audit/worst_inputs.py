@@ -4,9 +4,9 @@ once as numpy lanes (lanes × points × dim, float64 holding values of the worki
 Where rounding hurts most relative to L (section 2's standard model: |e| ≤ ½ulp(y) ≤ ε|y|,
 with equality just above a power of two): the scale L just above a binade edge (so the
 coordinate differences near L, and their products near L^p, sit just above one too),
-coordinates at the box extremes ±L/2 and just above / below binade edges (so a
-difference of two coordinates with different exponents must round), uniform values,
-zero, copies of another coordinate. Reachability: when the predicate's first primitive
+coordinates at the box extremes ±L/2 (exactly, or just inside with random low bits) and
+just above / below binade edges (so a difference of two coordinates with different
+exponents must round), uniform values, small values, zero. Reachability: when the predicate's first primitive
 spans a lower-dimensional hull (an edge for edge-vertex, a triangle's plane), a share of
 the lanes puts the last point on it (a convex combination of the others), so the
 proximity checks before the later quantities pass (P within τ of AB, PQ meeting AB, P
@@ -74,23 +74,26 @@ class StructuredInputs:
     def scales(self, k: int) -> np.ndarray:
         r = self.rng.random(k)
         just_above = 1 + 2 * self.u * self.rng.integers(1, 4, k)
-        near = 1 + 2.0 ** -self.rng.integers(4, 14, k).astype(float)
+        near = 1 + 2.0 ** -self.rng.integers(4, 30, k).astype(float) * (1 + self.rng.random(k))
         anywhere = 1 + self.rng.random(k)
-        L = np.where(r < 0.5, just_above, np.where(r < 0.75, near, anywhere))
+        L = np.where(r < 0.3, just_above, np.where(r < 0.75, near, anywhere))
         return round_bits(L, self.bits)
 
     def coordinates(self, h: np.ndarray, shape) -> np.ndarray:
-        """Coordinates of the kinds in the module docstring; h broadcasts against shape."""
-        rng, u = self.rng, self.u
+        """Coordinates of the kinds in the module docstring; h broadcasts against shape.
+        "Just inside" an extreme or "just above/below" a binade edge keeps random low
+        bits: a short significand would make the products of differences exact."""
+        rng = self.rng
         h = np.broadcast_to(h, shape)
-        kind = rng.choice(5, size=shape, p=(0.35, 0.25, 0.28, 0.06, 0.06))
+        kind = rng.choice(6, size=shape, p=(0.2, 0.2, 0.25, 0.23, 0.06, 0.06))
         sign = rng.choice((-1.0, 1.0), size=shape)
+        low = rng.random(shape) * 2.0 ** -rng.integers(8, 44, shape).astype(float)
         edge = 2.0 ** -rng.integers(1, 4, shape).astype(float)
-        edge = edge * (1 + 2 * u * rng.integers(-4, 5, shape))
+        edge = edge * (1 + rng.choice((-1.0, 1.0), size=shape) * low)
         small = 2.0 ** -rng.integers(2, 40, shape).astype(float)
-        out = np.select([kind == 0, kind == 1, kind == 2, kind == 3],
-                        [h, np.minimum(edge, h), rng.uniform(-1, 1, shape) * h, small],
-                        0.0)
+        out = np.select([kind == 0, kind == 1, kind == 2, kind == 3, kind == 4],
+                        [h, h * (1 - low), np.minimum(edge, h), rng.uniform(-1, 1, shape) * h,
+                         small], 0.0)
         return round_bits(np.clip(sign * out, -h, h), self.bits)
 
     def fresh(self, k: int) -> Lanes:
