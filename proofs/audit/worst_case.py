@@ -15,7 +15,8 @@ Per quantity and format, three phases (a budget bounds each, see :class:`Budget`
    check must pass) by an evolutionary search on numpy lanes.
 2. *Bit-level hill climbing* on the *measured* error (the shadow run,
    :func:`proofs.audit.shadow_run.run_shadow`, exact reference) from the best
-   configurations: ±k ulps (k = 1, 2, 4, …, 256, …, 2^20, and random k < 2^24: a new
+   configurations and from random-low-bit variants of them (same structure, new
+   rounding pattern): ±k ulps (k = 1, 2, 4, …, 256, …, 2^20, and random k < 2^24: a new
    rounding pattern) per coordinate, best move kept.
 3. *Exhaustive sweep* of small ulp offsets around the best: every coordinate by ±1..±4
    ulps, every pair of coordinates by ±1 ulp each; restarted after an improvement.
@@ -53,7 +54,7 @@ __all__ = ["Budget", "CI_BUDGET", "WorstCase", "WorstCaseSearch", "thorough_budg
 class Budget:
     """Work per quantity and format: phase-1 generations × lanes, phase-2 and phase-3
     shadow runs, and a wall-clock cap (seconds; None: counts only). With a cap, the
-    phases end at 35 % / 80 % / 100 % of it, so a loaded machine still finishes."""
+    phases end at 25 % / 80 % / 100 % of it, so a loaded machine still finishes."""
 
     rounds: int
     lanes: int
@@ -197,7 +198,7 @@ class WorstCaseSearch:
         b, gen = self.budget, self.inputs
         pop, pop_s = None, None
         for r in range(b.rounds):
-            if r and not self._time_left(deadline, 0.35):
+            if r and not self._time_left(deadline, 0.25):
                 break
             lanes = gen.fresh(b.lanes) if pop is None else Lanes.concat(
                 [gen.fresh(b.lanes // 4), gen.mutate(pop, b.lanes - b.lanes // 4)])
@@ -225,10 +226,12 @@ class WorstCaseSearch:
             runs += 1
             if v is not None:
                 tops.append([v[0], cfg, 0])
-        tops.sort(key=lambda t: -t[0])
-        tops = tops[:3]
         if not tops:
             return
+        tops.sort(key=lambda t: -t[0])
+        runs += self.jitter_starts(name, start, tops, deadline)
+        tops.sort(key=lambda t: -t[0])
+        tops = tops[:3]
         n_coord = len(tops[0][1].points) * self.spec.dim
         order = self.rng.permutation(n_coord)
         turn = 0
@@ -249,6 +252,21 @@ class WorstCaseSearch:
                         best = (v[0], cand)
             if best is not None:
                 t[0], t[1] = best
+
+    def jitter_starts(self, name: str, start: list, tops: list, deadline) -> int:
+        """More starting points for the climb: random low bits on the best structures
+        (:meth:`StructuredInputs.jitter`), a third of the climb's runs (or until 40 % of
+        the time budget); adds [units, config, 0] to ``tops``; returns the runs spent."""
+        runs, n = 0, max(1, self.budget.climb // 3)
+        while start and runs < n and self._time_left(deadline, 0.4):
+            X = start[runs % len(start)]
+            for Xj in self.inputs.jitter(np.asarray(X), 8):
+                cfg = self.config(Xj)
+                v = self.measure(cfg).get(name)
+                runs += 1
+                if v is not None:
+                    tops.append([v[0], cfg, 0])
+        return runs
 
     def phase_sweep(self, name: str, deadline) -> None:
         """Phase 3: every coordinate by ±1..±4 ulps and every pair by ±1 ulp each around

@@ -139,3 +139,15 @@ class StructuredInputs:
         W[rew] = self.rng.dirichlet(np.ones(self.n - 1), int(rew.sum()))
         hull = ch.hull ^ ((self.rng.random(k) < 0.05) & self.can_hull)
         return self.fix(Lanes(X, L, W, hull))
+
+    def jitter(self, X: np.ndarray, k: int) -> np.ndarray:
+        """k variants of the configuration X (points × dim): most coordinates moved by a
+        random relative 2^-j, j between 0.4 and 0.85 of the format's bits — the structure
+        (and the first-order error A) stays, the low bits and with them the rounding
+        pattern are new (a short significand would make many operations exact)."""
+        shape = (k,) + X.shape
+        lo, hi = int(0.4 * self.bits), int(0.85 * self.bits)
+        rel = self.rng.random(shape) * 2.0 ** -self.rng.integers(lo, hi, shape).astype(float)
+        rel *= self.rng.choice((-1.0, 1.0), size=shape) * (self.rng.random(shape) < 0.7)
+        h = np.abs(X).max()
+        return round_bits(np.clip(X * (1 + rel), -h, h), self.bits)
