@@ -13,13 +13,17 @@ Per quantity and format, three phases (a budget bounds each, see :class:`Budget`
    (:mod:`proofs.audit.worst_inputs`: scale just above a binade edge, coordinates at
    the box extremes and binade edges, the last point on the hull where a proximity
    check must pass) by an evolutionary search on numpy lanes.
-2. *Bit-level hill climbing* on the *measured* error (the shadow run,
-   :func:`proofs.audit.shadow_run.run_shadow`, exact reference) from the best
-   configurations and from random-low-bit variants of them (same structure, new
-   rounding pattern): ±k ulps (k = 1, 2, 4, …, 256, …, 2^20, and random k < 2^24: a new
-   rounding pattern) per coordinate, best move kept.
-3. *Exhaustive sweep* of small ulp offsets around the best: every coordinate by ±1..±4
-   ulps, every pair of coordinates by ±1 ulp each; restarted after an improvement.
+2. *Bit-level hill climbing* on the *measured* error from the best configurations and
+   from random-low-bit variants of them (same structure, new rounding pattern): a
+   (μ + λ) search on lanes whose children move one or two coordinates by ±k ulps
+   (k = 1, 2, 4, …, 256, …, 2^20, or random k < 2^24: a new rounding pattern). The
+   lanes are ranked by a fast approximate error (:mod:`proofs.audit.fast_error`: the
+   working arithmetic against a wider one); every new best is confirmed by the exact
+   shadow run (:func:`proofs.audit.shadow_run.run_shadow`), and only shadow runs are
+   reported.
+3. *Exhaustive sweep* of small ulp offsets around the best measured input: every
+   coordinate by ±1..±4 ulps, every pair of coordinates by ±1 ulp each; the best four
+   confirmed; again around a better one.
 
 Reachability: the shadow run follows the working path, so a quantity behind a failing
 check is simply not measured (no sample). Every measured error is also checked against
@@ -40,8 +44,7 @@ from fractions import Fraction
 
 import numpy as np
 
-from fperr import round_fraction, ulp
-
+from .fast_error import fast_errors
 from .first_order import attainable
 from .shadow_run import run_shadow
 from .spec import FORMATS, Config, PredicateSpec
@@ -52,8 +55,8 @@ __all__ = ["Budget", "CI_BUDGET", "WorstCase", "WorstCaseSearch", "thorough_budg
 
 @dataclass(frozen=True)
 class Budget:
-    """Work per quantity and format: phase-1 generations × lanes, phase-2 and phase-3
-    shadow runs, and a wall-clock cap (seconds; None: counts only). With a cap, the
+    """Work per quantity and format: phase-1 and phase-2 generations × lanes, phase-3
+    sweeps, and a wall-clock cap (seconds; None: counts only). With a cap, the
     phases end at 25 % / 80 % / 100 % of it, so a loaded machine still finishes."""
 
     rounds: int
@@ -63,12 +66,16 @@ class Budget:
     seconds: float | None = None
 
 
-#: Phase-2 moves in ulps (besides six random ones of up to 2^24 ulps per step, which
-#: redraw the low bits and with them the rounding pattern).
+#: Phase-2 moves in ulps (besides random ones of up to 2^24 ulps, which redraw the low
+#: bits and with them the rounding pattern).
 CLIMB_STEPS = (1, 2, 4, 8, 16, 32, 64, 128, 256, 1 << 10, 1 << 13, 1 << 16, 1 << 20)
 
+#: Phase-2 generations without a better lane before the climb starts again from new
+#: random low bits on the phase-1 configurations.
+RESTART = 40
+
 #: The CI-size search of the default ``fperr audit`` (deterministic: counts only).
-CI_BUDGET = Budget(rounds=3, lanes=128, climb=48, sweep=24)
+CI_BUDGET = Budget(rounds=3, lanes=128, climb=6, sweep=2)
 
 
 def thorough_budget(seconds: float = 6.0) -> Budget:
@@ -192,9 +199,9 @@ class WorstCaseSearch:
         total = self.budget.seconds
         return time.perf_counter() < deadline - total * (1 - share)
 
-    def phase_configurations(self, name: str, deadline) -> list:
+    def phase_configurations(self, name: str, deadline) -> Lanes | None:
         """Phase 1: evolve lanes toward the largest A of ``name``; returns the best
-        configurations (distinct), best first."""
+        (distinct) lanes, best first."""
         b, gen = self.budget, self.inputs
         pop, pop_s = None, None
         for r in range(b.rounds):
@@ -205,113 +212,98 @@ class WorstCaseSearch:
             s = self.first_order(lanes).get(name)
             if s is None:
                 continue
-            if pop is not None:
-                lanes, s = Lanes.concat([pop, lanes]), np.concatenate([pop_s, s])
-            _, uniq = np.unique(lanes.X.reshape(len(s), -1), axis=0, return_index=True)
-            keep = uniq[np.argsort(-s[uniq])][:16]
-            keep = keep[s[keep] > 0]
-            if len(keep):
-                pop, pop_s = lanes.take(keep), s[keep]
-        return [] if pop is None else [pop.X[k] for k in range(min(6, len(pop_s)))]
+            pop, pop_s = self._best(pop, pop_s, lanes, s, 16)
+        return pop
 
-    def phase_climb(self, name: str, start: list, deadline) -> None:
-        """Phase 2: measure the starting configurations, then bit-level hill climbing
-        (±k ulps per coordinate, k in CLIMB_STEPS and random) from the best three in turn."""
-        b = self.budget
-        runs = 0
-        tops = []
-        cands = [self.config(X) for X in start] + list(self.seeds.get(name, ()))[:3]
-        for cfg in cands:
-            v = self.measure(cfg).get(name)
-            runs += 1
+    @staticmethod
+    def _best(pop, pop_s, lanes, s, keep):
+        if pop is not None:
+            lanes, s = Lanes.concat([pop, lanes]), np.concatenate([pop_s, s])
+        _, uniq = np.unique(lanes.X.reshape(len(s), -1), axis=0, return_index=True)
+        idx = uniq[np.argsort(-s[uniq], kind="stable")][:keep]
+        idx = idx[s[idx] > 0]
+        return (lanes.take(idx), s[idx]) if len(idx) else (pop, pop_s)
+
+    def fast(self, name: str, lanes: Lanes) -> np.ndarray:
+        """The (approximate) measured error of ``name`` in units, per lane; −1 where
+        the quantity is not reached (:mod:`proofs.audit.fast_error`)."""
+        got = fast_errors(self.spec.pred, lanes.X, self.bits, self.inputs.tolerances(lanes.L))
+        if name not in got:
+            return np.full(len(lanes.L), -1.0)
+        err, reached = got[name]
+        Lu = scale_units(lanes.X)
+        with np.errstate(all="ignore"):
+            u = err / (2.0 ** -self.bits * Lu ** self.spec.quantities[name].power)
+        return np.nan_to_num(np.where(reached & (Lu > 0), u, -1.0), nan=-1.0, posinf=-1.0)
+
+    def confirm(self, name: str, lanes: Lanes, k: int) -> float:
+        """Shadow runs (exact) on the first k lanes; the best units of ``name``."""
+        best = -1.0
+        for X in lanes.X[:k]:
+            v = self.measure(self.config(X)).get(name)
             if v is not None:
-                tops.append([v[0], cfg, 0])
-        if not tops:
-            return
-        tops.sort(key=lambda t: -t[0])
-        runs += self.jitter_starts(name, start, tops, deadline)
-        tops.sort(key=lambda t: -t[0])
-        tops = tops[:3]
-        n_coord = len(tops[0][1].points) * self.spec.dim
-        order = self.rng.permutation(n_coord)
-        turn = 0
-        while runs < b.climb and self._time_left(deadline, 0.8):
-            t = tops[turn % len(tops)]
-            turn += 1
-            ci = int(order[t[2] % n_coord])
-            t[2] += 1
-            best = None
-            for k in CLIMB_STEPS + tuple(int(x) for x in self.rng.integers(1, 1 << 24, 6)):
-                for sgn in (1, -1):
-                    cand = self.moved(t[1], ((ci, sgn * k),))
-                    runs += 1  # a move out of the box counts too: the loop must end
-                    if cand is None:
-                        continue
-                    v = self.measure(cand).get(name)
-                    if v is not None and v[0] > t[0] and (best is None or v[0] > best[0]):
-                        best = (v[0], cand)
-            if best is not None:
-                t[0], t[1] = best
+                best = max(best, v[0])
+        return best
 
-    def jitter_starts(self, name: str, start: list, tops: list, deadline) -> int:
-        """More starting points for the climb: random low bits on the best structures
-        (:meth:`StructuredInputs.jitter`), a third of the climb's runs (or until 40 % of
-        the time budget); adds [units, config, 0] to ``tops``; returns the runs spent."""
-        runs, n = 0, max(1, self.budget.climb // 3)
-        while start and runs < n and self._time_left(deadline, 0.4):
-            X = start[runs % len(start)]
-            for Xj in self.inputs.jitter(np.asarray(X), 8):
-                cfg = self.config(Xj)
-                v = self.measure(cfg).get(name)
-                runs += 1
-                if v is not None:
-                    tops.append([v[0], cfg, 0])
-        return runs
+    def phase_climb(self, name: str, start: Lanes | None, deadline) -> None:
+        """Phase 2: bit-level hill climbing on the measured error, (μ + λ) on lanes: the
+        best 8 lanes (from phase 1, their random-low-bit variants and the sampling's
+        seeds) make ``budget.lanes`` children by ±k ulp moves per generation
+        (:meth:`StructuredInputs.ulp_moves`); the fast error guides, shadow runs confirm
+        each new best and the final population. Stuck for RESTART generations, it
+        starts again from new random low bits (a new rounding pattern)."""
+        b, gen = self.budget, self.inputs
+        parts = [] if start is None else [start]
+        for cfg in list(self.seeds.get(name, ()))[:3]:
+            X = np.array([[float(c) for c in p] for p in cfg.points])[None]
+            L = np.array([float(cfg.info.L)])
+            parts.append(Lanes(X, L, np.zeros((1, len(cfg.points) - 1)), np.zeros(1, bool)))
+        if not parts:
+            return
+        starts = Lanes.concat(parts)
+        pop, top, stale = None, -1.0, 0
+        for _ in range(b.climb):
+            if not self._time_left(deadline, 0.8):
+                break
+            if pop is None or stale >= RESTART:
+                if pop is not None:  # stuck: a new rounding pattern on the starts
+                    self.confirm(name, pop, len(pop_s))
+                lanes = Lanes.concat([starts, self._jittered(starts, 4)])
+                pop, pop_s = self._best(None, None, lanes, self.fast(name, lanes), 8)
+                if pop is None:
+                    return
+                top, stale = pop_s[0], 0
+                self.confirm(name, pop, 1)
+            kids = gen.ulp_moves(pop, b.lanes, CLIMB_STEPS)
+            pop, pop_s = self._best(pop, pop_s, kids, self.fast(name, kids), 8)
+            stale += 1
+            if pop_s[0] > top:
+                top, stale = pop_s[0], 0
+                self.confirm(name, pop, 1)
+        if pop is not None:
+            self.confirm(name, pop, len(pop_s))
+
+    def _jittered(self, lanes: Lanes, k: int) -> Lanes:
+        X = self.inputs.jitter(np.repeat(lanes.X, k, axis=0), np.repeat(lanes.L, k) / 2)
+        n = len(X)
+        return Lanes(X, np.repeat(lanes.L, k), np.repeat(lanes.W, k, axis=0),
+                     np.zeros(n, dtype=bool))
 
     def phase_sweep(self, name: str, deadline) -> None:
         """Phase 3: every coordinate by ±1..±4 ulps and every pair by ±1 ulp each around
-        the best; restart around a better one."""
-        b = self.budget
-        runs = 0
-        improved = True
-        while improved and runs < b.sweep and self._time_left(deadline, 1.0):
-            improved = False
+        the best measured input (fast error), the best 4 confirmed by shadow runs;
+        again around a better one."""
+        for _ in range(self.budget.sweep):
             wc = self.found[name]
-            if wc.config is None:
+            if wc.config is None or not self._time_left(deadline, 1.0):
                 return
-            base, base_v = wc.config, wc.units
-            n_coord = len(base.points) * self.spec.dim
-            moves = [((i, s * k),) for i in range(n_coord) for k in (1, 2, 3, 4)
-                     for s in (1, -1)]
-            moves += [((i, s), (j, t)) for i in range(n_coord) for j in range(i + 1, n_coord)
-                      for s in (1, -1) for t in (1, -1)]
-            for mv in moves:
-                if runs >= b.sweep or not self._time_left(deadline, 1.0):
-                    return
-                cand = self.moved(base, mv)
-                runs += 1
-                if cand is None:
-                    continue
-                v = self.measure(cand).get(name)
-                if v is not None and v[0] > base_v:
-                    improved = True
-                    break
-
-    def moved(self, cfg: Config, moves) -> Config | None:
-        """``cfg`` with coordinate ``i`` (flat index) moved by ``k`` ulps of the format,
-        for each (i, k); None when a move leaves the box [−L/2, L/2] of the tolerances' L
-        (which must bound every coordinate difference, as the tolerances assume)."""
-        d = self.spec.dim
-        pts = [list(p) for p in cfg.points]
-        h = cfg.info.L / 2
-        for i, k in moves:
-            c = pts[i // d][i % d]
-            step = ulp(c, self.bits) if c else ulp(h, self.bits) * 2 ** -8
-            v = round_fraction(c + k * step, self.bits)
-            if abs(v) > h:
-                return None
-            pts[i // d][i % d] = v
-        return cfg.with_points(tuple(tuple(p) for p in pts), "worst-case")
+            X = np.array([[float(c) for c in p] for p in wc.config.points])
+            lanes = self.inputs.sweep(X, float(wc.config.info.L))
+            s = self.fast(name, lanes)
+            order = np.argsort(-s, kind="stable")[:4]
+            before = wc.units
+            if self.confirm(name, lanes.take(order), 4) <= before:
+                return
 
 
 #: worst/bound below this: the record explains where the slack is

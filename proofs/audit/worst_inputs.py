@@ -140,14 +140,58 @@ class StructuredInputs:
         hull = ch.hull ^ ((self.rng.random(k) < 0.05) & self.can_hull)
         return self.fix(Lanes(X, L, W, hull))
 
-    def jitter(self, X: np.ndarray, k: int) -> np.ndarray:
-        """k variants of the configuration X (points × dim): most coordinates moved by a
-        random relative 2^-j, j between 0.4 and 0.85 of the format's bits — the structure
-        (and the first-order error A) stays, the low bits and with them the rounding
-        pattern are new (a short significand would make many operations exact)."""
-        shape = (k,) + X.shape
+    def ulp_moves(self, parents: Lanes, k: int, steps: tuple) -> Lanes:
+        """k children, each with one or two coordinates moved by ±s ulps of the format
+        (s from ``steps`` or random below 2^24, which redraws the low bits), or (one in
+        five) with random low bits everywhere (:meth:`jitter`); clipped to ±L/2."""
+        ch = parents.take(self.rng.integers(0, len(parents.L), k))
+        X = ch.X.copy()
+        rows, h = np.arange(k), ch.L / 2
+        for j in range(2):
+            i = self.rng.integers(0, self.n, k)
+            a = self.rng.integers(0, self.d, k)
+            c = X[rows, i, a]
+            _, e = np.frexp(np.where(c == 0, h * 2.0**-8, c))
+            s = np.where(self.rng.random(k) < 0.6, self.rng.choice(steps, k),
+                         self.rng.integers(1, 1 << 24, k)).astype(float)
+            s *= self.rng.choice((-1.0, 1.0), k) * ((j == 0) | (self.rng.random(k) < 0.4))
+            X[rows, i, a] = np.clip(round_bits(c + s * np.ldexp(1.0, e - self.bits), self.bits),
+                                    -h, h)
+        jit = self.rng.random(k) < 0.2
+        if jit.any():
+            X[jit] = self.jitter(X[jit], h[jit])
+        return self.fix_free(Lanes(X, ch.L, ch.W, ch.hull))
+
+    def fix_free(self, lanes: Lanes) -> Lanes:
+        """Moves end the hull placement: the climb works on the measured error, and a
+        point ulps off the hull still passes the proximity checks."""
+        return Lanes(lanes.X, lanes.L, lanes.W, np.zeros_like(lanes.hull))
+
+    def jitter(self, X: np.ndarray, h: np.ndarray) -> np.ndarray:
+        """The lanes X with most coordinates moved by a random relative 2^-j, j between
+        0.4 and 0.85 of the format's bits — the structure (and the first-order error A)
+        stays, the low bits and with them the rounding pattern are new (a short
+        significand would make many operations exact); clipped to ±h (per lane)."""
+        shape = X.shape
         lo, hi = int(0.4 * self.bits), int(0.85 * self.bits)
         rel = self.rng.random(shape) * 2.0 ** -self.rng.integers(lo, hi, shape).astype(float)
         rel *= self.rng.choice((-1.0, 1.0), size=shape) * (self.rng.random(shape) < 0.7)
-        h = np.abs(X).max()
-        return round_bits(np.clip(X * (1 + rel), -h, h), self.bits)
+        hb = h[:, None, None]
+        return round_bits(np.clip(X * (1 + rel), -hb, hb), self.bits)
+
+    def sweep(self, X: np.ndarray, L: float) -> Lanes:
+        """Every coordinate of X by ±1..±4 ulps, every pair by ±1 ulp each (phase 3)."""
+        flat = X.reshape(-1)
+        m = len(flat)
+        _, e = np.frexp(np.where(flat == 0, L * 2.0**-9, flat))
+        step = np.ldexp(1.0, e - self.bits)
+        moves = [{i: s * k} for i in range(m) for k in (1, 2, 3, 4) for s in (1, -1)]
+        moves += [{i: s, j: t} for i in range(m) for j in range(i + 1, m)
+                  for s in (1, -1) for t in (1, -1)]
+        out = np.repeat(flat[None], len(moves), axis=0)
+        for r, mv in enumerate(moves):
+            for i, k in mv.items():
+                out[r, i] = flat[i] + k * step[i]
+        out = np.clip(round_bits(out, self.bits), -L / 2, L / 2).reshape((-1,) + X.shape)
+        n = len(moves)
+        return Lanes(out, np.full(n, L), np.zeros((n, self.n - 1)), np.zeros(n, dtype=bool))

@@ -81,18 +81,20 @@ def test_search_finds_the_worst_case_of_d2(fmt):
     """2D vertex-vertex d2, where the worst case is known: the first-order attainable
     maximum is exactly the bound's first-order term 8 ε·L² (each difference ≤ L rounds
     by ≤ ε·L near a binade edge, ...), and the witness above attains the bound itself.
-    The search (three seeds, counts only: deterministic) must find A ≥ 7.99 and a
-    measured error ≥ 0.85 of the bound — the audit before this search reached 0.76."""
+    The search (a small count budget, three seeds, deterministic) must find A ≥ 7.99 on
+    every seed, a measured error ≥ 0.75 of the bound on every seed (the audit before this
+    search reached 0.76 in a looser reading of L) and ≥ 0.95 on the best (seeds 0-5
+    measured 0.80-0.99999 in binary64, 0.86-0.99 in mp17)."""
     spec = A.spec_for(predicates.d2.vertex_vertex)
     best = 0.0
     for seed in range(3):
-        w = WorstCaseSearch(spec, fmt, Budget(rounds=4, lanes=128, climb=4000, sweep=400),
+        w = WorstCaseSearch(spec, fmt, Budget(rounds=4, lanes=128, climb=80, sweep=4),
                             seed=seed).run()
         assert not w.violations
         wc = w.found["d2"]
-        assert wc.first_order >= 7.99 and 0 < wc.ratio <= 1
+        assert wc.first_order >= 7.99 and 0.75 <= wc.ratio <= 1
         best = max(best, wc.ratio)
-    assert best >= 0.85
+    assert best >= 0.95
 
 
 def test_slack_is_attributed_to_the_rules_or_the_search():
@@ -141,7 +143,7 @@ def test_a_bound_too_small_is_a_loud_worst_case_violation():
     spec = A.PredicateSpec(predicates.d2.vertex_vertex, bound_fn=bound_fn)
     a = A.Audit([spec], formats=("binary64",), samples=5, search_steps=0, zone_pairs=0,
                 audit_tolerances=False,
-                worst_budget=Budget(rounds=4, lanes=128, climb=4000, sweep=400)).run()
+                worst_budget=Budget(rounds=4, lanes=128, climb=80, sweep=4)).run()
     bad = [v for v in a.summary()["violations"] if v["type"] == "worst-case"]
     assert bad and all(v["ratio"] > 1 and v["quantity"] == "d2" for v in bad)
     rec = a.summary()["worst_cases"][0]
