@@ -261,7 +261,7 @@ class WorstCaseSearch:
         if not parts:
             return
         starts = Lanes.concat(parts)
-        pop, top, stale = None, -1.0, 0
+        pop, pop_s, top, stale = None, None, -1.0, 0
         for _ in range(b.climb):
             if not self._time_left(deadline, 0.8):
                 break
