@@ -16,8 +16,13 @@ operation of the predicate adds one component. :class:`FirstOrderContext` runs t
 a rejected lane leaves the path), so a quantity has a value only on the lanes that reach
 it. ulp is the working format's (``bits`` significant bits), subnormals ignored.
 
-A is an estimate of what rounding *can* do, not a bound: it ignores second-order terms
-and treats every operation as rounding (an exactly representable result rounds by 0).
+The values are the working values (binary64: numpy's float64 operations are the real
+ones; binary32, mp17: the float64 result of the working operands, rounded to the
+format), so an operation whose result is representable is seen to be exact and adds 0
+(error-free transformations TwoSum / TwoProduct in binary64; a division or a square
+root always counts): a configuration made of short significands, where most operations
+are exact, does not look worse than it can be. A is an estimate of what rounding *can*
+do near an input, not a bound: it ignores second-order terms.
 The derived bounds (rules A–K) bound the same first-order sum with magnitude bounds, so
 max A over inputs ≤ E to first order: A separates the slack of the rules (E/max A) from
 that of the search (max A / worst measured error).
@@ -29,6 +34,8 @@ from itertools import count
 import numpy as np
 
 from fperr.contexts import NumpyContext
+
+from .worst_inputs import round_bits
 
 __all__ = ["FirstOrderContext", "Lin", "attainable"]
 
@@ -55,10 +62,17 @@ class Lin:
             return o
         return Lin(np.asarray(o, dtype=np.float64), {}, self.bits)
 
-    def _round(self, v, d: dict) -> "Lin":
-        """The result of a rounded operation: one more error term ½ulp(y)."""
-        d[next(_ids)] = half_ulp(v, self.bits)
-        return Lin(v, d, self.bits)
+    def _round(self, v, d: dict, err=None) -> "Lin":
+        """The result of a rounded operation: one more error term ½ulp(y), 0 on the
+        lanes where the operation is exact. ``v``: the float64 result of the working
+        operands; ``err``: its rounding error when v is binary64 (None: unknown)."""
+        if self.bits < 53:          # v is exact or nearly: the working value rounds it
+            w = round_bits(v, self.bits)
+            exact = w == v
+        else:
+            w, exact = v, (err == 0) if err is not None else False
+        d[next(_ids)] = np.where(exact, 0.0, half_ulp(w, self.bits))
+        return Lin(w, d, self.bits)
 
     @staticmethod
     def _comb(a: dict, ca, b: dict, cb) -> dict:
@@ -70,21 +84,26 @@ class Lin:
 
     def __add__(self, o):
         o = self._lift(o)
-        return self._round(self.v + o.v, self._comb(self.d, None, o.d, None))
+        v = self.v + o.v
+        return self._round(v, self._comb(self.d, None, o.d, None), _two_sum_err(self.v, o.v, v))
 
     def __radd__(self, o):
         return self._lift(o) + self
 
     def __sub__(self, o):
         o = self._lift(o)
-        return self._round(self.v - o.v, self._comb(self.d, None, o.d, -1.0))
+        v = self.v - o.v
+        return self._round(v, self._comb(self.d, None, o.d, -1.0),
+                           _two_sum_err(self.v, -o.v, v))
 
     def __rsub__(self, o):
         return self._lift(o) - self
 
     def __mul__(self, o):
         o = self._lift(o)
-        return self._round(self.v * o.v, self._comb(self.d, o.v, o.d, self.v))
+        v = self.v * o.v
+        return self._round(v, self._comb(self.d, o.v, o.d, self.v),
+                           _two_prod_err(self.v, o.v, v))
 
     def __rmul__(self, o):
         return self._lift(o) * self
@@ -120,6 +139,25 @@ class Lin:
         for x in self.d.values():
             out += np.abs(x)
         return out
+
+
+def _two_sum_err(a, b, s):
+    """a + b − s exactly, s = fl(a + b) in binary64 (Knuth's TwoSum)."""
+    bb = s - a
+    return (a - (s - bb)) + (b - bb)
+
+
+def _split(a):
+    c = 134217729.0 * a           # 2^27 + 1: Veltkamp's splitting
+    hi = c - (c - a)
+    return hi, a - hi
+
+
+def _two_prod_err(a, b, p):
+    """a·b − p exactly, p = fl(a·b) in binary64 (Dekker's TwoProduct; no overflow)."""
+    ah, al = _split(a)
+    bh, bl = _split(b)
+    return ((ah * bh - p) + ah * bl + al * bh) + al * bl
 
 
 class FirstOrderContext(NumpyContext):

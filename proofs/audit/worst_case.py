@@ -16,7 +16,8 @@ Per quantity and format, three phases (a budget bounds each, see :class:`Budget`
 2. *Bit-level hill climbing* on the *measured* error from the best configurations and
    from random-low-bit variants of them (same structure, new rounding pattern): a
    (μ + λ) search on lanes whose children move one or two coordinates by ±k ulps
-   (k = 1, 2, 4, …, 256, …, 2^20, or random k < 2^24: a new rounding pattern). The
+   (k = 1, 2, 4, …, 256, …, 2^20, or random, log-uniform below 2^(bits − 6): a new
+   rounding pattern). The
    lanes are ranked by a fast approximate error (:mod:`proofs.audit.fast_error`: the
    working arithmetic against a wider one); every new best is confirmed by the exact
    shadow run (:func:`proofs.audit.shadow_run.run_shadow`), and only shadow runs are
@@ -66,8 +67,8 @@ class Budget:
     seconds: float | None = None
 
 
-#: Phase-2 moves in ulps (besides random ones of up to 2^24 ulps, which redraw the low
-#: bits and with them the rounding pattern).
+#: Phase-2 moves in ulps (besides random ones, log-uniform up to 2^(bits − 6) ulps,
+#: which redraw the low bits and with them the rounding pattern).
 CLIMB_STEPS = (1, 2, 4, 8, 16, 32, 64, 128, 256, 1 << 10, 1 << 13, 1 << 16, 1 << 20)
 
 #: Phase-2 generations without a better lane before the climb starts again from new
@@ -282,6 +283,7 @@ class WorstCaseSearch:
                 self.confirm(name, pop, 1)
         if pop is not None:
             self.confirm(name, pop, len(pop_s))
+            self.first_order(pop)  # A where the climb ended: its operations all round
 
     def _jittered(self, lanes: Lanes, k: int) -> Lanes:
         X = self.inputs.jitter(np.repeat(lanes.X, k, axis=0), np.repeat(lanes.L, k) / 2)

@@ -142,7 +142,8 @@ class StructuredInputs:
 
     def ulp_moves(self, parents: Lanes, k: int, steps: tuple) -> Lanes:
         """k children, each with one or two coordinates moved by ±s ulps of the format
-        (s from ``steps`` or random below 2^24, which redraws the low bits), or (one in
+        (s from ``steps`` or random, log-uniform below 2^(bits − 6): new low bits and
+        with them a new rounding pattern), or (one in
         five) with random low bits everywhere (:meth:`jitter`); clipped to ±L/2."""
         ch = parents.take(self.rng.integers(0, len(parents.L), k))
         X = ch.X.copy()
@@ -152,8 +153,11 @@ class StructuredInputs:
             a = self.rng.integers(0, self.d, k)
             c = X[rows, i, a]
             _, e = np.frexp(np.where(c == 0, h * 2.0**-8, c))
-            s = np.where(self.rng.random(k) < 0.6, self.rng.choice(steps, k),
-                         self.rng.integers(1, 1 << 24, k)).astype(float)
+            # random steps: log-uniform up to 2^(bits − 6) ulps, i.e. 1/64 of the
+            # coordinate in every format (binary64 too: its low bits alone cannot align
+            # the roundings of a structure with short significands)
+            big = np.floor(np.exp2(self.rng.random(k) * (self.bits - 6)))
+            s = np.where(self.rng.random(k) < 0.6, self.rng.choice(steps, k), big)
             s *= self.rng.choice((-1.0, 1.0), k) * ((j == 0) | (self.rng.random(k) < 0.4))
             X[rows, i, a] = np.clip(round_bits(c + s * np.ldexp(1.0, e - self.bits), self.bits),
                                     -h, h)

@@ -53,16 +53,27 @@ def test_witness_attains_the_d2_bound_computed_independently():
 
 
 def test_first_order_attainable_error_matches_the_sum_over_operations():
-    """A = Σ|∂d2/∂y_k|·½ulp(y_k) written out by hand for d2 = w0² + w1² (five roundings:
-    two differences, two squares, the sum), with exact Fractions, on random inputs."""
+    """A = Σ|∂d2/∂y_k|·½ulp(y_k) over the operations that round, written out by hand for
+    d2 = w0² + w1² (two differences, two squares, the sum) with exact Fractions at the
+    working values, on random inputs; an input whose operations are all exact has A = 0."""
     rng = np.random.default_rng(5)
     X = rng.uniform(-0.6, 0.6, (50, 2, 2))
+    X[0] = [[0.5, 0.5], [-0.5, -0.25]]        # 1, 0.75, 1, 0.5625, 1.5625: all exact
     got = attainable(predicates.d2.vertex_vertex, X, 53, {"sigma": np.zeros(50)})["d2"]
-    for k in range(50):
-        (ax, ay), (bx, by) = [[Fraction(float(v)) for v in p] for p in X[k]]
+    assert got[0][0] == 0
+
+    def rounded(exact: Fraction, working: float) -> Fraction:
+        return _half_ulp(Fraction(working)) if Fraction(working) != exact else Fraction(0)
+
+    for k in range(1, 50):
+        (ax, ay), (bx, by) = [[float(v) for v in p] for p in X[k]]
         w0, w1 = ax - bx, ay - by
-        want = (2 * abs(w0) * _half_ulp(w0) + 2 * abs(w1) * _half_ulp(w1)
-                + _half_ulp(w0 * w0) + _half_ulp(w1 * w1) + _half_ulp(w0 * w0 + w1 * w1))
+        s0, s1 = w0 * w0, w1 * w1
+        F = Fraction
+        want = (2 * abs(F(w0)) * rounded(F(ax) - F(bx), w0)
+                + 2 * abs(F(w1)) * rounded(F(ay) - F(by), w1)
+                + rounded(F(w0) ** 2, s0) + rounded(F(w1) ** 2, s1)
+                + rounded(F(s0) + F(s1), s0 + s1))
         assert got[1][k] and float(got[0][k]) == pytest.approx(float(want), rel=1e-9)
 
 
@@ -81,10 +92,11 @@ def test_search_finds_the_worst_case_of_d2(fmt):
     """2D vertex-vertex d2, where the worst case is known: the first-order attainable
     maximum is exactly the bound's first-order term 8 ε·L² (each difference ≤ L rounds
     by ≤ ε·L near a binade edge, ...), and the witness above attains the bound itself.
-    The search (a small count budget, three seeds, deterministic) must find A ≥ 7.99 on
-    every seed, a measured error ≥ 0.75 of the bound on every seed (the audit before this
+    The search (a small count budget, three seeds, deterministic) must find A ≥ 7.8 on
+    every seed (the configurations where every operation rounds approach 8 only in the
+    limit; seeds 0-5 found 7.84-8.0), a measured error ≥ 0.75 of the bound on every seed (the audit before this
     search reached 0.76 in a looser reading of L) and ≥ 0.95 on the best (seeds 0-5
-    measured 0.80-0.99999 in binary64, 0.86-0.99 in mp17)."""
+    measured 0.98-0.9999 in binary64, 0.56-0.99 in mp17)."""
     spec = A.spec_for(predicates.d2.vertex_vertex)
     best = 0.0
     for seed in range(3):
@@ -92,7 +104,7 @@ def test_search_finds_the_worst_case_of_d2(fmt):
                             seed=seed).run()
         assert not w.violations
         wc = w.found["d2"]
-        assert wc.first_order >= 7.99 and 0.75 <= wc.ratio <= 1
+        assert wc.first_order >= 7.8 and 0.75 <= wc.ratio <= 1
         best = max(best, wc.ratio)
     assert best >= 0.95
 
