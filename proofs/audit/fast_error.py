@@ -15,9 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fperr.contexts import NumpyContext
-
-from .first_order import _Tol
+from .first_order import LaneContext, _Tol
 from .worst_inputs import round_bits
 
 __all__ = ["FastContext", "Pair", "fast_errors"]
@@ -72,31 +70,14 @@ class Pair:
     def __gt__(self, o): return self.w > self._lift(o).w
 
 
-class FastContext(NumpyContext):
+class FastContext(LaneContext):
     """Runs a predicate on :class:`Pair` lanes; ``quantities``: name -> (|w − r|, mask)."""
-
-    def __init__(self, lanes: int):
-        super().__init__(np.float64)
-        self.active = np.ones(lanes, dtype=bool)
-        self.quantities: dict = {}
 
     def name(self, label, x):
         if isinstance(x, Pair):
             err = np.abs(x.w.astype(x.r.dtype) - x.r).astype(np.float64)
             self.quantities[label] = (err, self.active.copy())
         return x
-
-    def sqrt(self, x):
-        return x.sqrt()
-
-    def const(self, x):
-        return float(x)
-
-    def hit(self, weights):
-        return self.active.copy(), ()
-
-    def miss(self):
-        return np.zeros_like(self.active), ()
 
 
 def fast_errors(pred, X: np.ndarray, bits: int, tol_values: dict) -> dict:

@@ -37,7 +37,7 @@ from fperr.contexts import NumpyContext
 
 from .worst_inputs import round_bits
 
-__all__ = ["FirstOrderContext", "Lin", "attainable"]
+__all__ = ["FirstOrderContext", "LaneContext", "Lin", "attainable"]
 
 _ids = count()
 
@@ -160,20 +160,15 @@ def _two_prod_err(a, b, p):
     return ((ah * bh - p) + ah * bl + al * bh) + al * bl
 
 
-class FirstOrderContext(NumpyContext):
-    """Runs a predicate on :class:`Lin` numbers in lanes; records each named quantity's
-    attainable error and the lanes that reached it (``quantities``: name -> (A, mask))."""
+class LaneContext(NumpyContext):
+    """A predicate run on lanes of number-like objects with ``sqrt()`` (as
+    :class:`fperr.NumpyContext`: a rejected lane leaves the path); subclasses record the
+    named quantities in ``quantities``."""
 
-    def __init__(self, bits: int, lanes: int):
+    def __init__(self, lanes: int):
         super().__init__(np.float64)
-        self.bits = bits
         self.active = np.ones(lanes, dtype=bool)
         self.quantities: dict = {}
-
-    def name(self, label, x):
-        if isinstance(x, Lin):
-            self.quantities[label] = (x.attainable(), self.active.copy(), x.v)
-        return x
 
     def sqrt(self, x):
         return x.sqrt()
@@ -186,6 +181,21 @@ class FirstOrderContext(NumpyContext):
 
     def miss(self):
         return np.zeros_like(self.active), ()
+
+
+class FirstOrderContext(LaneContext):
+    """Runs a predicate on :class:`Lin` numbers in lanes; records each named quantity's
+    attainable error, the lanes that reached it and its value (``quantities``: name ->
+    (A, mask, value))."""
+
+    def __init__(self, bits: int, lanes: int):
+        super().__init__(lanes)
+        self.bits = bits
+
+    def name(self, label, x):
+        if isinstance(x, Lin):
+            self.quantities[label] = (x.attainable(), self.active.copy(), x.v)
+        return x
 
 
 class _Tol:

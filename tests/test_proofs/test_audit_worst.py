@@ -15,6 +15,7 @@ import pytest
 import predicates
 from fperr import ulp
 from proofs import audit as A
+from proofs.audit.fast_error import fast_errors
 from proofs.audit.first_order import attainable
 from proofs.audit.worst_case import Budget, WorstCaseSearch, slack
 
@@ -75,6 +76,30 @@ def test_first_order_attainable_error_matches_the_sum_over_operations():
                 + rounded(F(w0) ** 2, s0) + rounded(F(w1) ** 2, s1)
                 + rounded(F(s0) + F(s1), s0 + s1))
         assert got[1][k] and float(got[0][k]) == pytest.approx(float(want), rel=1e-9)
+
+
+@pytest.mark.parametrize("fmt", ["binary64", "binary32", "mp17"])
+def test_fast_lane_error_matches_the_exact_shadow_run(fmt):
+    """The climb's guide: on the audit's random and adversarial inputs it takes the same
+    path as the real code and its error is within 0.01 ε·L^p of the exact one."""
+    import random
+    pred = predicates.d3.edge_edge
+    spec = A.spec_for(pred)
+    gen = A.Generator(spec, fmt, random.Random(7))
+    bits = A.FORMATS[fmt].bits
+    compared = 0
+    for _ in range(60):
+        cfg = gen.sample()
+        X = np.array([[[float(c) for c in p] for p in cfg.points]])
+        tol = {k: np.array([float(v)]) for k, v in cfg.info.real.values.items()}
+        fast = fast_errors(pred, X, bits, tol)
+        exact = A.run_shadow(spec, cfg).quantities
+        assert {n for n, (_, m) in fast.items() if m[0]} == set(exact)
+        for n, sh in exact.items():
+            unit = Fraction(1, 2**bits) * cfg.info.L ** spec.quantities[n].power
+            assert abs(fast[n][0][0] - float(sh.error())) <= 0.01 * float(unit)
+            compared += 1
+    assert compared > 100
 
 
 def test_first_order_respects_reachability():
