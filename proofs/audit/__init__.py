@@ -50,7 +50,7 @@ The exact reference
     comparison the interval cannot decide is counted as "undecided", never as agreement.
 
 Runs
-    CI size (the default, about 20 s of CPU, the worst-case search at a small count
+    CI size (the default, about 11 s of CPU, the worst-case search at a small count
     budget included): ``fperr audit``. The worst-case hunt, at most about 15 minutes
     (6 s of wall clock per quantity and format, ``--budget`` to change):
     ``fperr audit --thorough --format json -o audit.json``; its figures are in

@@ -175,7 +175,7 @@ def _add_audit(parser: argparse.ArgumentParser) -> None:
     """fperr audit: shadow execution, measured floating-point error against the derived
 bounds, in binary64, binary32 and mpmath at 17 bits (see proofs.audit).
 
-    fperr audit                                        # CI size, about 35 s of CPU
+    fperr audit                                        # CI size, about 11 s of CPU
     fperr audit --thorough --format json -o audit.json # the worst-case hunt, <= 15 min
     fperr audit --samples 1500 --search-steps 150 --seed 7 --format json -o audit.json
 
