@@ -9,7 +9,7 @@ p is the quantity's degree. The derived bound E = c(ε)·L^p is c(ε)/ε in thes
 Per quantity and format, three phases (a budget bounds each, see :class:`Budget`):
 
 1. *Configurations*: maximise the first-order attainable error A = Σ|∂x/∂y_k|·½ulp(y_k)
-   (:mod:`proofs.audit.first_order`) over structured inputs
+   over the operations that round (:mod:`proofs.audit.first_order`) over structured inputs
    (:mod:`proofs.audit.worst_inputs`: scale just above a binade edge, coordinates at
    the box extremes and binade edges, the last point on the hull where a proximity
    check must pass) by an evolutionary search on numpy lanes.
