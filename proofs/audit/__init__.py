@@ -23,6 +23,17 @@ Decisions
     are run, in the same format, to decide. "stress" is the share of the bracket gap
     (T − T−, T+ − T) the rounding actually consumed; it must stay below 1 for a violation
     to be possible.
+Worst cases (:mod:`proofs.audit.worst_case`)
+    Per quantity and format, the largest measured |F[x] − x| in units of ε·L^p, with L
+    the largest bounding-box edge of the input points (the box inside [−L/2, L/2]^d,
+    rule K's premise), against the derived bound in the same units: a search that
+    maximises the first-order attainable error Σ|∂x/∂y_k|·½ulp(y_k) over structured
+    configurations (scale just above a binade edge, coordinates at the box extremes and
+    binade edges, reachability of the quantity respected), then climbs on the measured
+    error by ±k ulps per coordinate and sweeps small ulp offsets around the best. The
+    records (``worst_cases`` of the summary: dim, algorithm, quantity, format,
+    worst_error_units, bound_units, ratio, first_order_units, slack, ...) say where a
+    ratio below 1/2 comes from: the rules or the search.
 Search
     Besides uniform and adversarial sampling (near-degenerate configurations at 0.1–10
     tolerances, long and short elements, slivers, flat and grid-aligned configurations,
@@ -39,10 +50,12 @@ The exact reference
     comparison the interval cannot decide is counted as "undecided", never as agreement.
 
 Runs
-    CI size (the default, about 25 s of CPU): ``fperr audit``. A larger run (about
-    200 s of CPU, 130,000 shadow runs):
-    ``fperr audit --samples 1500 --search-steps 150 --seed 7 --format json -o audit.json``;
-    its figures are in benchmarks/README.md. ``--formats``, ``--dims`` and
+    CI size (the default, about 11 s of CPU, the worst-case search at a small count
+    budget included): ``fperr audit``. The worst-case hunt, at most about 15 minutes
+    (6 s of wall clock per quantity and format, ``--budget`` to change):
+    ``fperr audit --thorough --format json -o audit.json``; its figures are in
+    benchmarks/README.md. A larger sampling run (about 200 s of CPU):
+    ``fperr audit --samples 1500 --search-steps 150 --seed 7``. ``--formats``, ``--dims`` and
     ``--predicates`` restrict the audit; ``proofs.audit.replay(record)`` re-runs a
     violation or worst case from the JSON report.
 
@@ -53,14 +66,17 @@ from __future__ import annotations
 from .inputs import Generator
 from .markdown import render_markdown
 from .search import Audit, Stat, audit, select_predicates
+from .worst_case import (CI_BUDGET, Budget, WorstCase, WorstCaseSearch, records,
+                         thorough_budget, units_of)
 from .shadow_run import (Outcome, evaluate, lower_pairs, real_context,
                          registered_sub_pairs, replay, run_shadow, working_points)
 from .spec import (DEFAULT_SAMPLES, DEFAULT_SEARCH, FORMATS, SCALES, CheckSpec,
                    Config, PredicateSpec, QuantitySpec, ToleranceInfo, spec_for,
                    tolerance_info)
 
-__all__ = ["Audit", "CheckSpec", "Config", "DEFAULT_SAMPLES", "DEFAULT_SEARCH",
-           "FORMATS", "Generator", "Outcome", "PredicateSpec", "QuantitySpec", "SCALES",
+__all__ = ["Audit", "Budget", "CI_BUDGET", "CheckSpec", "Config", "DEFAULT_SAMPLES",
+           "DEFAULT_SEARCH", "FORMATS", "Generator", "Outcome", "PredicateSpec", "QuantitySpec", "SCALES",
            "Stat", "ToleranceInfo", "audit", "evaluate", "lower_pairs", "real_context",
-           "registered_sub_pairs", "render_markdown", "replay", "run_shadow",
-           "select_predicates", "spec_for", "tolerance_info", "working_points"]
+           "records", "registered_sub_pairs", "render_markdown", "replay", "run_shadow",
+           "select_predicates", "spec_for", "thorough_budget", "tolerance_info",
+           "units_of", "working_points", "WorstCase", "WorstCaseSearch"]

@@ -70,9 +70,28 @@ def render_markdown(s: dict) -> str:
                   ("" if t["formats"][f]["same"] else " MISMATCH")) if f in t["formats"] else "—"
                  for f in fm]
         out.append(f"| {t['dim']}D | {t['tolerance']} | {t['bound']} | " + " | ".join(cells) + " |")
+    out += _worst_cases(s.get("worst_cases", []))
     if s["violations"]:
         out += ["", "## Violations (reproduce with proofs.audit.replay)", ""]
         for v in s["violations"][:50]:
             out.append("- " + json.dumps(v))
     return "\n".join(out) + "\n"
 
+
+
+def _worst_cases(recs: list) -> list:
+    if not recs:
+        return []
+    out = ["", "## Worst cases per quantity (units of ε·L^p, L the largest bounding-box edge)",
+           "", "worst: the largest measured |F[x] − x|; first order: the largest "
+           "Σ|∂x/∂y_k|·½ulp(y_k) over the configurations searched; bound: the derived E; "
+           "slack: where worst/bound < 0.5, whether the rules or the search leave it.", "",
+           "| dim | algorithm | quantity | format | worst | first order | bound | ratio | "
+           "slack |", "|---|---|---|---|---|---|---|---|---|"]
+    for r in recs:
+        w = "—" if r["worst_error_units"] is None else f"{r['worst_error_units']:.2f}"
+        sl = (r["slack"] or "").split(":")[0]
+        out.append(f"| {r['dim']}D | {r['algorithm']} | {r['quantity']} | {r['format']} | "
+                   f"{w} | {r['first_order_units']:.2f} | {r['bound_units']:.2f} | "
+                   f"{_fmt_ratio(r['ratio'])} | {sl} |")
+    return out

@@ -2,6 +2,7 @@
 climbing, the tolerance audit, and the summary of what was measured."""
 from __future__ import annotations
 
+import dataclasses
 import random
 import time
 import zlib
@@ -18,6 +19,7 @@ from predicates.tolerances import tolerance_values
 
 from .inputs import Generator
 from .shadow_run import Outcome, evaluate
+from .worst_case import CI_BUDGET, Budget, WorstCaseSearch, records
 from .spec import (DEFAULT_SAMPLES, DEFAULT_SEARCH, FORMATS, SCALES, Config, PredicateSpec,
                    lower_fraction_of, tolerance_bounds, spec_for, tolerance_info)
 
@@ -65,7 +67,7 @@ class Audit:
     def __init__(self, preds=None, formats=("binary64", "binary32", "mp17"),
                  samples=DEFAULT_SAMPLES, search_steps=DEFAULT_SEARCH, seed=0, bound_fn=None,
                  progress=None, brackets: tuple = (), zone_pairs: int = 2, zone_steps: int = 72,
-                 audit_tolerances: bool = True):
+                 audit_tolerances: bool = True, worst_budget: Budget | None = CI_BUDGET):
         preds = preds if preds is not None else [p for d in (2, 3) for p in predicates.ALL[d]]
         self.specs = [p if isinstance(p, PredicateSpec) else
                       (spec_for(p) if bound_fn is None else PredicateSpec(p, bound_fn))
@@ -79,6 +81,8 @@ class Audit:
         self.zone_pairs = zone_pairs
         self.zone_steps = zone_steps
         self.do_tolerances = audit_tolerances
+        self.worst_budget = worst_budget
+        self.worst_cases: list = []  # records of proofs.audit.worst_case
         self.q: dict = {}       # (key, fmt, quantity) -> Stat
         self.r: dict = {}       # (key, fmt, quantity) -> Stat (relative)
         self.c: dict = {}       # (key, fmt, check index) -> Stat
@@ -141,6 +145,8 @@ class Audit:
                     self.zone(spec, fmt, gen)
                 if self.search_steps:
                     self.search(spec, fmt, gen)
+                if self.worst_budget is not None:
+                    self.worst_case(spec, fmt)
                 if self.progress:
                     self.progress(spec, fmt)
         self.elapsed = time.perf_counter() - t0
@@ -212,6 +218,19 @@ class Audit:
                         continue
                     if v >= cur_v:
                         cur, cur_v = cand, v
+
+    def worst_case(self, spec, fmt):
+        """The worst-case search of every quantity (:mod:`proofs.audit.worst_case`),
+        also started from the sampling's worst inputs."""
+        seeds = {name: [cfg for _, cfg in st.seeds] for (key, f, name), st in self.q.items()
+                 if key == spec.key and f == fmt}
+        ws = WorstCaseSearch(spec, fmt, self.worst_budget,
+                             seed=zlib.crc32(f"{self.seed}/{spec.key}/{fmt}/worst".encode()),
+                             seeds=seeds).run()
+        self.worst_cases += records(ws)
+        self.runs += sum(wc.runs for wc in ws.found.values())
+        self.n_violations += len(ws.violations)
+        self.violations += ws.violations[:20]
 
     def audit_tolerances(self):
         """R[T] of every tolerance: the shared tolerance code run with shadow numbers."""
@@ -293,7 +312,10 @@ class Audit:
                 "formats": list(self.formats), "runs": self.runs,
                 "elapsed_s": round(self.elapsed, 2), "violation_count": self.n_violations,
                 "violations": self.violations, "quantities": rows_q, "checks": rows_c,
-                "tolerances": list(tol.values())}
+                "tolerances": list(tol.values()),
+                "worst_budget": (None if self.worst_budget is None else
+                                 dataclasses.asdict(self.worst_budget)),
+                "worst_cases": self.worst_cases}
 
 
 
@@ -313,11 +335,14 @@ def select_predicates(dims=(2, 3), names=()) -> list:
 
 def audit(*, dims=(2, 3), formats=("binary64", "binary32", "mp17"), names=(),
           samples: int = DEFAULT_SAMPLES, search_steps: int = DEFAULT_SEARCH, seed: int = 0,
-          progress=None) -> dict:
+          progress=None, worst_budget: Budget | None = CI_BUDGET) -> dict:
     """Run the audit (see :mod:`proofs.audit`) and return its summary (JSON-ready;
-    ``violation_count`` 0 when every measured error is within its bound)."""
+    ``violation_count`` 0 when every measured error is within its bound).
+    ``worst_budget``: the worst-case search per quantity (:mod:`proofs.audit.worst_case`;
+    ``thorough_budget()`` for ``fperr audit --thorough``, None: no search)."""
     unknown = [f for f in formats if f not in FORMATS]
     if unknown:
         raise ValueError(f"unknown format {unknown[0]!r} (choose from {', '.join(FORMATS)})")
     preds = select_predicates(dims, names)
-    return Audit(preds, formats, samples, search_steps, seed, progress=progress).run().summary()
+    return Audit(preds, formats, samples, search_steps, seed, progress=progress,
+                 worst_budget=worst_budget).run().summary()
