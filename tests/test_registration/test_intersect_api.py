@@ -376,20 +376,15 @@ def test_broad_phase_matches_brute_force(dim):
         assert len(got) == len(set(got)) and set(got) == ref
 
 
-# -- scale (FPERR_LONG=1) --------------------------------------------------------------------------------
-@pytest.mark.skipif(__import__("os").environ.get("FPERR_LONG") != "1",
-                    reason="large case: FPERR_LONG=1")
-def test_benchmark_size_case_runs_within_budget():
+# -- scale ---------------------------------------------------------------------------------------
+def test_benchmark_size_case_locates_every_cutting_vertex_once():
     """Issue 6's case: 32³ cubes × 6 = 196,608 tetrahedra against a 20,480-triangle
-    icosphere, in at most 10 s of CPU time (process time: robust to a loaded machine)."""
-    import time
-
+    icosphere (no vertex on a face: each sphere vertex lies in exactly one tetrahedron).
+    Its speed is measured in benchmarks/speed_bench.py, not asserted here."""
     from predicates.registration.examples import icosphere
 
     sp, sc = cube_grid(32)
     cp, cc = icosphere(5)
-    t = time.process_time()
     res = predicates.intersect(sp, sc, cp, cc)
-    assert time.process_time() - t < 10
     assert np.all(res.location_counts("cut") == 1)  # every sphere vertex located once
     assert res.counts["triangle_edge"] > 0 and res.counts["tetrahedron_vertex"] > 0
