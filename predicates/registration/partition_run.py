@@ -133,7 +133,9 @@ def run_partitioned(plan, partitions, scheduler, chunk: int, timings: dict,
     """Steps 3, 5, 6 in partitions on Dask: {kind: KindPairs}, identical to the serial
     run. ``check(share=, stacklevel=)``: the resolution report's checks, called before
     any work with the fraction of the cell pairs held at once. ``timings`` gets
-    "partition" (client-side split), "dask" (the tasks) and "merge" (wall seconds),
+    "partition" (client-side split; on a distributed Client the split, scatter and
+    submission, task by task, overlapping the first tasks), "dask" (waiting for the
+    tasks) and "merge" (wall seconds),
     "cpu_partition", "cpu_dask", "cpu_merge" (the client process's CPU seconds:
     "cpu_dask" is Dask's serialisation and event loop while the tasks run) and
     ``timings["partitions"]``: the per-partition statistics."""
@@ -152,22 +154,25 @@ def _run(dask, client, plan, partitions, scheduler, chunk, timings, check) -> di
         check(share=min(k, _slots(client, scheduler)) / k, stacklevel=5)
     clock = _Clock(timings)
     reach = plan.scale.reach
-    parts = [] if len(plan.cut_cells) == 0 or len(plan.sim_cells) == 0 else [
+    parts = () if len(plan.cut_cells) == 0 or len(plan.sim_cells) == 0 else (
         p for p in split(plan.P_sim, plan.sim_cells, plan.P_cut, plan.cut_cells, k,
                          max(reach.values()))
-        if len(p.cut_cells)]  # no cutting cell within reach of its halo: nothing to own
-    clock("partition")
+        if len(p.cut_cells))  # no cutting cell within reach of its halo: nothing to own
     args = (plan.dim, plan.tol, reach, chunk)
-    if not parts:  # no cells can meet: nothing to register
-        out = []
-    elif client is not None:
-        futures = [client.submit(run_part, p, *args, pure=False)
-                   for p in client.scatter(parts, hash=False)]
+    if client is not None:
+        # each partition's task starts as soon as its slice is cut and sent: the split
+        # of the next ones overlaps the workers' tasks ("partition": split and send)
+        futures = [client.submit(run_part, client.scatter(p, hash=False), *args, pure=False)
+                   for p in parts]
+        clock("partition")
         out = client.gather(futures)
     else:
+        parts = list(parts)
+        clock("partition")
         tasks = [dask.delayed(run_part, pure=False)(p, *args) for p in parts]
-        out = dask.compute(*tasks, scheduler=scheduler or "threads")
-    del parts
+        # no cells can meet: nothing to register
+        out = dask.compute(*tasks, scheduler=scheduler or "threads") if tasks else []
+        del parts, tasks
     clock("dask")
     pairs = merge(plan.kinds, [o[0] for o in out], plan.dtype)
     clock("merge")

@@ -58,6 +58,7 @@ from __future__ import annotations
 import os
 import time
 import warnings
+from concurrent.futures import ThreadPoolExecutor
 from functools import partial
 from typing import NamedTuple
 
@@ -66,11 +67,11 @@ import numpy as np
 from fperr.warnings import ResolutionError, ResolutionWarning
 
 from ..catalogue import kinds as catalogue_kinds
-from . import resolution
+from . import plan_threads, resolution
 from .inputs import mesh_arrays, scale_points, validate_options, validate_pair
 from .levels import Registration
 from .refine import refine
-from .resolution import (Resolution, cell_boxes, consistent_scale, estimate_cell_pairs,
+from .resolution import (Resolution, consistent_scale, estimate_cell_pairs,
                          memory_error, near_cells, shortest_edge, t_plus)
 from .result import IntersectionResult
 
@@ -116,12 +117,15 @@ def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: b
     """
     t0, c0 = time.perf_counter(), time.process_time()
     timings = {}
+    serial = partitions is None and scheduler is None
+    # a partitioned run's plan is its serial part: per-cell work on a thread per worker
     plan = _plan(args, dtype, tolerance_scale, progress, chunk, refine_cut, timings,
-                 sim_region, cut_region, tolerances)
+                 sim_region, cut_region, tolerances,
+                 threads=1 if serial else plan_threads.threads_for(scheduler))
     timings["setup"] = time.perf_counter() - t0
     timings["cpu_setup"] = time.process_time() - c0
     check = partial(_check, plan.report, strict, memory_limit, plan.dim)
-    if partitions is None and scheduler is None:
+    if serial:
         check()
         pairs = _register(plan, chunk, progress, timings)
     else:
@@ -163,15 +167,29 @@ class Plan(NamedTuple):
 
 
 def _plan(args, dtype, tolerance_scale, progress, chunk, refine_cut, timings, sim_region,
-          cut_region, tolerances=None) -> Plan:
+          cut_region, tolerances=None, threads: int = 1) -> Plan:
     """Validation, refinement, L over the cells that can meet, exact scaling,
-    tolerances, reach and the resolution report: the global part of the run."""
+    tolerances, reach and the resolution report: the global part of the run.
+    ``threads`` > 1: the per-cell work in chunks on a thread pool, identical values
+    (:mod:`~predicates.registration.plan_threads`)."""
+    if threads <= 1:
+        return _plan_with(plan_threads.Work(), args, dtype, tolerance_scale, progress, chunk,
+                          refine_cut, timings, sim_region, cut_region, tolerances)
+    with ThreadPoolExecutor(threads, thread_name_prefix="fperr-plan") as pool:
+        return _plan_with(plan_threads.Work(pool, threads), args, dtype, tolerance_scale,
+                          progress, chunk, refine_cut, timings, sim_region, cut_region,
+                          tolerances)
+
+
+def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, timings,
+               sim_region, cut_region, tolerances) -> Plan:
+    """:func:`_plan` with ``work`` (a :class:`~predicates.registration.plan_threads.Work`)."""
     dtype, ts = validate_options(dtype, tolerance_scale, progress, chunk)
     arrays = mesh_arrays(args, sim_region, cut_region)
     sp, sc, cp, cc = arrays
     dim, sim, cut = validate_pair(sp, sc, cp, cc, dtype)
-    sim_box = cell_boxes(sim.points, sim.cells)  # once: the check, refine and L use it
-    if _flat(sim_box) and _flat(cell_boxes(cut.points, cut.cells)):
+    sim_box = work.boxes(sim.points, sim.cells)  # once: the check, refine and L use it
+    if _flat(sim_box) and _flat(work.boxes(cut.points, cut.cells)):
         raise ValueError("every cell of both meshes collapses to a single point (zero "
                          "bounding boxes): the tolerances would be zero")
     refinement = None
@@ -180,14 +198,14 @@ def _plan(args, dtype, tolerance_scale, progress, chunk, refine_cut, timings, si
         refinement = refine(cut.points, cut.cells, *sim_box)
         cut.points, cut.cells = refinement.points, refinement.cells
         timings["refine"] = time.perf_counter() - t
-    cut_box = cell_boxes(cut.points, cut.cells)
+    cut_box = work.boxes(cut.points, cut.cells)
 
     # L over the cells that can meet, then the exact power-of-two scaling from it
-    sc_ = consistent_scale(dim, sim_box, cut_box, dtype, table=tolerances)
+    sc_ = consistent_scale(dim, sim_box, cut_box, dtype, table=tolerances, flags=work.flags)
     P_sim = scale_points(sim.points, sc_.e, "simulation")
     P_cut = scale_points(cut.points, sc_.e, "cutting")
     tol_run = sc_.tol if ts == 1 else sc_.tol.scaled(dtype.type(ts))
-    report = _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts)
+    report = _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts, work)
     ms, mc = sc_.masks
     return Plan(dim, dtype, sim, cut, sc_, P_sim, P_cut, sim.cells[ms], cut.cells[mc],
                 tol_run, ts, catalogue_kinds(dim), report, refinement, arrays)
@@ -208,17 +226,21 @@ def _register(plan: Plan, chunk: int, progress: bool, timings: dict) -> dict:
     return reg.run(progress, timings)
 
 
-def _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts) -> Resolution:
-    """The resolution report (before the work): edges near the cut at the final pad."""
-    near_s, near_c = near_cells(sim_box, cut_box, sc_.pad, sc_.masks)
+def _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts,
+            work=None) -> Resolution:
+    """The resolution report (before the work): edges near the cut at the final pad.
+    ``work``: its independent parts run concurrently on a threaded plan's pool."""
+    work = plan_threads.Work() if work is None else work
     ms, mc = sc_.masks
-    pairs = estimate_cell_pairs(sim_box[0][ms], sim_box[1][ms], cut_box[0][mc],
-                                cut_box[1][mc], sc_.pad)
+    pairs = work.submit(estimate_cell_pairs, sim_box[0][ms], sim_box[1][ms], cut_box[0][mc],
+                        cut_box[1][mc], sc_.pad)
+    near_s, near_c = near_cells(sim_box, cut_box, sc_.pad, sc_.masks, work.flags)
+    h_cut = work.submit(shortest_edge, cut.points, cut.cells, near_c)
+    h_sim = shortest_edge(sim.points, sim.cells, near_s)
     ref = None if refinement is None else (refinement.input_cells, len(refinement.cells),
                                            refinement.rounds)
-    return Resolution(dim, dtype.name, t_plus(dim, sc_), shortest_edge(sim.points, sim.cells,
-                      near_s), shortest_edge(cut.points, cut.cells, near_c), sc_.L_a, sc_.L_b,
-                      sc_.history[0], len(sc_.history) - 1, ref, pairs, ts)
+    return Resolution(dim, dtype.name, t_plus(dim, sc_), h_sim, h_cut.result(), sc_.L_a,
+                      sc_.L_b, sc_.history[0], len(sc_.history) - 1, ref, pairs.result(), ts)
 
 
 def _check(report: Resolution, strict: bool, limit: int | None, dim: int,

@@ -112,17 +112,18 @@ def _widen(tol, name: str) -> float:
     return max(1.0, float(a.hi / a.mid * b.mid / b.hi) * (1 + 1e-12))
 
 
-def near_cells(sim_box, cut_box, pad, masks):
+def near_cells(sim_box, cut_box, pad, masks, flags=near_flags):
     """Masks of the cells (among ``masks``) sharing a broad-phase grid cell with a cell
-    of the other mesh enlarged by ``pad``: a superset of the cells within ``pad``."""
+    of the other mesh enlarged by ``pad``: a superset of the cells within ``pad``.
+    ``flags``: near_flags or an identical one (the threaded plan's)."""
     ms, mc = masks
     out_s, out_c = np.zeros_like(ms), np.zeros_like(mc)
     if ms.all() and mc.all() and len(ms) and len(mc):  # round 1: no copies of the boxes
-        return near_flags(*sim_box, *cut_box, pad)
+        return flags(*sim_box, *cut_box, pad)
     if ms.any() and mc.any():
         # near_flags does not depend on the cells' order (its grid size is a mean
         # summed in sorted order), so neither does L
-        ns, nc = near_flags(*_rows(sim_box, ms), *_rows(cut_box, mc), pad)
+        ns, nc = flags(*_rows(sim_box, ms), *_rows(cut_box, mc), pad)
         out_s[np.flatnonzero(ms)[ns]] = True
         out_c[np.flatnonzero(mc)[nc]] = True
     return out_s, out_c
@@ -134,16 +135,17 @@ def _rows(box, mask):
 
 
 def consistent_scale(dim: int, sim_box, cut_box, dtype, max_rounds: int = MAX_ROUNDS,
-                     table=None) -> Scale:
+                     table=None, flags=near_flags) -> Scale:
     """L from the cells that can meet (module docstring): broad phase -> L -> σ+ until
-    the pad no longer shrinks. ``sim_box``, ``cut_box``: (lo, hi) per cell."""
+    the pad no longer shrinks. ``sim_box``, ``cut_box``: (lo, hi) per cell; ``flags``:
+    as in :func:`near_cells`."""
     masks = (np.ones(len(sim_box[0]), bool), np.ones(len(cut_box[0]), bool))
     ext_s, ext_c = _extent(*sim_box), _extent(*cut_box)  # once, not per round
     L_a, L_b = _max_edge(ext_s, masks[0]), _max_edge(ext_c, masks[1])
     cur = scale_for(dim, L_a, L_b, dtype, table)
     cur.masks, history = masks, [L_a + L_b]
     for _ in range(max_rounds):
-        nxt_masks = near_cells(sim_box, cut_box, cur.pad, cur.masks)
+        nxt_masks = near_cells(sim_box, cut_box, cur.pad, cur.masks, flags)
         La, Lb = _max_edge(ext_s, nxt_masks[0]), _max_edge(ext_c, nxt_masks[1])
         if La + Lb == 0:  # nothing can meet: keep the last sound scale
             break

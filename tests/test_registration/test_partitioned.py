@@ -418,3 +418,85 @@ def test_memory_guard_counts_the_partitions_held_at_once():
         predicates.intersect(*args, memory_limit=limit, partitions=1, scheduler="synchronous")
     assert_identical(ref, predicates.intersect(*args, memory_limit=limit, partitions=4,
                                                scheduler="synchronous"))
+
+
+def _assert_same_plan(a, b):
+    """Two plans (pipeline.Plan) equal field by field, arrays bit for bit."""
+    def same(x, y, where):
+        if isinstance(x, np.ndarray):
+            assert x.dtype == y.dtype and x.shape == y.shape, where
+            assert x.tobytes() == y.tobytes(), where
+        elif isinstance(x, (tuple, list)):
+            assert len(x) == len(y), where
+            for i, (u, v) in enumerate(zip(x, y)):
+                same(u, v, f"{where}[{i}]")
+        elif isinstance(x, dict):
+            assert x.keys() == y.keys(), where
+            for key in x:
+                same(x[key], y[key], f"{where}.{key}")
+        else:
+            assert x == y, where
+
+    for name in ("dim", "dtype", "P_sim", "P_cut", "sim_cells", "cut_cells", "ts", "kinds"):
+        same(getattr(a, name), getattr(b, name), name)
+    for name in ("L_a", "L_b", "e", "reach", "pad", "masks", "history"):
+        same(getattr(a.scale, name), getattr(b.scale, name), f"scale.{name}")
+    same(a.tol.values, b.tol.values, "tol.values")
+    same(a.report.to_dict(), b.report.to_dict(), "report")
+    same(a.sim.cells, b.sim.cells, "sim.cells")
+    same(a.cut.points, b.cut.points, "cut.points")  # the refined cutting mesh
+    same(a.cut.cells, b.cut.cells, "cut.cells")
+
+
+@pytest.mark.parametrize("name,min_chunk,rotate", [
+    ("diagonal", 3, None), ("diagonal", 3, 5), ("plane_offset", 5, 2),
+    ("corner", 2, None), ("w1", None, None)])
+def test_threaded_plan_equals_the_serial_plan(name, min_chunk, rotate, monkeypatch):
+    """A partitioned run's plan runs its per-cell work in chunks on a thread pool
+    (plan_threads): every field equals the serial plan's, bit for bit — with chunks of a
+    few cells (MIN_CHUNK lowered: many chunks, uneven ends) on the small cases, and
+    with the default chunking on a W1-like cube (82,944 tetrahedra × sphere)."""
+    from predicates.registration import pipeline, plan_threads
+    from predicates.registration.examples import cube_grid, icosphere
+
+    if name == "w1":
+        (sp, sc), (cp, cc) = cube_grid(24), icosphere(4)
+    elif name == "corner":
+        sp, sc, cp, cc = _corner_cut()
+    else:
+        sp, sc, cp, cc = CASES[name](rotate)
+    if min_chunk is not None:
+        monkeypatch.setattr(plan_threads, "MIN_CHUNK", min_chunk)
+    assert len(plan_threads._bounds(len(sc), 3)) > 1  # the threaded code really runs
+    args = ((sp, sc, cp, cc), np.float64, 1.0, False, pipeline.CHUNK, True)
+    ref = pipeline._plan(*args, {}, None, None)
+    for threads in (2, 3):
+        _assert_same_plan(ref, pipeline._plan(*args, {}, None, None, threads=threads))
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from([2, 3]), st.integers(1, 5),
+       st.floats(0, 0.3))
+def test_threaded_boxes_and_flags_equal_the_serial_ones(seed, dim, parts, pad):
+    """plan_threads.boxes / near_flags on random simplices (chunks of 4 cells):
+    bit-identical boxes and identical flags to broadphase's, for any number of chunks."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from predicates.registration import broadphase, plan_threads
+
+    rng = np.random.default_rng(seed)
+    P = rng.uniform(-1, 1, size=(60, dim))
+    A = rng.integers(0, 60, size=(rng.integers(1, 40), dim + 1))
+    Bc = rng.integers(0, 60, size=(rng.integers(1, 20), dim))
+    old, plan_threads.MIN_CHUNK = plan_threads.MIN_CHUNK, 4
+    try:
+        with ThreadPoolExecutor(2) as pool:
+            ra, rb = broadphase.boxes_of(P, A), broadphase.boxes_of(P, Bc)
+            ta = plan_threads.boxes(P, A, pool, parts)
+            for x, y in zip(ra, ta):
+                assert x.tobytes() == y.tobytes() and x.strides == y.strides
+            ref = broadphase.near_flags(*ra, *rb, pad)
+            got = plan_threads.near_flags(*ta, *rb, pad, pool=pool, parts=parts)
+    finally:
+        plan_threads.MIN_CHUNK = old
+    assert np.array_equal(ref[0], got[0]) and np.array_equal(ref[1], got[1])
