@@ -38,6 +38,7 @@ import numpy as np
 
 from fperr.warnings import ResolutionError
 
+from .broadphase import near_flags
 from .complex import unique_rows
 from .refine_index import LevelIndex
 
@@ -107,7 +108,7 @@ def refine(points: np.ndarray, cells: np.ndarray, sim_lo: np.ndarray, sim_hi: np
     C = cells.astype(np.int64, copy=True)
     origin = np.arange(len(C), dtype=np.int64)
     B = np.broadcast_to(np.eye(k), (len(C), k, k)).copy()
-    sim = _SimScale(sim_lo, sim_hi)
+    sim = _SimScale(sim_lo, sim_hi, _reach(P, C))
     known = np.zeros(0, dtype=np.int64)  # keys of edges already tested (unmarked)
     rounds = 0
     while len(C):
@@ -160,8 +161,9 @@ class _SimScale:
     :class:`~.refine_index.LevelIndex` per run, queried each round with the new edges
     only: a round costs O(its new edges), not a pass over every simulation cell."""
 
-    def __init__(self, lo, hi):
+    def __init__(self, lo, hi, reach=None):
         self.lo, self.hi = lo, hi
+        self.reach = reach  # boxes holding every query box (:func:`_reach`), or None
         self.ext = (hi - lo).max(axis=1) if len(lo) else np.zeros(0)
         self.fine = float(np.median(self.ext)) if len(lo) else 0.0
         self.mid = 0.5 * (lo + hi)  # the bins' key: the cells' box centres
@@ -215,8 +217,31 @@ class _SimScale:
         boxes, built on first use: a constant number of look-ups per query."""
         name = "cells" if g <= self.fine else g
         if name not in self._index:
-            self._index[name] = LevelIndex(*self.boxes(g))
+            lo, hi, ext = self.boxes(g)
+            if name == "cells" and self.reach is not None:
+                # only the cells some query box can meet: the same maxima, and an index
+                # over the cells near the cut rather than over the whole mesh
+                near = near_flags(lo, hi, *self.reach, 0.0)[0]
+                lo, hi, ext = lo[near], hi[near], ext[near]
+            self._index[name] = LevelIndex(lo, hi, ext) if len(lo) else None
+        if self._index[name] is None:
+            return np.zeros(len(qlo), dtype=bool)  # no box meets any query: thr = 0
         return self._index[name].marks(qlo, qhi, qext)
+
+
+def _reach(P, C):
+    """Per input cutting cell, a box holding the query box (:func:`_too_long`) of every
+    edge refinement can make inside it: midpoints stay in their edge's box (rounding is
+    monotone), so an edge's box lies in its cell's box and its box edge is at most the
+    cell's; lo − ext and hi + ext are then bounded by the cell's (monotone rounding),
+    widened by one ulp and 2^-1000 for halvings of subnormal coordinates."""
+    if len(C) == 0:
+        return None
+    X = P[C].astype(np.float64)
+    lo, hi = X.min(axis=1), X.max(axis=1)
+    ext = (hi - lo).max(axis=1)[:, None]
+    tiny = math.ldexp(1.0, -1000)
+    return (np.nextafter(lo - ext, -np.inf) - tiny, np.nextafter(hi + ext, np.inf) + tiny)
 
 
 def _group(key):
