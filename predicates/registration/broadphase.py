@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .boxes import boxes_of
 from .gridsums import any_in as _any_in, occupancy as _occupancy
 
 __all__ = ["box_pairs", "box_pairs_bruteforce", "boxes_of", "near_flags", "tighten_flags"]
@@ -45,27 +46,6 @@ _DENSE_PER_ENTRY = 8  # they have at most this many cells per box entry (or 2^16
 def _dense(G, entries):
     cells = float(np.prod(G.astype(float)))
     return cells <= _DENSE and cells <= _DENSE_PER_ENTRY * entries + (1 << 16)
-
-
-def boxes_of(points: np.ndarray, rows: np.ndarray):
-    """Bounding boxes (lo, hi), each (n, d) float64 (column-major), of the simplices
-    ``points[rows]`` (rows (n, k) of vertex ids): per coordinate and vertex column, one
-    1D ``take`` into a reused buffer — never the (n, k, d) gather, ~4x faster than
-    gathering point rows. Exact (min and max round nothing)."""
-    n, k = rows.shape
-    d = points.shape[1]
-    cols = np.ascontiguousarray(points.T, dtype=np.float64)
-    R = np.ascontiguousarray(rows.T)
-    lo, hi = np.empty((d, n)), np.empty((d, n))
-    x = np.empty(n)
-    for ax in range(d):
-        np.take(cols[ax], R[0], out=lo[ax])
-        hi[ax] = lo[ax]
-        for v in range(1, k):
-            np.take(cols[ax], R[v], out=x)
-            np.minimum(lo[ax], x, out=lo[ax])
-            np.maximum(hi[ax], x, out=hi[ax])
-    return lo.T, hi.T
 
 
 def box_pairs_bruteforce(lo_a, hi_a, lo_b, hi_b, pad):

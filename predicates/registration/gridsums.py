@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["any_in", "occupancy"]
+__all__ = ["any_in", "coverage", "occupancy"]
 
 
 def _corners(i0, i1, G):
@@ -27,8 +27,8 @@ def _corners(i0, i1, G):
         yield key, (-1) ** (d - bin(pick).count("1"))
 
 
-def occupancy(i0, i1, G):
-    """Cells covered by at least one box, as a C-order array of shape reversed(G + 1)
+def coverage(i0, i1, G):
+    """How many boxes cover each cell, as a C-order int64 array of shape reversed(G + 1)
     (axis 0 of the boxes is the last, fastest axis), last row of every axis unused."""
     size = int(np.prod(G + 1))
     diff = np.zeros(size, dtype=np.int64)
@@ -37,7 +37,12 @@ def occupancy(i0, i1, G):
     cover = diff.reshape(tuple((G + 1)[::-1]))
     for ax in range(cover.ndim):
         np.cumsum(cover, axis=ax, out=cover)
-    return cover > 0
+    return cover
+
+
+def occupancy(i0, i1, G):
+    """Cells covered by at least one box (:func:`coverage` > 0)."""
+    return coverage(i0, i1, G) > 0
 
 
 def any_in(occ, i0, i1, G):

@@ -19,7 +19,7 @@ from concurrent.futures import Executor
 
 import numpy as np
 
-from . import broadphase
+from . import boxes as boxes_mod, broadphase
 from .broadphase import _any_in, _dense, _grid, _occupancy
 
 __all__ = ["MIN_CHUNK", "Work", "boxes", "near_flags", "threads_for"]
@@ -39,7 +39,7 @@ def boxes(points: np.ndarray, cells: np.ndarray, pool: Executor, parts: int):
     """:func:`~predicates.registration.broadphase.boxes_of` (the cells' (lo, hi)
     boxes, the same column-major layout and bit-identical values) in ``parts`` chunks
     of cells on ``pool``."""
-    n, k = cells.shape
+    n = cells.shape[0]
     ranges = _bounds(n, parts)
     if len(ranges) == 1:
         return broadphase.boxes_of(points, cells)
@@ -48,16 +48,7 @@ def boxes(points: np.ndarray, cells: np.ndarray, pool: Executor, parts: int):
     lo, hi = np.empty((d, n)), np.empty((d, n))
 
     def chunk(a: int, b: int) -> None:
-        R = np.ascontiguousarray(cells[a:b].T)
-        x = np.empty(b - a)
-        for ax in range(d):
-            lo_, hi_ = lo[ax, a:b], hi[ax, a:b]
-            np.take(cols[ax], R[0], out=lo_)
-            hi_[:] = lo_
-            for v in range(1, k):
-                np.take(cols[ax], R[v], out=x)
-                np.minimum(lo_, x, out=lo_)
-                np.maximum(hi_, x, out=hi_)
+        boxes_mod.fill_boxes(cols, np.ascontiguousarray(cells[a:b].T), lo[:, a:b], hi[:, a:b])
 
     for f in [pool.submit(chunk, a, b) for a, b in ranges]:
         f.result()

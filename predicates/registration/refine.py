@@ -38,6 +38,7 @@ import numpy as np
 
 from fperr.warnings import ResolutionError
 
+from .boxes import box_extent, boxes_of
 from .broadphase import near_flags
 from .complex import unique_rows
 from .refine_index import LevelIndex
@@ -164,7 +165,7 @@ class _SimScale:
     def __init__(self, lo, hi, reach=None):
         self.lo, self.hi = lo, hi
         self.reach = reach  # boxes holding every query box (:func:`_reach`), or None
-        self.ext = (hi - lo).max(axis=1) if len(lo) else np.zeros(0)
+        self.ext = box_extent(lo, hi) if len(lo) else np.zeros(0)
         self.fine = float(np.median(self.ext)) if len(lo) else 0.0
         self.mid = 0.5 * (lo + hi)  # the bins' key: the cells' box centres
         self._extremes = None  # min |centre| > 0, max |centre|: on demand (_exact)
@@ -237,9 +238,8 @@ def _reach(P, C):
     widened by one ulp and 2^-1000 for halvings of subnormal coordinates."""
     if len(C) == 0:
         return None
-    X = P[C].astype(np.float64)
-    lo, hi = X.min(axis=1), X.max(axis=1)
-    ext = (hi - lo).max(axis=1)[:, None]
+    lo, hi = boxes_of(P, C)
+    ext = box_extent(lo, hi)[:, None]
     tiny = math.ldexp(1.0, -1000)
     return (np.nextafter(lo - ext, -np.inf) - tiny, np.nextafter(hi + ext, np.inf) + tiny)
 
@@ -271,9 +271,8 @@ def _too_long(P, E, sim):
     the L computed afterwards, not from here)."""
     if len(E) == 0 or len(sim.lo) == 0:
         return np.zeros(len(E), dtype=bool)
-    X = P[E].astype(np.float64)
-    lo, hi = X.min(axis=1), X.max(axis=1)
-    ext = (hi - lo).max(axis=1)
+    lo, hi = boxes_of(P, E)
+    ext = box_extent(lo, hi)
     marked = np.zeros(len(E), dtype=bool)
     # a mark needs ext > thr > 0, and every threshold (a cell's box edge, or a bin's:
     # the largest of its cells') is at least the smallest cell box edge: edges no longer

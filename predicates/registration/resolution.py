@@ -28,8 +28,9 @@ import numpy as np
 
 from ..catalogue import kinds as catalogue_kinds
 from ..tolerances import tolerances as compute_tolerances
-from .broadphase import boxes_of, near_flags
-from .gridsums import _corners
+from .boxes import box_extent, boxes_of
+from .broadphase import near_flags
+from .gridsums import coverage
 
 __all__ = ["COARSE_RATIO", "MAX_ROUNDS", "Resolution", "Scale", "cell_boxes",
            "consistent_scale", "estimate_cell_pairs", "memory_limit", "near_cells"]
@@ -50,16 +51,8 @@ def cell_boxes(points: np.ndarray, cells: np.ndarray):
     return boxes_of(points, cells)  # no (n, k, d) gather (issue 12)
 
 
-def _extent(lo, hi):
-    """Each cell's largest box edge (column by column: faster than (hi - lo).max(1))."""
-    e = hi[:, 0] - lo[:, 0]
-    for ax in range(1, lo.shape[1]):
-        np.maximum(e, hi[:, ax] - lo[:, ax], out=e)
-    return e
-
-
 def _max_edge(ext, mask) -> float:
-    """Largest box edge of the selected cells (``ext`` from :func:`_extent`), rounded
+    """Largest box edge of the selected cells (``ext`` from :func:`~.broadphase.box_extent`), rounded
     up one ulp (upper bound)."""
     if not mask.any():
         return 0.0
@@ -140,7 +133,7 @@ def consistent_scale(dim: int, sim_box, cut_box, dtype, max_rounds: int = MAX_RO
     the pad no longer shrinks. ``sim_box``, ``cut_box``: (lo, hi) per cell; ``flags``:
     as in :func:`near_cells`."""
     masks = (np.ones(len(sim_box[0]), bool), np.ones(len(cut_box[0]), bool))
-    ext_s, ext_c = _extent(*sim_box), _extent(*cut_box)  # once, not per round
+    ext_s, ext_c = box_extent(*sim_box), box_extent(*cut_box)  # once, not per round
     L_a, L_b = _max_edge(ext_s, masks[0]), _max_edge(ext_c, masks[1])
     cur = scale_for(dim, L_a, L_b, dtype, table)
     cur.masks, history = masks, [L_a + L_b]
@@ -193,7 +186,7 @@ def estimate_cell_pairs(lo_a, hi_a, lo_b, hi_b, pad: float) -> int:
 
 def _dense_pair_count(ia0, ia1, ib0, ib1, budget: int):
     """Σ over grid cells of (a boxes covering it) × (b boxes covering it) from two
-    count grids (difference arrays, :func:`~predicates.registration.gridsums` corners),
+    count grids (:func:`~predicates.registration.gridsums.coverage`),
     without expanding the boxes into cells — the same integer as the keyed count when
     :func:`_cell_keys` is injective on the grid (every index < its radix, no int64
     overflow) and the float64 dot of the keyed count is exact (< 2^53); None otherwise
@@ -207,16 +200,8 @@ def _dense_pair_count(ia0, ia1, ib0, ib1, budget: int):
     if np.any(G[1:] > _KEY_RADIX) or top >= 2.0 ** 62 or float(np.prod(G + 1.0)) > budget:
         return None
     na = len(ia0)
-    counts = []
-    for lo, hi in ((i0[:na], i1[:na]), (i0[na:], i1[na:])):
-        diff = np.zeros(int(np.prod(G + 1)), dtype=np.int64)
-        for key, sign in _corners(lo, hi, G):
-            diff += (-sign if len(G) % 2 else sign) * np.bincount(key, minlength=diff.size)
-        c = diff.reshape(tuple((G + 1)[::-1]))
-        for ax in range(c.ndim):
-            np.cumsum(c, axis=ax, out=c)
-        counts.append(c.ravel())
-    total = int(np.dot(counts[0], counts[1]))
+    total = int(np.dot(coverage(i0[:na], i1[:na], G).ravel(),
+                       coverage(i0[na:], i1[na:], G).ravel()))
     return total if total < 2 ** 53 else None
 
 
