@@ -186,25 +186,36 @@ def _occupied(keys, other, G):
     return np.isin(keys, other, kind="sort")
 
 
-def near_flags(lo_a, hi_a, lo_b, hi_b, pad: float):
+def near_flags(lo_a, hi_a, lo_b, hi_b, pad: float, *, sides: str = "ab"):
     """(near_a, near_b): boolean masks, a superset of the boxes that have a partner
     within ``pad`` (same test as :func:`box_pairs`): a box is flagged when it shares a
     grid cell with a box of the other set (b boxes enlarged by pad). Cheaper than
     enumerating the pairs: on a dense grid no box is expanded into its cells (each
     side's occupancy comes from a difference array, each box's test from a summed-area
-    table of the other side's occupancy), so the cost is O(2^d·(n_a + n_b) + cells)."""
+    table of the other side's occupancy), so the cost is O(2^d·(n_a + n_b) + cells).
+    ``sides``: "a" or "b" computes only that side's flags (the other is None) and
+    skips the occupancy it would need — the same flags, a pass over the many boxes
+    saved (e.g. refinement only asks which simulation cells are near)."""
+    if sides not in ("ab", "a", "b"):
+        raise ValueError(f"sides must be 'ab', 'a' or 'b', got {sides!r}")
     lo_a, hi_a, lo_b, hi_b = (np.asarray(x, dtype=np.float64) for x in (lo_a, hi_a, lo_b, hi_b))
-    near_a, near_b = np.zeros(len(lo_a), dtype=bool), np.zeros(len(lo_b), dtype=bool)
+    near_a = np.zeros(len(lo_a), dtype=bool) if "a" in sides else None
+    near_b = np.zeros(len(lo_b), dtype=bool) if "b" in sides else None
     if len(lo_a) == 0 or len(lo_b) == 0:
         return near_a, near_b
     _, _, _, G, _, ia0, ia1, ib0, ib1 = _grid(lo_a, hi_a, lo_b, hi_b, pad)
     if _dense(G + 1, len(lo_a) + len(lo_b)):
-        occ_a, occ_b = _occupancy(ia0, ia1, G), _occupancy(ib0, ib1, G)
-        return _any_in(occ_b, ia0, ia1, G), _any_in(occ_a, ib0, ib1, G)
+        if "a" in sides:
+            near_a = _any_in(_occupancy(ib0, ib1, G), ia0, ia1, G)
+        if "b" in sides:
+            near_b = _any_in(_occupancy(ia0, ia1, G), ib0, ib1, G)
+        return near_a, near_b
     box_a, key_a, _ = _entries(ia0, ia1, G)
     box_b, key_b, _ = _entries(ib0, ib1, G)
-    near_a[box_a[_occupied(key_a, key_b, G)]] = True
-    near_b[box_b[_occupied(key_b, key_a, G)]] = True
+    if "a" in sides:
+        near_a[box_a[_occupied(key_a, key_b, G)]] = True
+    if "b" in sides:
+        near_b[box_b[_occupied(key_b, key_a, G)]] = True
     return near_a, near_b
 
 

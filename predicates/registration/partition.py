@@ -95,7 +95,7 @@ def _cut_near(P_sim, halo_cells, clo, chi, pad) -> np.ndarray:
     region plus a border, not every cutting cell its region's bounding box spans."""
     if len(clo) == 0 or len(halo_cells) == 0:
         return np.zeros(0, dtype=np.int64)
-    _, near = near_flags(*boxes_of(P_sim, halo_cells), clo, chi, pad)
+    _, near = near_flags(*boxes_of(P_sim, halo_cells), clo, chi, pad, sides="b")
     return np.flatnonzero(near)
 
 

@@ -222,7 +222,7 @@ class _SimScale:
             if name == "cells" and self.reach is not None:
                 # only the cells some query box can meet: the same maxima, and an index
                 # over the cells near the cut rather than over the whole mesh
-                near = near_flags(lo, hi, *self.reach, 0.0)[0]
+                near = near_flags(lo, hi, *self.reach, 0.0, sides="a")[0]
                 lo, hi, ext = lo[near], hi[near], ext[near]
             self._index[name] = LevelIndex(lo, hi, ext) if len(lo) else None
         if self._index[name] is None:

@@ -66,6 +66,8 @@ def test_near_flags_definition():
         assert na[ia].all() and nb[ib].all()
     with pytest.raises(ValueError, match="pad"):
         near_flags(la, ha, lb, hb, -1.0)
+    with pytest.raises(ValueError, match="sides"):
+        near_flags(la, ha, lb, hb, 0.0, sides="c")
 
 
 @pytest.mark.parametrize("dim", [2, 3])
@@ -83,10 +85,17 @@ def test_near_flags_dense_equals_expanded(dim, monkeypatch):
         hb = lb + rng.random((nb, dim)) * rng.choice([0, 0.02, 0.3])
         pad = float(rng.choice([0, 1e-3, 0.05]))
         dense = near_flags(la, ha, lb, hb, pad)
+        # one side alone: the same flags, the other side not computed
+        assert np.array_equal(near_flags(la, ha, lb, hb, pad, sides="a")[0], dense[0])
+        assert near_flags(la, ha, lb, hb, pad, sides="a")[1] is None
+        assert np.array_equal(near_flags(la, ha, lb, hb, pad, sides="b")[1], dense[1])
         monkeypatch.setattr(B, "_DENSE", 0)
         expanded = near_flags(la, ha, lb, hb, pad)
+        only_a = near_flags(la, ha, lb, hb, pad, sides="a")[0]
+        only_b = near_flags(la, ha, lb, hb, pad, sides="b")[1]
         monkeypatch.undo()
         assert np.array_equal(dense[0], expanded[0]) and np.array_equal(dense[1], expanded[1])
+        assert np.array_equal(only_a, expanded[0]) and np.array_equal(only_b, expanded[1])
         flagged += dense[0].sum() + dense[1].sum()
     assert flagged > 100
 
