@@ -64,7 +64,10 @@ class _Level:
     the start of each cell's run (CSR) and a summed-area table of the counts."""
 
     def __init__(self, lo, hi, val, ids, h: float, per_box: int):
-        self.lo, self.hi, self.val = lo[ids], hi[ids], val[ids]
+        if len(ids) == len(lo):  # one level: no copy before the sort below
+            self.lo, self.hi, self.val = lo, hi, val
+        else:
+            self.lo, self.hi, self.val = lo[ids], hi[ids], val[ids]
         self.h = h
         self.vmin, self.vmax = float(self.val.min()), float(self.val.max())
         d = lo.shape[1]
@@ -94,9 +97,9 @@ class _Level:
         st = self.start[nz]
         self.slot = np.full(ncell, -1, dtype=np.int64)
         self.slot[nz] = np.arange(nz.size)
-        self.hull = np.stack([red.reduceat(x, st, axis=0) for x, red in
-                              [(self.lo, np.minimum), (self.lo, np.maximum),
-                               (self.hi, np.minimum), (self.hi, np.maximum)]])
+        self.hull = np.stack([np.stack([red.reduceat(x[:, ax], st) for ax in range(d)], 1)
+                              for x, red in [(self.lo, np.minimum), (self.lo, np.maximum),
+                                             (self.hi, np.minimum), (self.hi, np.maximum)]])
         self.cvmax = np.maximum.reduceat(self.val, st)
         # counts ≤ n: int32 halves the table below 2^31 boxes
         S = np.zeros(tuple(int(g) + 1 for g in G[::-1]),

@@ -36,10 +36,14 @@ _MAX_GRID = 1 << 22  # grid cells at most (the distance table: one byte each)
 
 
 class ReachGrid:
-    """Boxes ``lo``, ``hi`` (m, d), finite, m ≥ 1, marked on a grid; ``D``: the capped
-    Chebyshev distance of every grid cell to a marked one (module docstring)."""
+    """Boxes ``lo``, ``hi`` (m, d), finite, m ≥ 1, marked on a grid of at most
+    ``budget`` cells (h doubled until it fits: the grid costs a fraction of the pass
+    over the cells it serves), h at least ``cell`` (the size of the boxes to be tested:
+    wider ones take the direct test); ``D``: the capped Chebyshev distance of every
+    grid cell to a marked one (module docstring)."""
 
-    def __init__(self, lo: np.ndarray, hi: np.ndarray):
+    def __init__(self, lo: np.ndarray, hi: np.ndarray, budget: int = _MAX_GRID,
+                 cell: float = 0.0):
         d = lo.shape[1]
         if not (np.isfinite(lo).all() and np.isfinite(hi).all()):
             raise ValueError("refine: the cutting mesh's coordinates (and the boxes "
@@ -47,7 +51,7 @@ class ReachGrid:
         lo_min = np.array([lo[:, ax].min() for ax in range(d)])
         hi_max = np.array([hi[:, ax].max() for ax in range(d)])
         span = float((hi_max - lo_min).max())
-        size = float(np.median(box_extent(lo, hi))) / 4  # a few cells per reach box
+        size = max(float(np.median(box_extent(lo, hi))) / 4, cell)  # a few per box
         mag = float(max(np.abs(lo_min).max(), np.abs(hi_max).max()))
         h = max(size, span * 2.0 ** -12, mag * 2.0 ** -40, np.finfo(np.float64).tiny)
         h = math.ldexp(1.0, math.frexp(h)[1] - 1)  # a power of two: x·(1/h) is exact
@@ -55,7 +59,7 @@ class ReachGrid:
             self.h, self.s = h, 1.0 / h
             self.o = lo_min - (CAP + 1) * h  # CAP + 1 empty cells below every box
             self.G = np.floor((hi_max - self.o) * self.s).astype(np.int64) + CAP + 2
-            if float(np.prod(self.G.astype(float))) <= _MAX_GRID:
+            if float(np.prod(self.G.astype(float))) <= budget:
                 break
             h *= 2
         i0, i1 = self._cells(lo), self._cells(hi)
@@ -120,7 +124,7 @@ def scan_cells(lo: np.ndarray, hi: np.ndarray, reach) -> CellScan:
     n = len(lo)
     if n == 0:
         return CellScan(0, 0.0, 0.0, 0.0, 0.0, np.zeros(0, dtype=np.int64))
-    grid = ReachGrid(*reach) if reach is not None else None
+    grid = ReachGrid(*reach, _budget(n), _cell_size(lo, hi)) if reach is not None else None
     st = _Stats(lo.shape[1])
     pieces, big = [], []
     buf = [np.empty(BLOCK) for _ in range(lo.shape[1] + 2)]
@@ -153,7 +157,7 @@ def scan_cells(lo: np.ndarray, hi: np.ndarray, reach) -> CellScan:
 def points_near(lo: np.ndarray, hi: np.ndarray, boxes) -> np.ndarray:
     """Ascending ids of the cells whose box centre 0.5·(lo + hi) may lie in one of
     ``boxes`` = (blo, bhi) (a superset; each box's centre tested with one look-up)."""
-    grid = ReachGrid(*boxes)
+    grid = ReachGrid(*boxes, _budget(len(lo)))
     d = lo.shape[1]
     buf = [np.empty(BLOCK) for _ in range(d)]
     ib, key = np.empty(BLOCK, dtype=np.int64), np.empty(BLOCK, dtype=np.int64)
@@ -164,6 +168,21 @@ def points_near(lo: np.ndarray, hi: np.ndarray, boxes) -> np.ndarray:
         mids = [_centre(lo[s0:s1, ax], hi[s0:s1, ax], buf[ax][:b]) for ax in range(d)]
         pieces.append(np.flatnonzero(grid.lookup(mids, b, ib, key) == 0) + s0)
     return np.concatenate(pieces) if pieces else np.zeros(0, dtype=np.int64)
+
+
+def _cell_size(lo, hi) -> float:
+    """A quarter of the 90th percentile box edge of up to 4096 evenly spaced cells: a
+    grid cell at least that large keeps most cells off the direct test (a box edge up
+    to 2·(CAP − 3) grid cells is tested by its centre). A heuristic: any value is sound."""
+    ids = np.unique(np.linspace(0, len(lo) - 1, min(len(lo), 4096)).astype(np.int64))
+    q = float(np.quantile(box_extent(lo[ids], hi[ids]), 0.9)) / 4
+    return q if math.isfinite(q) and q > 0 else 0.0
+
+
+def _budget(n: int) -> int:
+    """Grid cells for a pass over n cells: half of n (at least 2^16, at most
+    :data:`_MAX_GRID`), so the grid never dominates the pass."""
+    return int(min(_MAX_GRID, max(1 << 16, n // 2)))
 
 
 def _centre(lo, hi, out):
