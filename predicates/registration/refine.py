@@ -16,8 +16,10 @@ tests only the edges it created, against one index over the simulation cells (an
 over their bins per size class) built once per run (:mod:`.refine_index`): a test is
 decided from summed-area counts of the boxes that certainly / possibly meet the query,
 a constant number of look-ups, and only the rare undecided ones look at boxes. The
-marks are exactly those of the pairwise test; the refinement is linear in the cells it
-creates (benchmarks/README.md, "Refinement").
+marks are exactly those of the pairwise test. The simulation mesh is read once, in
+blocks (:mod:`.refine_scan`: box-edge statistics and the cells near the cut), and the
+indexes hold only cells that can matter: a run costs that pass plus O(cells created +
+cells near the cut) (benchmarks/README.md, "Refinement"; issue 12).
 
 Midpoints are 0.5·a + 0.5·b in binary64, then rounded to the working dtype: the refined
 surface lies within one rounding of the input surface, and the guarantees of the paper

@@ -97,9 +97,9 @@ class _Level:
         st = self.start[nz]
         self.slot = np.full(ncell, -1, dtype=np.int64)
         self.slot[nz] = np.arange(nz.size)
-        self.hull = np.stack([np.stack([red.reduceat(x[:, ax], st) for ax in range(d)], 1)
-                              for x, red in [(self.lo, np.minimum), (self.lo, np.maximum),
-                                             (self.hi, np.minimum), (self.hi, np.maximum)]])
+        self.hull = np.stack([red.reduceat(x, st, axis=0) for x, red in
+                              [(self.lo, np.minimum), (self.lo, np.maximum),
+                               (self.hi, np.minimum), (self.hi, np.maximum)]])
         self.cvmax = np.maximum.reduceat(self.val, st)
         # counts ≤ n: int32 halves the table below 2^31 boxes
         S = np.zeros(tuple(int(g) + 1 for g in G[::-1]),
