@@ -259,3 +259,35 @@ def test_a_wide_cell_far_outside_the_reach_keeps_its_bin():
     assert _reference_thr(lo, hi, box_extent(lo, hi), float(np.median(box_extent(lo, hi))),
                           1.0, qlo, qhi)[0] == 20.0
     assert not sim.marks(1.0, qlo, qhi, np.array([2.0]))[0]
+
+
+try:
+    from hypothesis import given, settings, strategies as st
+except ImportError:  # pragma: no cover
+    given = None
+
+if given is not None:
+    @settings(max_examples=40, deadline=None)
+    @given(st.integers(0, 2 ** 32 - 1), st.sampled_from([2, 3]),
+           st.floats(1e-6, 1e6), st.floats(-1e7, 1e7))
+    def test_scan_and_points_supersets_at_any_scale(seed, d, scale, offset):
+        """Touching and nearly touching boxes far from the origin, at any scale: the
+        rounding margins of the grid (h >= 2^-40 of the coordinates) hold."""
+        rng = np.random.default_rng(seed)
+        n = int(rng.integers(1, 400))
+        lo = rng.integers(0, 40, (n, d)) * 0.25
+        size = rng.choice([0.0, 0.25, 0.5, 1.0, 6.0, 30.0], size=(n, d),
+                          p=[.1, .3, .3, .2, .07, .03])
+        m = int(rng.integers(1, 8))
+        rlo = rng.integers(0, 40, (m, d)) * 0.25 + rng.choice([0.0, 1e-9], size=(m, d))
+        rhi = rlo + rng.choice([0.0, 0.25, 2.0], size=(m, d))
+        lo, hi, rlo, rhi = (x * scale + offset for x in (lo, lo + size, rlo, rhi))
+        s = scan_cells(lo, hi, (rlo, rhi))
+        got = np.zeros(n, dtype=bool)
+        got[s.near] = True
+        assert not (_meets_any(lo, hi, rlo, rhi) & ~got).any()
+        mid = 0.5 * (lo + hi)
+        got[:] = False
+        got[points_near(lo, hi, (rlo, rhi))] = True
+        assert not (_meets_any(mid, mid, rlo, rhi) & ~got).any()
+        assert s.ext_max == box_extent(lo, hi).max()
