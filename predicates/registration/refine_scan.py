@@ -125,7 +125,7 @@ def scan_cells(lo: np.ndarray, hi: np.ndarray, reach) -> CellScan:
     if n == 0:
         return CellScan(0, 0.0, 0.0, 0.0, 0.0, np.zeros(0, dtype=np.int64))
     grid = ReachGrid(*reach, _budget(n), _cell_size(lo, hi)) if reach is not None else None
-    st = _Stats(lo.shape[1])
+    st = _Stats()
     pieces, big = [], []
     buf = [np.empty(BLOCK) for _ in range(lo.shape[1] + 2)]
     ib, key = np.empty(BLOCK, dtype=np.int64), np.empty(BLOCK, dtype=np.int64)
@@ -140,8 +140,8 @@ def scan_cells(lo: np.ndarray, hi: np.ndarray, reach) -> CellScan:
         bound = buf[-2][:b]  # ext/(2h) + 2.5, rounded up (module docstring)
         np.multiply(e, 0.5 * grid.s * (1 + 2.0 ** -40), out=bound)
         bound += 2.5
-        pieces.append(np.flatnonzero(dist < bound) + s0)
         wide = bound > CAP - 0.5  # D is capped: such cells are tested directly
+        pieces.append(np.flatnonzero((dist < bound) & ~wide) + s0)
         if wide.any():
             big.append(np.flatnonzero(wide) + s0)
     near = np.concatenate(pieces) if pieces else np.zeros(0, dtype=np.int64)
@@ -196,7 +196,7 @@ class _Stats:
     """Running box-edge statistics of the blocks: min, max, a histogram of the biased
     binary64 exponent (the median's binade), the coordinates' magnitude."""
 
-    def __init__(self, d: int):
+    def __init__(self):
         self.emin, self.emax, self.mag = np.inf, -np.inf, 0.0
         self.hist = np.zeros(2048, dtype=np.int64)
         self.n = 0

@@ -70,9 +70,9 @@ def test_scan_wide_cells_are_tested_directly(monkeypatch):
     monkeypatch.setattr(refine_scan, "near_flags",
                         lambda a, *r, **k: direct.append(len(a)) or near_flags(a, *r, **k))
     lo = np.array([[0.49, 0.49, 0.49], [3.0, 3.0, 3.0],  # small: near, far
-                   [0.0, 0, 0], [-50, -50, -50], [10, 10, 10]])  # wide: 2 meet, 1 far
+                   [0.0, 0, 0], [-50, -50, -50], [1000, 1000, 1000]])  # wide: 2 meet
     hi = np.array([[0.51, 0.51, 0.51], [3.02, 3.02, 3.02],
-                   [1.0, 1, 1], [50, 50, 50], [90, 90, 90]])
+                   [1.0, 1, 1], [50, 50, 50], [1080, 1080, 1080]])
     lo, hi = np.repeat(lo, [100, 100, 5, 5, 5], axis=0), np.repeat(hi, [100, 100, 5, 5, 5], axis=0)
     rlo, rhi = np.array([[0.45, 0.45, 0.45]]), np.array([[0.55, 0.55, 0.55]])
     s = scan_cells(lo, hi, (rlo, rhi))
@@ -80,6 +80,7 @@ def test_scan_wide_cells_are_tested_directly(monkeypatch):
     near = set(s.near.tolist())
     assert set(range(100)) | set(range(200, 210)) <= near
     assert not set(range(100, 200)) & near  # small and far: not near
+    assert not set(range(210, 215)) & near  # wide and far: not near either
 
 
 def test_scan_median_straddling_binades_is_exact():
