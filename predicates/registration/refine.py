@@ -172,7 +172,8 @@ class _SimScale:
     def __init__(self, lo, hi, reach, cut_ext):
         self.lo, self.hi = lo, hi
         self.reach, self.cut_ext = reach, cut_ext
-        self.scan = scan_cells(lo, hi, reach)
+        # no query is longer than the longest input cutting cell's box edge
+        self.scan = scan_cells(lo, hi, reach, float(cut_ext.max()) if len(cut_ext) else 0.0)
         self.n, self.fine = self.scan.n, self.scan.fine
         self._cells = None  # (lo, hi, ext) of the cells near the reach boxes
         self._bin_set = None  # (lo, hi, ext, mid) of the cells the bins are built from

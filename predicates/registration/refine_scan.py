@@ -24,13 +24,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .blocks import BLOCK  # rows per block: every per-block temporary stays in cache
 from .boxes import box_extent
 from .broadphase import near_flags
 from .gridsums import occupancy
 
 __all__ = ["BLOCK", "CAP", "CellScan", "ReachGrid", "points_near", "scan_cells"]
 
-BLOCK = 1 << 16  # rows per block: every per-block temporary stays in cache
 CAP = 8  # distances counted up to this many grid cells (cells wider: tested directly)
 _MAX_GRID = 1 << 22  # grid cells at most (the distance table: one byte each)
 
@@ -118,33 +118,41 @@ class CellScan:
     near: np.ndarray
 
 
-def scan_cells(lo: np.ndarray, hi: np.ndarray, reach) -> CellScan:
+def scan_cells(lo: np.ndarray, hi: np.ndarray, reach, longest: float = math.inf) -> CellScan:
     """The pass (module docstring): statistics of all cells' boxes ``lo``, ``hi`` (n, d)
-    and the cells that may meet the boxes ``reach`` = (rlo, rhi) (or None: no cell)."""
+    and the cells that may meet the boxes ``reach`` = (rlo, rhi) (or None: no cell).
+    ``longest``: the largest box edge any query can have; the near set is only needed
+    when it exceeds the smallest cell box edge (no edge is queried otherwise: its
+    marks would need ext > a box edge ≥ ext_min), so it is gathered from the first
+    block whose running minimum falls below ``longest`` on (earlier blocks are read
+    again only then), and is empty when no block does — one statistics pass when the
+    cutting mesh is as fine as the simulation mesh."""
     n = len(lo)
     if n == 0:
         return CellScan(0, 0.0, 0.0, 0.0, 0.0, np.zeros(0, dtype=np.int64))
-    grid = ReachGrid(*reach, _budget(n), _cell_size(lo, hi)) if reach is not None else None
+    grid = None
     st = _Stats()
     pieces, big = [], []
     buf = [np.empty(BLOCK) for _ in range(lo.shape[1] + 2)]
     ib, key = np.empty(BLOCK, dtype=np.int64), np.empty(BLOCK, dtype=np.int64)
+    start = 0  # the first block whose near cells were gathered in the pass
     for s0 in range(0, n, BLOCK):
         s1 = min(n, s0 + BLOCK)
-        b = s1 - s0
-        e = st.add(lo[s0:s1], hi[s0:s1], buf[-1][:b], buf[-2][:b], ib)
-        if grid is None:
+        e = st.add(lo[s0:s1], hi[s0:s1], buf[-1][:s1 - s0], buf[-2][:s1 - s0], ib)
+        if reach is None or not st.emin < longest:
             continue
-        mids = [_centre(lo[s0:s1, ax], hi[s0:s1, ax], buf[ax][:b]) for ax in range(lo.shape[1])]
-        dist = grid.lookup(mids, b, ib, key)
-        bound = buf[-2][:b]  # ext/(2h) + 2.5, rounded up (module docstring)
-        np.multiply(e, 0.5 * grid.s * (1 + 2.0 ** -40), out=bound)
-        bound += 2.5
-        wide = bound > CAP - 0.5  # D is capped: such cells are tested directly
-        pieces.append(np.flatnonzero((dist < bound) & ~wide) + s0)
-        if wide.any():
-            big.append(np.flatnonzero(wide) + s0)
-    near = np.concatenate(pieces) if pieces else np.zeros(0, dtype=np.int64)
+        if grid is None:
+            grid, start = ReachGrid(*reach, _budget(n), _cell_size(lo, hi)), s0
+        _near_block(grid, lo, hi, s0, s1, e, buf, ib, key, pieces, big)
+    for s0 in range(0, start, BLOCK):  # blocks read before the near set was needed
+        s1 = min(start, s0 + BLOCK)
+        e = buf[-1][:s1 - s0]
+        np.subtract(hi[s0:s1, 0], lo[s0:s1, 0], out=e)
+        for ax in range(1, lo.shape[1]):
+            np.maximum(e, hi[s0:s1, ax] - lo[s0:s1, ax], out=e)
+        _near_block(grid, lo, hi, s0, s1, e, buf, ib, key, pieces, big)
+    # ascending (blocks read again come after the pass's)
+    near = np.sort(np.concatenate(pieces)) if pieces else np.zeros(0, dtype=np.int64)
     if big:
         big = np.concatenate(big)
         near = np.union1d(near, big[near_flags(lo[big], hi[big], *reach, 0.0, sides="a")[0]])
@@ -152,6 +160,21 @@ def scan_cells(lo: np.ndarray, hi: np.ndarray, reach) -> CellScan:
     if fine is None:  # the two middle box edges straddle binades: the exact median
         fine = float(np.median(box_extent(lo, hi)))
     return CellScan(n, st.emin, st.emax, fine, st.mag, near.astype(np.int64, copy=False))
+
+
+def _near_block(grid, lo, hi, s0, s1, e, buf, ib, key, pieces, big) -> None:
+    """Rows [s0, s1) (box edges ``e``): the cells that may meet a reach box into
+    ``pieces``, the ones too wide for the grid's capped distances into ``big``."""
+    b = s1 - s0
+    mids = [_centre(lo[s0:s1, ax], hi[s0:s1, ax], buf[ax][:b]) for ax in range(lo.shape[1])]
+    dist = grid.lookup(mids, b, ib, key)
+    bound = buf[-2][:b]  # ext/(2h) + 2.5, rounded up (module docstring)
+    np.multiply(e, 0.5 * grid.s * (1 + 2.0 ** -40), out=bound)
+    bound += 2.5
+    wide = bound > CAP - 0.5  # D is capped: such cells are tested directly
+    pieces.append(np.flatnonzero((dist < bound) & ~wide) + s0)
+    if wide.any():
+        big.append(np.flatnonzero(wide) + s0)
 
 
 def points_near(lo: np.ndarray, hi: np.ndarray, boxes) -> np.ndarray:

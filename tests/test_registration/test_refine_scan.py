@@ -61,6 +61,29 @@ def test_scan_near_superset_and_statistics_exact(seed):
     assert got.sum() < len(lo)  # ... that leaves cells out (not everything)
 
 
+@pytest.mark.parametrize("seed", range(3))
+def test_scan_gathers_the_near_set_only_when_a_query_can_be_long_enough(seed, monkeypatch):
+    """``longest`` (the largest box edge of any query): the near set is the full one as
+    soon as longest exceeds the smallest cell box edge — also when the running minimum
+    only falls below it in a late block (the earlier blocks are read again) — and
+    empty when it does not (no edge would be queried)."""
+    monkeypatch.setattr(refine_scan, "BLOCK", 37)
+    rng = np.random.default_rng(seed)
+    sp, sc = _graded_mesh(7, [2.0, 3.0, 1.5][seed], seed)
+    lo, hi = boxes_of(sp, sc)
+    order = np.argsort(-box_extent(lo, hi), kind="stable")  # the smallest cells last
+    lo, hi = lo[order], hi[order]
+    reach = _reach_of(rng, 40, sp.mean(axis=0), 0.3)
+    full = scan_cells(lo, hi, reach)
+    ext = box_extent(lo, hi)
+    for longest in (float(np.nextafter(ext.min(), np.inf)), float(np.median(ext)), math.inf):
+        s = scan_cells(lo, hi, reach, longest)
+        assert np.array_equal(s.near, full.near)
+        assert (s.ext_min, s.ext_max, s.fine, s.mag) == (full.ext_min, full.ext_max,
+                                                         full.fine, full.mag)
+    assert len(full.near) and len(scan_cells(lo, hi, reach, float(ext.min())).near) == 0
+
+
 def test_scan_wide_cells_are_tested_directly(monkeypatch):
     """Cells far wider than the grid (beyond the capped distances) go to the direct
     test: big cells crossing a small reach box are found, small far ones are not."""
