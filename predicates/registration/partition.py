@@ -24,7 +24,7 @@ import numpy as np
 from .broadphase import boxes_of, near_flags
 from .result import KindPairs
 
-__all__ = ["Part", "assign", "merge", "morton_order", "owned", "split"]
+__all__ = ["Layout", "Part", "assign", "merge", "morton_order", "owned", "split"]
 
 
 @dataclass
@@ -129,22 +129,42 @@ def split(P_sim, sim_cells, P_cut, cut_cells, k: int, pad: float):
     order, cut into k runs of equal size ± 1); ``pad``: the largest broad-phase reach.
     Any assignment of cells to partitions gives the serial result; Morton runs keep them
     compact, so halos and cutting slices stay small."""
-    m, n = len(sim_cells), len(P_sim)
-    pos, owner = assign(P_sim, sim_cells, k)
-    clo, chi = boxes_of(P_cut, cut_cells)
-    by_pos = np.empty(m, dtype=np.int64)
-    by_pos[pos] = np.arange(m, dtype=np.int64)
+    layout = Layout(P_sim, sim_cells, P_cut, cut_cells, k, pad)
     for r in range(k):
-        own = by_pos[(r * m + k - 1) // k: ((r + 1) * m + k - 1) // k]
+        part = layout.part(r)
+        if part is not None:
+            yield part
+
+
+class Layout:
+    """The global side of :func:`split` (Morton order, vertex owners, cutting boxes),
+    from which :meth:`part` cuts any one partition: the client cuts them all, or each
+    worker cuts its own from the same arrays (the same Part, bit for bit: a pure
+    function of the arrays, k, r and pad)."""
+
+    def __init__(self, P_sim, sim_cells, P_cut, cut_cells, k: int, pad: float):
+        self.P_sim, self.sim_cells, self.P_cut, self.cut_cells = (P_sim, sim_cells, P_cut,
+                                                                  cut_cells)
+        self.k, self.pad = k, pad
+        m = len(sim_cells)
+        pos, self.owner = assign(P_sim, sim_cells, k)
+        self.clo, self.chi = boxes_of(P_cut, cut_cells)
+        self.by_pos = np.empty(m, dtype=np.int64)
+        self.by_pos[pos] = np.arange(m, dtype=np.int64)
+
+    def part(self, r: int) -> Part | None:
+        """Partition r's :class:`Part` (None: it owns no cell)."""
+        m, k, sim_cells = len(self.sim_cells), self.k, self.sim_cells
+        own = self.by_pos[(r * m + k - 1) // k: ((r + 1) * m + k - 1) // k]
         if own.size == 0:
-            continue
-        touched = np.zeros(n, dtype=bool)
+            return None
+        touched = np.zeros(len(self.P_sim), dtype=bool)
         touched[sim_cells[own].ravel()] = True
         halo = np.flatnonzero(touched[sim_cells].any(axis=1))  # includes own cells
-        Ps, cs, sid = _local(P_sim, sim_cells, halo)
-        cut_keep = _cut_near(P_sim, sim_cells[halo], clo, chi, pad)
-        Pc, cc, cid = _local(P_cut, cut_cells, cut_keep)
-        yield Part(r, Ps, cs, sid, owner[sid] == r, Pc, cc, cid, int(own.size))
+        Ps, cs, sid = _local(self.P_sim, sim_cells, halo)
+        cut_keep = _cut_near(self.P_sim, sim_cells[halo], self.clo, self.chi, self.pad)
+        Pc, cc, cid = _local(self.P_cut, self.cut_cells, cut_keep)
+        return Part(r, Ps, cs, sid, self.owner[sid] == r, Pc, cc, cid, int(own.size))
 
 
 def owned(part: Part, pairs: dict) -> dict:

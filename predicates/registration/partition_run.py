@@ -64,13 +64,22 @@ def _client(scheduler):
                     f"{type(scheduler).__name__}")
 
 
+#: The local workers' malloc: temporaries come from the heap and stay mapped (no fresh,
+#: zero-filled pages per numpy temporary; distributed's default MALLOC_TRIM_THRESHOLD_
+#: = 65536 made every large temporary a new mmap: 11 s instead of 7 s per W1 partition at
+#: n = 96). Arrays above 256 MiB are still mmapped and returned at once, and at most
+#: 1 GiB of free heap is kept, so a worker's RSS stays near its peak, not above it.
+WORKER_ENV = {"MALLOC_TRIM_THRESHOLD_": str(1 << 30), "MALLOC_MMAP_THRESHOLD_": str(1 << 28)}
+
+
 @contextlib.contextmanager
 def client_for(workers: int | None = None, address: str | None = None):
     """A ``dask.distributed.Client``: connected to the scheduler at ``address``, or to a
     new local cluster of ``workers`` single-threaded worker processes (closed on exit).
-    The local workers run without distributed's default ``MALLOC_TRIM_THRESHOLD_=65536``,
-    which made every large numpy temporary a fresh mmap (measured: 11 s instead of 7 s
-    per W1 partition)."""
+    The local workers run with :data:`WORKER_ENV` and without distributed's statistical
+    profiler (a thread taking the GIL every 10 ms in the middle of the task), and each
+    starts importing and running a tiny registration at once (:func:`_warm`), so the
+    first run's tasks do not pay the imports (~0.4 s CPU) while the client plans."""
     _dask()
     try:
         import dask
@@ -84,11 +93,29 @@ def client_for(workers: int | None = None, address: str | None = None):
         return
     if workers is None or workers < 1:
         raise ValueError(f"workers must be at least 1, got {workers}")
-    key = "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_"
-    with dask.config.set({key: None}), \
+    env = "distributed.nanny.pre-spawn-environ."
+    config = {env + key: value for key, value in WORKER_ENV.items()}
+    with dask.config.set({**config, "distributed.worker.profile.enabled": False}), \
             LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                          dashboard_address=None) as cluster, Client(cluster) as client:
+        # not waited for: the workers warm up while the client reads and plans (kept
+        # referenced, or the scheduler would drop them unrun)
+        warm = [client.submit(_warm, pure=False, workers=[w], allow_other_workers=False)
+                for w in client.scheduler_info()["workers"]]
         yield client
+        del warm
+
+
+def _warm() -> int:
+    """A worker's first task: import the registration and run it on a tiny 3D and 2D
+    example (first calls, the heap grown once). Returns the pairs found."""
+    from . import pipeline
+    from .examples import cube_grid, icosphere, square_grid, circle_polygon
+
+    found = 0
+    for sim, cut in ((cube_grid(3), icosphere(1)), (square_grid(4), circle_polygon(12))):
+        found += pipeline.intersect(*sim, *cut).total
+    return found
 
 
 def _slots(client, scheduler) -> int:
@@ -113,7 +140,8 @@ def _count(partitions, client, n_cells: int) -> int:
 def run_part(part: Part, dim: int, tol, reach: dict, chunk: int) -> tuple[dict, dict]:
     """One Dask task: the serial levels on the partition's slice; returns its owned
     pairs (global ids) and statistics (time, peak RSS of the worker process, bytes)."""
-    t, cpu = time.perf_counter(), time.thread_time()
+    t, cpu, t0 = time.perf_counter(), time.thread_time(), time.time()
+    r0 = resource.getrusage(resource.RUSAGE_THREAD); p0 = time.process_time()
     reg = Registration(dim, part.P_sim, part.sim_cells, part.P_cut, part.cut_cells, tol,
                        reach, chunk)
     pairs = owned(part, reg.run(False, {}))
@@ -123,7 +151,9 @@ def run_part(part: Part, dim: int, tol, reach: dict, chunk: int) -> tuple[dict, 
              "sim_cells": len(part.sim_cells), "cut_cells": len(part.cut_cells),
              "bytes_in": part.nbytes, "bytes_out": sent_back,
              "seconds": time.perf_counter() - t, "cpu_s": time.thread_time() - cpu,
-             "pid": os.getpid(),
+             "pid": os.getpid(), "t_begin": t0, "t_end": time.time(),
+             "proc_cpu": time.process_time() - p0,
+             "ctx": [getattr(resource.getrusage(resource.RUSAGE_THREAD), a) - getattr(r0, a) for a in ("ru_nvcsw", "ru_nivcsw", "ru_minflt", "ru_majflt")],
              "peak_rss_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
     return pairs, stats
 
@@ -162,7 +192,7 @@ def _run(dask, client, plan, partitions, scheduler, chunk, timings, check) -> di
     if client is not None:
         # each partition's task starts as soon as its slice is cut and sent: the split
         # of the next ones overlaps the workers' tasks ("partition": split and send)
-        futures = [client.submit(run_part, client.scatter(p, hash=False), *args, pure=False)
+        futures = [client.submit(run_part, _payload(client, p), *args, pure=False)
                    for p in parts]
         clock("partition")
         out = client.gather(futures)
@@ -178,6 +208,17 @@ def _run(dask, client, plan, partitions, scheduler, chunk, timings, check) -> di
     clock("merge")
     timings["partitions"] = [o[1] for o in out]
     return pairs
+
+
+#: A partition's slice up to this many bytes travels inside its task's message (no
+#: scatter round trip: the client does not wait); larger ones are scattered to a worker
+#: first (the scheduler never holds them, no "large graph" warning).
+INLINE_BYTES = 8 << 20
+
+
+def _payload(client, part: Part):
+    """What the task receives for ``part``: the Part itself or its scattered future."""
+    return part if part.nbytes <= INLINE_BYTES else client.scatter(part, hash=False)
 
 
 class _Clock:
