@@ -72,14 +72,16 @@ def morton_order(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
     """Position of every cell in the Morton order of its first vertex (a point of the
     cell; cheaper than the centroid and as good for compact runs)."""
     m, dim = len(cells), points.shape[1]
-    c = points[cells[:, 0]].astype(np.float64)
-    lo, hi = c.min(axis=0), c.max(axis=0)
+    # one contiguous row per axis: numpy's min/max over axis 0 of an (m, 3) array is
+    # ~90× slower than over contiguous rows (W1: 3.7 ms vs 0.04 ms); same values
+    c = np.ascontiguousarray(points[cells[:, 0]].astype(np.float64).T)
+    lo, hi = c.min(axis=1)[:, None], c.max(axis=1)[:, None]
     bits = 21 if dim == 3 else 31
     span = np.where(hi > lo, hi - lo, 1.0)
     q = np.clip(((c - lo) / span * (2 ** bits - 1)), 0, 2 ** bits - 1).astype(np.uint64)
     code = np.zeros(m, dtype=np.uint64)
     for ax in range(dim):
-        code |= _spread(q[:, ax], dim) << np.uint64(ax)
+        code |= _spread(q[ax], dim) << np.uint64(ax)
     order = np.argsort(code, kind="stable")
     pos = np.empty(m, dtype=np.int64)
     pos[order] = np.arange(m, dtype=np.int64)
@@ -173,10 +175,19 @@ def owned(part: Part, pairs: dict) -> dict:
     owned vertex."""
     out = {}
     for kind, p in pairs.items():
-        keep = part.own_vertex[p.sim.min(axis=1)] if len(p) else np.zeros(0, dtype=bool)
+        keep = part.own_vertex[_row_min(p.sim)] if len(p) else np.zeros(0, dtype=bool)
         out[kind] = KindPairs(kind, part.sim_ids[p.sim[keep]], part.cut_ids[p.cut[keep]],
                               p.sim_weights[keep], p.cut_weights[keep],
                               candidates=p.candidates, suppressed=p.suppressed)
+    return out
+
+
+def _row_min(a: np.ndarray) -> np.ndarray:
+    """``a.min(axis=1)`` column by column (the same values; numpy's reduction along the
+    short rows of an (n, 3) array is ~10× slower)."""
+    out = a[:, 0].copy()
+    for col in range(1, a.shape[1]):
+        np.minimum(out, a[:, col], out=out)
     return out
 
 
@@ -196,7 +207,7 @@ def merge(kinds, results: list[dict], dtype) -> dict:
         cid = np.concatenate([g.cut for g in got] + [np.zeros((0, k.j + 1), np.int64)])
         sw = np.concatenate([g.sim_weights for g in got] + [np.zeros((0, k.i + 1), dtype)])
         cw = np.concatenate([g.cut_weights for g in got] + [np.zeros((0, k.j + 1), dtype)])
-        first = sid.min(axis=1) if len(sid) else np.zeros(0, dtype=np.int64)
+        first = _row_min(sid)
         order = np.argsort(first, kind="stable")
         part = np.repeat(np.arange(len(got)), [len(g.sim) for g in got])[order]
         first = first[order]

@@ -195,7 +195,7 @@ def _run(dask, client, plan, partitions, scheduler, chunk, timings, check) -> di
         futures = [client.submit(run_part, _payload(client, p), *args, pure=False)
                    for p in parts]
         clock("partition")
-        out = client.gather(futures)
+        out = _gather(futures)
     else:
         parts = list(parts)
         clock("partition")
@@ -208,6 +208,19 @@ def _run(dask, client, plan, partitions, scheduler, chunk, timings, check) -> di
     clock("merge")
     timings["partitions"] = [o[1] for o in out]
     return pairs
+
+
+def _gather(futures) -> list:
+    """The futures' results in order, each fetched as soon as its task ends (a plain
+    ``gather`` fetches them all after the last one: the first results' transfer would
+    follow the slowest task instead of overlapping it)."""
+    from distributed import as_completed
+
+    index = {f.key: i for i, f in enumerate(futures)}
+    out = [None] * len(futures)
+    for future, result in as_completed(futures, with_results=True):
+        out[index[future.key]] = result
+    return out
 
 
 #: A partition's slice up to this many bytes travels inside its task's message (no
