@@ -78,8 +78,9 @@ def client_for(workers: int | None = None, address: str | None = None):
     new local cluster of ``workers`` single-threaded worker processes (closed on exit).
     The local workers run with :data:`WORKER_ENV` and without distributed's statistical
     profiler (a thread taking the GIL every 10 ms in the middle of the task), and each
-    starts importing and running a tiny registration at once (:func:`_warm`), so the
-    first run's tasks do not pay the imports (~0.4 s CPU) while the client plans."""
+    starts importing the registration at once (:func:`_warm`): the imports overlap the
+    client's reading and planning instead of delaying the first task (when the first
+    run follows at once they cost the same either way)."""
     _dask()
     try:
         import dask
@@ -98,7 +99,7 @@ def client_for(workers: int | None = None, address: str | None = None):
     with dask.config.set({**config, "distributed.worker.profile.enabled": False}), \
             LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                          dashboard_address=None) as cluster, Client(cluster) as client:
-        # not waited for: the workers warm up while the client reads and plans (kept
+        # not waited for: the workers import while the client reads and plans (kept
         # referenced, or the scheduler would drop them unrun)
         warm = [client.submit(_warm, pure=False, workers=[w], allow_other_workers=False)
                 for w in client.scheduler_info()["workers"]]
@@ -106,16 +107,12 @@ def client_for(workers: int | None = None, address: str | None = None):
         del warm
 
 
-def _warm() -> int:
-    """A worker's first task: import the registration and run it on a tiny 3D and 2D
-    example (first calls, the heap grown once). Returns the pairs found."""
-    from . import pipeline
-    from .examples import cube_grid, icosphere, square_grid, circle_polygon
+def _warm() -> bool:
+    """A worker's first task: import the registration (~0.4 s CPU), which the first
+    partition's task would otherwise pay when it is unpickled."""
+    from . import levels, partition  # noqa: F401  (the imports are the point)
 
-    found = 0
-    for sim, cut in ((cube_grid(3), icosphere(1)), (square_grid(4), circle_polygon(12))):
-        found += pipeline.intersect(*sim, *cut).total
-    return found
+    return True
 
 
 def _slots(client, scheduler) -> int:
