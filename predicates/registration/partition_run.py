@@ -94,17 +94,36 @@ def client_for(workers: int | None = None, address: str | None = None):
         return
     if workers is None or workers < 1:
         raise ValueError(f"workers must be at least 1, got {workers}")
-    env = "distributed.nanny.pre-spawn-environ."
-    config = {env + key: value for key, value in WORKER_ENV.items()}
-    with dask.config.set({**config, "distributed.worker.profile.enabled": False}), \
-            LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                         dashboard_address=None) as cluster, Client(cluster) as client:
+    with dask.config.set({"distributed.worker.profile.enabled": False}):
+        # the nannies give the workers os.environ over their pre-spawn-environ config
+        # (and write that config into os.environ for good: a default LocalCluster
+        # started earlier in this process would impose MALLOC_TRIM_THRESHOLD_=65536);
+        # so WORKER_ENV goes through os.environ, restored once the workers are spawned
+        with _environ(WORKER_ENV):
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=1,
+                                   processes=True, dashboard_address=None)
+    with cluster, Client(cluster) as client:
         # not waited for: the workers import while the client reads and plans (kept
         # referenced, or the scheduler would drop them unrun)
         warm = [client.submit(_warm, pure=False, workers=[w], allow_other_workers=False)
                 for w in client.scheduler_info()["workers"]]
         yield client
         del warm
+
+
+@contextlib.contextmanager
+def _environ(values: dict):
+    """``os.environ`` updated with ``values`` inside the block, as it was after."""
+    old = {key: os.environ.get(key) for key in values}
+    os.environ.update(values)
+    try:
+        yield
+    finally:
+        for key, value in old.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
 
 
 def _warm() -> bool:

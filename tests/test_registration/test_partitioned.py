@@ -555,7 +555,8 @@ def test_row_minimum_is_numpys(seed, cols, rows):
 
 
 def test_local_cluster_settings_submission_and_order(monkeypatch):
-    """client_for's workers run with WORKER_ENV and without the profiler; slices go
+    """client_for's workers run with WORKER_ENV (whatever an earlier cluster left in
+    os.environ, which it restores) and without the profiler; slices go
     inline with their task or, above INLINE_BYTES, scattered first — the same result
     either way; _gather returns results in submission order whatever order the tasks
     end in."""
@@ -565,9 +566,17 @@ def test_local_cluster_settings_submission_and_order(monkeypatch):
 
     args = CASES["sphere"](2)
     ref = predicates.intersect(*args)
+    # a cluster with distributed's defaults first: its nannies leave
+    # MALLOC_TRIM_THRESHOLD_=65536 in this process's os.environ, which would win
+    from distributed import LocalCluster
+
+    LocalCluster(n_workers=1, processes=True, dashboard_address=None).close()
+    before = {k: os.environ.get(k) for k in pr.WORKER_ENV}
+    assert before["MALLOC_TRIM_THRESHOLD_"] == "65536"
     with pr.client_for(2) as client:
         env = client.run(lambda: {k: os.environ.get(k) for k in pr.WORKER_ENV})
-        assert all(e == pr.WORKER_ENV for e in env.values()) and len(env) == 2
+        assert all(e == pr.WORKER_ENV for e in env.values()) and len(env) == 2, env
+        assert {k: os.environ.get(k) for k in pr.WORKER_ENV} == before  # restored
         assert not any(client.run(
             lambda: dask.config.get("distributed.worker.profile.enabled")).values())
         for inline in (pr.INLINE_BYTES, 0):  # 0: every slice is scattered first
