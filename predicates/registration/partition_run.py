@@ -84,7 +84,7 @@ def client_for(workers: int | None = None, address: str | None = None):
     _dask()
     try:
         import dask
-        from distributed import Client, LocalCluster
+        from distributed import Client, LocalCluster, wait
     except ImportError:
         raise DaskMissingError("--workers/--scheduler need dask.distributed: pip install "
                                "'fperr[dask]'") from None
@@ -108,7 +108,9 @@ def client_for(workers: int | None = None, address: str | None = None):
         warm = [client.submit(_warm, pure=False, workers=[w], allow_other_workers=False)
                 for w in client.scheduler_info()["workers"]]
         yield client
-        del warm
+        # closing the cluster under a running import logs a cancelled-task warning
+        with contextlib.suppress(TimeoutError):
+            wait(warm, timeout=30)
 
 
 @contextlib.contextmanager
