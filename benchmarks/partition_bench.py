@@ -17,7 +17,9 @@ wall time on a shared machine measures the other sessions as much as this code â
 CPU critical path: the client's serial CPU (plan, split, merge: ``res.timings``
 "cpu_*") plus the busiest worker's task CPU (thread CPU of its tasks), against the
 serial run's CPU. Per partition: cells received (own + halo), cutting cells, bytes sent
-to the worker and back, task wall and CPU seconds, the worker process's peak RSS.
+to the worker and back, task wall and CPU seconds, the worker process's peak RSS; and the
+timeline (median over the runs): when the first and last tasks start after the plan,
+and how long after the last task ends the result is back.
 Every partitioned result is checked against the serial one (SHA-256 of every pair and
 weight array, per kind).
 """
