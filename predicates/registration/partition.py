@@ -31,7 +31,8 @@ __all__ = ["Layout", "Part", "assign", "merge", "morton_order", "owned", "split"
 class Part:
     """What one partition receives: its slice of both meshes in local ids.
 
-    ``sim_ids`` / ``cut_ids``: the global vertex ids of the local vertices, increasing
+    ``sim_ids`` / ``cut_ids``: the global vertex ids of the local vertices (int32 below
+    2^31 vertices), increasing
     (local order = global order, so ties in the lexicographic vertex order break the
     same way as in the serial run); ``own_vertex``: per local simulation vertex, owned
     by this partition."""

@@ -157,9 +157,12 @@ def _count(partitions, client, n_cells: int) -> int:
 
 def run_part(part: Part, dim: int, tol, reach: dict, chunk: int) -> tuple[dict, dict]:
     """One Dask task: the serial levels on the partition's slice; returns its owned
-    pairs (global ids) and statistics (time, peak RSS of the worker process, bytes)."""
+    pairs (global ids) and statistics (time, peak RSS of the worker process, bytes; for
+    the timeline and the worker's overheads: wall-clock start and end ``t_begin``,
+    ``t_end``, the process's CPU ``proc_cpu`` and the thread's voluntary and involuntary
+    context switches, minor and major page faults ``ctx``)."""
     t, cpu, t0 = time.perf_counter(), time.thread_time(), time.time()
-    r0 = resource.getrusage(resource.RUSAGE_THREAD); p0 = time.process_time()
+    r0, p0 = resource.getrusage(resource.RUSAGE_THREAD), time.process_time()
     reg = Registration(dim, part.P_sim, part.sim_cells, part.P_cut, part.cut_cells, tol,
                        reach, chunk)
     pairs = owned(part, reg.run(False, {}))
@@ -170,10 +173,17 @@ def run_part(part: Part, dim: int, tol, reach: dict, chunk: int) -> tuple[dict, 
              "bytes_in": part.nbytes, "bytes_out": sent_back,
              "seconds": time.perf_counter() - t, "cpu_s": time.thread_time() - cpu,
              "pid": os.getpid(), "t_begin": t0, "t_end": time.time(),
-             "proc_cpu": time.process_time() - p0,
-             "ctx": [getattr(resource.getrusage(resource.RUSAGE_THREAD), a) - getattr(r0, a) for a in ("ru_nvcsw", "ru_nivcsw", "ru_minflt", "ru_majflt")],
+             "proc_cpu": time.process_time() - p0, "ctx": _thread_counts(r0),
              "peak_rss_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
     return pairs, stats
+
+
+def _thread_counts(before) -> list[int]:
+    """This thread's context switches (voluntary, involuntary) and page faults (minor,
+    major) since the ``getrusage`` record ``before``."""
+    now = resource.getrusage(resource.RUSAGE_THREAD)
+    return [getattr(now, a) - getattr(before, a)
+            for a in ("ru_nvcsw", "ru_nivcsw", "ru_minflt", "ru_majflt")]
 
 
 def run_partitioned(plan, partitions, scheduler, chunk: int, timings: dict,
