@@ -13,15 +13,23 @@ shared: the steadier figure) and wall, best of ``--repeat``; k fitted over every
 (least squares in log–log); the load average is printed before and after.
 
     PYTHONPATH=. python3 benchmarks/refine_bench.py [--sizes 32 64 128 256] [--repeat 3]
+
+``--w1 48 96`` instead times refine on issue 12's W1 (cube_grid(n) × icosphere(5)), one
+fresh process per n: the first call (cold: fresh pages) and two warm ones, CPU time
+split into user and system (page faults) with the load average.
 """
 from __future__ import annotations
 
 import argparse
+import resource
+import subprocess
+import sys
 import time
 
 import numpy as np
 
-from predicates.registration.examples import cube_grid
+from predicates.registration.boxes import boxes_of
+from predicates.registration.examples import cube_grid, icosphere
 from predicates.registration.refine import refine
 from predicates.registration.resolution import cell_boxes
 
@@ -49,7 +57,15 @@ def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", type=int, nargs="+", default=[32, 64, 128, 256])
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--w1", type=int, nargs="+", help="time W1 at these n instead")
+    ap.add_argument("--w1-child", type=int, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
+    if args.w1_child:
+        return w1_child(args.w1_child)
+    if args.w1:
+        for n in args.w1:  # a fresh process each: the first call is a cold one
+            subprocess.run([sys.executable, __file__, "--w1-child", str(n)], check=True)
+        return
     rows = []
     print(f"load average: {_load()}")
     print(f"{'n':>5} {'sim tets':>9} {'created':>9} {'rounds':>6} {'wall s':>8} {'cpu s':>8} "
@@ -76,6 +92,20 @@ def main(argv=None) -> None:
     print(f"CPU time per created cell: {min(per):.2f}-{max(per):.2f} us "
           f"(largest size {per[-1]:.2f} us)")
     print(f"load average: {_load()}")
+
+
+def w1_child(n: int) -> None:
+    sp, sc = cube_grid(n)
+    cp, cc = icosphere(5)
+    lo, hi = boxes_of(sp, sc)
+    for call in ("cold", "warm", "warm"):
+        r0, c0 = resource.getrusage(resource.RUSAGE_SELF), time.process_time()
+        R = refine(cp, cc, lo, hi)
+        c1, r1 = time.process_time(), resource.getrusage(resource.RUSAGE_SELF)
+        print(f"W1 n={n} ({len(sc)} tets) {call}: cpu {c1 - c0:.3f} s (user "
+              f"{r1.ru_utime - r0.ru_utime:.3f}, sys {r1.ru_stime - r0.ru_stime:.3f}), "
+              f"{len(cc)} -> {len(R.cells)} cells in {R.rounds} rounds, load {_load()}",
+              flush=True)
 
 
 def _load() -> str:

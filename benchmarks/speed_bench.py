@@ -149,7 +149,7 @@ class _RSS:
 
 
 #: timings measured inside another stage (``refine`` runs within ``setup``)
-NESTED = ("refine",)
+NESTED = ("refine", "plan_validate", "plan_boxes", "plan_scale", "plan_report")
 
 
 def _hwm_mib():

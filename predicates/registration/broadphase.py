@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .blocks import SERIAL, Blocks
 from .boxes import boxes_of
 from .gridsums import any_in as _any_in, occupancy as _occupancy
 
@@ -57,12 +58,19 @@ def box_pairs_bruteforce(lo_a, hi_a, lo_b, hi_b, pad):
     return ia, ib
 
 
-def _cell_index(x, origin, h, G):
-    """Cell of each coordinate, clipped to the grid (int32: G ≤ 2^20 + 1 per axis)."""
-    with np.errstate(all="ignore"):
-        i = np.floor((x - origin) / h)
-    np.clip(i, 0, G - 1, out=i)
-    return i.astype(np.int32)
+def _cell_index(x, origin, h, G, blocks: Blocks = SERIAL):
+    """Cell of each coordinate, clipped to the grid (int32: G ≤ 2^20 + 1 per axis);
+    block by block (the float temporaries stay cache-sized)."""
+    out = np.empty(x.shape, dtype=np.int32)
+
+    def index(a: int, b: int) -> None:
+        with np.errstate(all="ignore"):
+            i = np.floor((x[a:b] - origin) / h)
+        np.clip(i, 0, G - 1, out=i)
+        out[a:b] = i
+
+    blocks.rows(index, len(x))
+    return out
 
 
 def _linear(idx, G):
@@ -134,32 +142,45 @@ def _colmax(x):
     return np.array([x[:, ax].max() for ax in range(x.shape[1])])
 
 
-def _mean_extent(lo, hi, cap=np.inf):
+def _mean_extent(lo, hi, cap=np.inf, blocks: Blocks = SERIAL):
     """The largest per-axis mean box extent (extents capped at ``cap``): a cell size.
     The extents are summed in sorted order, so the grid, and with it every flag and
-    pair, does not depend on the order of the boxes (e.g. of the cells in the file)."""
+    pair, does not depend on the order of the boxes (e.g. of the cells in the file).
+    The axes' sorts run concurrently on a pool."""
     if len(lo) == 0:
         return 0.0
-    return max(float(np.sort(np.minimum(hi[:, ax] - lo[:, ax], cap)).mean())
-               for ax in range(lo.shape[1]))
+
+    def axis(ax: int) -> float:
+        return float(np.sort(np.minimum(hi[:, ax] - lo[:, ax], cap)).mean())
+
+    return max(f.result() for f in [blocks.submit(axis, ax) for ax in range(lo.shape[1])])
 
 
-def _fit(lo_a, hi_a, lo_bx, hi_bx, origin, top, h, budget):
+def _fit(lo_a, hi_a, lo_bx, hi_bx, origin, top, h, budget, blocks: Blocks = SERIAL):
     """Grid over [origin, top] with cell size h, doubled until the boxes cover at most
     ``budget`` cells: (G, h, ia0, ia1, ib0, ib1)."""
     while True:
         G = (np.floor((top - origin) / h).astype(np.int64) + 1).clip(1, (1 << _BITS) + 1)
-        ia0, ia1 = _cell_index(lo_a, origin, h, G), _cell_index(hi_a, origin, h, G)
+        ia0, ia1 = (_cell_index(x, origin, h, G, blocks) for x in (lo_a, hi_a))
         ib0, ib1 = _cell_index(lo_bx, origin, h, G), _cell_index(hi_bx, origin, h, G)
-        total = _ncells(ia0, ia1).sum() + _ncells(ib0, ib1).sum()
+        total = _covered(ia0, ia1, blocks) + _ncells(ib0, ib1).sum()
         if total <= budget or np.all(G == 1):
             return G, h, ia0, ia1, ib0, ib1
         h *= 2
 
 
-def _grid(lo_a, hi_a, lo_b, hi_b, pad):
+def _covered(i0, i1, blocks: Blocks = SERIAL) -> int:
+    """Σ cells covered by the boxes (:func:`_ncells`), block by block."""
+    def span(a: int, b: int) -> int:
+        return sum(int(_ncells(i0[lo:hi], i1[lo:hi]).sum()) for lo, hi in blocks.each(a, b))
+
+    return sum(blocks.map(span, len(i0)))
+
+
+def _grid(lo_a, hi_a, lo_b, hi_b, pad, blocks: Blocks = SERIAL):
     """The top grid: b boxes enlarged by pad (outwards), cell size, per-box cell ranges:
-    (lo_bx, hi_bx, origin, G, h, ia0, ia1, ib0, ib1)."""
+    (lo_bx, hi_bx, origin, G, h, ia0, ia1, ib0, ib1). ``blocks``: how the passes over
+    the a boxes (the many: the simulation cells) run; the same values either way."""
     na, nb = len(lo_a), len(lo_b)
     lo_bx, hi_bx = _enlarge(lo_b, hi_b, pad)
     origin = np.minimum(_colmin(lo_a), _colmin(lo_bx))
@@ -169,11 +190,12 @@ def _grid(lo_a, hi_a, lo_b, hi_b, pad):
     if not np.isfinite(span):
         raise ValueError("coordinates too large for the broad phase (their range "
                          "overflows the floating-point format)")
-    h = max(_mean_extent(lo_a, hi_a), _mean_extent(lo_bx, hi_bx))
+    h = max(_mean_extent(lo_a, hi_a, blocks=blocks), _mean_extent(lo_bx, hi_bx))
     if h <= 0:
         h = span / max(1.0, (na + nb) ** (1 / lo_a.shape[1]))
     h = max(h, span * 2.0 ** -_BITS, np.finfo(np.float64).tiny)
-    G, h, *ranges = _fit(lo_a, hi_a, lo_bx, hi_bx, origin, top, h, 16 * (na + nb) + (1 << 20))
+    G, h, *ranges = _fit(lo_a, hi_a, lo_bx, hi_bx, origin, top, h, 16 * (na + nb) + (1 << 20),
+                         blocks)
     return (lo_bx, hi_bx, origin, G, h, *ranges)
 
 
@@ -186,7 +208,8 @@ def _occupied(keys, other, G):
     return np.isin(keys, other, kind="sort")
 
 
-def near_flags(lo_a, hi_a, lo_b, hi_b, pad: float, *, sides: str = "ab"):
+def near_flags(lo_a, hi_a, lo_b, hi_b, pad: float, *, sides: str = "ab",
+               blocks: Blocks = SERIAL):
     """(near_a, near_b): boolean masks, a superset of the boxes that have a partner
     within ``pad`` (same test as :func:`box_pairs`): a box is flagged when it shares a
     grid cell with a box of the other set (b boxes enlarged by pad). Cheaper than
@@ -195,7 +218,9 @@ def near_flags(lo_a, hi_a, lo_b, hi_b, pad: float, *, sides: str = "ab"):
     table of the other side's occupancy), so the cost is O(2^d·(n_a + n_b) + cells).
     ``sides``: "a" or "b" computes only that side's flags (the other is None) and
     skips the occupancy it would need — the same flags, a pass over the many boxes
-    saved (e.g. refinement only asks which simulation cells are near)."""
+    saved (e.g. refinement only asks which simulation cells are near). ``blocks``: how
+    the passes over the a boxes run (:mod:`~predicates.registration.blocks`: block by
+    block, on a pool in a partitioned run's plan); the flags are the same."""
     if sides not in ("ab", "a", "b"):
         raise ValueError(f"sides must be 'ab', 'a' or 'b', got {sides!r}")
     lo_a, hi_a, lo_b, hi_b = (np.asarray(x, dtype=np.float64) for x in (lo_a, hi_a, lo_b, hi_b))
@@ -203,12 +228,12 @@ def near_flags(lo_a, hi_a, lo_b, hi_b, pad: float, *, sides: str = "ab"):
     near_b = np.zeros(len(lo_b), dtype=bool) if "b" in sides else None
     if len(lo_a) == 0 or len(lo_b) == 0:
         return near_a, near_b
-    _, _, _, G, _, ia0, ia1, ib0, ib1 = _grid(lo_a, hi_a, lo_b, hi_b, pad)
+    _, _, _, G, _, ia0, ia1, ib0, ib1 = _grid(lo_a, hi_a, lo_b, hi_b, pad, blocks)
     if _dense(G + 1, len(lo_a) + len(lo_b)):
         if "a" in sides:
-            near_a = _any_in(_occupancy(ib0, ib1, G), ia0, ia1, G)
+            near_a = _any_in(_occupancy(ib0, ib1, G), ia0, ia1, G, blocks)
         if "b" in sides:
-            near_b = _any_in(_occupancy(ia0, ia1, G), ib0, ib1, G)
+            near_b = _any_in(_occupancy(ia0, ia1, G, blocks), ib0, ib1, G)
         return near_a, near_b
     box_a, key_a, _ = _entries(ia0, ia1, G)
     box_b, key_b, _ = _entries(ib0, ib1, G)

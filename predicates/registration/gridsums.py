@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .blocks import SERIAL, Blocks
+
 __all__ = ["any_in", "coverage", "occupancy"]
 
 
@@ -27,37 +29,55 @@ def _corners(i0, i1, G):
         yield key, (-1) ** (d - bin(pick).count("1"))
 
 
-def coverage(i0, i1, G):
+def coverage(i0, i1, G, blocks: Blocks = SERIAL):
     """How many boxes cover each cell, as a C-order int64 array of shape reversed(G + 1)
-    (axis 0 of the boxes is the last, fastest axis), last row of every axis unused."""
+    (axis 0 of the boxes is the last, fastest axis), last row of every axis unused.
+    Block by block (``np.add.at`` of ±1 at each box's corners into one difference array
+    per span; the spans' arrays are summed: integers, exact)."""
     size = int(np.prod(G + 1))
-    diff = np.zeros(size, dtype=np.int64)
-    for key, sign in _corners(i0, i1, G):
-        diff += (-sign if len(G) % 2 else sign) * np.bincount(key, minlength=size)
+    flip = len(G) % 2
+
+    def span(a: int, b: int) -> np.ndarray:
+        diff = np.zeros(size, dtype=np.int64)
+        for lo, hi in blocks.each(a, b):
+            for key, sign in _corners(i0[lo:hi], i1[lo:hi], G):
+                np.add.at(diff, key, -sign if flip else sign)
+        return diff
+
+    parts = blocks.map(span, len(i0))
+    diff = parts[0]
+    for p in parts[1:]:
+        diff += p
     cover = diff.reshape(tuple((G + 1)[::-1]))
     for ax in range(cover.ndim):
         np.cumsum(cover, axis=ax, out=cover)
     return cover
 
 
-def occupancy(i0, i1, G):
+def occupancy(i0, i1, G, blocks: Blocks = SERIAL):
     """Cells covered by at least one box (:func:`coverage` > 0)."""
-    return coverage(i0, i1, G) > 0
+    return coverage(i0, i1, G, blocks) > 0
 
 
-def any_in(occ, i0, i1, G):
+def any_in(occ, i0, i1, G, blocks: Blocks = SERIAL):
     """Per box: does its cell range [i0, i1] contain an occupied cell (summed-area
-    table of ``occ`` over the (G + 1)-grid, 2^d look-ups per box)."""
+    table of ``occ`` over the (G + 1)-grid, 2^d look-ups per box, block by block)."""
     S = np.zeros(tuple((G + 1)[::-1]), dtype=np.int32 if occ.size < 2 ** 31 else np.int64)
     inner = tuple(slice(1, None) for _ in range(occ.ndim))
     S[inner] = occ[tuple(slice(None, -1) for _ in range(occ.ndim))]
     for ax in range(S.ndim):
         np.cumsum(S, axis=ax, out=S)
     S = S.ravel()
-    count = np.zeros(len(i0), dtype=S.dtype)
-    for key, sign in _corners(i0, i1, G):
-        if sign > 0:
-            count += S[key]
-        else:
-            count -= S[key]
-    return count > 0
+    out = np.empty(len(i0), dtype=bool)
+
+    def look(lo: int, hi: int) -> None:
+        count = np.zeros(hi - lo, dtype=S.dtype)
+        for key, sign in _corners(i0[lo:hi], i1[lo:hi], G):
+            if sign > 0:
+                count += S.take(key)
+            else:
+                count -= S.take(key)
+        np.greater(count, 0, out=out[lo:hi])
+
+    blocks.rows(look, len(i0))
+    return out

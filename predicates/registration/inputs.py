@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .blocks import SERIAL, Blocks
 from .broadphase import boxes_of
 
 __all__ = ["Arrays", "MeshInput", "from_meshio", "max_box_edge", "mesh_arrays",
@@ -59,7 +60,7 @@ def _points(arr, used, role, dtype):
     return out, rounded
 
 
-def _cells(cells, role, width, n_points, what):
+def _cells(cells, role, width, n_points, what, blocks: Blocks = SERIAL):
     name = f"{role} cells"
     try:
         arr = np.asarray(cells)
@@ -71,27 +72,43 @@ def _cells(cells, role, width, n_points, what):
         raise TypeError(f"{name} must be integer vertex indices, got dtype {arr.dtype}")
     if arr.ndim != 2 or arr.shape[1] != width:
         raise ValueError(f"{name} must have shape (M, {width}) ({what}), got {arr.shape}")
-    if arr.size:
-        if arr.dtype.kind == "i" and arr.min() < 0:
-            i = int(np.argwhere(arr < 0)[0, 0])
-            raise ValueError(f"{name}: negative vertex index in cell {i}: {arr[i].tolist()}")
-        if arr.max() >= n_points:
-            i = int(np.argwhere(arr >= n_points)[0, 0])
-            raise ValueError(f"{name}: vertex index out of range in cell {i}: "
-                             f"{arr[i].tolist()} (the mesh has {n_points} points)")
-    arr = arr.astype(np.int64)
-    cols = [np.ascontiguousarray(arr[:, a]) for a in range(width)]
-    rep = np.zeros(len(arr), dtype=bool)  # column pairs: ~6x faster than a row sort
-    for a in range(width):
-        for b in range(a + 1, width):
-            rep |= cols[a] == cols[b]
-    if rep.any():
-        i = int(np.argmax(rep))
-        raise ValueError(f"{name}: cell {i} repeats a vertex: {arr[i].tolist()}")
-    return arr
+    if arr.dtype.kind == "u" and arr.size and arr.max() >= n_points:  # before int64 casts
+        i = int(np.argwhere(arr >= n_points)[0, 0])
+        raise ValueError(f"{name}: vertex index out of range in cell {i}: "
+                         f"{arr[i].tolist()} (the mesh has {n_points} points)")
+    out = np.empty(arr.shape, dtype=np.int64)
+
+    def span(a: int, b: int) -> list:
+        """First negative, out-of-range and repeating cell of the span (None: none)."""
+        first = [None, None, None]
+        for lo, hi in blocks.each(a, b):
+            blk = out[lo:hi]
+            blk[...] = arr[lo:hi]
+            cols = [np.ascontiguousarray(blk[:, c]) for c in range(width)]
+            rep = np.zeros(hi - lo, dtype=bool)  # column pairs: ~6x faster than a row sort
+            for c in range(width):
+                for d in range(c + 1, width):
+                    rep |= cols[c] == cols[d]
+            bad = (blk.min(axis=1) < 0, blk.max(axis=1) >= n_points, rep)
+            for t in range(3):
+                if first[t] is None and bad[t].any():
+                    first[t] = lo + int(np.argmax(bad[t]))
+        return first
+
+    found = blocks.map(span, len(arr)) if arr.size else []
+    msgs = (f"{name}: negative vertex index in cell {{i}}: {{row}}",
+            f"{name}: vertex index out of range in cell {{i}}: {{row}} (the mesh has "
+            f"{n_points} points)",
+            f"{name}: cell {{i}} repeats a vertex: {{row}}")
+    for t, msg in enumerate(msgs):  # the checks in this order, each at its first cell
+        hits = [f[t] for f in found if f[t] is not None]
+        if hits:
+            i = min(hits)
+            raise ValueError(msg.format(i=i, row=arr[i].tolist()))
+    return out
 
 
-def validate_mesh(points, cells, role, dim, dtype, allow_empty):
+def validate_mesh(points, cells, role, dim, dtype, allow_empty, blocks: Blocks = SERIAL):
     """Check one mesh; returns a :class:`MeshInput` in the working ``dtype``."""
     arr = _array(points, role)
     if arr.shape[1] != dim:
@@ -100,7 +117,7 @@ def validate_mesh(points, cells, role, dim, dtype, allow_empty):
     k = dim + 1 if role == "simulation" else dim
     what = {(2, 3): "triangles", (2, 2): "segments", (3, 4): "tetrahedra",
             (3, 3): "triangles"}[dim, k]
-    c = _cells(cells, role, k, len(arr), f"{what} of a {dim}D {role} mesh")
+    c = _cells(cells, role, k, len(arr), f"{what} of a {dim}D {role} mesh", blocks)
     if len(c) == 0 and not allow_empty:
         raise ValueError(f"the {role} mesh is empty (0 cells)")
     used = np.zeros(len(arr), dtype=bool)
@@ -109,8 +126,10 @@ def validate_mesh(points, cells, role, dim, dtype, allow_empty):
     return MeshInput(pts, c, role, rounded)
 
 
-def validate_pair(sim_points, sim_cells, cut_points, cut_cells, dtype):
-    """Validate both meshes; the dimension is the simulation points' column count."""
+def validate_pair(sim_points, sim_cells, cut_points, cut_cells, dtype,
+                  blocks: Blocks = SERIAL):
+    """Validate both meshes; the dimension is the simulation points' column count.
+    ``blocks``: how the passes over the cells run (the same checks and messages)."""
     dtype = np.dtype(dtype)
     if dtype not in (np.dtype(np.float64), np.dtype(np.float32)):
         raise TypeError(f"dtype must be float64 or float32, not {dtype}")
@@ -118,8 +137,10 @@ def validate_pair(sim_points, sim_cells, cut_points, cut_cells, dtype):
     if sp.ndim != 2 or sp.shape[-1] not in (2, 3):
         _array(sim_points, "simulation")  # raises the right error
     dim = sp.shape[1]
-    sim = validate_mesh(sim_points, sim_cells, "simulation", dim, dtype, allow_empty=False)
-    cut = validate_mesh(cut_points, cut_cells, "cutting", dim, dtype, allow_empty=True)
+    sim = validate_mesh(sim_points, sim_cells, "simulation", dim, dtype, allow_empty=False,
+                        blocks=blocks)
+    cut = validate_mesh(cut_points, cut_cells, "cutting", dim, dtype, allow_empty=True,
+                        blocks=blocks)
     return dim, sim, cut
 
 

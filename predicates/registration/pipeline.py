@@ -187,17 +187,19 @@ def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, 
     dtype, ts = validate_options(dtype, tolerance_scale, progress, chunk)
     arrays = mesh_arrays(args, sim_region, cut_region)
     sp, sc, cp, cc = arrays
-    dim, sim, cut = validate_pair(sp, sc, cp, cc, dtype)
+    clock = _Stages(timings)
+    dim, sim, cut = validate_pair(sp, sc, cp, cc, dtype, work.blocks)
+    clock("plan_validate")
     sim_box = work.boxes(sim.points, sim.cells)  # once: the check, refine and L use it
     if _flat(sim_box) and _flat(work.boxes(cut.points, cut.cells)):
         raise ValueError("every cell of both meshes collapses to a single point (zero "
                          "bounding boxes): the tolerances would be zero")
     refinement = None
+    clock("plan_boxes")
     if refine_cut and len(cut.cells):
-        t = time.perf_counter()
         refinement = refine(cut.points, cut.cells, *sim_box)
         cut.points, cut.cells = refinement.points, refinement.cells
-        timings["refine"] = time.perf_counter() - t
+        clock("refine")
     cut_box = work.boxes(cut.points, cut.cells)
 
     # L over the cells that can meet, then the exact power-of-two scaling from it
@@ -205,10 +207,23 @@ def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, 
     P_sim = scale_points(sim.points, sc_.e, "simulation")
     P_cut = scale_points(cut.points, sc_.e, "cutting")
     tol_run = sc_.tol if ts == 1 else sc_.tol.scaled(dtype.type(ts))
+    clock("plan_scale")
     report = _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts, work)
+    clock("plan_report")
     ms, mc = sc_.masks
     return Plan(dim, dtype, sim, cut, sc_, P_sim, P_cut, sim.cells[ms], cut.cells[mc],
                 tol_run, ts, catalogue_kinds(dim), report, refinement, arrays)
+
+
+class _Stages:
+    """Wall seconds of the plan's consecutive stages into ``timings`` (inside "setup")."""
+
+    def __init__(self, timings: dict):
+        self.timings, self.t = timings, time.perf_counter()
+
+    def __call__(self, stage: str) -> None:
+        t = time.perf_counter()
+        self.timings[stage], self.t = t - self.t, t
 
 
 def _flat(box) -> bool:
@@ -236,7 +251,7 @@ def _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts,
                         cut_box[1][mc], sc_.pad)
     near_s, near_c = near_cells(sim_box, cut_box, sc_.pad, sc_.masks, work.flags)
     h_cut = work.submit(shortest_edge, cut.points, cut.cells, near_c)
-    h_sim = shortest_edge(sim.points, sim.cells, near_s)
+    h_sim = shortest_edge(sim.points, sim.cells, near_s, work.blocks)
     ref = None if refinement is None else (refinement.input_cells, len(refinement.cells),
                                            refinement.rounds)
     return Resolution(dim, dtype.name, t_plus(dim, sc_), h_sim, h_cut.result(), sc_.L_a,

@@ -16,8 +16,10 @@ tests only the edges it created, against one index over the simulation cells (an
 over their bins per size class) built once per run (:mod:`.refine_index`): a test is
 decided from summed-area counts of the boxes that certainly / possibly meet the query,
 a constant number of look-ups, and only the rare undecided ones look at boxes. The
-marks are exactly those of the pairwise test; the refinement is linear in the cells it
-creates (benchmarks/README.md, "Refinement").
+marks are exactly those of the pairwise test. The simulation mesh is read once, in
+blocks (:mod:`.refine_scan`: box-edge statistics and the cells near the cut), and the
+indexes hold only cells that can matter: a run costs that pass plus O(cells created +
+cells near the cut) (benchmarks/README.md, "Refinement"; issue 12).
 
 Midpoints are 0.5·a + 0.5·b in binary64, then rounded to the working dtype: the refined
 surface lies within one rounding of the input surface, and the guarantees of the paper
@@ -39,9 +41,9 @@ import numpy as np
 from fperr.warnings import ResolutionError
 
 from .boxes import box_extent, boxes_of
-from .broadphase import near_flags
 from .complex import unique_rows
 from .refine_index import LevelIndex
+from .refine_scan import points_near, scan_cells
 
 __all__ = ["MAX_CELLS", "Refinement", "refine"]
 
@@ -109,7 +111,7 @@ def refine(points: np.ndarray, cells: np.ndarray, sim_lo: np.ndarray, sim_hi: np
     C = cells.astype(np.int64, copy=True)
     origin = np.arange(len(C), dtype=np.int64)
     B = np.broadcast_to(np.eye(k), (len(C), k, k)).copy()
-    sim = _SimScale(sim_lo, sim_hi, _reach(P, C))
+    sim = _SimScale(sim_lo, sim_hi, *_reach(P, C)) if len(C) else None
     known = np.zeros(0, dtype=np.int64)  # keys of edges already tested (unmarked)
     rounds = 0
     while len(C):
@@ -160,21 +162,32 @@ class _SimScale:
 
     Each set of boxes (the cells, or the bins of one class) gets ONE
     :class:`~.refine_index.LevelIndex` per run, queried each round with the new edges
-    only: a round costs O(its new edges), not a pass over every simulation cell."""
+    only: a round costs O(its new edges), not a pass over every simulation cell.
 
-    def __init__(self, lo, hi, reach=None):
+    The whole mesh is read once (:func:`~.refine_scan.scan_cells`: box-edge statistics
+    and the cells near the reach boxes ``reach`` = (lo, hi) of the input cutting cells,
+    box edges ``cut_ext``); the cells' index and the bins hold only cells that can
+    matter, so the marks are those of all cells (:meth:`_binned`)."""
+
+    def __init__(self, lo, hi, reach, cut_ext):
         self.lo, self.hi = lo, hi
-        self.reach = reach  # boxes holding every query box (:func:`_reach`), or None
-        self.ext = box_extent(lo, hi) if len(lo) else np.zeros(0)
-        self.fine = float(np.median(self.ext)) if len(lo) else 0.0
-        self.mid = 0.5 * (lo + hi)  # the bins' key: the cells' box centres
+        self.reach, self.cut_ext = reach, cut_ext
+        # no query is longer than the longest input cutting cell's box edge
+        self.scan = scan_cells(lo, hi, reach, float(cut_ext.max()) if len(cut_ext) else 0.0)
+        self.n, self.fine = self.scan.n, self.scan.fine
+        self._cells = None  # (lo, hi, ext) of the cells near the reach boxes
+        self._bin_set = None  # (lo, hi, ext, mid) of the cells the bins are built from
         self._extremes = None  # min |centre| > 0, max |centre|: on demand (_exact)
         self._bins = {}
         self._index = {}
 
     def boxes(self, g: float):
         if g <= self.fine:
-            return self.lo, self.hi, self.ext
+            if self._cells is None:
+                near = self.scan.near
+                lo, hi = self.lo[near], self.hi[near]
+                self._cells = lo, hi, box_extent(lo, hi)
+            return self._cells
         if g not in self._bins:
             # classes come coarse first: bin the cells once, for the finest class that
             # uses bins (the smallest 4^c above fine: fine < 2^e), and derive the others
@@ -189,8 +202,8 @@ class _SimScale:
                 key0, lo0, hi0, ext0 = self._bins[finer]
                 key = np.floor(key0 / (g / finer))
             else:
-                key = np.floor(self.mid / g)
-                lo0, hi0, ext0 = self.lo, self.hi, self.ext
+                lo0, hi0, ext0, mid = self._binned()
+                key = np.floor(mid / g)
             # min / max are exact: grouping by a sort and reduceat gives the same boxes
             # as any other order of reduction
             u, order, starts = _group(key)
@@ -200,12 +213,36 @@ class _SimScale:
             self._bins[g] = (u, lo, hi, ext)
         return self._bins[g][1:]
 
+    def _binned(self):
+        """(lo, hi, ext, centre) of the cells every class's bins are built from: each
+        bin that can meet a query holds ALL its cells, so its box and largest edge are
+        those over the whole mesh (bins no query meets change no mark). A bin's cells'
+        centres c have equal floor(c/g), so |c − c'| < g (c/g is exact: g is a power of
+        two and g ≥ 2^-50·|c|, checked); one of them, c', has its box reaching the query
+        box Q on each side, so |c' − Q| ≤ E (E: the largest box edge of all cells) and
+        every centre lies within g + E of Q, hence of the reach box holding Q, with
+        g ≤ the input cutting cell's box edge (its edges' classes). Otherwise: all cells."""
+        if self._bin_set is None:
+            E, mag, fine = self.scan.ext_max, self.scan.mag, self.fine
+            g0 = math.ldexp(1.0, 2 * -(-math.frexp(fine)[1] // 2)) if fine > 0 else 0.0
+            pad = (self.cut_ext + E) * (1 + 2.0 ** -30)  # rounded up: the factor
+            with np.errstate(over="ignore", invalid="ignore"):
+                blo = np.nextafter(self.reach[0] - pad[:, None], -np.inf)
+                bhi = np.nextafter(self.reach[1] + pad[:, None], np.inf)
+            if g0 >= mag * 2.0 ** -50 and np.isfinite(blo).all() and np.isfinite(bhi).all():
+                ids = points_near(self.lo, self.hi, (blo, bhi))
+                lo, hi = self.lo[ids], self.hi[ids]
+            else:
+                lo, hi = self.lo, self.hi
+            self._bin_set = lo, hi, box_extent(lo, hi), 0.5 * (lo + hi)
+        return self._bin_set
+
     def _exact(self, f: float, g: float) -> bool:
         """Every centre / f and centre / g is exact (normal or zero, finite): scaling by
         a power of two then loses nothing, so the keys of g follow from those of f."""
         tiny = np.finfo(np.float64).tiny
         if self._extremes is None:
-            a = np.abs(self.mid)
+            a = np.abs(self._binned()[3])
             self._extremes = (float(a[a > 0].min()) if (a > 0).any() else np.inf,
                               float(a.max()) if a.size else 0.0)
         mmin, mmax = self._extremes
@@ -219,11 +256,6 @@ class _SimScale:
         name = "cells" if g <= self.fine else g
         if name not in self._index:
             lo, hi, ext = self.boxes(g)
-            if name == "cells" and self.reach is not None:
-                # only the cells some query box can meet: the same maxima, and an index
-                # over the cells near the cut rather than over the whole mesh
-                near = near_flags(lo, hi, *self.reach, 0.0, sides="a")[0]
-                lo, hi, ext = lo[near], hi[near], ext[near]
             self._index[name] = LevelIndex(lo, hi, ext) if len(lo) else None
         if self._index[name] is None:
             return np.zeros(len(qlo), dtype=bool)  # no box meets any query: thr = 0
@@ -235,13 +267,13 @@ def _reach(P, C):
     edge refinement can make inside it: midpoints stay in their edge's box (rounding is
     monotone), so an edge's box lies in its cell's box and its box edge is at most the
     cell's; lo − ext and hi + ext are then bounded by the cell's (monotone rounding),
-    widened by one ulp and 2^-1000 for halvings of subnormal coordinates."""
-    if len(C) == 0:
-        return None
+    widened by one ulp and 2^-1000 for halvings of subnormal coordinates. Returns
+    ((lo, hi), the cells' box edges)."""
     lo, hi = boxes_of(P, C)
-    ext = box_extent(lo, hi)[:, None]
+    ext = box_extent(lo, hi)
     tiny = math.ldexp(1.0, -1000)
-    return (np.nextafter(lo - ext, -np.inf) - tiny, np.nextafter(hi + ext, np.inf) + tiny)
+    e = ext[:, None]
+    return (np.nextafter(lo - e, -np.inf) - tiny, np.nextafter(hi + e, np.inf) + tiny), ext
 
 
 def _group(key):
@@ -269,7 +301,7 @@ def _too_long(P, E, sim):
     """Marks: box edge of each edge > largest box edge of the simulation cells meeting
     the edge's box enlarged by its own box edge (heuristic scale; soundness comes from
     the L computed afterwards, not from here)."""
-    if len(E) == 0 or len(sim.lo) == 0:
+    if len(E) == 0 or sim.n == 0:
         return np.zeros(len(E), dtype=bool)
     lo, hi = boxes_of(P, E)
     ext = box_extent(lo, hi)
@@ -278,7 +310,7 @@ def _too_long(P, E, sim):
     # the largest of its cells') is at least the smallest cell box edge: edges no longer
     # than that are never marked, so only the others are queried (same marks; a cutting
     # mesh already as fine as the simulation mesh costs one pass)
-    todo = np.flatnonzero(ext > sim.ext.min())
+    todo = np.flatnonzero(ext > sim.scan.ext_min)
     if todo.size == 0:
         return marked
     lo, hi, ext = lo[todo] - ext[todo, None], hi[todo] + ext[todo, None], ext[todo]

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .boxes import box_extent
 from .broadphase import cell_entries
 
 __all__ = ["LevelIndex", "max_over_bruteforce"]
@@ -52,21 +53,29 @@ def max_over_bruteforce(lo, hi, val, qlo, qhi) -> np.ndarray:
     return out
 
 
+def _cols(red, x) -> np.ndarray:
+    """red(x, axis=0) column by column (min / max: exact, the same values; several
+    times faster than a reduction over axis 0 of an (n, d) array)."""
+    return np.array([red(x[:, ax]) for ax in range(x.shape[1])])
+
+
 class _Level:
     """The boxes of one level: sorted by the linear key of their lower corner's cell,
     the start of each cell's run (CSR) and a summed-area table of the counts."""
 
     def __init__(self, lo, hi, val, ids, h: float, per_box: int):
-        self.lo, self.hi, self.val = lo[ids], hi[ids], val[ids]
+        if len(ids) == len(lo):  # one level: no copy before the sort below
+            self.lo, self.hi, self.val = lo, hi, val
+        else:
+            self.lo, self.hi, self.val = lo[ids], hi[ids], val[ids]
         self.h = h
         self.vmin, self.vmax = float(self.val.min()), float(self.val.max())
         d = lo.shape[1]
         # exact hi − lo ≥ nextafter(fl(hi − lo), 0) (round to nearest): a lower bound
-        m = (self.hi - self.lo).min(axis=0)
+        m = np.array([(self.hi[:, ax] - self.lo[:, ax]).min() for ax in range(d)])
         self.m = np.where(m > 0, np.nextafter(m, 0.0), 0.0)
-        self.o = self.lo.min(axis=0)
-        top = self.lo.max(axis=0)
-        self.lomax, self.himin, self.himax = top, self.hi.min(axis=0), self.hi.max(axis=0)
+        self.o, top = _cols(np.min, self.lo), _cols(np.max, self.lo)
+        self.lomax, self.himin, self.himax = top, _cols(np.min, self.hi), _cols(np.max, self.hi)
         hg = h / 2
         while True:
             self.hg = hg
@@ -198,8 +207,8 @@ class LevelIndex:
         self.levels: list[_Level] = []
         if len(lo) == 0:
             return
-        ext = (hi - lo).max(axis=1)
-        span = float((hi.max(axis=0) - lo.min(axis=0)).max())
+        ext = box_extent(lo, hi)  # column by column: the same values as (hi - lo).max(1)
+        span = float((_cols(np.max, hi) - _cols(np.min, lo)).max())
         if not np.isfinite(ext).all() or not np.isfinite(span):
             raise ValueError("LevelIndex: box extents overflow binary64; rescale the input")
         emin = int(np.frexp(max(span * 2.0 ** -_BITS, np.finfo(np.float64).tiny))[1])

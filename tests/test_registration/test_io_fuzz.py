@@ -15,7 +15,6 @@ import sys
 from concurrent.futures import ThreadPoolExecutor
 
 import meshio
-import numpy as np
 import pytest
 
 from predicates.registration.examples import example

@@ -456,7 +456,7 @@ def test_threaded_plan_equals_the_serial_plan(name, min_chunk, rotate, monkeypat
     (plan_threads): every field equals the serial plan's, bit for bit — with chunks of a
     few cells (MIN_CHUNK lowered: many chunks, uneven ends) on the small cases, and
     with the default chunking on a W1-like cube (82,944 tetrahedra × sphere)."""
-    from predicates.registration import pipeline, plan_threads
+    from predicates.registration import blocks, pipeline
     from predicates.registration.examples import cube_grid, icosphere
 
     if name == "w1":
@@ -466,8 +466,9 @@ def test_threaded_plan_equals_the_serial_plan(name, min_chunk, rotate, monkeypat
     else:
         sp, sc, cp, cc = CASES[name](rotate)
     if min_chunk is not None:
-        monkeypatch.setattr(plan_threads, "MIN_CHUNK", min_chunk)
-    assert len(plan_threads._bounds(len(sc), 3)) > 1  # the threaded code really runs
+        monkeypatch.setattr(blocks, "MIN_SPAN", min_chunk)
+        monkeypatch.setattr(blocks, "BLOCK", 2 * min_chunk)
+    assert len(blocks.Blocks(object(), 3).spans(len(sc))) > 1  # the threaded code runs
     args = ((sp, sc, cp, cc), np.float64, 1.0, False, pipeline.CHUNK, True)
     ref = pipeline._plan(*args, {}, None, None)
     for threads in (2, 3):
@@ -478,28 +479,32 @@ def test_threaded_plan_equals_the_serial_plan(name, min_chunk, rotate, monkeypat
 @given(st.integers(0, 2**32 - 1), st.sampled_from([2, 3]), st.integers(1, 5),
        st.floats(0, 0.3))
 def test_threaded_boxes_and_flags_equal_the_serial_ones(seed, dim, parts, pad):
-    """plan_threads.boxes / near_flags on random simplices (chunks of 4 cells):
-    bit-identical boxes and identical flags to broadphase's, for any number of chunks."""
+    """boxes_of / near_flags on random simplices in blocks of 3 rows, on one span or on
+    a thread pool: bit-identical boxes and identical flags to the whole-array ones
+    (one block), for any number of spans."""
     from concurrent.futures import ThreadPoolExecutor
 
-    from predicates.registration import broadphase, plan_threads
+    from predicates.registration import blocks, broadphase
 
     rng = np.random.default_rng(seed)
     P = rng.uniform(-1, 1, size=(60, dim))
     A = rng.integers(0, 60, size=(rng.integers(1, 40), dim + 1))
     Bc = rng.integers(0, 60, size=(rng.integers(1, 20), dim))
-    old, plan_threads.MIN_CHUNK = plan_threads.MIN_CHUNK, 4
+    whole = blocks.Blocks(block=1 << 30)
+    old = blocks.MIN_SPAN
+    blocks.MIN_SPAN = 4
     try:
         with ThreadPoolExecutor(2) as pool:
-            ra, rb = broadphase.boxes_of(P, A), broadphase.boxes_of(P, Bc)
-            ta = plan_threads.boxes(P, A, pool, parts)
-            for x, y in zip(ra, ta):
-                assert x.tobytes() == y.tobytes() and x.strides == y.strides
-            ref = broadphase.near_flags(*ra, *rb, pad)
-            got = plan_threads.near_flags(*ta, *rb, pad, pool=pool, parts=parts)
+            ra, rb = broadphase.boxes_of(P, A, whole), broadphase.boxes_of(P, Bc, whole)
+            ref = broadphase.near_flags(*ra, *rb, pad, blocks=whole)
+            for bl in (blocks.Blocks(block=3), blocks.Blocks(pool, parts, block=3)):
+                ta = broadphase.boxes_of(P, A, bl)
+                for x, y in zip(ra, ta):
+                    assert x.tobytes() == y.tobytes() and x.strides == y.strides
+                got = broadphase.near_flags(*ta, *rb, pad, blocks=bl)
+                assert np.array_equal(ref[0], got[0]) and np.array_equal(ref[1], got[1])
     finally:
-        plan_threads.MIN_CHUNK = old
-    assert np.array_equal(ref[0], got[0]) and np.array_equal(ref[1], got[1])
+        blocks.MIN_SPAN = old
 
 
 # -- the split's and merge's fast forms against their reference forms, and the local
