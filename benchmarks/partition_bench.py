@@ -17,7 +17,9 @@ wall time on a shared machine measures the other sessions as much as this code â
 CPU critical path: the client's serial CPU (plan, split, merge: ``res.timings``
 "cpu_*") plus the busiest worker's task CPU (thread CPU of its tasks), against the
 serial run's CPU. Per partition: cells received (own + halo), cutting cells, bytes sent
-to the worker and back, task wall and CPU seconds, the worker process's peak RSS.
+to the worker and back, task wall and CPU seconds, the worker process's peak RSS; and the
+timeline (median over the runs): when the first and last tasks start after the plan,
+and how long after the last task ends the result is back.
 Every partitioned result is checked against the serial one (SHA-256 of every pair and
 weight array, per kind).
 """
@@ -61,10 +63,16 @@ def child(mode: str, n: int, subdivisions: int, workers: int, k: int, reps: int,
     limit = None if memory_gib is None else int(memory_gib * 2**30)
 
     def timed(**kw):
-        t, c = time.perf_counter(), time.process_time()
+        t, c, t0 = time.perf_counter(), time.process_time(), time.time()
         res = predicates.intersect(sp, sc, cp, cc, refine_cut=refine_cut, **kw,
                                    memory_limit=limit)
         out["runs"].append(time.perf_counter() - t)
+        if "partitions" in res.timings:  # the timeline: when tasks start and end
+            tm, end = res.timings, t0 + out["runs"][-1]
+            for key, v in (("first_start", min(p["t_begin"] for p in tm["partitions"])),
+                           ("last_start", max(p["t_begin"] for p in tm["partitions"]))):
+                out.setdefault(key, []).append(v - t0 - tm["setup"])  # after the plan
+            out.setdefault("tail", []).append(end - max(p["t_end"] for p in tm["partitions"]))
         out["cpu"].append(time.process_time() - c)  # the client process: every thread
         out["loads"].append(load1())
         return res
@@ -130,7 +138,8 @@ def _best(old, new):
     assert old["digest"] == new["digest"]
     lists = {key: old[key] + new[key] for key in ("runs", "cpu", "loads", "task_cpu",
                                                   "critical_cpu", "client_serial_cpu",
-                                                  "dask_client_cpu") if key in old}
+                                                  "dask_client_cpu", "first_start",
+                                                  "last_start", "tail") if key in old}
     return {**keep, **lists, "best_s": min(lists["runs"])}
 
 
@@ -167,6 +176,16 @@ def report(serial, parts) -> str:
                      f"{'yes' if p['digest'] == serial['digest'] else 'NO'} | "
                      f"{p['split_s']:.2f} | {p['merge_s']:.2f} | "
                      f"{p['client_peak_rss_mib']:.0f} |")
+    lines += ["", "Timeline (ms, median over the runs): tasks start after the plan ends "
+              "(split, submission, Dask's dispatch), and the results are merged after the "
+              "last task ends (Dask's notification, result transfer, merge).", "",
+              "| partitions | first task starts | last task starts | last task end â†’ "
+              "result |", "|---:|---:|---:|---:|"]
+    for p in parts:
+        med = {key: 1e3 * float(np.median(p[key])) for key in ("first_start", "last_start",
+                                                               "tail")}
+        lines.append(f"| {len(p['partitions'])} | {med['first_start']:.0f} | "
+                     f"{med['last_start']:.0f} | {med['tail']:.0f} |")
     for p in parts:
         lines += ["", f"{len(p['partitions'])} partitions (last run):", "",
                   "| part | owned cells | cells received | cutting cells | MB sent | "

@@ -64,17 +64,27 @@ def _client(scheduler):
                     f"{type(scheduler).__name__}")
 
 
+#: The local workers' malloc: temporaries come from the heap and stay mapped (no fresh,
+#: zero-filled pages per numpy temporary; distributed's default MALLOC_TRIM_THRESHOLD_
+#: = 65536 made every large temporary a new mmap: 11 s instead of 7 s per W1 partition at
+#: n = 96). Arrays above 256 MiB are still mmapped and returned at once, and at most
+#: 1 GiB of free heap is kept, so a worker's RSS stays near its peak, not above it.
+WORKER_ENV = {"MALLOC_TRIM_THRESHOLD_": str(1 << 30), "MALLOC_MMAP_THRESHOLD_": str(1 << 28)}
+
+
 @contextlib.contextmanager
 def client_for(workers: int | None = None, address: str | None = None):
     """A ``dask.distributed.Client``: connected to the scheduler at ``address``, or to a
     new local cluster of ``workers`` single-threaded worker processes (closed on exit).
-    The local workers run without distributed's default ``MALLOC_TRIM_THRESHOLD_=65536``,
-    which made every large numpy temporary a fresh mmap (measured: 11 s instead of 7 s
-    per W1 partition)."""
+    The local workers run with :data:`WORKER_ENV` and without distributed's statistical
+    profiler (a thread taking the GIL every 10 ms in the middle of the task), and each
+    starts importing the registration at once (:func:`_warm`): the imports overlap the
+    client's reading and planning instead of delaying the first task (when the first
+    run follows at once they cost the same either way)."""
     _dask()
     try:
         import dask
-        from distributed import Client, LocalCluster
+        from distributed import Client, LocalCluster, wait
     except ImportError:
         raise DaskMissingError("--workers/--scheduler need dask.distributed: pip install "
                                "'fperr[dask]'") from None
@@ -84,11 +94,46 @@ def client_for(workers: int | None = None, address: str | None = None):
         return
     if workers is None or workers < 1:
         raise ValueError(f"workers must be at least 1, got {workers}")
-    key = "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_"
-    with dask.config.set({key: None}), \
-            LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                         dashboard_address=None) as cluster, Client(cluster) as client:
+    with dask.config.set({"distributed.worker.profile.enabled": False}):
+        # the nannies give the workers os.environ over their pre-spawn-environ config
+        # (and write that config into os.environ for good: a default LocalCluster
+        # started earlier in this process would impose MALLOC_TRIM_THRESHOLD_=65536);
+        # so WORKER_ENV goes through os.environ, restored once the workers are spawned
+        with _environ(WORKER_ENV):
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=1,
+                                   processes=True, dashboard_address=None)
+    with cluster, Client(cluster) as client:
+        # not waited for: the workers import while the client reads and plans (kept
+        # referenced, or the scheduler would drop them unrun)
+        warm = [client.submit(_warm, pure=False, workers=[w], allow_other_workers=False)
+                for w in client.scheduler_info()["workers"]]
         yield client
+        # closing the cluster under a running import logs a cancelled-task warning
+        with contextlib.suppress(TimeoutError):
+            wait(warm, timeout=30)
+
+
+@contextlib.contextmanager
+def _environ(values: dict):
+    """``os.environ`` updated with ``values`` inside the block, as it was after."""
+    old = {key: os.environ.get(key) for key in values}
+    os.environ.update(values)
+    try:
+        yield
+    finally:
+        for key, value in old.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
+
+
+def _warm() -> bool:
+    """A worker's first task: import the registration (~0.4 s CPU), which the first
+    partition's task would otherwise pay when it is unpickled."""
+    from . import levels, partition  # noqa: F401  (the imports are the point)
+
+    return True
 
 
 def _slots(client, scheduler) -> int:
@@ -112,8 +157,12 @@ def _count(partitions, client, n_cells: int) -> int:
 
 def run_part(part: Part, dim: int, tol, reach: dict, chunk: int) -> tuple[dict, dict]:
     """One Dask task: the serial levels on the partition's slice; returns its owned
-    pairs (global ids) and statistics (time, peak RSS of the worker process, bytes)."""
-    t, cpu = time.perf_counter(), time.thread_time()
+    pairs (global ids) and statistics (time, peak RSS of the worker process, bytes; for
+    the timeline and the worker's overheads: wall-clock start and end ``t_begin``,
+    ``t_end``, the process's CPU ``proc_cpu`` and the thread's voluntary and involuntary
+    context switches, minor and major page faults ``ctx``)."""
+    t, cpu, t0 = time.perf_counter(), time.thread_time(), time.time()
+    r0, p0 = resource.getrusage(resource.RUSAGE_THREAD), time.process_time()
     reg = Registration(dim, part.P_sim, part.sim_cells, part.P_cut, part.cut_cells, tol,
                        reach, chunk)
     pairs = owned(part, reg.run(False, {}))
@@ -123,9 +172,18 @@ def run_part(part: Part, dim: int, tol, reach: dict, chunk: int) -> tuple[dict, 
              "sim_cells": len(part.sim_cells), "cut_cells": len(part.cut_cells),
              "bytes_in": part.nbytes, "bytes_out": sent_back,
              "seconds": time.perf_counter() - t, "cpu_s": time.thread_time() - cpu,
-             "pid": os.getpid(),
+             "pid": os.getpid(), "t_begin": t0, "t_end": time.time(),
+             "proc_cpu": time.process_time() - p0, "ctx": _thread_counts(r0),
              "peak_rss_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
     return pairs, stats
+
+
+def _thread_counts(before) -> list[int]:
+    """This thread's context switches (voluntary, involuntary) and page faults (minor,
+    major) since the ``getrusage`` record ``before``."""
+    now = resource.getrusage(resource.RUSAGE_THREAD)
+    return [getattr(now, a) - getattr(before, a)
+            for a in ("ru_nvcsw", "ru_nivcsw", "ru_minflt", "ru_majflt")]
 
 
 def run_partitioned(plan, partitions, scheduler, chunk: int, timings: dict,
@@ -162,10 +220,10 @@ def _run(dask, client, plan, partitions, scheduler, chunk, timings, check) -> di
     if client is not None:
         # each partition's task starts as soon as its slice is cut and sent: the split
         # of the next ones overlaps the workers' tasks ("partition": split and send)
-        futures = [client.submit(run_part, client.scatter(p, hash=False), *args, pure=False)
+        futures = [client.submit(run_part, _payload(client, p), *args, pure=False)
                    for p in parts]
         clock("partition")
-        out = client.gather(futures)
+        out = _gather(futures)
     else:
         parts = list(parts)
         clock("partition")
@@ -178,6 +236,30 @@ def _run(dask, client, plan, partitions, scheduler, chunk, timings, check) -> di
     clock("merge")
     timings["partitions"] = [o[1] for o in out]
     return pairs
+
+
+def _gather(futures) -> list:
+    """The futures' results in order, each fetched as soon as its task ends (a plain
+    ``gather`` fetches them all after the last one: the first results' transfer would
+    follow the slowest task instead of overlapping it)."""
+    from distributed import as_completed
+
+    index = {f.key: i for i, f in enumerate(futures)}
+    out = [None] * len(futures)
+    for future, result in as_completed(futures, with_results=True):
+        out[index[future.key]] = result
+    return out
+
+
+#: A partition's slice up to this many bytes travels inside its task's message (no
+#: scatter round trip: the client does not wait); larger ones are scattered to a worker
+#: first (the scheduler never holds them, no "large graph" warning).
+INLINE_BYTES = 8 << 20
+
+
+def _payload(client, part: Part):
+    """What the task receives for ``part``: the Part itself or its scattered future."""
+    return part if part.nbytes <= INLINE_BYTES else client.scatter(part, hash=False)
 
 
 class _Clock:

@@ -505,3 +505,91 @@ def test_threaded_boxes_and_flags_equal_the_serial_ones(seed, dim, parts, pad):
                 assert np.array_equal(ref[0], got[0]) and np.array_equal(ref[1], got[1])
     finally:
         blocks.MIN_SPAN = old
+
+
+# -- the split's and merge's fast forms against their reference forms, and the local
+#    cluster's settings, submission and result order (issue 13's overheads) -------------
+
+def _morton_reference(points, cells):
+    """The Morton position of every cell by the definition: the first vertex quantised
+    to 21 (3D) / 31 (2D) bits per axis over the first vertices' bounding box, the bits
+    interleaved with Python ints (bit b of axis a at b·dim + a), cells ordered by code,
+    ties by cell index."""
+    dim = points.shape[1]
+    bits = 21 if dim == 3 else 31
+    first = points[cells[:, 0]].astype(np.float64)
+    lo, hi = first.min(axis=0), first.max(axis=0)
+    codes = []
+    for x in first:
+        code = 0
+        for a in range(dim):
+            span = hi[a] - lo[a] if hi[a] > lo[a] else 1.0
+            q = int(min(max((x[a] - lo[a]) / span * (2 ** bits - 1), 0), 2 ** bits - 1))
+            for b in range(bits):
+                code |= ((q >> b) & 1) << (b * dim + a)
+        codes.append(code)
+    order = sorted(range(len(cells)), key=codes.__getitem__)  # stable: ties by index
+    pos = np.empty(len(cells), dtype=np.int64)
+    pos[order] = np.arange(len(cells))
+    return pos
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10**6), dim=st.sampled_from([2, 3]),
+       scale=st.sampled_from([1e-6, 1.0, 1e5]), flat=st.booleans(), n=st.integers(1, 60))
+def test_morton_order_is_the_reference(seed, dim, scale, flat, n):
+    from predicates.registration.partition import morton_order
+
+    rng = np.random.default_rng(seed)
+    P = rng.normal(size=(n, dim)) * scale
+    P[rng.integers(0, n, size=n // 3)] = P[0]  # repeated points: equal codes, ties
+    if flat:
+        P[:, 0] = 0.25  # a zero-width axis (span 1)
+    C = rng.integers(0, n, size=(int(rng.integers(1, 80)), dim + 1))
+    assert np.array_equal(morton_order(P, C), _morton_reference(P, C))
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10**6), cols=st.integers(1, 4), rows=st.integers(0, 50))
+def test_row_minimum_is_numpys(seed, cols, rows):
+    from predicates.registration.partition import _row_min
+
+    a = np.random.default_rng(seed).integers(-(2**62), 2**62, size=(rows, cols))
+    got = _row_min(a)
+    assert got.dtype == a.dtype and np.array_equal(got, a.min(axis=1, initial=2**63 - 1))
+
+
+def test_local_cluster_settings_submission_and_order(monkeypatch):
+    """client_for's workers run with WORKER_ENV (whatever an earlier cluster left in
+    os.environ, which it restores) and without the profiler; slices go
+    inline with their task or, above INLINE_BYTES, scattered first — the same result
+    either way; _gather returns results in submission order whatever order the tasks
+    end in."""
+    import time
+
+    from predicates.registration import partition_run as pr
+
+    args = CASES["sphere"](2)
+    ref = predicates.intersect(*args)
+    # a cluster with distributed's defaults first: its nannies leave
+    # MALLOC_TRIM_THRESHOLD_=65536 in this process's os.environ, which would win
+    from distributed import LocalCluster
+
+    LocalCluster(n_workers=1, processes=True, dashboard_address=None).close()
+    before = {k: os.environ.get(k) for k in pr.WORKER_ENV}
+    assert before["MALLOC_TRIM_THRESHOLD_"] == "65536"
+    with pr.client_for(2) as client:
+        env = client.run(lambda: {k: os.environ.get(k) for k in pr.WORKER_ENV})
+        assert all(e == pr.WORKER_ENV for e in env.values()) and len(env) == 2, env
+        assert {k: os.environ.get(k) for k in pr.WORKER_ENV} == before  # restored
+        assert not any(client.run(
+            lambda: dask.config.get("distributed.worker.profile.enabled")).values())
+        for inline in (pr.INLINE_BYTES, 0):  # 0: every slice is scattered first
+            monkeypatch.setattr(pr, "INLINE_BYTES", inline)
+            res = predicates.intersect(*args, partitions=3, scheduler=client)
+            assert_identical(ref, res)
+            assert [p["part"] for p in res.timings["partitions"]] == [0, 1, 2]
+        futures = [client.submit(time.sleep, 0.4 - 0.15 * i, pure=False) for i in range(3)]
+        futures = [client.submit(lambda _, i=i: i, f, pure=False)
+                   for i, f in enumerate(futures)]
+        assert pr._gather(futures) == [0, 1, 2]
