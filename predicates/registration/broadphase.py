@@ -32,11 +32,13 @@ import numpy as np
 
 from .blocks import SERIAL, Blocks
 from .boxes import boxes_of
+from .boxgrid import (BITS as _BITS, cell_index as _cell_index, colmax as _colmax,
+                      colmin as _colmin, enlarge as _enlarge, fit as _fit, grid as _grid,
+                      mean_extent as _mean_extent)
 from .gridsums import any_in as _any_in, occupancy as _occupancy
 
 __all__ = ["box_pairs", "box_pairs_bruteforce", "boxes_of", "near_flags", "tighten_flags"]
 
-_BITS = 20  # at most 2^20 + 1 cells per axis: linear keys fit in int64
 #: A cell is refined when its proposals exceed both of these (pairs; pairs per entry).
 _CROWDED, _CROWD_RATIO = 1 << 12, 16
 _MAX_DEPTH = 8
@@ -56,21 +58,6 @@ def box_pairs_bruteforce(lo_a, hi_a, lo_b, hi_b, pad):
                 axis=2)
     ia, ib = np.nonzero(ok)
     return ia, ib
-
-
-def _cell_index(x, origin, h, G, blocks: Blocks = SERIAL):
-    """Cell of each coordinate, clipped to the grid (int32: G ≤ 2^20 + 1 per axis);
-    block by block (the float temporaries stay cache-sized)."""
-    out = np.empty(x.shape, dtype=np.int32)
-
-    def index(a: int, b: int) -> None:
-        with np.errstate(all="ignore"):
-            i = np.floor((x[a:b] - origin) / h)
-        np.clip(i, 0, G - 1, out=i)
-        out[a:b] = i
-
-    blocks.rows(index, len(x))
-    return out
 
 
 def _linear(idx, G):
@@ -115,88 +102,6 @@ def _runs(sorted_keys):
     start = np.concatenate([[0], brk])
     count = np.diff(np.concatenate([start, [sorted_keys.size]]))
     return sorted_keys[start], start, count
-
-
-def _enlarge(lo_b, hi_b, pad):
-    pad = float(pad)
-    if not pad >= 0:
-        raise ValueError(f"pad must be a non-negative number, got {pad!r}")
-    with np.errstate(over="ignore"):
-        return np.nextafter(lo_b - pad, -np.inf), np.nextafter(hi_b + pad, np.inf)
-
-
-def _ncells(i0, i1):
-    """Cells covered by each box (int64), axis by axis."""
-    n = i1[:, 0].astype(np.int64) - i0[:, 0] + 1
-    for ax in range(1, i0.shape[1]):
-        n *= i1[:, ax].astype(np.int64) - i0[:, ax] + 1
-    return n
-
-
-def _colmin(x):
-    """x.min(axis=0), column by column (several times faster on (n, 3) arrays)."""
-    return np.array([x[:, ax].min() for ax in range(x.shape[1])])
-
-
-def _colmax(x):
-    return np.array([x[:, ax].max() for ax in range(x.shape[1])])
-
-
-def _mean_extent(lo, hi, cap=np.inf, blocks: Blocks = SERIAL):
-    """The largest per-axis mean box extent (extents capped at ``cap``): a cell size.
-    The extents are summed in sorted order, so the grid, and with it every flag and
-    pair, does not depend on the order of the boxes (e.g. of the cells in the file).
-    The axes' sorts run concurrently on a pool."""
-    if len(lo) == 0:
-        return 0.0
-
-    def axis(ax: int) -> float:
-        return float(np.sort(np.minimum(hi[:, ax] - lo[:, ax], cap)).mean())
-
-    return max(f.result() for f in [blocks.submit(axis, ax) for ax in range(lo.shape[1])])
-
-
-def _fit(lo_a, hi_a, lo_bx, hi_bx, origin, top, h, budget, blocks: Blocks = SERIAL):
-    """Grid over [origin, top] with cell size h, doubled until the boxes cover at most
-    ``budget`` cells: (G, h, ia0, ia1, ib0, ib1)."""
-    while True:
-        G = (np.floor((top - origin) / h).astype(np.int64) + 1).clip(1, (1 << _BITS) + 1)
-        ia0, ia1 = (_cell_index(x, origin, h, G, blocks) for x in (lo_a, hi_a))
-        ib0, ib1 = _cell_index(lo_bx, origin, h, G), _cell_index(hi_bx, origin, h, G)
-        total = _covered(ia0, ia1, blocks) + _ncells(ib0, ib1).sum()
-        if total <= budget or np.all(G == 1):
-            return G, h, ia0, ia1, ib0, ib1
-        h *= 2
-
-
-def _covered(i0, i1, blocks: Blocks = SERIAL) -> int:
-    """Σ cells covered by the boxes (:func:`_ncells`), block by block."""
-    def span(a: int, b: int) -> int:
-        return sum(int(_ncells(i0[lo:hi], i1[lo:hi]).sum()) for lo, hi in blocks.each(a, b))
-
-    return sum(blocks.map(span, len(i0)))
-
-
-def _grid(lo_a, hi_a, lo_b, hi_b, pad, blocks: Blocks = SERIAL):
-    """The top grid: b boxes enlarged by pad (outwards), cell size, per-box cell ranges:
-    (lo_bx, hi_bx, origin, G, h, ia0, ia1, ib0, ib1). ``blocks``: how the passes over
-    the a boxes (the many: the simulation cells) run; the same values either way."""
-    na, nb = len(lo_a), len(lo_b)
-    lo_bx, hi_bx = _enlarge(lo_b, hi_b, pad)
-    origin = np.minimum(_colmin(lo_a), _colmin(lo_bx))
-    top = np.maximum(_colmax(hi_a), _colmax(hi_bx))
-    with np.errstate(over="ignore"):
-        span = float((top - origin).max())
-    if not np.isfinite(span):
-        raise ValueError("coordinates too large for the broad phase (their range "
-                         "overflows the floating-point format)")
-    h = max(_mean_extent(lo_a, hi_a, blocks=blocks), _mean_extent(lo_bx, hi_bx))
-    if h <= 0:
-        h = span / max(1.0, (na + nb) ** (1 / lo_a.shape[1]))
-    h = max(h, span * 2.0 ** -_BITS, np.finfo(np.float64).tiny)
-    G, h, *ranges = _fit(lo_a, hi_a, lo_bx, hi_bx, origin, top, h, 16 * (na + nb) + (1 << 20),
-                         blocks)
-    return (lo_bx, hi_bx, origin, G, h, *ranges)
 
 
 def _occupied(keys, other, G):

@@ -23,7 +23,6 @@ comparison that lands inside that enclosure falls back to exact sympy arithmetic
 from __future__ import annotations
 
 import functools
-import math
 from dataclasses import dataclass
 from fractions import Fraction
 from typing import Callable

@@ -24,7 +24,6 @@ import warnings
 import zlib
 from fractions import Fraction
 
-import mpmath
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings

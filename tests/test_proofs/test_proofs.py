@@ -13,7 +13,7 @@ import sympy
 
 import predicates
 from fperr import bounds
-from fperr.symbols import EPS_MAX, L, eps
+from fperr.symbols import L, eps
 from predicates.core import predicate
 from predicates.vector import cross2, cross3, dot, scale, sub
 from proofs import decide as D
