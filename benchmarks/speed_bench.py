@@ -149,7 +149,7 @@ class _RSS:
 
 
 #: timings measured inside another stage (``refine`` runs within ``setup``)
-NESTED = ("refine", "plan_validate", "plan_boxes", "plan_scale", "plan_report")
+from predicates.registration.pipeline import PLAN_STAGES as NESTED  # noqa: E402  (inside "setup")
 
 
 def _hwm_mib():

@@ -43,10 +43,12 @@ def fill_boxes(cols: np.ndarray, R: np.ndarray, lo: np.ndarray, hi: np.ndarray) 
             np.maximum(hi[ax], x, out=hi[ax])
 
 
-def box_extent(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+def box_extent(lo: np.ndarray, hi: np.ndarray, out: np.ndarray | None = None,
+               tmp: np.ndarray | None = None) -> np.ndarray:
     """Each box's largest edge (column by column: faster than (hi - lo).max(1); the
-    same values, max being exact)."""
-    e = hi[:, 0] - lo[:, 0]
+    same values, max being exact). ``out``, ``tmp``: buffers of len(lo) to reuse (a
+    pass over blocks of rows allocates nothing)."""
+    e = np.subtract(hi[:, 0], lo[:, 0], out=out)
     for ax in range(1, lo.shape[1]):
-        np.maximum(e, hi[:, ax] - lo[:, ax], out=e)
+        np.maximum(e, np.subtract(hi[:, ax], lo[:, ax], out=tmp), out=e)
     return e

@@ -13,7 +13,17 @@ from math import comb
 
 import numpy as np
 
-__all__ = ["Complex", "Side", "unique_rows"]
+__all__ = ["Complex", "Side", "any_flagged", "unique_rows"]
+
+
+def any_flagged(flags: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """Per row of ids (a cell's vertices, a simplex's faces): is one of them flagged —
+    ``flags[rows].any(axis=1)`` column by column (``take``; numpy's reduction along
+    short rows is ~5x slower)."""
+    out = flags.take(rows[:, 0])
+    for col in range(1, rows.shape[1]):
+        out |= flags.take(rows[:, col])
+    return out
 
 
 def unique_rows(rows: np.ndarray, n: int):

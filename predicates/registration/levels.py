@@ -16,7 +16,7 @@ import numpy as np
 
 from ..catalogue import kinds as catalogue_kinds
 from .broadphase import boxes_of, tighten_flags
-from .complex import Side
+from .complex import Side, any_flagged
 from .facepairs import FacePairs, cell_pairs
 from .result import KindPairs
 
@@ -195,10 +195,4 @@ def _faces(cx, k, j, idx):
 
 def _any_face(cx, k, j, involved):
     """Per k-simplex: is one of its j-faces flagged in ``involved`` (per j-simplex)?"""
-    if j == k:
-        return involved
-    F = cx.face(k, j)
-    out = involved.take(F[:, 0])
-    for col in range(1, F.shape[1]):
-        out |= involved.take(F[:, col])
-    return out
+    return involved if j == k else any_flagged(involved, cx.face(k, j))

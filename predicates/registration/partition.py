@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .broadphase import boxes_of, near_flags
+from .complex import any_flagged
 from .result import KindPairs
 
 __all__ = ["Layout", "Part", "assign", "merge", "morton_order", "owned", "split"]
@@ -102,15 +103,6 @@ def _cut_near(P_sim, halo_cells, clo, chi, pad) -> np.ndarray:
     return np.flatnonzero(near)
 
 
-def _any_vertex(flags: np.ndarray, cells: np.ndarray) -> np.ndarray:
-    """Per cell: is one of its vertices flagged (``flags[cells].any(axis=1)``, column by
-    column: numpy's reduction along short rows is ~5× slower)."""
-    out = flags[cells[:, 0]]
-    for col in range(1, cells.shape[1]):
-        out |= flags[cells[:, col]]
-    return out
-
-
 def _local(P, cells, keep):
     """The rows ``keep`` of ``cells`` renumbered to their vertices (global ids
     increasing) and those vertices' coordinates."""
@@ -174,7 +166,7 @@ class Layout:
             return None
         touched = np.zeros(len(self.P_sim), dtype=bool)
         touched[sim_cells[own].ravel()] = True
-        halo = np.flatnonzero(_any_vertex(touched, sim_cells))  # includes own cells
+        halo = np.flatnonzero(any_flagged(touched, sim_cells))  # includes own cells
         Ps, cs, sid = _local(self.P_sim, sim_cells, halo)
         cut_keep = _cut_near(self.P_sim, sim_cells[halo], self.clo, self.chi, self.pad)
         Pc, cc, cid = _local(self.P_cut, self.cut_cells, cut_keep)

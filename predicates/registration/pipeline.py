@@ -75,10 +75,13 @@ from .resolution import (Resolution, consistent_scale, estimate_cell_pairs,
                          memory_error, near_cells, shortest_edge, t_plus)
 from .result import IntersectionResult
 
-__all__ = ["CHUNK", "intersect", "intersect_files"]
+__all__ = ["CHUNK", "PLAN_STAGES", "intersect", "intersect_files"]
 
 #: Pairs per predicate batch (bounds the gathered coordinates and temporaries).
 CHUNK = 1 << 17
+#: the plan's stages in ``res.timings`` (wall seconds, inside "setup"); "refine" only
+#: when the cutting mesh is refined
+PLAN_STAGES = ("plan_validate", "plan_boxes", "refine", "plan_scale", "plan_report")
 
 
 def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: bool = False,
@@ -194,8 +197,8 @@ def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, 
     if _flat(sim_box) and _flat(work.boxes(cut.points, cut.cells)):
         raise ValueError("every cell of both meshes collapses to a single point (zero "
                          "bounding boxes): the tolerances would be zero")
-    refinement = None
     clock("plan_boxes")
+    refinement = None
     if refine_cut and len(cut.cells):
         refinement = refine(cut.points, cut.cells, *sim_box)
         cut.points, cut.cells = refinement.points, refinement.cells

@@ -146,10 +146,7 @@ def scan_cells(lo: np.ndarray, hi: np.ndarray, reach, longest: float = math.inf)
         _near_block(grid, lo, hi, s0, s1, e, buf, ib, key, pieces, big)
     for s0 in range(0, start, BLOCK):  # blocks read before the near set was needed
         s1 = min(start, s0 + BLOCK)
-        e = buf[-1][:s1 - s0]
-        np.subtract(hi[s0:s1, 0], lo[s0:s1, 0], out=e)
-        for ax in range(1, lo.shape[1]):
-            np.maximum(e, hi[s0:s1, ax] - lo[s0:s1, ax], out=e)
+        e = box_extent(lo[s0:s1], hi[s0:s1], buf[-1][:s1 - s0], buf[-2][:s1 - s0])
         _near_block(grid, lo, hi, s0, s1, e, buf, ib, key, pieces, big)
     # ascending (blocks read again come after the pass's)
     near = np.sort(np.concatenate(pieces)) if pieces else np.zeros(0, dtype=np.int64)
@@ -226,10 +223,7 @@ class _Stats:
 
     def add(self, lo, hi, e, tmp, ib) -> np.ndarray:
         """Box edges of one block into ``e`` (the values of :func:`~.boxes.box_extent`)."""
-        np.subtract(hi[:, 0], lo[:, 0], out=e)
-        for ax in range(1, lo.shape[1]):
-            np.subtract(hi[:, ax], lo[:, ax], out=tmp)
-            np.maximum(e, tmp, out=e)
+        box_extent(lo, hi, e, tmp)
         e += 0.0  # -0.0 (hi = -0.0, lo = +0.0) to +0.0: its exponent bits are those of 0
         lo_e, hi_e = float(e.min()), float(e.max())
         if not (math.isfinite(hi_e) and lo_e >= 0):  # NaN / inf give a NaN or inf max
