@@ -138,7 +138,10 @@ def near_flags(lo_a, hi_a, lo_b, hi_b, pad: float, *, sides: str = "ab",
         if "a" in sides:
             near_a = _any_in(_occupancy(ib0, ib1, G), ia0, ia1, G, blocks)
         if "b" in sides:
-            near_b = _any_in(_occupancy(ia0, ia1, G, blocks), ib0, ib1, G)
+            # a b box meets an a box only in a cell that a box's own test finds: the
+            # flagged a boxes' occupancy gives the same b flags (all a boxes otherwise)
+            a0, a1 = (ia0, ia1) if near_a is None else (ia0[near_a], ia1[near_a])
+            near_b = _any_in(_occupancy(a0, a1, G, blocks), ib0, ib1, G)
         return near_a, near_b
     box_a, key_a, _ = _entries(ia0, ia1, G)
     box_b, key_b, _ = _entries(ib0, ib1, G)

@@ -246,15 +246,19 @@ def _register(plan: Plan, chunk: int, progress: bool, timings: dict) -> dict:
 
 def _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts,
             work=None) -> Resolution:
-    """The resolution report (before the work): edges near the cut at the final pad.
+    """The resolution report (before the work): edges of the cells that can meet.
     ``work``: its independent parts run concurrently on a threaded plan's pool."""
     work = plan_threads.Work() if work is None else work
     ms, mc = sc_.masks
     pairs = work.submit(estimate_cell_pairs, sim_box[0][ms], sim_box[1][ms], cut_box[0][mc],
                         cut_box[1][mc], sc_.pad)
-    near_s, near_c = near_cells(sim_box, cut_box, sc_.pad, sc_.masks, work.flags)
-    h_cut = work.submit(shortest_edge, cut.points, cut.cells, near_c)
-    h_sim = shortest_edge(sim.points, sim.cells, near_s, work.blocks)
+    # near the cut: the cells that can meet (flagged by the broad phase's grid at the
+    # final pad, or a larger one: a superset of the cells within σ+, the run's cells);
+    # flagged at the pad if no round was kept (the masks are then all cells)
+    if len(sc_.history) == 1:
+        ms, mc = near_cells(sim_box, cut_box, sc_.pad, sc_.masks, work.flags)
+    h_cut = work.submit(shortest_edge, cut.points, cut.cells, mc)
+    h_sim = shortest_edge(sim.points, sim.cells, ms, work.blocks)
     ref = None if refinement is None else (refinement.input_cells, len(refinement.cells),
                                            refinement.rounds)
     return Resolution(dim, dtype.name, t_plus(dim, sc_), h_sim, h_cut.result(), sc_.L_a,

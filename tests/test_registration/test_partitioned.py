@@ -391,6 +391,20 @@ def test_plan_counts_match_their_reference_forms(seed, dim):
     assert R.shortest_edge(P, C, mask) == float(np.min(d))
 
 
+@pytest.mark.parametrize("dim", [2, 3])
+def test_cell_pair_estimate_of_points_at_pad_zero(dim):
+    """Point-like boxes at pad 0 (all extents 0): the estimate's grid stays within 2^20
+    cells per axis (it used to take a cell of 1e-300 and fail on int64 overflow), and
+    every coincident pair shares a grid cell, so each is counted."""
+    from predicates.registration import resolution as R
+
+    rng = np.random.default_rng(dim)
+    a = rng.random((300, dim))
+    b = np.concatenate([a[:40], rng.random((200, dim)) + 2.0])
+    count = R.estimate_cell_pairs(a, a, b, b, 0.0)
+    assert isinstance(count, int) and 40 <= count <= 40 + 5
+
+
 def test_partitioned_result_to_dict_is_json():
     import json
 
