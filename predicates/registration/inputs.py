@@ -45,18 +45,23 @@ def _points(arr, used, role, dtype):
     """``arr`` in ``dtype``; only the ``used`` rows (referenced by a cell) are checked,
     the others are set to 0: an unreferenced vertex never matters."""
     name = f"{role} points"
-    sel = arr[used]
+    every = bool(used.all())  # the common case: no selection copies
+    sel = arr if every else arr[used]
     if sel.dtype.kind == "f" and not np.isfinite(sel).all():
         bad = int(np.flatnonzero(used)[np.argwhere(~np.isfinite(sel))[0, 0]])
         raise ValueError(f"{name} contain NaN or infinity (point {bad}: {arr[bad]})")
     with np.errstate(all="ignore"):
         out = arr.astype(dtype)
-    out[~used] = 0
+    if not every:
+        out[~used] = 0
+    if arr.dtype == out.dtype:  # a copy of finite values: finite, nothing rounded
+        return out, False
     if not np.isfinite(out).all():
         raise ValueError(f"{name} overflow {np.dtype(dtype).name}: coordinates up to "
                          f"{np.abs(sel).max():.3g}")
     with np.errstate(all="ignore"):
-        rounded = bool(np.any(out[used].astype(np.result_type(arr.dtype, out.dtype)) != sel))
+        kept = out if every else out[used]
+        rounded = bool(np.any(kept.astype(np.result_type(arr.dtype, out.dtype)) != sel))
     return out, rounded
 
 
