@@ -1,0 +1,154 @@
+"""Where a partitioned W1 run's time goes, and what each part bounds (issue 13).
+
+    python benchmarks/partition_floor.py [--n 48] [--subdivisions 5] [--reps 9]
+                                         [--json OUT.json]
+
+One process, one LocalCluster of 2 single-threaded workers
+(``partition_run.client_for``), every quantity timed in alternation with the others
+(this machine is shared: each sees the same load), best and median of ``--reps``:
+
+* ``serial``: ``intersect`` as is; ``plan``: its global plan (``pipeline._plan``);
+  ``plan_threaded``: the same on 2 threads (a partitioned run's; the bounds take the
+  faster of the two);
+  ``register``: the rest (``pipeline._register``);
+* ``partitioned``: ``intersect(partitions=2, scheduler=client)``; ``post_plan``: the
+  same run given the finished plan (``run_partitioned``: split, Dask, merge);
+  ``post_plan_presplit``: the parts cut beforehand, only their tasks and the merge;
+* ``plan_cells_client``: the plan's per-cell work over every simulation cell on the
+  client (boxes, their largest edge, the near flags against the cutting boxes);
+  ``plan_cells_hop``: the same work sent to the 2 workers as one task each (half the
+  cells each, int32 ids, the points and the cutting boxes; the flags and the largest
+  edge come back): what distributing the plan's per-cell passes would cost, Dask's
+  round trip and the transfer included.
+
+Bounds printed, each an upper bound on the speed-up of the partitioned run:
+``serial / (plan + post_plan_presplit)`` (a free split), ``serial / (plan −
+plan_cells_client + plan_cells_hop + post_plan_presplit)`` (the per-cell plan
+distributed in one extra round trip, the rest of the plan free of cost), and ``serial /
+post_plan_presplit`` (a free plan).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+
+def plan_cells(P, cells, clo, chi, pad):
+    """The plan's per-cell passes over ``cells``: boxes, the largest box edge, the
+    near flags against the cutting boxes (``near_flags`` sides "a")."""
+    from predicates.registration.boxes import box_extent, boxes_of
+    from predicates.registration.broadphase import near_flags
+
+    lo, hi = boxes_of(P, cells)
+    L = float(box_extent(lo, hi).max())
+    near, _ = near_flags(lo, hi, clo, chi, pad, sides="a")
+    return L, near
+
+
+def _stats(ts: list) -> dict:
+    s = sorted(ts)
+    return {"best": s[0], "median": s[len(s) // 2]}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--n", type=int, default=48)
+    ap.add_argument("--subdivisions", type=int, default=5)
+    ap.add_argument("--reps", type=int, default=9)
+    ap.add_argument("--json")
+    args = ap.parse_args(argv)
+
+    import predicates
+    from predicates.registration import partition, pipeline
+    from predicates.registration.boxes import boxes_of
+    from predicates.registration.examples import cube_grid, icosphere
+    from predicates.registration.partition_run import (_gather, client_for, run_part,
+                                                       run_partitioned)
+
+    sp, sc = cube_grid(args.n)
+    cp, cc = icosphere(args.subdivisions)
+    f64 = np.dtype(np.float64)
+
+    def plan(threads: int = 1):
+        return pipeline._plan((sp, sc, cp, cc), f64, 1.0, False, pipeline.CHUNK, True, {},
+                              None, None, threads=threads)
+
+    pl = plan()
+    reach = pl.scale.reach
+    pad = max(reach.values())
+    task_args = (pl.dim, pl.tol, reach, pipeline.CHUNK)
+    parts = list(partition.split(pl.P_sim, pl.sim_cells, pl.P_cut, pl.cut_cells, 2, pad))
+    P = np.ascontiguousarray(pl.sim.points)
+    clo, chi = boxes_of(pl.cut.points, pl.cut.cells)
+    halves = np.array_split(pl.sim.cells.astype(np.int32), 2)
+    times: dict[str, list] = {}
+
+    def timed(name, f):
+        t = time.perf_counter()
+        f()
+        times.setdefault(name, []).append(time.perf_counter() - t)
+
+    with client_for(2) as client:
+        workers = list(client.scheduler_info()["workers"])
+        time.sleep(2)  # the workers' imports (client_for warms them) are not timed
+
+        def presplit():
+            out = _gather([client.submit(run_part, p, *task_args, pure=False)
+                           for p in parts])
+            partition.merge(pl.kinds, [o[0] for o in out], pl.dtype)
+
+        def hop():
+            fs = [client.submit(plan_cells, P, h, clo, chi, pad, pure=False,
+                                workers=[w], allow_other_workers=False)
+                  for h, w in zip(halves, workers)]
+            client.gather(fs)
+
+        steps = {
+            "serial": lambda: predicates.intersect(sp, sc, cp, cc),
+            "plan": plan,
+            "plan_threaded": lambda: plan(2),
+            "register": lambda: pipeline._register(pl, pipeline.CHUNK, False, {}),
+            "partitioned": lambda: predicates.intersect(sp, sc, cp, cc, partitions=2,
+                                                        scheduler=client),
+            "post_plan": lambda: run_partitioned(pl, 2, client, pipeline.CHUNK, {}),
+            "post_plan_presplit": presplit,
+            "plan_cells_client": lambda: plan_cells(P, pl.sim.cells, clo, chi, pad),
+            "plan_cells_hop": hop,
+        }
+        for name, f in steps.items():  # warm-up
+            f()
+        for _ in range(args.reps):
+            for name, f in steps.items():
+                timed(name, f)
+    st = {k: _stats(v) for k, v in times.items()}
+    best = {k: v["best"] for k, v in st.items()}
+    best["plan"] = min(best["plan"], best["plan_threaded"])  # what a partitioned run uses
+    bounds = {
+        "free split": best["serial"] / (best["plan"] + best["post_plan_presplit"]),
+        "per-cell plan on the workers": best["serial"] / (
+            best["plan"] - best["plan_cells_client"] + best["plan_cells_hop"]
+            + best["post_plan_presplit"]),
+        "free plan": best["serial"] / best["post_plan_presplit"],
+    }
+    print(f"W1: cube n = {args.n} ({len(sc):,} tetrahedra) x icosphere {len(cc):,} "
+          f"triangles; 2 workers; {args.reps} reps, alternating")
+    print("\n| step | best (ms) | median (ms) |\n|---|---:|---:|")
+    for k, v in st.items():
+        print(f"| {k} | {v['best'] * 1e3:.1f} | {v['median'] * 1e3:.1f} |")
+    print(f"\nmeasured speed-up (best/best): {best['serial'] / best['partitioned']:.2f}x")
+    for k, v in bounds.items():
+        print(f"bound, {k}: {v:.2f}x")
+    if args.json:
+        Path(args.json).write_text(json.dumps({"steps": st, "bounds": bounds}, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
