@@ -11,7 +11,7 @@ import numpy as np
 from .blocks import SERIAL, Blocks
 
 __all__ = ["BITS", "cell_index", "colmax", "colmin", "covered", "enlarge", "fit", "grid",
-           "mean_extent", "ncells"]
+           "mean_extent", "ncells", "rowwise"]
 
 BITS = 20  # at most 2^20 + 1 cells per axis: linear keys fit in int64
 
@@ -56,6 +56,15 @@ def colmin(x):
 
 def colmax(x):
     return np.array([x[:, ax].max() for ax in range(x.shape[1])])
+
+
+def rowwise(ufunc, x):
+    """``ufunc.reduce(x, axis=1)`` column by column from the left (``np.minimum``,
+    ``np.multiply``, ...): the same values, several times faster on (n, 3) arrays."""
+    out = x[:, 0].copy()
+    for ax in range(1, x.shape[1]):
+        ufunc(out, x[:, ax], out=out)
+    return out
 
 
 def mean_extent(lo, hi, cap=np.inf, blocks: Blocks = SERIAL):

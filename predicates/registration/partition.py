@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .boxgrid import rowwise
 from .broadphase import boxes_of, near_flags
 from .complex import any_flagged
 from .result import KindPairs
@@ -179,19 +180,10 @@ def owned(part: Part, pairs: dict) -> dict:
     owned vertex."""
     out = {}
     for kind, p in pairs.items():
-        keep = part.own_vertex[_row_min(p.sim)] if len(p) else np.zeros(0, dtype=bool)
+        keep = part.own_vertex[rowwise(np.minimum, p.sim)] if len(p) else np.zeros(0, dtype=bool)
         out[kind] = KindPairs(kind, part.sim_ids[p.sim[keep]], part.cut_ids[p.cut[keep]],
                               p.sim_weights[keep], p.cut_weights[keep],
                               candidates=p.candidates, suppressed=p.suppressed)
-    return out
-
-
-def _row_min(a: np.ndarray) -> np.ndarray:
-    """``a.min(axis=1)`` column by column (the same values; numpy's reduction along the
-    short rows of an (n, 3) array is ~10× slower)."""
-    out = a[:, 0].copy()
-    for col in range(1, a.shape[1]):
-        np.minimum(out, a[:, col], out=out)
     return out
 
 
@@ -212,7 +204,7 @@ def merge(kinds, results: list[dict], dtype) -> dict:
         cid = np.concatenate([g.cut for g in got] + [np.zeros((0, k.j + 1), np.int64)])
         sw = np.concatenate([g.sim_weights for g in got] + [np.zeros((0, k.i + 1), dtype)])
         cw = np.concatenate([g.cut_weights for g in got] + [np.zeros((0, k.j + 1), dtype)])
-        first = _row_min(sid)
+        first = rowwise(np.minimum, sid)
         order = np.argsort(first, kind="stable")
         part = np.repeat(np.arange(len(got)), [len(g.sim) for g in got])[order]
         first = first[order]

@@ -30,7 +30,7 @@ from ..catalogue import kinds as catalogue_kinds
 from ..tolerances import tolerances as compute_tolerances
 from .blocks import SERIAL, Blocks
 from .boxes import box_extent, boxes_of
-from .boxgrid import colmax, colmin
+from .boxgrid import colmax, colmin, rowwise
 from .broadphase import near_flags
 from .gridsums import coverage
 
@@ -177,7 +177,7 @@ def estimate_cell_pairs(lo_a, hi_a, lo_b, hi_b, pad: float) -> int:
     while True:
         ia0, ia1 = np.floor((A0 - origin) / g), np.floor((A1 - origin) / g)
         ib0, ib1 = np.floor((B0 - origin) / g), np.floor((B1 - origin) / g)
-        na, nb = _row_prod(ia1 - ia0 + 1), _row_prod(ib1 - ib0 + 1)
+        na, nb = rowwise(np.multiply, ia1 - ia0 + 1), rowwise(np.multiply, ib1 - ib0 + 1)
         if na.sum() + nb.sum() <= budget:
             break
         g *= 2
@@ -189,14 +189,6 @@ def estimate_cell_pairs(lo_a, hi_a, lo_b, hi_b, pad: float) -> int:
     ub, cb = np.unique(kb, return_counts=True)
     _, ja, jb = np.intersect1d(ua, ub, assume_unique=True, return_indices=True)
     return int(np.dot(ca[ja].astype(np.float64), cb[jb].astype(np.float64)))
-
-
-def _row_prod(x: np.ndarray) -> np.ndarray:
-    """``np.prod(x, 1)``: the columns multiplied from the left (the same products)."""
-    out = x[:, 0].copy()
-    for ax in range(1, x.shape[1]):
-        out *= x[:, ax]
-    return out
 
 
 def _dense_pair_count(ia0, ia1, ib0, ib1, budget: int):

@@ -565,12 +565,18 @@ def test_morton_order_is_the_reference(seed, dim, scale, flat, n):
 
 @settings(max_examples=40, deadline=None)
 @given(seed=st.integers(0, 10**6), cols=st.integers(1, 4), rows=st.integers(0, 50))
-def test_row_minimum_is_numpys(seed, cols, rows):
-    from predicates.registration.partition import _row_min
+def test_row_reductions_are_numpys(seed, cols, rows):
+    """boxgrid.rowwise (the partitions' smallest vertex id, the cell-pair estimate's
+    cell counts) gives numpy's row reductions: the same dtype and values."""
+    from predicates.registration.boxgrid import rowwise
 
-    a = np.random.default_rng(seed).integers(-(2**62), 2**62, size=(rows, cols))
-    got = _row_min(a)
+    rng = np.random.default_rng(seed)
+    a = rng.integers(-(2**62), 2**62, size=(rows, cols))
+    got = rowwise(np.minimum, a)
     assert got.dtype == a.dtype and np.array_equal(got, a.min(axis=1, initial=2**63 - 1))
+    f = rng.integers(1, 2**21, size=(rows, cols)).astype(np.float64) * rng.choice([1, 1e100])
+    prod = rowwise(np.multiply, f)
+    assert prod.dtype == f.dtype and np.array_equal(prod, np.prod(f, axis=1))
 
 
 def test_local_cluster_settings_submission_and_order(monkeypatch):
