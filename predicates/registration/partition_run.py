@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import os
 import resource
+import sys
 import time
 
 import numpy as np
@@ -26,6 +27,8 @@ __all__ = ["DaskMissingError", "LOCAL_SCHEDULERS", "client_for", "read_pieces", 
 LOCAL_SCHEDULERS = ("threads", "processes", "synchronous")
 #: "auto" makes at least one partition per this many simulation cells
 CELLS_PER_PART = 1_000_000
+#: seconds before the partitions' progress bar shows (as the serial run's bar)
+PROGRESS_DELAY = 1.0
 
 
 class DaskMissingError(ImportError):
@@ -187,7 +190,7 @@ def _thread_counts(before) -> list[int]:
 
 
 def run_partitioned(plan, partitions, scheduler, chunk: int, timings: dict,
-                    check=None) -> dict:
+                    check=None, progress: bool = False) -> dict:
     """Steps 3, 5, 6 in partitions on Dask: {kind: KindPairs}, identical to the serial
     run. ``check(share=, stacklevel=)``: the resolution report's checks, called before
     any work with the fraction of the cell pairs held at once. ``timings`` gets
@@ -196,20 +199,27 @@ def run_partitioned(plan, partitions, scheduler, chunk: int, timings: dict,
     tasks) and "merge" (wall seconds),
     "cpu_partition", "cpu_dask", "cpu_merge" (the client process's CPU seconds:
     "cpu_dask" is Dask's serialisation and event loop while the tasks run) and
-    ``timings["partitions"]``: the per-partition statistics."""
+    ``timings["partitions"]``: the per-partition statistics. ``progress``: a tqdm bar
+    on stderr counting finished partitions (shown after :data:`PROGRESS_DELAY` s)."""
     dask = _dask()
     client = _client("threads" if scheduler is None else scheduler)
     try:
-        return _run(dask, client, plan, partitions, scheduler, chunk, timings, check)
+        return _run(dask, client, plan, partitions, scheduler, chunk, timings, check, progress)
     finally:
         if client is not None and isinstance(scheduler, str):
             client.close()  # we connected to the address: we disconnect (errors too)
 
 
-def _run(dask, client, plan, partitions, scheduler, chunk, timings, check) -> dict:
+def _run(dask, client, plan, partitions, scheduler, chunk, timings, check, progress) -> dict:
     k = _count(partitions, client, len(plan.sim_cells))
     if check is not None:  # before any work
         check(share=min(k, _slots(client, scheduler)) / k, stacklevel=5)
+    with _bar(progress, k) as bar:
+        return _tasks(dask, client, plan, k, scheduler, chunk, timings, bar)
+
+
+def _tasks(dask, client, plan, k, scheduler, chunk, timings, bar) -> dict:
+    """Split, the tasks, the merge (:func:`run_partitioned`)."""
     clock = _Clock(timings)
     reach = plan.scale.reach
     parts = () if len(plan.cut_cells) == 0 or len(plan.sim_cells) == 0 else (
@@ -222,14 +232,17 @@ def _run(dask, client, plan, partitions, scheduler, chunk, timings, check) -> di
         # of the next ones overlaps the workers' tasks ("partition": split and send)
         futures = [client.submit(run_part, _payload(client, p), *args, pure=False)
                    for p in parts]
+        _set_total(bar, len(futures))
         clock("partition")
-        out = _gather(futures)
+        out = _gather(futures, bar)
     else:
         parts = list(parts)
+        _set_total(bar, len(parts))
         clock("partition")
         tasks = [dask.delayed(run_part, pure=False)(p, *args) for p in parts]
         # no cells can meet: nothing to register
-        out = dask.compute(*tasks, scheduler=scheduler or "threads") if tasks else []
+        with _finished(bar, {t.key for t in tasks}):
+            out = dask.compute(*tasks, scheduler=scheduler or "threads") if tasks else []
         del parts, tasks
     clock("dask")
     pairs = merge(plan.kinds, [o[0] for o in out], plan.dtype)
@@ -238,17 +251,52 @@ def _run(dask, client, plan, partitions, scheduler, chunk, timings, check) -> di
     return pairs
 
 
-def _gather(futures) -> list:
+def _gather(futures, bar=None) -> list:
     """The futures' results in order, each fetched as soon as its task ends (a plain
     ``gather`` fetches them all after the last one: the first results' transfer would
-    follow the slowest task instead of overlapping it)."""
+    follow the slowest task instead of overlapping it); ``bar`` counts them."""
     from distributed import as_completed
 
     index = {f.key: i for i, f in enumerate(futures)}
     out = [None] * len(futures)
     for future, result in as_completed(futures, with_results=True):
         out[index[future.key]] = result
+        if bar is not None:
+            bar.update(1)
     return out
+
+
+@contextlib.contextmanager
+def _bar(progress: bool, k: int):
+    """The partitions' progress bar (tqdm on stderr, after :data:`PROGRESS_DELAY` s, gone
+    when done; ``progress`` False: a disabled bar that prints nothing)."""
+    from tqdm import tqdm
+
+    bar = tqdm(total=k, desc="registering", unit="partition", delay=PROGRESS_DELAY,
+               file=sys.stderr, disable=not progress, leave=False)
+    try:
+        yield bar
+    finally:
+        bar.close()
+
+
+def _set_total(bar, n: int) -> None:
+    """The number of tasks, once the split knows it (partitions without a cutting cell
+    within reach run none)."""
+    bar.total = n
+
+
+def _finished(bar, keys):
+    """A Dask local-scheduler callback (a context manager): ``bar.update(1)`` as each
+    task of ``keys`` finishes (the local schedulers call it in the client's process)."""
+    from dask.callbacks import Callback
+
+    class _Count(Callback):
+        def _posttask(self, key, result, dsk, state, worker_id):
+            if key in keys:
+                bar.update(1)
+
+    return _Count()
 
 
 #: A partition's slice up to this many bytes travels inside its task's message (no

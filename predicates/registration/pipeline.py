@@ -100,7 +100,8 @@ def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: b
     ``dtype``: float64 or float32, the working precision (coordinates are converted;
     ``res.rounded_inputs`` says whether that rounded them). ``tolerance_scale``: 1 for the
     robust method, 0 for the naive zero-tolerance baseline (values in [0, 1]).
-    ``progress``: a tqdm bar on stderr (shown after one second). ``refine_cut``: refine
+    ``progress``: a tqdm bar on stderr (shown after one second; of the kinds, or of the
+    partitions in a partitioned run). ``refine_cut``: refine
     cutting cells coarser than the simulation cells they meet (conforming midpoint
     splits, :mod:`~predicates.registration.refine`); the registered cutting ids then
     refer to ``res.cut_points`` / ``res.cut_cells``, the refined mesh (input points keep
@@ -136,7 +137,7 @@ def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: b
 
         # checked there, before any task: the memory guard counts the partitions held
         # at once, not the whole run
-        pairs = run_partitioned(plan, partitions, scheduler, chunk, timings, check)
+        pairs = run_partitioned(plan, partitions, scheduler, chunk, timings, check, progress)
     timings["total"] = time.perf_counter() - t0
     sim, cut, sc_ = plan.sim, plan.cut, plan.scale
     return IntersectionResult(

@@ -107,7 +107,7 @@ def _run_intersect(args) -> int:
             warnings.simplefilter("always", ResolutionWarning)
             res = intersect_files(args.sim, args.cut, output=args.output, plot=args.plot,
                                   sim_output=args.sim_output, dtype=args.dtype,
-                                  naive=args.naive, progress=not args.quiet and not dask_run,
+                                  naive=args.naive, progress=not args.quiet,
                                   strict=args.strict, refine_cut=not args.no_refine_cut,
                                   sim_region=args.sim_region, cut_region=args.cut_region,
                                   partitions="auto" if dask_run else None, scheduler=client,

@@ -275,6 +275,66 @@ def test_cli_workers(tmp_path):
     assert "Traceback" not in r.stderr and not out.exists()
 
 
+def _recording_bars(monkeypatch):
+    """partition_run's bars, shown at once, each kept (with its count at close)."""
+    import contextlib
+
+    from predicates.registration import partition_run
+
+    monkeypatch.setattr(partition_run, "PROGRESS_DELAY", 0)
+    bars, make = [], partition_run._bar
+
+    @contextlib.contextmanager
+    def keep(progress, k):
+        with make(progress, k) as bar:
+            yield bar
+            bars.append((bar.n, bar.total, k))
+
+    monkeypatch.setattr(partition_run, "_bar", keep)
+    return bars
+
+
+@pytest.mark.parametrize("scheduler", ["synchronous", "threads", "processes"])
+def test_progress_bar_counts_the_partitions(scheduler, capsys, monkeypatch, request):
+    """progress=True in a partitioned run: a bar of the partitions' tasks on stderr
+    (the serial run's bar counts kinds) that counts every task as it ends, the same
+    result; progress=False: nothing on stderr."""
+    bars = _recording_bars(monkeypatch)
+    pool = request.getfixturevalue("process_pool") if scheduler == "processes" else None
+    args = CASES["sphere"]()
+    ref = predicates.intersect(*args)
+    capsys.readouterr()
+    with dask.config.set(pool=pool):
+        for k in (3, 7):
+            res = predicates.intersect(*args, partitions=k, scheduler=scheduler,
+                                       progress=True)
+            assert_identical(ref, res)
+            err = capsys.readouterr().err
+            assert "registering" in err and f"0/{k}" in err and "partition" in err, err
+            # every task counted; partitions with no cutting cell within reach run none
+            ran = len(res.timings["partitions"])
+            assert bars[-1] == (ran, ran, k) and 1 <= ran <= k
+            predicates.intersect(*args, partitions=k, scheduler=scheduler)
+            assert capsys.readouterr().err == ""
+
+
+def test_progress_bar_on_a_local_cluster(capsys, monkeypatch):
+    from distributed import Client, LocalCluster
+
+    bars = _recording_bars(monkeypatch)
+    args = CASES["plane"](5)
+    ref = predicates.intersect(*args)
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                      dashboard_address=None) as cluster, Client(cluster) as client:
+        capsys.readouterr()
+        res = predicates.intersect(*args, partitions=4, scheduler=client, progress=True)
+        assert_identical(ref, res)
+        err = capsys.readouterr().err
+        assert "registering" in err and "0/4" in err, err
+        ran = len(res.timings["partitions"])
+        assert bars[-1] == (ran, ran, 4)
+
+
 # -- the split of the work: partitions without cutting cells, the cell that sets L,
 #    the merge, and the plan's helpers the partitioned run relies on ----------------------
 
