@@ -8,8 +8,8 @@ result is the serial one is docs/partitioned.md.
   runs of (nearly) equal size: partition r *owns* run r;
 * a vertex is owned by the partition owning the smallest-index cell that contains it;
 * partition r receives its cells plus a halo (every cell sharing a vertex with them),
-  and every cutting cell whose box is within the largest reach of a box covering some
-  of those cells;
+  and every cutting cell whose box, enlarged by the largest reach, shares a grid cell
+  with the box of one of those cells (:mod:`.partition_slices`);
 * a registered pair belongs to the partition owning the smallest-id vertex of its
   simulation primitive: every cell containing that primitive shares that vertex with an
   owned cell, so the owner holds the primitive, all its faces and every cutting
@@ -22,8 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .boxgrid import rowwise
-from .broadphase import boxes_of, near_flags
-from .complex import any_flagged
+from .broadphase import boxes_of
+from .partition_slices import cut_near, halos, wide
 from .result import KindPairs
 
 __all__ = ["Layout", "Part", "assign", "merge", "morton_order", "owned", "split"]
@@ -91,19 +91,6 @@ def morton_order(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
     return pos
 
 
-def _cut_near(P_sim, halo_cells, clo, chi, pad) -> np.ndarray:
-    """Indices of the cutting cells (boxes ``clo``, ``chi``) that share a broad-phase
-    grid cell with the box of a ``halo_cells`` cell, the cutting boxes enlarged by
-    ``pad`` (:func:`~predicates.registration.broadphase.near_flags`): a superset of the
-    cutting cells within ``pad`` of a halo cell (same float test), and a tight one —
-    the grid is about a cell's size, so a partition gets the cutting cells over its own
-    region plus a border, not every cutting cell its region's bounding box spans."""
-    if len(clo) == 0 or len(halo_cells) == 0:
-        return np.zeros(0, dtype=np.int64)
-    _, near = near_flags(*boxes_of(P_sim, halo_cells), clo, chi, pad, sides="b")
-    return np.flatnonzero(near)
-
-
 def _local(P, cells, keep):
     """The rows ``keep`` of ``cells`` renumbered to their vertices (global ids
     increasing) and those vertices' coordinates."""
@@ -144,10 +131,11 @@ def split(P_sim, sim_cells, P_cut, cut_cells, k: int, pad: float):
 
 
 class Layout:
-    """The global side of :func:`split` (Morton order, vertex owners, cutting boxes),
-    from which :meth:`part` cuts any one partition: the client cuts them all, or each
-    worker cuts its own from the same arrays (the same Part, bit for bit: a pure
-    function of the arrays, k, r and pad)."""
+    """The split's global side (Morton order, vertex owners, every partition's halo:
+    :mod:`~predicates.registration.partition_slices`, cutting boxes), from which
+    :meth:`part` cuts any one partition — the client cuts them all, or each worker
+    its own from the same arrays (the same Part, bit for bit: a pure function of the
+    arrays, k, r and pad)."""
 
     def __init__(self, P_sim, sim_cells, P_cut, cut_cells, k: int, pad: float):
         self.P_sim, self.sim_cells, self.P_cut, self.cut_cells = (P_sim, sim_cells, P_cut,
@@ -155,23 +143,23 @@ class Layout:
         self.k, self.pad = k, pad
         m = len(sim_cells)
         pos, self.owner = assign(P_sim, sim_cells, k)
+        part = pos * k // m  # cell c is owned by partition pos[c]·k // m (assign)
+        self.owned = np.bincount(part, minlength=k)
+        self.halo, self.halo_at = halos(sim_cells, part, k, len(P_sim))
+        self.lo, self.hi = boxes_of(P_sim, sim_cells)  # once: a part takes its rows
         self.clo, self.chi = boxes_of(P_cut, cut_cells)
-        self.by_pos = np.empty(m, dtype=np.int64)
-        self.by_pos[pos] = np.arange(m, dtype=np.int64)
+        self.wide = wide(self.clo, self.chi, pad)
 
     def part(self, r: int) -> Part | None:
         """Partition r's :class:`Part` (None: it owns no cell)."""
-        m, k, sim_cells = len(self.sim_cells), self.k, self.sim_cells
-        own = self.by_pos[(r * m + k - 1) // k: ((r + 1) * m + k - 1) // k]
-        if own.size == 0:
+        if self.owned[r] == 0:
             return None
-        touched = np.zeros(len(self.P_sim), dtype=bool)
-        touched[sim_cells[own].ravel()] = True
-        halo = np.flatnonzero(any_flagged(touched, sim_cells))  # includes own cells
-        Ps, cs, sid = _local(self.P_sim, sim_cells, halo)
-        cut_keep = _cut_near(self.P_sim, sim_cells[halo], self.clo, self.chi, self.pad)
+        halo = self.halo[self.halo_at[r]: self.halo_at[r + 1]]  # includes own cells
+        Ps, cs, sid = _local(self.P_sim, self.sim_cells, halo)
+        cut_keep = cut_near(self.lo[halo], self.hi[halo], self.clo, self.chi, *self.wide,
+                            self.pad)
         Pc, cc, cid = _local(self.P_cut, self.cut_cells, cut_keep)
-        return Part(r, Ps, cs, sid, self.owner[sid] == r, Pc, cc, cid, int(own.size))
+        return Part(r, Ps, cs, sid, self.owner[sid] == r, Pc, cc, cid, int(self.owned[r]))
 
 
 def owned(part: Part, pairs: dict) -> dict:

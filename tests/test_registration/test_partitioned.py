@@ -673,3 +673,51 @@ def test_local_cluster_settings_submission_and_order(monkeypatch):
         futures = [client.submit(lambda _, i=i: i, f, pure=False)
                    for i, f in enumerate(futures)]
         assert pr._gather(futures) == [0, 1, 2]
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 10**6), dim=st.sampled_from([2, 3]), k=st.integers(1, 12),
+       n=st.integers(1, 40), unused=st.integers(0, 5))
+def test_halos_are_the_definition(seed, dim, k, n, unused):
+    """partition_slices.halos: partition r's halo is every cell sharing a vertex with a
+    cell of r (its own cells included), ascending — checked cell by cell with sets, on
+    random cells (repeated vertices, points in no cell, partitions with no cell)."""
+    from predicates.registration.partition_slices import halos
+
+    rng = np.random.default_rng(seed)
+    C = rng.integers(0, n, size=(int(rng.integers(1, 60)), dim + 1))
+    part = rng.integers(0, k, size=len(C))
+    ids, starts = halos(C, part, k, n + unused)
+    assert starts[0] == 0 and starts[-1] == len(ids) and len(starts) == k + 1
+    verts = [set(c) for c in C.tolist()]
+    for r in range(k):
+        mine = set().union(*(verts[i] for i in np.flatnonzero(part == r)))
+        want = [i for i, v in enumerate(verts) if v & mine]
+        assert ids[starts[r]: starts[r + 1]].tolist() == want
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 10**6), k=st.integers(2, 40), pad=st.sampled_from([0.0, 0.02, 0.3]))
+def test_every_partition_gets_the_cutting_cells_within_reach(seed, k, pad):
+    """Each Part holds its owned cells' halo (the old per-partition definition: every
+    cell with a vertex of an owned cell) and every cutting cell within pad of a halo
+    cell (brute force, the broad phase's float test), for many partitions of a
+    rotated sphere case."""
+    from predicates.registration.broadphase import box_pairs_bruteforce
+    from predicates.registration.complex import any_flagged
+
+    sp, sc, cp, cc = CASES["sphere"](seed)
+    pos, _ = assign(sp, sc, k)
+    Y = cp[cc]
+    for p in split(sp, sc, cp, cc, k, pad=pad):
+        own = np.flatnonzero(pos * k // len(sc) == p.index)
+        touched = np.zeros(len(sp), dtype=bool)
+        touched[sc[own].ravel()] = True
+        halo = sc[any_flagged(touched, sc)]
+        assert np.array_equal(p.sim_ids[p.sim_cells], halo)
+        Xp = sp[halo]
+        _, ib = box_pairs_bruteforce(Xp.min(axis=1), Xp.max(axis=1), Y.min(axis=1),
+                                     Y.max(axis=1), pad)
+        held = {tuple(c) for c in p.cut_ids[p.cut_cells].tolist()}
+        assert {tuple(c) for c in cc[np.unique(ib)].tolist()} <= held
+        assert np.all(np.diff(p.cut_ids) > 0) and np.all(np.diff(p.sim_ids) > 0)
