@@ -21,8 +21,8 @@ import numpy as np
 from .levels import Registration
 from .partition import Part, merge, owned, split
 
-__all__ = ["DaskMissingError", "LOCAL_SCHEDULERS", "client_for", "read_pieces", "run_part",
-           "run_partitioned", "write_parts"]
+__all__ = ["DaskMissingError", "LOCAL_SCHEDULERS", "PartitionError", "check_timeout",
+           "client_for", "read_pieces", "run_part", "run_partitioned", "write_parts"]
 
 LOCAL_SCHEDULERS = ("threads", "processes", "synchronous")
 #: "auto" makes at least one partition per this many simulation cells
@@ -33,6 +33,30 @@ PROGRESS_DELAY = 1.0
 
 class DaskMissingError(ImportError):
     """Dask is needed for a partitioned run but is not installed."""
+
+
+class PartitionError(RuntimeError):
+    """A partitioned run's tasks did not all finish: a Dask worker died running one
+    (``distributed.KilledWorker``: typically its memory limit) or the run's ``timeout``
+    passed. The unfinished tasks are cancelled and nothing is returned."""
+
+
+def check_timeout(timeout, partitioned: bool, scheduler=None):
+    """``timeout`` of :func:`~predicates.registration.intersect`: None, or seconds > 0
+    for a partitioned run on a dask.distributed scheduler; refused (before any work)
+    otherwise."""
+    if timeout is None:
+        return None
+    if isinstance(timeout, (bool, np.bool_)) or \
+            not isinstance(timeout, (int, float, np.integer, np.floating)):
+        raise TypeError(f"timeout must be a number of seconds, got {timeout!r}")
+    if not timeout > 0:
+        raise ValueError(f"timeout must be more than 0 seconds, got {timeout!r}")
+    if not partitioned or scheduler is None or scheduler in LOCAL_SCHEDULERS:
+        raise ValueError("timeout limits a partitioned run's tasks on a dask.distributed "
+                         "scheduler (a Client or an address; fperr intersect --workers/"
+                         "--scheduler); the local schedulers run their tasks to the end")
+    return float(timeout)
 
 
 def _dask():
@@ -110,10 +134,13 @@ def client_for(workers: int | None = None, address: str | None = None):
         # referenced, or the scheduler would drop them unrun)
         warm = [client.submit(_warm, pure=False, workers=[w], allow_other_workers=False)
                 for w in client.scheduler_info()["workers"]]
-        yield client
-        # closing the cluster under a running import logs a cancelled-task warning
-        with contextlib.suppress(TimeoutError):
-            wait(warm, timeout=30)
+        try:
+            yield client
+        finally:
+            # closing the cluster under a running import logs a cancelled-task warning
+            # (on an error too: a run refused or failed within a second of the start)
+            with contextlib.suppress(TimeoutError):
+                wait(warm, timeout=30)
 
 
 @contextlib.contextmanager
@@ -190,7 +217,7 @@ def _thread_counts(before) -> list[int]:
 
 
 def run_partitioned(plan, partitions, scheduler, chunk: int, timings: dict,
-                    check=None, progress: bool = False) -> dict:
+                    check=None, progress: bool = False, timeout: float | None = None) -> dict:
     """Steps 3, 5, 6 in partitions on Dask: {kind: KindPairs}, identical to the serial
     run. ``check(share=, stacklevel=)``: the resolution report's checks, called before
     any work with the fraction of the cell pairs held at once. ``timings`` gets
@@ -200,25 +227,29 @@ def run_partitioned(plan, partitions, scheduler, chunk: int, timings: dict,
     "cpu_partition", "cpu_dask", "cpu_merge" (the client process's CPU seconds:
     "cpu_dask" is Dask's serialisation and event loop while the tasks run) and
     ``timings["partitions"]``: the per-partition statistics. ``progress``: a tqdm bar
-    on stderr counting finished partitions (shown after :data:`PROGRESS_DELAY` s)."""
+    on stderr counting finished partitions (shown after :data:`PROGRESS_DELAY` s).
+    ``timeout``: seconds to wait for the tasks once submitted (a dask.distributed
+    scheduler only), else :class:`PartitionError`."""
     dask = _dask()
     client = _client("threads" if scheduler is None else scheduler)
     try:
-        return _run(dask, client, plan, partitions, scheduler, chunk, timings, check, progress)
+        return _run(dask, client, plan, partitions, scheduler, chunk, timings, check,
+                    progress, timeout)
     finally:
         if client is not None and isinstance(scheduler, str):
             client.close()  # we connected to the address: we disconnect (errors too)
 
 
-def _run(dask, client, plan, partitions, scheduler, chunk, timings, check, progress) -> dict:
+def _run(dask, client, plan, partitions, scheduler, chunk, timings, check, progress,
+         timeout) -> dict:
     k = _count(partitions, client, len(plan.sim_cells))
     if check is not None:  # before any work
         check(share=min(k, _slots(client, scheduler)) / k, stacklevel=5)
     with _bar(progress, k) as bar:
-        return _tasks(dask, client, plan, k, scheduler, chunk, timings, bar)
+        return _tasks(dask, client, plan, k, scheduler, chunk, timings, bar, timeout)
 
 
-def _tasks(dask, client, plan, k, scheduler, chunk, timings, bar) -> dict:
+def _tasks(dask, client, plan, k, scheduler, chunk, timings, bar, timeout=None) -> dict:
     """Split, the tasks, the merge (:func:`run_partitioned`)."""
     clock = _Clock(timings)
     reach = plan.scale.reach
@@ -230,11 +261,13 @@ def _tasks(dask, client, plan, k, scheduler, chunk, timings, bar) -> dict:
     if client is not None:
         # each partition's task starts as soon as its slice is cut and sent: the split
         # of the next ones overlaps the workers' tasks ("partition": split and send)
-        futures = [client.submit(run_part, _payload(client, p), *args, pure=False)
-                   for p in parts]
+        futures, index = [], []
+        for p in parts:
+            futures.append(client.submit(run_part, _payload(client, p), *args, pure=False))
+            index.append(p.index)
         _set_total(bar, len(futures))
         clock("partition")
-        out = _gather(futures, bar)
+        out = _gather(futures, bar, timeout, index)
     else:
         parts = list(parts)
         _set_total(bar, len(parts))
@@ -251,19 +284,43 @@ def _tasks(dask, client, plan, k, scheduler, chunk, timings, bar) -> dict:
     return pairs
 
 
-def _gather(futures, bar=None) -> list:
+def _gather(futures, bar=None, timeout=None, parts=None) -> list:
     """The futures' results in order, each fetched as soon as its task ends (a plain
     ``gather`` fetches them all after the last one: the first results' transfer would
-    follow the slowest task instead of overlapping it); ``bar`` counts them."""
+    follow the slowest task instead of overlapping it); ``bar`` counts them. A worker
+    lost under a task, or ``timeout`` seconds passed: the rest are cancelled and
+    :class:`PartitionError` names the partitions (``parts``: their numbers)."""
     from distributed import as_completed
+    from distributed.scheduler import KilledWorker
 
     index = {f.key: i for i, f in enumerate(futures)}
-    out = [None] * len(futures)
-    for future, result in as_completed(futures, with_results=True):
-        out[index[future.key]] = result
-        if bar is not None:
-            bar.update(1)
+    parts = list(range(len(futures))) if parts is None else parts
+    out, done = [None] * len(futures), set()
+    try:
+        for future, result in as_completed(futures, with_results=True, timeout=timeout):
+            out[index[future.key]] = result
+            done.add(future.key)
+            if bar is not None:
+                bar.update(1)
+    except (KilledWorker, TimeoutError) as e:
+        left = [parts[index[f.key]] for f in futures if f.key not in done]
+        # cancelled, not left running on the workers (or queued behind the failure)
+        futures[0].client.cancel([f for f in futures if f.key not in done])
+        raise PartitionError(_failure(e, left, len(futures), timeout)) from e
     return out
+
+
+def _failure(e, left: list, n: int, timeout) -> str:
+    """What went wrong with a partitioned run's tasks, and what to do."""
+    which = ", ".join(map(str, left[:8])) + (" ..." if len(left) > 8 else "")
+    if isinstance(e, TimeoutError):
+        return (f"{len(left)} of {n} partitions ({which}) not finished after the timeout of "
+                f"{timeout:g} s: their tasks were cancelled and nothing was returned; give "
+                f"a longer timeout, more workers or more partitions")
+    return (f"a Dask worker died while running a partition's task ({e}); {len(left)} of "
+            f"{n} partitions ({which}) did not finish and nothing was returned. A worker "
+            f"that exceeds its memory limit is killed: give the workers more memory or "
+            f"run with more partitions (each holds less)")
 
 
 @contextlib.contextmanager

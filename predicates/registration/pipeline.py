@@ -87,7 +87,8 @@ PLAN_STAGES = ("plan_validate", "plan_boxes", "refine", "plan_scale", "plan_repo
 def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: bool = False,
               chunk: int = CHUNK, refine_cut: bool = True, strict: bool = False,
               memory_limit: int | None = None, partitions=None, scheduler=None,
-              sim_region=None, cut_region=None, tolerances=None) -> IntersectionResult:
+              sim_region=None, cut_region=None, tolerances=None,
+              timeout: float | None = None) -> IntersectionResult:
     """Register the intersections of a simulation mesh with a cutting mesh.
 
     ``intersect(sim_points, sim_cells, cut_points, cut_cells)``, ``intersect(sim_mesh,
@@ -116,12 +117,20 @@ def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: b
     (:mod:`predicates.registration.partition_run`; needs ``fperr[dask]``); the default
     is serial, without Dask. ``tolerances``: a tolerance table (e.g. from ``fperr
     synthesize``; see :func:`predicates.tolerance_table.resolve_table`) instead of
-    Figure 1/5 — sound only if ``fperr verify --tolerances`` accepts it. Returns an
+    Figure 1/5 — sound only if ``fperr verify --tolerances`` accepts it. ``timeout``:
+    seconds a partitioned run on a dask.distributed scheduler waits for its tasks once
+    submitted, then cancels them and raises
+    :class:`~predicates.registration.partition_run.PartitionError` (as when a worker
+    dies under a task). Returns an
     :class:`~predicates.registration.result.IntersectionResult`. See the module docstring.
     """
     t0, c0 = time.perf_counter(), time.process_time()
     timings = {}
     serial = partitions is None and scheduler is None
+    if timeout is not None:  # before any work (Dask is imported only for a partitioned run)
+        from .partition_run import check_timeout
+
+        timeout = check_timeout(timeout, not serial, scheduler)
     # a partitioned run's plan is its serial part: per-cell work on a thread per worker
     plan = _plan(args, dtype, tolerance_scale, progress, chunk, refine_cut, timings,
                  sim_region, cut_region, tolerances,
@@ -137,7 +146,8 @@ def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: b
 
         # checked there, before any task: the memory guard counts the partitions held
         # at once, not the whole run
-        pairs = run_partitioned(plan, partitions, scheduler, chunk, timings, check, progress)
+        pairs = run_partitioned(plan, partitions, scheduler, chunk, timings, check, progress,
+                                timeout)
     timings["total"] = time.perf_counter() - t0
     sim, cut, sc_ = plan.sim, plan.cut, plan.scale
     return IntersectionResult(

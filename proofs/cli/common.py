@@ -28,6 +28,17 @@ def _integer(text: str) -> int:
         raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
 
 
+def _seconds(text: str) -> float:
+    """A time limit: a number of seconds > 0."""
+    try:
+        t = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number of seconds: {text!r}") from None
+    if not t > 0:
+        raise argparse.ArgumentTypeError(f"must be more than 0 seconds, got {text}")
+    return t
+
+
 def _at_least_2(text: str) -> int:
     try:
         n = int(text)

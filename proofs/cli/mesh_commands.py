@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 
 from .common import RAW as _RAW
-from .common import _at_least_1, _at_least_2, error as _error
+from .common import _at_least_1, _at_least_2, _seconds, error as _error
 
 def _mesh_files(p) -> None:
     p.add_argument("sim", help="simulation mesh file (triangles in 2D, tetrahedra in 3D)")
@@ -68,6 +68,10 @@ def _add_intersect(sub) -> None:
                         "result; needs pip install 'fperr[dask]')")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="run in partitions on a running Dask cluster (e.g. tcp://host:8786)")
+    p.add_argument("--timeout", type=_seconds, metavar="SECONDS",
+                   help="with --workers/--scheduler: cancel the partitions' tasks and exit 1 "
+                        "(nothing written) when they have not all finished this many seconds "
+                        "after submission (default: wait)")
     p.add_argument("--tolerances", metavar="FILE",
                    help="tolerance table (TOML/JSON as for fperr verify --tolerances, e.g. "
                         "from fperr synthesize) instead of the paper's Figure 1/5")
@@ -82,6 +86,9 @@ def _dask_client(args):
         raise ValueError("--workers starts a local cluster, --scheduler connects to a "
                          "running one: give one of them")
     if args.workers is None and args.scheduler is None:
+        if args.timeout is not None:
+            raise ValueError("--timeout limits a partitioned run: give --workers or "
+                             "--scheduler")
         return contextlib.nullcontext()
     from predicates.registration.partition_run import client_for
 
@@ -93,6 +100,7 @@ def _run_intersect(args) -> int:
 
     from fperr.warnings import ResolutionError, ResolutionWarning
     from predicates.registration import intersect_files
+    from predicates.registration.partition_run import PartitionError
 
     table = None
     if args.tolerances:
@@ -111,8 +119,10 @@ def _run_intersect(args) -> int:
                                   strict=args.strict, refine_cut=not args.no_refine_cut,
                                   sim_region=args.sim_region, cut_region=args.cut_region,
                                   partitions="auto" if dask_run else None, scheduler=client,
-                                  tolerances=table)
-    except ResolutionError as e:  # valid input this precision cannot resolve: exit 1
+                                  tolerances=table, timeout=args.timeout)
+    except (ResolutionError, PartitionError) as e:
+        # valid input this precision cannot resolve, or a partitioned run's tasks that
+        # did not finish (a worker died, the timeout): exit 1, nothing written
         print(f"fperr intersect: error: {e}", file=sys.stderr)
         return 1
     except (ValueError, TypeError, OSError, ArithmeticError, ImportError, MemoryError) as e:

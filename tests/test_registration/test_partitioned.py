@@ -335,6 +335,93 @@ def test_progress_bar_on_a_local_cluster(capsys, monkeypatch):
         assert bars[-1] == (ran, ran, 4)
 
 
+def test_timeout_arguments_are_checked_before_any_work():
+    args = CASES["diagonal"]()
+    bad = (args[0], args[1] + 10**6, args[2], args[3])  # cell ids the plan would refuse
+    remote = {"partitions": 2, "scheduler": "tcp://127.0.0.1:1"}  # never connected to
+    for kw, err, text in (({"timeout": 0, **remote}, ValueError, "more than 0 seconds"),
+                          ({"timeout": -1.5, **remote}, ValueError, "more than 0 seconds"),
+                          ({"timeout": True, **remote}, TypeError, "number of seconds"),
+                          ({"timeout": "5", **remote}, TypeError, "number of seconds"),
+                          ({"timeout": 5}, ValueError, "partitioned run"),
+                          ({"timeout": 5, "partitions": 2}, ValueError, "local schedulers"),
+                          ({"timeout": 5, "partitions": 2, "scheduler": "processes"},
+                           ValueError, "local schedulers")):
+        with pytest.raises(err, match=text):
+            predicates.intersect(*bad, **kw)
+
+
+def test_timeout_cancels_the_tasks_and_names_the_partitions(monkeypatch):
+    """A partitioned run whose tasks outlast ``timeout``: PartitionError naming the
+    unfinished partitions, raised at the timeout (not when the tasks end); the same
+    cluster then runs the next run normally, identical to the serial one."""
+    import time
+
+    from distributed import Client, LocalCluster
+
+    from predicates.registration import partition_run
+    from predicates.registration.partition_run import PartitionError
+
+    args = CASES["sphere"]()
+    ref = predicates.intersect(*args)
+    run_part = partition_run.run_part
+
+    def slow(*a):
+        time.sleep(5)
+        return run_part(*a)
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                      dashboard_address=None) as cluster, Client(cluster) as client:
+        monkeypatch.setattr(partition_run, "run_part", slow)
+        t = time.perf_counter()
+        with pytest.raises(PartitionError, match=r"3 of 3 partitions \(0, 1, 2\) not "
+                                                 r"finished after the timeout of 0.5 s"):
+            predicates.intersect(*args, partitions=3, scheduler=client, timeout=0.5)
+        assert time.perf_counter() - t < 4
+        monkeypatch.setattr(partition_run, "run_part", run_part)
+        assert_identical(ref, predicates.intersect(*args, partitions=3, scheduler=client,
+                                                   timeout=60))
+
+
+def test_a_worker_that_dies_under_a_task_is_a_partition_error():
+    """A worker process killed under a task (as the nanny kills one over its memory
+    limit): Dask's KilledWorker becomes PartitionError, naming the partition and what
+    to do, instead of a bare Dask exception."""
+    from distributed import Client, LocalCluster
+
+    from predicates.registration.partition_run import PartitionError, _gather
+
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}), \
+            LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                         dashboard_address=None) as cluster, Client(cluster) as client:
+        futures = [client.submit(os._exit, 1, pure=False)]
+        with pytest.raises(PartitionError, match=r"worker died.*1 of 1 partitions \(7\)"
+                                                 r".*more memory or run with more partitions"):
+            _gather(futures, parts=[7])
+
+
+def test_cli_timeout(tmp_path):
+    sp, sc, cp, cc = CASES["sphere"]()
+    sim, cut = tmp_path / "sim.vtu", tmp_path / "cut.vtu"
+    meshio.Mesh(sp, [("tetra", sc)]).write(sim)
+    meshio.Mesh(cp, [("triangle", cc)]).write(cut)
+    out = tmp_path / "out.vtu"
+    # the tasks cannot finish in a millisecond: exit 1, a one-line error, nothing written
+    r = _cli("intersect", str(sim), str(cut), "-o", str(out), "--workers", "1",
+             "--timeout", "0.001")
+    assert r.returncode == 1 and not out.exists(), r.stderr
+    assert "not finished after the timeout of 0.001 s" in r.stderr
+    assert "Traceback" not in r.stderr and "WARNING" not in r.stderr
+    for argv, text in ((["--timeout", "5"], "give --workers or --scheduler"),
+                       (["--workers", "1", "--timeout", "0"], "more than 0 seconds"),
+                       (["--workers", "1", "--timeout", "soon"], "not a number of seconds")):
+        r = _cli("intersect", str(sim), str(cut), "-o", str(out), *argv)
+        assert r.returncode == 2 and text in r.stderr and not out.exists(), r.stderr
+    r = _cli("intersect", str(sim), str(cut), "-o", str(out), "--workers", "1",
+             "--timeout", "120", "--quiet")
+    assert r.returncode == 0 and out.exists() and r.stderr == "", r.stderr
+
+
 # -- the split of the work: partitions without cutting cells, the cell that sets L,
 #    the merge, and the plan's helpers the partitioned run relies on ----------------------
 
