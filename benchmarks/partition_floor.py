@@ -29,6 +29,20 @@ distributed in one extra round trip, the rest of the plan free of cost), ``seria
 split), and
 ``serial / post_plan_presplit`` (a free plan); and the registration's own speed-up,
 ``register / post_plan_presplit`` (what the tasks give without plan or split).
+
+Two more quantities, the machine's share of the bound (same cluster, same run):
+
+* ``register_one`` / ``register_pair``: the whole serial registration (after the plan,
+  the plan's arrays broadcast to both workers once) run as a task on one worker alone,
+  then on both workers at once, each timed inside its task: the concurrency ``c`` =
+  2 × one / pair of exactly this work on these two workers (2.0 on two free cores);
+* ``dask_round_trip``: one trivial task on each worker, submitted and gathered.
+
+From them the **overhead budget** of 1.6×: a partitioned run takes at least the plan
+on 2 threads + the registration's work at the concurrency c + what it adds (split,
+Dask's round trips, halo cells computed twice, imbalance, merge); 1.6× leaves for that
+addition ``serial / 1.6 − plan_threaded − register / c`` — printed beside what the
+run adds (``post_plan − register / c``) and Dask's bare round trip.
 """
 from __future__ import annotations
 
@@ -53,6 +67,26 @@ def plan_cells(P, cells, clo, chi, pad):
     L = float(box_extent(lo, hi).max())
     near, _ = near_flags(lo, hi, clo, chi, pad, sides="a")
     return L, near
+
+
+def register_task(lean, chunk: int) -> float:
+    """The serial registration of ``lean`` (a broadcast :func:`_lean` plan) as one task:
+    its wall seconds, timed inside the task."""
+    from predicates.registration import pipeline
+
+    t = time.perf_counter()
+    pipeline._register(lean, chunk, False, {})
+    return time.perf_counter() - t
+
+
+def _lean(plan):
+    """What ``pipeline._register`` reads of a plan (dim, scaled points, run cells,
+    tolerances, reach), without the input arrays it does not need."""
+    from types import SimpleNamespace
+
+    return SimpleNamespace(dim=plan.dim, P_sim=plan.P_sim, sim_cells=plan.sim_cells,
+                           P_cut=plan.P_cut, cut_cells=plan.cut_cells, tol=plan.tol,
+                           scale=SimpleNamespace(reach=plan.scale.reach))
 
 
 def _stats(ts: list) -> dict:
@@ -101,6 +135,17 @@ def main(argv=None) -> int:
     with client_for(2) as client:
         workers = list(client.scheduler_info()["workers"])
         time.sleep(2)  # the workers' imports (client_for warms them) are not timed
+        lean = client.scatter(_lean(pl), broadcast=True, hash=False)
+        inside: dict[str, list] = {}
+
+        def on(ws, name):
+            fs = [client.submit(register_task, lean, pipeline.CHUNK, pure=False,
+                                workers=[w], allow_other_workers=False) for w in ws]
+            inside.setdefault(name, []).append(max(client.gather(fs)))
+
+        def round_trip():
+            client.gather([client.submit(int, 0, pure=False, workers=[w],
+                                         allow_other_workers=False) for w in workers])
 
         def presplit():
             out = _gather([client.submit(run_part, p, *task_args, pure=False)
@@ -124,14 +169,20 @@ def main(argv=None) -> int:
             "post_plan_presplit": presplit,
             "plan_cells_client": lambda: plan_cells(P, pl.sim.cells, clo, chi, pad),
             "plan_cells_hop": hop,
+            "register_one": lambda: on(workers[:1], "register_one"),
+            "register_pair": lambda: on(workers, "register_pair"),
+            "dask_round_trip": round_trip,
         }
         for name, f in steps.items():  # warm-up
             f()
         for _ in range(args.reps):
             for name, f in steps.items():
                 timed(name, f)
+    for name in ("register_one", "register_pair"):  # the tasks' own times, not Dask's
+        times[name] = inside[name][1:]  # (the first was the warm-up)
     st = {k: _stats(v) for k, v in times.items()}
     best = {k: v["best"] for k, v in st.items()}
+    c = 2 * best["register_one"] / best["register_pair"]
     one_thread = best["plan"]
     best["plan"] = min(best["plan"], best["plan_threaded"])  # what a partitioned run uses
     bounds = {
@@ -153,8 +204,24 @@ def main(argv=None) -> int:
     print(f"\nmeasured speed-up (best/best): {best['serial'] / best['partitioned']:.2f}x")
     for k, v in bounds.items():
         print(f"bound, {k}: {v:.2f}x")
+    plan2 = best["plan"]
+    work = best["register"] / c
+    budget = best["serial"] / 1.6 - plan2 - work
+    added = best["post_plan"] - work
+    print(f"\nconcurrency of the registration on the 2 workers: c = 2 x "
+          f"{best['register_one'] * 1e3:.1f} / {best['register_pair'] * 1e3:.1f} ms = "
+          f"{c:.2f}")
+    print(f"1.6x = {best['serial'] / 1.6 * 1e3:.1f} ms = plan on 2 threads "
+          f"{plan2 * 1e3:.1f} + registration at c {work * 1e3:.1f} + at most "
+          f"{budget * 1e3:.1f} ms for split, Dask, halo, imbalance and merge; this run "
+          f"adds {added * 1e3:.1f} ms (post_plan - register / c); Dask's bare round trip "
+          f"{best['dask_round_trip'] * 1e3:.1f} ms")
+    print(f"with the plan perfectly parallel ({one_thread / 2 * 1e3:.1f} ms) the budget "
+          f"is {(best['serial'] / 1.6 - one_thread / 2 - work) * 1e3:.1f} ms")
     if args.json:
-        Path(args.json).write_text(json.dumps({"steps": st, "bounds": bounds}, indent=1))
+        Path(args.json).write_text(json.dumps({"steps": st, "bounds": bounds, "c": c,
+                                               "budget_s": budget, "added_s": added},
+                                              indent=1))
     return 0
 
 
