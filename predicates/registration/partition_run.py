@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import os
 import resource
+import socket
 import sys
 import time
 
@@ -187,7 +188,8 @@ def _count(partitions, client, n_cells: int) -> int:
 
 def run_part(part: Part, dim: int, tol, reach: dict, chunk: int) -> tuple[dict, dict]:
     """One Dask task: the serial levels on the partition's slice; returns its owned
-    pairs (global ids) and statistics (time, peak RSS of the worker process, bytes; for
+    pairs (global ids) and statistics (time, peak RSS of the worker process and its host
+    and pid, bytes; for
     the timeline and the worker's overheads: wall-clock start and end ``t_begin``,
     ``t_end``, the process's CPU ``proc_cpu`` and the thread's voluntary and involuntary
     context switches, minor and major page faults ``ctx``)."""
@@ -202,7 +204,8 @@ def run_part(part: Part, dim: int, tol, reach: dict, chunk: int) -> tuple[dict, 
              "sim_cells": len(part.sim_cells), "cut_cells": len(part.cut_cells),
              "bytes_in": part.nbytes, "bytes_out": sent_back,
              "seconds": time.perf_counter() - t, "cpu_s": time.thread_time() - cpu,
-             "pid": os.getpid(), "t_begin": t0, "t_end": time.time(),
+             "pid": os.getpid(), "host": socket.gethostname(), "t_begin": t0,
+             "t_end": time.time(),
              "proc_cpu": time.process_time() - p0, "ctx": _thread_counts(r0),
              "peak_rss_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
     return pairs, stats

@@ -405,7 +405,28 @@ class IntersectionResult:
         lines.append(f"{'total':<{w}}  {'':>10}  {'':>10}  {'':>10}  {self.total:>10}")
         if "total" in self.timings:
             lines.append(f"time: {self.timings['total']:.3f} s")
+        lines += _partition_lines(self.timings.get("partitions"))
         return "\n".join(lines)
+
+
+def _partition_lines(parts) -> list[str]:
+    """A partitioned run's tasks, workers and their peak memory (``timings["partitions"]``
+    of :mod:`~predicates.registration.partition_run`), for ``str(result)``."""
+    if not parts:
+        return []
+    peak: dict = {}
+    for p in parts:  # a worker process: its host and pid; its peak over its tasks
+        key = (p.get("host"), p["pid"])
+        peak[key] = max(peak.get(key, 0.0), p["peak_rss_mib"])
+    lo, hi = min(peak.values()), max(peak.values())
+    mem = f"{lo:.0f} MiB" if round(lo) == round(hi) else f"{lo:.0f}–{hi:.0f} MiB"
+    sent = sum(p["bytes_in"] for p in parts) / 1e6
+    back = sum(p["bytes_out"] for p in parts) / 1e6
+    tasks = f"{len(parts)} task{'s' if len(parts) != 1 else ''}"
+    workers = f"{len(peak)} worker process{'es' if len(peak) != 1 else ''}"
+    return [f"partitions: {tasks} on {workers}, peak memory "
+            f"per worker {mem}; {sent:.3g} MB sent to them, {back:.3g} MB back "
+            f"(candidates, suppressed, tested: summed over the partitions)"]
 
 
 def _pad(a, width, fill):

@@ -258,6 +258,7 @@ def test_cli_workers(tmp_path):
     assert r.returncode == 0, r.stderr
     r = _cli("intersect", str(sim), str(cut), "-o", str(part), "--workers", "2")
     assert r.returncode == 0, r.stderr
+    assert "peak memory per worker" in r.stdout and "partitions: " in r.stdout
     a, b = meshio.read(serial), meshio.read(part)
     assert a.points.tobytes() == b.points.tobytes()
     for key in a.point_data:
@@ -333,6 +334,24 @@ def test_progress_bar_on_a_local_cluster(capsys, monkeypatch):
         assert "registering" in err and "0/4" in err, err
         ran = len(res.timings["partitions"])
         assert bars[-1] == (ran, ran, 4)
+
+
+def test_summary_reports_tasks_workers_and_their_peak_memory():
+    """str(result) of a partitioned run says how many tasks ran on how many worker
+    processes, each worker's peak memory and the bytes sent and returned (issue 13:
+    "report peak memory per worker"); a serial run's summary has no such line."""
+    args = CASES["sphere"]()
+    serial = predicates.intersect(*args)
+    assert "partitions:" not in str(serial)
+    res = predicates.intersect(*args, partitions=3, scheduler="synchronous")
+    parts = res.timings["partitions"]
+    line = [x for x in str(res).splitlines() if x.startswith("partitions:")]
+    peak = max(p["peak_rss_mib"] for p in parts)
+    sent = sum(p["bytes_in"] for p in parts) / 1e6
+    assert line == [f"partitions: {len(parts)} tasks on 1 worker process, peak memory per "
+                    f"worker {peak:.0f} MiB; {sent:.3g} MB sent to them, "
+                    f"{sum(p['bytes_out'] for p in parts) / 1e6:.3g} MB back (candidates, "
+                    f"suppressed, tested: summed over the partitions)"]
 
 
 def test_timeout_arguments_are_checked_before_any_work():
