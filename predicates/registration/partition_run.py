@@ -23,7 +23,8 @@ from .levels import Registration
 from .partition import Part, merge, owned, split
 
 __all__ = ["DaskMissingError", "LOCAL_SCHEDULERS", "PartitionError", "check_timeout",
-           "client_for", "read_pieces", "run_part", "run_partitioned", "write_parts"]
+           "client_for", "part_paths", "read_pieces", "run_part", "run_partitioned",
+           "write_parts"]
 
 LOCAL_SCHEDULERS = ("threads", "processes", "synchronous")
 #: "auto" makes at least one partition per this many simulation cells
@@ -246,6 +247,7 @@ def run_partitioned(plan, partitions, scheduler, chunk: int, timings: dict,
 def _run(dask, client, plan, partitions, scheduler, chunk, timings, check, progress,
          timeout) -> dict:
     k = _count(partitions, client, len(plan.sim_cells))
+    timings["partition_count"] = k  # (per-partition output: one file per partition)
     if check is not None:  # before any work
         check(share=min(k, _slots(client, scheduler)) / k, stacklevel=5)
     with _bar(progress, k) as bar:
@@ -384,23 +386,37 @@ class _Clock:
         self.t, self.c = t, c
 
 
-def write_parts(res, k: int, pattern: str) -> list[str]:
+def part_paths(pattern: str | os.PathLike, k: int) -> list[str]:
+    """The k file names ``pattern.format(part=r)`` (e.g. ``"hits_{part}.vtu"``);
+    ValueError when ``pattern`` has no ``{part}`` or other braces."""
+    pattern = os.fspath(pattern)
+    if "{part}" not in pattern:
+        raise ValueError(f"{pattern}: a per-partition file name must contain '{{part}}' "
+                         f"(one file per partition, e.g. hits_{{part}}.vtu)")
+    try:
+        return [pattern.format(part=r) for r in range(k)]
+    except (KeyError, IndexError, ValueError) as e:
+        raise ValueError(f"{pattern}: only '{{part}}' may stand in braces in a "
+                         f"per-partition file name ({type(e).__name__}: {e})") from None
+
+
+def write_parts(res, k: int, pattern: str | os.PathLike) -> list[str]:
     """Write ``res`` (an IntersectionResult) as k files, ``pattern.format(part=r)``
     (e.g. ``"hits_{part}.vtu"``), file r holding the pairs owned by partition r of k
     (the run's rule — the smallest-id vertex of the simulation primitive — over all
     simulation cells).
     Every pair is in exactly one file; each file is what ``res.to_meshio()`` writes,
-    restricted to its pairs. Returns the paths (a file is written even when empty)."""
+    restricted to its pairs, with the same kind legend (field data), written atomically
+    as the merged output is; every path is checked before any is written. Returns the
+    paths (a file is written even when empty)."""
     from dataclasses import replace
 
     from .files import check_output
+    from .io_write import write_meshio
     from .partition import assign
 
-    if "{part}" not in pattern:
-        raise ValueError(f"pattern must contain '{{part}}' (one file per partition), got "
-                         f"{pattern!r}")
     k = _count(k, None, len(res.sim_cells))
-    paths = [pattern.format(part=r) for r in range(k)]
+    paths = part_paths(pattern, k)
     for path in paths:
         check_output(path, "mesh")
     _, owner = assign(res.sim_points, res.sim_cells, k)
@@ -411,7 +427,7 @@ def write_parts(res, k: int, pattern: str) -> list[str]:
             keep = owner[p.sim.min(axis=1)] == r if len(p) else np.zeros(0, dtype=bool)
             sub[kind] = replace(p, sim=p.sim[keep], cut=p.cut[keep],
                                 sim_weights=p.sim_weights[keep], cut_weights=p.cut_weights[keep])
-        replace(res, pairs=sub).to_meshio().write(path)
+        write_meshio(path, replace(res, pairs=sub).to_meshio())
     return paths
 
 

@@ -39,11 +39,16 @@ def _add_intersect(sub) -> None:
                 "  fperr intersect grid.msh circle.vtk -o hits.vtu --plot hits.png\n"
                 "  fperr intersect cube.msh sphere.stl --sim-region 1 --sim-output cut.vtu\n"
                 "  fperr intersect cube.vtu sphere.stl --dtype float32 --format json\n\n"
+                "  fperr intersect cube.vtu sphere.stl --workers 4 -o 'hits_{part}.vtu'\n\n"
                 "exit status: 0 done (a coarse resolution is warned about on stderr),\n"
-                "1 refused by --strict or the memory guard, 2 bad input or arguments"))
+                "1 refused by --strict or the memory guard, or a partitioned run whose\n"
+                "tasks did not finish (a worker lost, --timeout), 2 bad input or arguments"))
     _mesh_files(p)
     p.add_argument("-o", "--output", metavar="OUT.vtu",
-                   help="write the intersection points (.vtu, for ParaView)")
+                   help="write the intersection points (.vtu, for ParaView); with "
+                        "--workers/--scheduler a name with {part} (hits_{part}.vtu) writes "
+                        "one file per partition, each pair in the file of the partition "
+                        "that owns it")
     p.add_argument("--sim-output", metavar="CELLS.vtu",
                    help="write the simulation mesh with cut-cell data (.vtu)")
     p.add_argument("--plot", metavar="OUT.png", help="draw a 2D case (png, pdf or svg)")
@@ -111,15 +116,21 @@ def _run_intersect(args) -> int:
             return _error("intersect", e)
     try:
         dask_run = args.workers is not None or args.scheduler is not None
+        per_part = args.output is not None and "{part}" in args.output
+        if per_part:  # one file per partition: checked now, written after the run
+            _check_parts(args, dask_run)
+        outputs = {"output": args.output, "plot": args.plot, "sim_output": args.sim_output}
         with _dask_client(args) as client, warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", ResolutionWarning)
-            res = intersect_files(args.sim, args.cut, output=args.output, plot=args.plot,
-                                  sim_output=args.sim_output, dtype=args.dtype,
+            res = intersect_files(args.sim, args.cut, **({} if per_part else outputs),
+                                  dtype=args.dtype,
                                   naive=args.naive, progress=not args.quiet,
                                   strict=args.strict, refine_cut=not args.no_refine_cut,
                                   sim_region=args.sim_region, cut_region=args.cut_region,
                                   partitions="auto" if dask_run else None, scheduler=client,
                                   tolerances=table, timeout=args.timeout)
+        if per_part:
+            n_parts = _write_parts(args, res)
     except (ResolutionError, PartitionError) as e:
         # valid input this precision cannot resolve, or a partitioned run's tasks that
         # did not finish (a worker died, the timeout): exit 1, nothing written
@@ -130,7 +141,8 @@ def _run_intersect(args) -> int:
         return _error("intersect", e)
     for w in caught:  # one line each, no Python warning boilerplate
         print(f"fperr intersect: warning: {w.message}", file=sys.stderr)
-    written = [(f, what) for f, what in ((args.output, f"{res.total} points"),
+    points = f"{res.total} points" + (f" in {n_parts} files" if per_part else "")
+    written = [(f, what) for f, what in ((args.output, points),
                                          (args.sim_output, f"{len(res.sim_cells)} cells, "
                                           f"{len(res.intersected_cells())} cut"),
                                          (args.plot, "plot")) if f]
@@ -146,6 +158,37 @@ def _run_intersect(args) -> int:
     for f, what in written:
         print(f"wrote {f} ({what})")
     return 0
+
+
+def _check_parts(args, dask_run: bool) -> None:
+    """-o with {part} (one file per partition): a partitioned run, a valid pattern,
+    checked with the other outputs before any work."""
+    from predicates.registration.files import check_outputs
+    from predicates.registration.partition_run import part_paths
+
+    if not dask_run:
+        raise ValueError(f"{args.output}: '{{part}}' writes one file per partition of a "
+                         f"partitioned run: give --workers or --scheduler")
+    check_outputs({"SIM": args.sim, "CUT": args.cut},
+                  {("-o", "mesh"): part_paths(args.output, 1)[0],
+                   ("--plot", "plot"): args.plot, ("--sim-output", "mesh"): args.sim_output})
+
+
+def _write_parts(args, res) -> int:
+    """Write the per-partition files (one per partition of the run) and the other
+    outputs, every path checked first (none is written if one is refused)."""
+    from predicates.registration.files import check_outputs, write_results
+    from predicates.registration.partition_run import part_paths, write_parts
+
+    k = res.timings["partition_count"]
+    outs = {(f"-o (partition {r})", "mesh"): p
+            for r, p in enumerate(part_paths(args.output, k))}
+    check_outputs({"SIM": args.sim, "CUT": args.cut},
+                  {**outs, ("--plot", "plot"): args.plot,
+                   ("--sim-output", "mesh"): args.sim_output})
+    write_parts(res, k, args.output)
+    write_results(res, plot=args.plot, sim_output=args.sim_output)
+    return k
 
 
 # -- cut -------------------------------------------------------------------------------

@@ -210,11 +210,19 @@ def test_pieces_and_per_partition_files(tmp_path):
     paths = write_parts(ref, 3, str(tmp_path / "hits_{part}.vtu"))
     back = [meshio.read(p) for p in paths]
     assert sum(len(b.points) for b in back) == ref.total
-    ids = np.concatenate([b.point_data["sim_ids"] for b in back])
-    whole = ref.to_meshio().point_data["sim_ids"]
-    assert sorted(map(tuple, ids.tolist())) == sorted(map(tuple, whole.tolist()))
-    with pytest.raises(ValueError, match="part"):
-        write_parts(ref, 3, str(tmp_path / "hits.vtu"))
+    whole = ref.to_meshio()
+    for key in whole.point_data:  # every pair in one file, with all its data
+        got = np.concatenate([b.point_data[key] for b in back])
+        assert sorted(map(repr, got.tolist())) == sorted(map(repr, whole.point_data[key].tolist()))
+    for b in back:  # each file keeps the kind legend (field data) of the merged file
+        assert {n: a.tolist() for n, a in b.field_data.items()} == \
+            {n: np.asarray(a).tolist() for n, a in whole.field_data.items()}
+    # written atomically (a hidden temporary file renamed): none left behind
+    assert not [f.name for f in tmp_path.iterdir() if f.name.startswith(".")]
+    for bad in ("hits.vtu", "hits_{part}_{x}.vtu", "hits_{part}.txt"):
+        with pytest.raises(ValueError, match="part|braces|written as"):
+            write_parts(ref, 3, str(tmp_path / bad))
+    assert not (tmp_path / "hits_0.txt").exists()
 
 
 def test_bad_arguments():
@@ -827,3 +835,46 @@ def test_every_partition_gets_the_cutting_cells_within_reach(seed, k, pad):
         held = {tuple(c) for c in p.cut_ids[p.cut_cells].tolist()}
         assert {tuple(c) for c in cc[np.unique(ib)].tolist()} <= held
         assert np.all(np.diff(p.cut_ids) > 0) and np.all(np.diff(p.sim_ids) > 0)
+
+
+def test_cli_per_partition_files(tmp_path):
+    """fperr intersect --workers N -o 'hits_{part}.vtu': one file per partition of the
+    run, together the serial run's points with every data array and each with the kind
+    legend; refused before any work without a partitioned run or with a bad name, and
+    after the run (nothing written) when a file would overwrite an input."""
+    sp, sc, cp, cc = CASES["sphere"]()
+    sim, cut = tmp_path / "sim.vtu", tmp_path / "cut.vtu"
+    meshio.Mesh(sp, [("tetra", sc)]).write(sim)
+    meshio.Mesh(cp, [("triangle", cc)]).write(cut)
+    serial = tmp_path / "serial.vtu"
+    assert _cli("intersect", str(sim), str(cut), "-o", str(serial), "--quiet").returncode == 0
+    whole = meshio.read(serial)
+    out = tmp_path / "out"
+    out.mkdir()
+    r = _cli("intersect", str(sim), str(cut), "-o", str(out / "hits_{part}.vtu"),
+             "--workers", "2", "--quiet")
+    assert r.returncode == 0, r.stderr
+    files = sorted(out.iterdir())
+    assert [f.name for f in files] == ["hits_0.vtu", "hits_1.vtu"]  # auto: 2 partitions
+    assert f"{len(whole.points)} points in 2 files" in r.stdout
+    back = [meshio.read(f) for f in files]
+    for key in whole.point_data:
+        got = np.concatenate([b.point_data[key] for b in back])
+        assert sorted(map(repr, got.tolist())) == \
+            sorted(map(repr, whole.point_data[key].tolist())), key
+    for b in back:
+        assert set(b.field_data) == set(whole.field_data)
+    # refused before any work: no partitioned run, a name meshio would not keep data in
+    for name, argv, text in (("new_{part}.vtu", [], "give --workers or --scheduler"),
+                             ("new_{part}.txt", ["--workers", "2"], "written as"),
+                             ("new_{part}_{y}.vtu", ["--workers", "2"], "braces")):
+        r = _cli("intersect", str(sim), str(cut), "-o", str(out / name), *argv)
+        assert r.returncode == 2 and text in r.stderr, r.stderr
+    # partition 1's file would be the simulation mesh itself: refused, nothing written
+    own = out / "mesh_1.vtu"
+    own.write_bytes(sim.read_bytes())
+    r = _cli("intersect", str(own), str(cut), "-o", str(out / "mesh_{part}.vtu"),
+             "--workers", "2", "--quiet")
+    assert r.returncode == 2 and "refusing to overwrite" in r.stderr, r.stderr
+    assert own.read_bytes() == sim.read_bytes() and not (out / "mesh_0.vtu").exists()
+    assert len(list(out.iterdir())) == 3
