@@ -434,27 +434,23 @@ def write_parts(res, k: int, pattern: str | os.PathLike) -> list[str]:
 def read_pieces(paths) -> tuple[np.ndarray, np.ndarray]:
     """A simulation mesh stored as several files (pieces, any format meshio reads) as one
     ``(points, cells)``: the pieces' points concatenated with bit-identical coordinates
-    merged (pieces share their boundary vertices), cells renumbered. The partitioned
-    and the serial run of this mesh agree (it is one mesh)."""
-    from .files import read_mesh
+    merged (pieces share their boundary vertices), cells renumbered
+    (:func:`~predicates.registration.files.merge_pieces`). The partitioned and the
+    serial run of this mesh agree (it is one mesh). ``fperr intersect`` reads pieces
+    given as several SIM files the same way."""
+    from .files import merge_pieces, read_mesh
     from .inputs import from_meshio
 
-    pts, cells, off = [], [], 0
+    pts, cells = [], []
     for path in paths:
         m = read_mesh(path)
         p, c, _, _ = from_meshio(m, _dummy_cut(m))
-        pts.append(np.asarray(p, dtype=np.float64))
-        cells.append(np.asarray(c, dtype=np.int64) + off)
-        off += len(p)
+        pts.append(p)
+        cells.append(c)
     if not pts:
         raise ValueError("read_pieces needs at least one mesh file")
-    P = np.concatenate(pts)
-    uniq, first, inv = np.unique(P, axis=0, return_index=True, return_inverse=True)
-    # keep the merged vertices in order of first appearance (ids stay piece by piece)
-    order = np.argsort(first, kind="stable")
-    rank = np.empty(len(order), dtype=np.int64)
-    rank[order] = np.arange(len(order))
-    return uniq[order], rank[inv.ravel()][np.concatenate(cells)]
+    P, C, _ = merge_pieces(pts, cells)
+    return P, C
 
 
 def _dummy_cut(mesh):

@@ -292,7 +292,7 @@ def _check(report: Resolution, strict: bool, limit: int | None, dim: int,
         raise err
 
 
-def intersect_files(sim: str | os.PathLike, cut: str | os.PathLike, *,
+def intersect_files(sim, cut: str | os.PathLike, *,
                     output: str | os.PathLike | None = None,
                     plot: str | os.PathLike | None = None,
                     sim_output: str | os.PathLike | None = None, dtype: str = "float64",
@@ -301,7 +301,9 @@ def intersect_files(sim: str | os.PathLike, cut: str | os.PathLike, *,
                     **options) -> IntersectionResult:
     """Register two mesh files (any format meshio reads) and write the intersection
     points to ``output`` (.vtu), the simulation mesh with cut-cell data to
-    ``sim_output`` and a 2D picture to ``plot``.
+    ``sim_output`` and a 2D picture to ``plot``. ``sim``: a file, or a list of files
+    holding the pieces of one simulation mesh (merged where they share points:
+    :func:`~predicates.registration.files.merge_pieces`).
 
     Output paths are checked before any work (format, directory, not an input file), the
     inputs are read under guard, and every problem raises an error naming the file, so
@@ -310,12 +312,12 @@ def intersect_files(sim: str | os.PathLike, cut: str | os.PathLike, *,
     ``options``: as in :func:`intersect`; ``sim_region``/``cut_region``: a gmsh physical
     group or cell block (tag or name).
     """
-    from .files import check_outputs, load_pair, write_results
+    from .files import check_outputs, input_roles, load_pair, write_results
 
     validate_options(dtype, 0.0, progress, options.get("chunk", CHUNK))  # before any work
     if not isinstance(naive, (bool, np.bool_)):
         raise TypeError(f"naive must be True or False, got {naive!r}")
-    check_outputs({"SIM": sim, "CUT": cut},
+    check_outputs(input_roles(sim, cut),
                   {("-o", "mesh"): output, ("--plot", "plot"): plot,
                    ("--sim-output", "mesh"): sim_output})
     arrays = load_pair(sim, cut, dtype=dtype, sim_region=sim_region, cut_region=cut_region)

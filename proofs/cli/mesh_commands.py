@@ -7,8 +7,14 @@ import sys
 from .common import RAW as _RAW
 from .common import _at_least_1, _at_least_2, _seconds, error as _error
 
-def _mesh_files(p) -> None:
-    p.add_argument("sim", help="simulation mesh file (triangles in 2D, tetrahedra in 3D)")
+def _mesh_files(p, pieces: bool = False) -> None:
+    if pieces:
+        p.add_argument("sim", nargs="+", metavar="SIM",
+                       help="simulation mesh file (triangles in 2D, tetrahedra in 3D), or "
+                            "several: the pieces of one mesh, merged where they share "
+                            "points")
+    else:
+        p.add_argument("sim", help="simulation mesh file (triangles in 2D, tetrahedra in 3D)")
     p.add_argument("cut", help="cutting mesh file (segments in 2D, triangles in 3D)")
 
 
@@ -39,11 +45,12 @@ def _add_intersect(sub) -> None:
                 "  fperr intersect grid.msh circle.vtk -o hits.vtu --plot hits.png\n"
                 "  fperr intersect cube.msh sphere.stl --sim-region 1 --sim-output cut.vtu\n"
                 "  fperr intersect cube.vtu sphere.stl --dtype float32 --format json\n\n"
-                "  fperr intersect cube.vtu sphere.stl --workers 4 -o 'hits_{part}.vtu'\n\n"
+                "  fperr intersect cube.vtu sphere.stl --workers 4 -o 'hits_{part}.vtu'\n"
+                "  fperr intersect piece0.vtu piece1.vtu piece2.vtu sphere.stl --workers 3\n\n"
                 "exit status: 0 done (a coarse resolution is warned about on stderr),\n"
                 "1 refused by --strict or the memory guard, or a partitioned run whose\n"
                 "tasks did not finish (a worker lost, --timeout), 2 bad input or arguments"))
-    _mesh_files(p)
+    _mesh_files(p, pieces=True)
     p.add_argument("-o", "--output", metavar="OUT.vtu",
                    help="write the intersection points (.vtu, for ParaView); with "
                         "--workers/--scheduler a name with {part} (hits_{part}.vtu) writes "
@@ -114,6 +121,7 @@ def _run_intersect(args) -> int:
             table = load_overrides(args.tolerances)
         except ToleranceFileError as e:
             return _error("intersect", e)
+    sim = args.sim[0] if len(args.sim) == 1 else args.sim  # one file, or the pieces
     try:
         dask_run = args.workers is not None or args.scheduler is not None
         per_part = args.output is not None and "{part}" in args.output
@@ -122,7 +130,7 @@ def _run_intersect(args) -> int:
         outputs = {"output": args.output, "plot": args.plot, "sim_output": args.sim_output}
         with _dask_client(args) as client, warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", ResolutionWarning)
-            res = intersect_files(args.sim, args.cut, **({} if per_part else outputs),
+            res = intersect_files(sim, args.cut, **({} if per_part else outputs),
                                   dtype=args.dtype,
                                   naive=args.naive, progress=not args.quiet,
                                   strict=args.strict, refine_cut=not args.no_refine_cut,
@@ -150,7 +158,7 @@ def _run_intersect(args) -> int:
         import json
 
         d = res.to_dict()
-        d["inputs"] = {"sim": args.sim, "cut": args.cut}
+        d["inputs"] = {"sim": sim, "cut": args.cut}
         d["outputs"] = {f: what for f, what in written}
         print(json.dumps(d, indent=1))
         return 0
@@ -163,29 +171,29 @@ def _run_intersect(args) -> int:
 def _check_parts(args, dask_run: bool) -> None:
     """-o with {part} (one file per partition): a partitioned run, a valid pattern,
     checked with the other outputs before any work."""
-    from predicates.registration.files import check_outputs
+    from predicates.registration.files import check_outputs, input_roles
     from predicates.registration.partition_run import part_paths
 
     if not dask_run:
         raise ValueError(f"{args.output}: '{{part}}' writes one file per partition of a "
                          f"partitioned run: give --workers or --scheduler")
-    check_outputs({"SIM": args.sim, "CUT": args.cut},
-                  {("-o", "mesh"): part_paths(args.output, 1)[0],
-                   ("--plot", "plot"): args.plot, ("--sim-output", "mesh"): args.sim_output})
+    first = part_paths(args.output, 1)[0]  # the name's form and directory, now
+    check_outputs(input_roles(args.sim, args.cut),
+                  {("-o", "mesh"): first, ("--plot", "plot"): args.plot,
+                   ("--sim-output", "mesh"): args.sim_output})
 
 
 def _write_parts(args, res) -> int:
     """Write the per-partition files (one per partition of the run) and the other
     outputs, every path checked first (none is written if one is refused)."""
-    from predicates.registration.files import check_outputs, write_results
+    from predicates.registration.files import check_outputs, input_roles, write_results
     from predicates.registration.partition_run import part_paths, write_parts
 
     k = res.timings["partition_count"]
     outs = {(f"-o (partition {r})", "mesh"): p
             for r, p in enumerate(part_paths(args.output, k))}
-    check_outputs({"SIM": args.sim, "CUT": args.cut},
-                  {**outs, ("--plot", "plot"): args.plot,
-                   ("--sim-output", "mesh"): args.sim_output})
+    check_outputs(input_roles(args.sim, args.cut),
+                  {**outs, ("--plot", "plot"): args.plot, ("--sim-output", "mesh"): args.sim_output})
     write_parts(res, k, args.output)
     write_results(res, plot=args.plot, sim_output=args.sim_output)
     return k

@@ -878,3 +878,48 @@ def test_cli_per_partition_files(tmp_path):
     assert r.returncode == 2 and "refusing to overwrite" in r.stderr, r.stderr
     assert own.read_bytes() == sim.read_bytes() and not (out / "mesh_0.vtu").exists()
     assert len(list(out.iterdir())) == 3
+
+
+def _rows(path):
+    """The intersection points of a written .vtu as sorted rows (kind, coordinates,
+    weights): independent of the vertex numbering."""
+    m = meshio.read(path)
+    d = m.point_data
+    cols = [d["kind"].reshape(len(m.points), -1), m.points, d["sim_weights"],
+            d["cut_weights"]]
+    return sorted(map(tuple, np.hstack([np.asarray(c, dtype=np.float64) for c in cols]).tolist()))
+
+
+def test_cli_reads_a_mesh_in_pieces(tmp_path):
+    """fperr intersect PIECE... CUT: the pieces of one simulation mesh (each with its
+    own copy of the shared boundary points) read as that mesh — the same intersection
+    points, kinds and weights as the whole file, serial and on workers; a piece of
+    another dimension, a missing piece, or an output naming a piece: exit 2, nothing
+    written."""
+    sp, sc, cp, cc = CASES["sphere"](4)
+    sim, cut = tmp_path / "sim.vtu", tmp_path / "cut.vtu"
+    meshio.Mesh(sp, [("tetra", sc)]).write(sim)
+    meshio.Mesh(cp, [("triangle", cc)]).write(cut)
+    pieces = []
+    for r, rows in enumerate(np.array_split(np.arange(len(sc)), 3)):
+        ids, local = np.unique(sc[rows], return_inverse=True)
+        pieces.append(str(tmp_path / f"piece{r}.vtu"))
+        meshio.Mesh(sp[ids], [("tetra", local.reshape(-1, 4))]).write(pieces[-1])
+    whole = tmp_path / "whole.vtu"
+    assert _cli("intersect", str(sim), str(cut), "-o", str(whole), "--quiet").returncode == 0
+    for extra, name in (([], "p.vtu"), (["--workers", "2"], "pw.vtu")):
+        r = _cli("intersect", *pieces, str(cut), "-o", str(tmp_path / name), "--quiet", *extra)
+        assert r.returncode == 0, r.stderr
+        assert "3 pieces read as one mesh" in r.stdout
+        assert _rows(tmp_path / name) == _rows(whole)
+    flat = tmp_path / "flat.vtu"  # a 2D triangle mesh among tetrahedral pieces
+    meshio.Mesh(np.array([[0, 0], [1, 0], [0, 1.0]]), [("triangle", np.array([[0, 1, 2]]))]
+                ).write(flat)
+    out = tmp_path / "never.vtu"
+    for argv, text in (([pieces[0], str(flat)], "flat.vtu: this piece is 2D"),
+                       ([pieces[0], str(tmp_path / "gone.vtu")], "gone.vtu"),
+                       (pieces[:2], "names the input SIM piece 2")):
+        o = pieces[1] if "SIM piece" in text else str(out)
+        r = _cli("intersect", *argv, str(cut), "-o", o, "--quiet")
+        assert r.returncode == 2 and text in r.stderr and "Traceback" not in r.stderr, r.stderr
+        assert not out.exists()
