@@ -15,7 +15,8 @@ def _mesh_files(p, pieces: bool = False) -> None:
                             "points")
     else:
         p.add_argument("sim", help="simulation mesh file (triangles in 2D, tetrahedra in 3D)")
-    p.add_argument("cut", help="cutting mesh file (segments in 2D, triangles in 3D)")
+    p.add_argument("cut", metavar="CUT" if pieces else None,
+                   help="cutting mesh file (segments in 2D, triangles in 3D)")
 
 
 def _precision_and_quiet(p) -> None:
@@ -40,11 +41,12 @@ def _add_intersect(sub) -> None:
             "cell data 'cut', 'cut_kinds' and 'cut_by_KIND' (threshold it in ParaView),\n"
             "both .vtu; --plot draws a 2D case. Outputs are checked before the run\n"
             "and written atomically: a refused or failed run leaves no file.\n\n"
-            "Exit status: 0 done, 2 bad arguments or unusable input (one line on stderr)."),
+            "Exit status: 0 done, 1 refused or unfinished (below), 2 bad arguments or\n"
+            "unusable input (one line on stderr)."),
         epilog=("examples:\n"
                 "  fperr intersect grid.msh circle.vtk -o hits.vtu --plot hits.png\n"
                 "  fperr intersect cube.msh sphere.stl --sim-region 1 --sim-output cut.vtu\n"
-                "  fperr intersect cube.vtu sphere.stl --dtype float32 --format json\n\n"
+                "  fperr intersect cube.vtu sphere.stl --dtype float32 --format json\n"
                 "  fperr intersect cube.vtu sphere.stl --workers 4 -o 'hits_{part}.vtu'\n"
                 "  fperr intersect piece0.vtu piece1.vtu piece2.vtu sphere.stl --workers 3\n\n"
                 "exit status: 0 done (a coarse resolution is warned about on stderr),\n"
