@@ -72,7 +72,7 @@ def test_closed_pipe_ends_quietly(reader):
 @pytest.mark.parametrize("argv, message", [
     (["tables", "--dim", "4"], "invalid choice"),
     (["tables", "--format", "html"], "invalid choice"),
-    (["intersect", "only_one.vtu"], "the following arguments are required: cut"),
+    (["intersect", "only_one.vtu"], "the following arguments are required: CUT"),
     (["intersect", "a.vtu", "b.vtu", "--dtype", "float16"], "invalid choice"),
     (["demo", "--n", "1"], "must be at least 2"),
     (["demo", "--n", "x"], "not an integer"),
