@@ -325,7 +325,8 @@ def _failure(e, left: list, n: int, timeout) -> str:
     return (f"a Dask worker died while running a partition's task ({e}); {len(left)} of "
             f"{n} partitions ({which}) did not finish and nothing was returned. A worker "
             f"that exceeds its memory limit is killed: give the workers more memory or "
-            f"run with more partitions (each holds less)")
+            f"run with more partitions, each holding less (partitions=; fperr intersect "
+            f"--partitions K)")
 
 
 @contextlib.contextmanager

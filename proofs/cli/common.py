@@ -28,6 +28,16 @@ def _integer(text: str) -> int:
         raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
 
 
+def _partitions(text: str):
+    """A number of partitions (≥ 1) or "auto"."""
+    if text == "auto":
+        return text
+    n = _integer(text)
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1 or 'auto', got {n}")
+    return n
+
+
 def _seconds(text: str) -> float:
     """A time limit: a number of seconds > 0."""
     try:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 
 from .common import RAW as _RAW
-from .common import _at_least_1, _at_least_2, _seconds, error as _error
+from .common import _at_least_1, _at_least_2, _partitions, _seconds, error as _error
 
 def _mesh_files(p, pieces: bool = False) -> None:
     if pieces:
@@ -82,6 +82,10 @@ def _add_intersect(sub) -> None:
                         "result; needs pip install 'fperr[dask]')")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="run in partitions on a running Dask cluster (e.g. tcp://host:8786)")
+    p.add_argument("--partitions", type=_partitions, metavar="K",
+                   help="with --workers/--scheduler: the number of spatial partitions (tasks), "
+                        "or 'auto' (default: one per worker thread, at least one per million "
+                        "cells); more partitions hold less memory each")
     p.add_argument("--timeout", type=_seconds, metavar="SECONDS",
                    help="with --workers/--scheduler: cancel the partitions' tasks and exit 1 "
                         "(nothing written) when they have not all finished this many seconds "
@@ -100,9 +104,10 @@ def _dask_client(args):
         raise ValueError("--workers starts a local cluster, --scheduler connects to a "
                          "running one: give one of them")
     if args.workers is None and args.scheduler is None:
-        if args.timeout is not None:
-            raise ValueError("--timeout limits a partitioned run: give --workers or "
-                             "--scheduler")
+        for flag, value in (("--timeout", args.timeout), ("--partitions", args.partitions)):
+            if value is not None:
+                raise ValueError(f"{flag} is for a partitioned run: give --workers or "
+                                 f"--scheduler")
         return contextlib.nullcontext()
     from predicates.registration.partition_run import client_for
 
@@ -137,7 +142,8 @@ def _run_intersect(args) -> int:
                                   naive=args.naive, progress=not args.quiet,
                                   strict=args.strict, refine_cut=not args.no_refine_cut,
                                   sim_region=args.sim_region, cut_region=args.cut_region,
-                                  partitions="auto" if dask_run else None, scheduler=client,
+                                  partitions=(args.partitions or "auto") if dask_run else None,
+                                  scheduler=client,
                                   tolerances=table, timeout=args.timeout)
         if per_part:
             n_parts = _write_parts(args, res)

@@ -864,6 +864,20 @@ def test_cli_per_partition_files(tmp_path):
             sorted(map(repr, whole.point_data[key].tolist())), key
     for b in back:
         assert set(b.field_data) == set(whole.field_data)
+    # --partitions K: K files (each pair in exactly one), the same points in all
+    three = tmp_path / "three"
+    three.mkdir()
+    r = _cli("intersect", str(sim), str(cut), "-o", str(three / "h_{part}.vtu"),
+             "--workers", "2", "--partitions", "3", "--quiet")
+    assert r.returncode == 0 and "partitions: 3 tasks" in r.stdout, r.stderr
+    got = np.concatenate([meshio.read(three / f"h_{i}.vtu").points for i in range(3)])
+    assert sorted(map(tuple, got.tolist())) == sorted(map(tuple, whole.points.tolist()))
+    assert sorted(f.name for f in three.iterdir()) == ["h_0.vtu", "h_1.vtu", "h_2.vtu"]
+    for argv, text in ((["--partitions", "3"], "--partitions is for a partitioned run"),
+                       (["--workers", "2", "--partitions", "0"], "at least 1 or 'auto'"),
+                       (["--workers", "2", "--partitions", "many"], "not an integer")):
+        r = _cli("intersect", str(sim), str(cut), *argv, "--quiet")
+        assert r.returncode == 2 and text in r.stderr, r.stderr
     # refused before any work: no partitioned run, a name meshio would not keep data in
     for name, argv, text in (("new_{part}.vtu", [], "give --workers or --scheduler"),
                              ("new_{part}.txt", ["--workers", "2"], "written as"),
