@@ -83,6 +83,7 @@ def _client(scheduler):
             except ImportError:
                 raise DaskMissingError("a scheduler address needs dask.distributed: pip "
                                        "install 'fperr[dask]'") from None
+            _reachable(scheduler)
             return Client(scheduler)
         raise ValueError(f"scheduler must be one of {', '.join(LOCAL_SCHEDULERS)}, a "
                          f"dask.distributed.Client or an address like tcp://host:8786; got "
@@ -118,6 +119,7 @@ def client_for(workers: int | None = None, address: str | None = None):
         raise DaskMissingError("--workers/--scheduler need dask.distributed: pip install "
                                "'fperr[dask]'") from None
     if address is not None:
+        _reachable(address)
         with Client(address) as client:
             yield client
         return
@@ -143,6 +145,34 @@ def client_for(workers: int | None = None, address: str | None = None):
             # (on an error too: a run refused or failed within a second of the start)
             with contextlib.suppress(TimeoutError):
                 wait(warm, timeout=30)
+
+
+def _reachable(address: str, seconds: float = 5.0) -> None:
+    """Fail at once, with what to do, when a tcp:// scheduler address cannot be reached:
+    its host does not resolve or nothing listens at its port (distributed would retry
+    for its whole connect timeout, 30 s, before saying so). A host that does not answer
+    within ``seconds`` is left to distributed's own timeout (it may be slow, not gone)."""
+    import socket
+
+    if not address.startswith("tcp://"):
+        return
+    host, _, port = address[len("tcp://"):].rpartition(":")
+    host = host.strip("[]")  # an IPv6 literal
+    try:
+        port_number = int(port)
+    except ValueError:
+        raise ValueError(f"{address}: a scheduler address needs a port, like "
+                         f"tcp://host:8786") from None
+    try:
+        socket.create_connection((host, port_number), timeout=seconds).close()
+    except socket.gaierror as e:
+        raise OSError(f"{address}: cannot resolve the host {host!r} ({e.strerror}): check "
+                      f"the scheduler's address") from None
+    except ConnectionRefusedError:
+        raise OSError(f"{address}: connection refused: no Dask scheduler listens there "
+                      f"(start one with 'dask scheduler', or check the address)") from None
+    except OSError:
+        return  # unreachable or slow: distributed's connect timeout decides
 
 
 @contextlib.contextmanager

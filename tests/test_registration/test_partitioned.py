@@ -937,3 +937,31 @@ def test_cli_reads_a_mesh_in_pieces(tmp_path):
         r = _cli("intersect", *argv, str(cut), "-o", o, "--quiet")
         assert r.returncode == 2 and text in r.stderr and "Traceback" not in r.stderr, r.stderr
         assert not out.exists()
+
+
+def test_an_address_where_no_scheduler_listens_fails_at_once(tmp_path):
+    """A tcp:// scheduler address with nothing listening (a free loopback port): an
+    OSError naming the address and what to do within seconds (distributed alone retries
+    for its 30 s connect timeout); the CLI: exit 2, one line, nothing written."""
+    import socket
+    import time
+
+    with socket.socket() as s:  # a port nothing listens on once closed
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    address = f"tcp://127.0.0.1:{port}"
+    args = CASES["diagonal"]()
+    t = time.perf_counter()
+    with pytest.raises(OSError, match="connection refused: no Dask scheduler listens"):
+        predicates.intersect(*args, partitions=2, scheduler=address)
+    assert time.perf_counter() - t < 10
+    with pytest.raises(ValueError, match="needs a port"):
+        predicates.intersect(*args, partitions=2, scheduler="tcp://127.0.0.1")
+    sp, sc, cp, cc = CASES["sphere"]()
+    sim, cut, out = tmp_path / "sim.vtu", tmp_path / "cut.vtu", tmp_path / "out.vtu"
+    meshio.Mesh(sp, [("tetra", sc)]).write(sim)
+    meshio.Mesh(cp, [("triangle", cc)]).write(cut)
+    t = time.perf_counter()
+    r = _cli("intersect", str(sim), str(cut), "-o", str(out), "--scheduler", address)
+    assert r.returncode == 2 and "connection refused" in r.stderr and not out.exists()
+    assert "Traceback" not in r.stderr and time.perf_counter() - t < 20
