@@ -30,12 +30,7 @@ def _integer(text: str) -> int:
 
 def _partitions(text: str):
     """A number of partitions (≥ 1) or "auto"."""
-    if text == "auto":
-        return text
-    n = _integer(text)
-    if n < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1 or 'auto', got {n}")
-    return n
+    return text if text == "auto" else _at_least_1(text)
 
 
 def _seconds(text: str) -> float:
@@ -50,10 +45,7 @@ def _seconds(text: str) -> float:
 
 
 def _at_least_2(text: str) -> int:
-    try:
-        n = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    n = _integer(text)
     if n < 2:
         raise argparse.ArgumentTypeError(f"must be at least 2, got {n}")
     return n

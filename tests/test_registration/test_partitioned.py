@@ -874,7 +874,7 @@ def test_cli_per_partition_files(tmp_path):
     assert sorted(map(tuple, got.tolist())) == sorted(map(tuple, whole.points.tolist()))
     assert sorted(f.name for f in three.iterdir()) == ["h_0.vtu", "h_1.vtu", "h_2.vtu"]
     for argv, text in ((["--partitions", "3"], "--partitions is for a partitioned run"),
-                       (["--workers", "2", "--partitions", "0"], "at least 1 or 'auto'"),
+                       (["--workers", "2", "--partitions", "0"], "at least 1, got 0"),
                        (["--workers", "2", "--partitions", "many"], "not an integer")):
         r = _cli("intersect", str(sim), str(cut), *argv, "--quiet")
         assert r.returncode == 2 and text in r.stderr, r.stderr
