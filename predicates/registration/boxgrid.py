@@ -10,8 +10,8 @@ import numpy as np
 
 from .blocks import SERIAL, Blocks
 
-__all__ = ["BITS", "cell_index", "colmax", "colmin", "covered", "enlarge", "fit", "grid",
-           "mean_extent", "ncells", "rowwise"]
+__all__ = ["BITS", "cell_index", "colmax", "colmin", "covered", "enlarge", "expand", "fit",
+           "grid", "mean_extent", "ncells", "rowwise"]
 
 BITS = 20  # at most 2^20 + 1 cells per axis: linear keys fit in int64
 
@@ -56,6 +56,14 @@ def colmin(x):
 
 def colmax(x):
     return np.array([x[:, ax].max() for ax in range(x.shape[1])])
+
+
+def expand(starts: np.ndarray, counts: np.ndarray):
+    """For ranges [starts[i], starts[i] + counts[i]): (owner i, index) of every member, in
+    order (the CSR gather of rows of lengths ``counts``)."""
+    owner = np.repeat(np.arange(len(counts)), counts)
+    first = np.cumsum(counts) - counts
+    return owner, starts[owner] + np.arange(int(counts.sum())) - first[owner]
 
 
 def rowwise(ufunc, x):

@@ -300,12 +300,12 @@ def _tasks(dask, client, plan, k, scheduler, chunk, timings, bar, timeout=None) 
         for p in parts:
             futures.append(client.submit(run_part, _payload(client, p), *args, pure=False))
             index.append(p.index)
-        _set_total(bar, len(futures))
+        bar.total = len(futures)  # partitions without a cutting cell in reach run none
         clock("partition")
         out = _gather(futures, bar, timeout, index)
     else:
         parts = list(parts)
-        _set_total(bar, len(parts))
+        bar.total = len(parts)
         clock("partition")
         tasks = [dask.delayed(run_part, pure=False)(p, *args) for p in parts]
         # no cells can meet: nothing to register
@@ -371,12 +371,6 @@ def _bar(progress: bool, k: int):
         yield bar
     finally:
         bar.close()
-
-
-def _set_total(bar, n: int) -> None:
-    """The number of tasks, once the split knows it (partitions without a cutting cell
-    within reach run none)."""
-    bar.total = n
 
 
 def _finished(bar, keys):

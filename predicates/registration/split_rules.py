@@ -15,6 +15,8 @@ import itertools
 
 import numpy as np
 
+from .boxgrid import expand
+
 __all__ = ["LOCAL_EDGES", "cell_hits", "components", "fragments", "glue", "on_cut_vertices",
            "row_ids", "severed_edges"]
 
@@ -146,13 +148,6 @@ def components(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
             parent = nxt
 
 
-def _expand(starts: np.ndarray, counts: np.ndarray):
-    """For ranges [starts[i], starts[i] + counts[i]): (owner i, index) of every member."""
-    owner = np.repeat(np.arange(len(counts)), counts)
-    first = np.cumsum(counts) - counts
-    return owner, starts[owner] + np.arange(int(counts.sum())) - first[owner]
-
-
 def cell_hits(cells: np.ndarray, hit_sim: np.ndarray, cell_origin: np.ndarray, n: int):
     """CSR (offsets, index) of the intersection points lying on the closure of each new
     cell: hit h belongs to new cell f when the simulation primitive of h (its vertex ids,
@@ -170,14 +165,14 @@ def cell_hits(cells: np.ndarray, hit_sim: np.ndarray, cell_origin: np.ndarray, n
         srt = np.argsort(sub_ids, kind="stable")
         lo = np.searchsorted(sub_ids[srt], hit_ids, side="left")
         hi = np.searchsorted(sub_ids[srt], hit_ids, side="right")
-        i, k = _expand(lo, hi - lo)
+        i, k = expand(lo, hi - lo)
         owner_hit.append(h[i])
         owner_cell.append(srt[k] // len(combos))
     hh, cc = np.concatenate(owner_hit), np.concatenate(owner_cell)
     # original cell -> its new cells (contiguous: new cells are ordered by origin)
     nfrag = np.bincount(cell_origin, minlength=C)
     start = np.cumsum(nfrag) - nfrag
-    i, f = _expand(start[cc], nfrag[cc])
+    i, f = expand(start[cc], nfrag[cc])
     hh = hh[i]
     srt = np.lexsort((hh, f))
     offsets = np.zeros(len(cell_origin) + 1, dtype=np.int64)
