@@ -28,6 +28,7 @@ import sys
 
 import numpy as np
 
+from . import portable
 from .examples import example
 from .io_write import write_meshio, write_mesh
 from .pipeline import intersect
@@ -45,10 +46,14 @@ FILES = ("demo_2d.png", "demo_degenerate_2d.png", "demo_3d.png", "demo_split_3d.
          "demo_3d_cut.vtu")
 
 
-def rotation(dim, seed=1):
-    """A fixed rotation (deterministic), to make exact incidences hold only to rounding."""
-    q, r = np.linalg.qr(np.random.default_rng(seed).normal(size=(dim, dim)))
-    return q * np.sign(np.diag(r))
+def rotation(dim: int, seed: int = 1) -> np.ndarray:
+    """A fixed rotation, the same bits on every machine (:func:`portable.rotation`), to
+    make exact incidences hold only to rounding."""
+    return portable.rotation(dim, seed)
+
+
+def _rotated(mesh, R):
+    return portable.rotate(mesh[0], R), mesh[1]
 
 
 ROTATIONS = 10
@@ -78,8 +83,7 @@ def degenerate_cases(n):
             variants = []
             for seed in range(ROTATIONS):
                 R = rotation(ex["dim"], seed)
-                variants.append(((ex["sim"][0] @ R.T, ex["sim"][1]),
-                                 (ex["cut"][0] @ R.T, ex["cut"][1])))
+                variants.append((_rotated(ex["sim"], R), _rotated(ex["cut"], R)))
         out.append((name, variants, inside))
     return out
 
@@ -151,7 +155,7 @@ def _degenerate_picture(out, dtype, bar):
     inside = np.all((ex["cut"][0] > 0) & (ex["cut"][0] < 1), axis=1)
     for seed in range(ROTATIONS):
         R = rotation(2, seed)
-        sim, cut = (ex["sim"][0] @ R.T, ex["sim"][1]), (ex["cut"][0] @ R.T, ex["cut"][1])
+        sim, cut = _rotated(ex["sim"], R), _rotated(ex["cut"], R)
         z = intersect(*sim, *cut, dtype=dtype, tolerance_scale=0)
         if z.inconsistencies(inside) or seed == ROTATIONS - 1:
             break

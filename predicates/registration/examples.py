@@ -21,8 +21,11 @@ arithmetic is (n a power of two).
 from __future__ import annotations
 
 import itertools
+import math
 
 import numpy as np
+
+from .portable import cos_sin, unit_rows
 
 __all__ = ["EXAMPLES", "circle_polygon", "cube_grid", "diagonal_cut", "example",
            "grid_coordinates", "grid_plane", "icosphere", "square_grid", "zigzag_cut"]
@@ -64,7 +67,8 @@ def circle_polygon(segments: int = 64, center=(0.5, 0.5), radius: float = 0.37):
     """A closed polygon with ``segments`` vertices on a circle."""
     segments = _positive(segments, "segments")
     t = 2 * np.pi * np.arange(segments) / segments
-    pts = np.stack([center[0] + radius * np.cos(t), center[1] + radius * np.sin(t)], 1)
+    c, s = cos_sin(t)  # correctly rounded: the same polygon on every machine
+    pts = np.stack([center[0] + radius * c, center[1] + radius * s], 1)
     return _polyline(pts, closed=True)
 
 
@@ -168,7 +172,7 @@ def icosphere(subdivisions: int = 2, center=(0.5, 0.5, 0.5), radius: float = 0.3
     s = int(subdivisions)
     if s < 0 or s != subdivisions:
         raise ValueError(f"subdivisions must be a non-negative integer, got {subdivisions!r}")
-    t = (1 + 5 ** 0.5) / 2
+    t = (1 + math.sqrt(5.0)) / 2
     v = np.array([[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0], [0, -1, t], [0, 1, t],
                   [0, -1, -t], [0, 1, -t], [t, 0, -1], [t, 0, 1], [-t, 0, -1], [-t, 0, 1]],
                  dtype=np.float64)
@@ -176,13 +180,13 @@ def icosphere(subdivisions: int = 2, center=(0.5, 0.5, 0.5), radius: float = 0.3
                   [5, 11, 4], [11, 10, 2], [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2],
                   [3, 2, 6], [3, 6, 8], [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10],
                   [8, 6, 7], [9, 8, 1]], dtype=np.int64)
-    v /= np.linalg.norm(v, axis=1)[:, None]
+    v = unit_rows(v)
     for _ in range(s):
         e = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
         e.sort(axis=1)
         ue, inv = np.unique(e, axis=0, return_inverse=True)
         mid = v[ue[:, 0]] + v[ue[:, 1]]
-        mid /= np.linalg.norm(mid, axis=1)[:, None]
+        mid = unit_rows(mid)
         m = len(v) + inv.reshape(3, -1)  # midpoints of edges 01, 12, 20 per face
         v = np.concatenate([v, mid])
         a, b, c = f[:, 0], f[:, 1], f[:, 2]

@@ -74,7 +74,8 @@ def plot_robust_naive(robust, naive, inside, path: str | os.PathLike, title: str
                       zoom=None) -> None:
     """A 2D degenerate case twice, robust (left) beside naive (right), with each run's
     inconsistencies marked: cutting vertices inside the mesh not located exactly once
-    (red rings) and cutting edges whose events are not a walk (red, thick).
+    (red rings) and cutting edges whose events are not a walk (red, thick). ``inside``:
+    a bool per cutting point, as given or as registered (refined).
     ``zoom``: ((x0, x1), (y0, y1)) to show a detail."""
     from matplotlib.collections import LineCollection
 
@@ -85,9 +86,7 @@ def plot_robust_naive(robust, naive, inside, path: str | os.PathLike, title: str
     for ax, res, name in ((axes[0], robust, "robust (the paper's tolerances)"),
                           (axes[1], naive, "naive (zero tolerances)")):
         edges = broken_edges(res)
-        used = np.zeros(len(res.cut_points), dtype=bool)
-        used[np.unique(res.cut_cells)] = True
-        bad = np.flatnonzero(np.asarray(inside) & used & (res.location_counts("cut") != 1))
+        bad = res.mislocated_vertices(inside)  # inside may cover the input points only
         _draw_2d(ax, res, f"{name}: {res.total} pairs, {len(edges) + len(bad)} "
                           "inconsistencies")
         cp = res.cut_points.astype(np.float64)

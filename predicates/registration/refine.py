@@ -60,7 +60,7 @@ class Refinement:
     ``cells`` (M', k); ``cut_origin`` (M',): input cell of each refined cell;
     ``bary`` (M', k, k): row i = refined vertex i in barycentric coordinates of the input
     cell ``cut_origin``'s vertices (in the input cell's vertex order); ``rounds``: split
-    rounds run; ``input_cells``: M.
+    rounds run; ``input_cells``: M; ``input_points``: N.
     """
 
     points: np.ndarray
@@ -69,6 +69,7 @@ class Refinement:
     bary: np.ndarray
     rounds: int
     input_cells: int
+    input_points: int
 
     @property
     def refined(self) -> bool:
@@ -97,7 +98,11 @@ class Refinement:
             r = owner[tuple(sorted(row))]
             local = [self.cells[r].tolist().index(v) for v in row]
             cell_out[m] = self.cut_origin[r]
-            w_out[m] = w[m] @ self.bary[r][local]
+            rows = self.bary[r][local]
+            acc = w[m, 0] * rows[0]  # summed in a fixed order (not BLAS: docs/design.md)
+            for j in range(1, len(local)):
+                acc = acc + w[m, j] * rows[j]
+            w_out[m] = acc
         return cell_out, w_out
 
 
@@ -139,7 +144,7 @@ def refine(points: np.ndarray, cells: np.ndarray, sim_lo: np.ndarray, sim_hi: np
                 f"more than {max_cells} cells: the cutting mesh is far coarser than the "
                 "simulation mesh over a large area; refine it yourself near the simulation "
                 "mesh, or pass refine_cut=False (the result will then warn)")
-    return Refinement(P, C, origin, B, rounds, len(cells))
+    return Refinement(P, C, origin, B, rounds, len(cells), len(points))
 
 
 def _edges(C, k):

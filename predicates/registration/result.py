@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import consistency
+from .portable import weighted_sum
 
 __all__ = ["KIND_CODES", "IntersectionResult", "KindPairs"]
 
@@ -72,8 +73,7 @@ class KindPairs:
         points = np.asarray(points, dtype=np.float64)
         if len(ids) == 0:
             return np.zeros((0, points.shape[1]))
-        X = points[ids]
-        return np.einsum("mk,mkd->md", w.astype(np.float64), X)
+        return weighted_sum(w, points[ids])
 
 
 def _input_units(tol, e: int, dim: int):
@@ -265,12 +265,35 @@ class IntersectionResult:
         or with several (counted twice). A consistent registration gives 0. With a
         refined cutting mesh, ``inside`` may cover the input points only (the vertices
         the refinement appended count as unknown)."""
-        inside = np.asarray(inside, dtype=bool)
-        if self.refinement is not None and len(inside) < len(self.cut_points):
-            inside = np.concatenate([inside, np.zeros(len(self.cut_points) - len(inside), bool)])
+        return len(self.mislocated_vertices(inside))
+
+    def mislocated_vertices(self, inside) -> np.ndarray:
+        """The ids (into ``cut_points``) counted by :meth:`mislocated`."""
         used = np.zeros(len(self.cut_points), dtype=bool)
         used[np.unique(self.cut_cells)] = True
-        return int(np.sum(inside & used & (self.location_counts("cut") != 1)))
+        bad = self.cut_point_mask(inside) & used & (self.location_counts("cut") != 1)
+        return np.flatnonzero(bad)
+
+    def cut_point_mask(self, mask) -> np.ndarray:
+        """A bool per point of ``cut_points`` from ``mask``, a bool per point of the
+        cutting mesh as given or as registered. With a refined cutting mesh the input
+        points come first with their ids (:class:`~.refine.Refinement`), so an input mask
+        is extended with False for the points the refinement appended (unknown)."""
+        mask = np.asarray(mask, dtype=bool).ravel()
+        n, n_in = len(self.cut_points), self.input_cut_points
+        if len(mask) == n:
+            return mask
+        if len(mask) == n_in:
+            return np.concatenate([mask, np.zeros(n - n_in, dtype=bool)])
+        raise ValueError(f"the mask has {len(mask)} entries; the cutting mesh has {n_in} "
+                         f"points as given and {n} as registered (refined)")
+
+    @property
+    def input_cut_points(self) -> int:
+        """How many points the cutting mesh had as given: the first ids of
+        ``cut_points``, which may continue with the refinement's midpoints."""
+        ref = self.refinement
+        return len(self.cut_points) if ref is None else int(ref.input_points)
 
     def inconsistencies(self, inside) -> int:
         """:meth:`mislocated` + :meth:`broken_walks`: the inconsistency count used to
@@ -313,7 +336,10 @@ class IntersectionResult:
         ``kind`` (code of :data:`KIND_CODES`, the same in 2D and 3D; its legend is the
         field data {kind name: [code]}), ``sim_ids`` / ``cut_ids`` (vertex ids of the
         pair's primitives, −1 padded) and ``sim_weights`` / ``cut_weights``. Points are
-        Σ wᵢ·xᵢ on the simulation primitive, in 3D (a 2D mesh in its plane z = c)."""
+        Σ wᵢ·xᵢ on the simulation primitive, in 3D (a 2D mesh in its plane z = c). When
+        the cutting mesh was refined (:attr:`cut_refined`), ``cut_ids`` number the refined
+        mesh's points, and ``cut_input_cell`` / ``cut_input_weights`` give each point on
+        the cutting mesh as given (:meth:`cut_input`)."""
         import meshio
 
         pts, kind, sid, cid, sw, cw = [], [], [], [], [], []
@@ -330,8 +356,42 @@ class IntersectionResult:
         data = {"kind": np.concatenate(kind), "sim_ids": np.concatenate(sid),
                 "cut_ids": np.concatenate(cid), "sim_weights": np.concatenate(sw),
                 "cut_weights": np.concatenate(cw)}
+        if self.cut_refined:
+            data.update(self._cut_input_data())
         legend = {k: np.array([c], dtype=np.int32) for k, c in self.kind_legend().items()}
         return meshio.Mesh(X, cells, point_data=data, field_data=legend)
+
+    @property
+    def cut_refined(self) -> bool:
+        """True when the registration ran on a refined cutting mesh (``cut_ids`` then
+        number the refined mesh's points; :meth:`cut_input` maps back)."""
+        return self.refinement is not None and bool(self.refinement.refined)
+
+    def cut_input(self, kind: str) -> tuple[np.ndarray, np.ndarray]:
+        """For each pair of ``kind``: (the cutting cell as given (m,) int64 that holds the
+        pair's cutting primitive, the point's barycentric weights on that cell's vertices
+        (m, dim) float64). Without refinement: the first input cell with that primitive
+        and the pair's weights spread on its vertices."""
+        p = self.pairs[kind]
+        ref = self.refinement
+        if ref is None:  # refinement off: the input is the registered mesh
+            from .refine import Refinement
+
+            k = self.cut_cells.shape[1]
+            ref = Refinement(self.cut_points, self.cut_cells,
+                             np.arange(len(self.cut_cells)),
+                             np.broadcast_to(np.eye(k), (len(self.cut_cells), k, k)), 0,
+                             len(self.cut_cells), len(self.cut_points))
+        return ref.input_weights(p.cut, p.cut_weights)
+
+    def _cut_input_data(self) -> dict:
+        cells, weights = [], []
+        for k in self.kinds:
+            c, w = self.cut_input(k)
+            cells.append(c)
+            weights.append(w)
+        return {"cut_input_cell": np.concatenate(cells),
+                "cut_input_weights": np.concatenate(weights)}
 
     def sim_mesh(self):
         """The simulation mesh as a ``meshio.Mesh`` with cell data to threshold on:

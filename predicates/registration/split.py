@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import split_rules as R
+from .portable import row_norms, weighted_sum
 
 __all__ = ["SplitMesh", "split_mesh"]
 
@@ -100,7 +101,7 @@ class SplitMesh:
                         for k in range(self.dim)], 1) / np.maximum(cnt, 1)
         off = float(factor) * (cen - X.mean(axis=0))
         ext = X.max(axis=0) - X.min(axis=0) if len(X) else np.zeros(self.dim)
-        nested = np.linalg.norm(cen - X.mean(axis=0), axis=1) < 0.05 * np.linalg.norm(ext)
+        nested = row_norms(cen - X.mean(axis=0)) < 0.05 * row_norms(ext[None])[0]
         if factor and nested.sum() > 1:
             off[nested] = 0.0
             off[nested, 0] = np.arange(nested.sum()) * (1 + float(factor)) * ext[0]
@@ -150,7 +151,7 @@ def _hits(res, d: int):
         if m == 0:
             continue
         wk = np.asarray(p.sim_weights, dtype=np.float64)
-        pts.append(np.einsum("mk,mkd->md", wk, X[p.sim]))
+        pts.append(weighted_sum(wk, X[p.sim]))
         kind.append(np.full(m, code, dtype=np.int32))
         ids.append(np.pad(p.sim.astype(np.int64), ((0, 0), (0, d + 1 - s)),
                           constant_values=-1))

@@ -47,6 +47,7 @@ import fperr
 import predicates
 from predicates import catalogue
 from predicates.registration.examples import cube_grid
+from predicates.registration.portable import rotate, rotation, unit_rows
 from predicates.tolerance_table import TABLES
 from geometry_exact import Units, construct, frac, place
 
@@ -322,12 +323,13 @@ def transformed(ex, rng, jitter=(0.1, 10.0), frac=0.5):
     both meshes, so coincident vertices stay coincident), then a jitter of
     jitter[0]..jitter[1] tolerances τ on a random fraction of each mesh's vertices."""
     dim = ex["dim"]
-    Q, _ = np.linalg.qr(rng.normal(size=(dim, dim)))
-    scale = float(np.exp(rng.uniform(-8, 8)))
-    shift = rng.normal(size=dim) * scale * rng.choice([0.0, 1.0, 100.0])
+    # elementwise IEEE operations only: the same inputs on every machine (docs/design.md)
+    Q = rotation(dim, int(rng.integers(1 << 30)))
+    scale = float(rng.uniform(1.0, 2.0)) * 2.0 ** int(rng.integers(-11, 12))
+    shift = rng.uniform(-1.0, 1.0, size=dim) * scale * rng.choice([0.0, 1.0, 100.0])
 
     def apply(p):
-        return (p @ Q.T) * scale + shift
+        return rotate(p, Q) * scale + shift
 
     sp, cp = apply(ex["sim"][0]), apply(ex["cut"][0])
     tau = predicates.intersect(sp, ex["sim"][1], cp, ex["cut"][1]) \
@@ -336,8 +338,7 @@ def transformed(ex, rng, jitter=(0.1, 10.0), frac=0.5):
     for p in (sp, cp):
         p = p.copy()
         pick = rng.random(len(p)) < frac
-        d = rng.normal(size=(pick.sum(), dim))
-        d /= np.linalg.norm(d, axis=1)[:, None]
+        d = unit_rows(rng.uniform(-1.0, 1.0, size=(pick.sum(), dim)))
         p[pick] += d * (tau * rng.uniform(*jitter, size=pick.sum()))[:, None]
         out.append(p)
     return out[0], ex["sim"][1], out[1], ex["cut"][1]
@@ -352,8 +353,7 @@ def plane_case(n=10, half=1e4):
     nrm = np.array([1.0, 1.0, 2.0]) / np.sqrt(6.0)
     d = (2 * n - 0.5) / (n * np.sqrt(6.0))
     assert np.min(np.abs(sp @ nrm - d)) > 0.02
-    u = np.cross(nrm, [1.0, 0, 0])
-    u /= np.linalg.norm(u)
+    u = unit_rows(np.cross(nrm, [1.0, 0, 0])[None])[0]
     v = np.cross(nrm, u)
     c = d * nrm
     cp = np.array([c + half * (a * u + b * v) for a, b in [(-1, -1), (1, -1), (1, 1), (-1, 1)]])

@@ -18,6 +18,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 import predicates
 from predicates.registration.examples import example
 from predicates.registration.partition import assign, split
+from predicates.registration.portable import rotate, rotation
 
 dask = pytest.importorskip("dask")
 ROOT = Path(__file__).resolve().parents[2]
@@ -38,21 +39,14 @@ def assert_identical(ref, res):
             assert x.tobytes() == y.tobytes(), kind
 
 
-def _rotation(dim, seed):
-    rng = np.random.default_rng(seed)
-    if dim == 2:
-        a = rng.uniform(0, 2 * np.pi)
-        return np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
-    q, r = np.linalg.qr(rng.normal(size=(3, 3)))
-    return q * np.sign(np.diag(r))
 
 
 def case(name, n, rotate=None, **kw):
     ex = example(name, n, **kw)
     (sp, sc), (cp, cc) = ex["sim"], ex["cut"]
     if rotate is not None:
-        R = _rotation(ex["dim"], rotate)
-        sp, cp = sp @ R.T, cp @ R.T
+        R = rotation(ex["dim"], rotate)
+        sp, cp = rotate(sp, R), rotate(cp, R)
     return sp, sc, cp, cc
 
 

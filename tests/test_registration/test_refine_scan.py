@@ -17,6 +17,7 @@ from predicates.registration import refine as refine_mod
 from predicates.registration import refine_scan
 from predicates.registration.boxes import box_extent, boxes_of
 from predicates.registration.examples import cube_grid
+from predicates.registration.portable import power, rotate, rotation
 from predicates.registration.refine_scan import points_near, scan_cells
 
 
@@ -31,8 +32,7 @@ def _meets_any(lo, hi, rlo, rhi):
 def _graded_mesh(n, p, seed):
     """A Kuhn grid graded towards the origin and rotated: box edges over decades."""
     sp, sc = cube_grid(n)
-    q, r = np.linalg.qr(np.random.default_rng(seed).standard_normal((3, 3)))
-    return (sp ** p) @ (q * np.sign(np.diag(r))).T, sc
+    return rotate(power(sp, p), rotation(3, seed)), sc
 
 
 def _reach_of(rng, m, centre, size):

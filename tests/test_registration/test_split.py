@@ -20,6 +20,7 @@ import pytest
 
 import predicates
 from predicates.registration.examples import circle_polygon, cube_grid, grid_plane, icosphere, square_grid
+from predicates.registration.portable import cos_sin, rotate, rotation
 from predicates.registration.split_rules import components
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -94,9 +95,9 @@ def side_of_height_field(q, P, cells) -> int:
 
 
 # -- cases ----------------------------------------------------------------------------------
-def rotation(dim, seed):
-    q, r = np.linalg.qr(np.random.default_rng(seed).normal(size=(dim, dim)))
-    return q * np.sign(np.diag(r))
+def rotated(P, R):
+    """P rotated by R about the unit cube's centre, the same bits on every machine."""
+    return rotate(P - 0.5, R) + 0.5
 
 
 def tilted_sheet(x_max=1.6, m=6, tilt=0.35):
@@ -106,10 +107,12 @@ def tilted_sheet(x_max=1.6, m=6, tilt=0.35):
     P = P.copy()
     P[:, 0] = -0.6 + (x_max + 0.6) * P[:, 0]
     P[:, 1] = -0.6 + 2.2 * P[:, 1]
-    k = np.array([1.0, 2.0, 0.0]) / 5 ** 0.5
+    k = np.array([1.0, 2.0, 0.0]) / np.sqrt(5.0)
     K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    R = np.eye(3) + np.sin(tilt) * K + (1 - np.cos(tilt)) * K @ K
-    return (P - 0.5) @ R.T + 0.5, T
+    KK = rotate(K, K.T)  # K·K
+    (c,), (s,) = cos_sin(np.array([tilt]))
+    R = np.eye(3) + s * K + (1 - c) * KK
+    return rotated(P, R), T
 
 
 def polyline(xs, ys):
@@ -165,7 +168,7 @@ def check_split(res, sm, n_pieces, side=None):
 def test_cube_cut_by_rotated_icosphere_two_pieces():
     sim = cube_grid(6)
     P, T = icosphere(2)
-    cut = ((P - 0.5) @ rotation(3, 3).T + 0.5, T)
+    cut = (rotated(P, rotation(3, 3)), T)
     res, sm = split_of(sim, cut)
     side = np.array([inside_closed_surface(q, *cut) for q in sim[0]])
     assert np.all(side != 0) and (side > 0).sum() > 8  # a real ball of vertices inside
@@ -206,7 +209,7 @@ def test_cube_far_cut_no_duplication():
 def test_square_cut_by_rotated_polygon_two_pieces():
     sim = square_grid(10)
     P, E = circle_polygon(37, radius=0.33)
-    cut = ((P - 0.5) @ rotation(2, 5).T + 0.5, E)
+    cut = (rotated(P, rotation(2, 5)), E)
     res, sm = split_of(sim, cut)
     side = np.array([inside_polygon(q, *cut) for q in sim[0]])
     assert np.all(side != 0) and (side > 0).sum() > 8
