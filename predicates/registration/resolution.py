@@ -188,6 +188,7 @@ def estimate_cell_pairs(lo_a, hi_a, lo_b, hi_b, pad: float) -> int:
     ua, ca = np.unique(ka, return_counts=True)
     ub, cb = np.unique(kb, return_counts=True)
     _, ja, jb = np.intersect1d(ua, ub, assume_unique=True, return_indices=True)
+    # integers: every partial sum below 2^53 is exact, so BLAS's order cannot matter
     return int(np.dot(ca[ja].astype(np.float64), cb[jb].astype(np.float64)))
 
 
@@ -207,7 +208,7 @@ def _dense_pair_count(ia0, ia1, ib0, ib1, budget: int):
     if np.any(G[1:] > _KEY_RADIX) or top >= 2.0 ** 62 or float(np.prod(G + 1.0)) > budget:
         return None
     na = len(ia0)
-    total = int(np.dot(coverage(i0[:na], i1[:na], G).ravel(),
+    total = int(np.dot(coverage(  # integer-valued: exact in any order below 2^53i0[:na], i1[:na], G).ravel(),
                        coverage(i0[na:], i1[na:], G).ravel()))
     return total if total < 2 ** 53 else None
 

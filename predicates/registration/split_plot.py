@@ -60,7 +60,7 @@ def draw_pieces(ax, sm, explode: float = 0.3, clip=None, light=(-0.4, -0.8, 0.6)
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
     L = np.asarray(light, dtype=np.float64)
-    L /= np.linalg.norm(L)
+    L /= np.linalg.norm(L)  # shading: pixels, not results (docs/design.md)
     for p in range(sm.n_pieces):
         sel = sm.cells[keep & (sm.piece == p)]
         if len(sel) == 0:

@@ -18,7 +18,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 import predicates
 from predicates.registration.examples import example
 from predicates.registration.partition import assign, split
-from predicates.registration.portable import rotate, rotation
+from predicates.registration import portable
 
 dask = pytest.importorskip("dask")
 ROOT = Path(__file__).resolve().parents[2]
@@ -45,8 +45,8 @@ def case(name, n, rotate=None, **kw):
     ex = example(name, n, **kw)
     (sp, sc), (cp, cc) = ex["sim"], ex["cut"]
     if rotate is not None:
-        R = rotation(ex["dim"], rotate)
-        sp, cp = rotate(sp, R), rotate(cp, R)
+        R = portable.rotation(ex["dim"], rotate)
+        sp, cp = portable.rotate(sp, R), portable.rotate(cp, R)
     return sp, sc, cp, cc
 
 
