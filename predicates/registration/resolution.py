@@ -208,7 +208,8 @@ def _dense_pair_count(ia0, ia1, ib0, ib1, budget: int):
     if np.any(G[1:] > _KEY_RADIX) or top >= 2.0 ** 62 or float(np.prod(G + 1.0)) > budget:
         return None
     na = len(ia0)
-    total = int(np.dot(coverage(  # integer-valued: exact in any order below 2^53i0[:na], i1[:na], G).ravel(),
+    # integer-valued: every partial sum below 2^53 is exact, so BLAS's order cannot matter
+    total = int(np.dot(coverage(i0[:na], i1[:na], G).ravel(),
                        coverage(i0[na:], i1[na:], G).ravel()))
     return total if total < 2 ** 53 else None
 
