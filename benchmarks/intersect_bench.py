@@ -6,7 +6,7 @@ after the robust registration) is its own. In the child:
 1. the meshes are generated (``predicates.registration.examples``, no download);
 2. the robust registration runs (``predicates.intersect``), with timers wrapped around
    the broad phase (``box_pairs``), the sub-pair suppression (``Registration._blocked``,
-   both in ``predicates.registration.levels``) and the predicates (``Kind.evaluate`` of
+   both in ``predicates.registration.levels.loop``) and the predicates (``Kind.evaluate`` of
    ``predicates.catalogue``) of every kind — wrappers installed at run time by this
    script, the library is not modified; ``res.timings`` gives setup (validation,
    scaling, tolerances), primitives, the cell-level broad phase and each kind's total;
@@ -93,7 +93,7 @@ def _meshes(case):
 
 class _Timers:
     """Per-kind time of the broad phase, the suppression and the predicates, measured by
-    wrappers around predicates.registration.levels's functions and methods and
+    wrappers around predicates.registration.levels.loop's functions and methods and
     predicates.catalogue.Kind.evaluate."""
 
     def __init__(self):
@@ -103,7 +103,7 @@ class _Timers:
     def install(self):
         import importlib
         # the module behind predicates.intersect's level loop
-        I = importlib.import_module("predicates.registration.levels")
+        I = importlib.import_module("predicates.registration.levels.loop")
         Kind = importlib.import_module("predicates.catalogue").Kind
         timers = self
         orig_bp, orig_blocked, orig_eval = I.box_pairs, I.Registration._blocked, Kind.evaluate

@@ -81,7 +81,7 @@ def child(mode: str, n: int, subdivisions: int, workers: int, k: int, reps: int,
         for _ in range(reps):
             res = timed()
     else:
-        from predicates.registration.partition_run import client_for
+        from predicates.registration.partition.run import client_for
 
         t = time.perf_counter()
         with client_for(workers) as client:

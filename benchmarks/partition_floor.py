@@ -60,8 +60,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 def plan_cells(P, cells, clo, chi, pad):
     """The plan's per-cell passes over ``cells``: boxes, the largest box edge, the
     near flags against the cutting boxes (``near_flags`` sides "a")."""
-    from predicates.registration.boxes import box_extent, boxes_of
-    from predicates.registration.broadphase import near_flags
+    from predicates.registration.spatial.boxes import box_extent, boxes_of
+    from predicates.registration.spatial.broadphase import near_flags
 
     lo, hi = boxes_of(P, cells)
     L = float(box_extent(lo, hi).max())
@@ -103,11 +103,12 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
 
     import predicates
-    from predicates.registration import partition, pipeline
-    from predicates.registration.boxes import boxes_of
+    from predicates.registration.partition import assign as partition
+    from predicates.registration import pipeline
+    from predicates.registration.spatial.boxes import boxes_of
     from predicates.registration.examples import cube_grid, icosphere
-    from predicates.registration.partition_run import (_gather, client_for, run_part,
-                                                       run_partitioned)
+    from predicates.registration.partition.run import (
+        _gather, client_for, run_part, run_partitioned)
 
     sp, sc = cube_grid(args.n)
     cp, cc = icosphere(args.subdivisions)

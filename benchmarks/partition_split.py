@@ -44,7 +44,7 @@ def main(argv=None) -> None:
     a = ap.parse_args(argv)
 
     from predicates.registration import examples, pipeline
-    from predicates.registration.partition import split
+    from predicates.registration.partition.assign import split
 
     (sp, sc), (cp, cc) = examples.cube_grid(a.n), examples.icosphere(a.subdivisions)
     plan = pipeline._plan((sp, sc, cp, cc), np.float64, 1.0, False, pipeline.CHUNK, True,

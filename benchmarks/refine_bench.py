@@ -1,4 +1,4 @@
-"""Refinement of a coarse cutting mesh (predicates.registration.refine): process CPU
+"""Refinement of a coarse cutting mesh (predicates.registration.plan.refine): process CPU
 time against the number of cutting cells it creates, the time per created cell, and the
 fitted exponent k of time ~ created^k (issue 10: linear, k <= 1.15).
 
@@ -28,10 +28,10 @@ import time
 
 import numpy as np
 
-from predicates.registration.boxes import boxes_of
+from predicates.registration.spatial.boxes import boxes_of
 from predicates.registration.examples import cube_grid, icosphere
-from predicates.registration.refine import refine
-from predicates.registration.resolution import cell_boxes
+from predicates.registration.plan.refine import refine
+from predicates.registration.plan.resolution import cell_boxes
 
 
 def slab(n: int):

@@ -1,5 +1,5 @@
 """Split time against registration time (issue 15): the virtual-node split
-(``res.split()``, predicates.registration.split) beside the robust registration
+(``res.split()``, predicates.registration.split.mesh) beside the robust registration
 (``predicates.intersect``) on the cube grid n³ × 6 Kuhn tetrahedra cut by an icosphere,
 and the square grid n² × 2 cut by a circle polygon, several n; the fitted exponent of
 time against the number of cells (least squares on log-log; 1 = linear).

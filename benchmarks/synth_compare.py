@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from predicates import intersect
-from predicates.registration.demo import degenerate_cases
+from predicates.registration.pictures.demo import degenerate_cases
 from predicates.registration.examples import example
 from proofs.tables import load_overrides
 

@@ -9,12 +9,16 @@ a, b, c ≥ 0 the worst case is ε = 1e-5, so K = ⌈c·(a + b·10⁻⁵)⌉, co
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import sympy
 
 from .notation import lpow
 from .symbols import EPS_MAX, L, eps
-from .tracked import InvalidBound, Tracked
+from .rules import InvalidBound
+
+if TYPE_CHECKING:  # annotations only: tracked.py builds Checks, so no import back
+    from .tracked import Tracked
 
 
 @dataclass(frozen=True)

@@ -10,11 +10,15 @@ ours is never larger, and the report (`proofs`) shows where they differ.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import sympy
 
 from .bounds import bounds
-from .tracked import InvalidBound, Tracked
+from .rules import InvalidBound
+
+if TYPE_CHECKING:  # annotations only: tracked.py builds Checks, so no import back
+    from .tracked import Tracked
 
 
 @dataclass(eq=False)

@@ -18,6 +18,10 @@ ONE = sympy.Integer(1)
 ZERO = sympy.Integer(0)
 
 
+class InvalidBound(ValueError):
+    """A bound was requested for a quantity whose estimate is not valid (v = 0)."""
+
+
 class NoRule(Exception):
     """No rule applies to these inputs; the result is invalid (section 2)."""
 

@@ -15,11 +15,7 @@ import sympy
 
 from . import ops, rules
 from .exact import is_exact, to_fraction
-from .rules import NoRule, State
-
-
-class InvalidBound(ValueError):
-    """A bound was requested for a quantity whose estimate is not valid (v = 0)."""
+from .rules import InvalidBound, NoRule, State  # noqa: F401  (InvalidBound: re-exported)
 
 
 class Tracked:

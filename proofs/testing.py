@@ -1,4 +1,4 @@
-"""A helper for users' test suites: their tolerance constraints hold (issue 14, part 3).
+"""A helper for users' test suites: their tolerance constraints hold (docs/custom-predicates.md).
 
 In a project's tests (pytest or any runner: a failure is an ``AssertionError``)::
 

@@ -1,4 +1,4 @@
-"""Users' own predicates and tolerances, decided like the paper's (issue 14, part 3).
+"""Users' own predicates and tolerances, decided like the paper's (docs/custom-predicates.md).
 
 A module of ``@predicate`` functions (:mod:`predicates.core`) declares, at module level,
 the tolerance table of its predicates and the geometric facts its correctness argument

@@ -1,30 +1,26 @@
 """Registration of a simulation mesh against a cutting mesh (section 1 of the paper),
 built on the algorithms of sections 4–5 (:mod:`predicates.d2`, :mod:`predicates.d3`).
 
-One module per step (see :mod:`predicates.registration.pipeline` for how they fit):
+Subpackages, in the order a run uses them (imports point from later to earlier;
+docs/design.md has one line per module):
 
-* :mod:`~predicates.registration.inputs` — the call's forms, validation, exact scaling;
-* :mod:`~predicates.registration.examples` — generated example meshes;
-* :mod:`~predicates.registration.broadphase` — boxes within a distance, on a grid;
-* :mod:`~predicates.registration.complex` — rank space and simplicial complexes;
-* :mod:`~predicates.registration.levels` — candidates, suppression, the level loop;
-* :mod:`~predicates.registration.refine` — refinement of coarse cutting meshes;
-* :mod:`~predicates.registration.resolution` — L from the cells that can meet, report;
+* :mod:`~predicates.registration.spatial` — blocks, exact boxes, grids, the broad phase;
+* :mod:`~predicates.registration.plan` — inputs and validation, exact scaling, refinement
+  of coarse cutting meshes, L and the resolution report;
+* :mod:`~predicates.registration.levels` — complexes, face pairs, the level loop;
+* :mod:`~predicates.registration.result` — :class:`IntersectionResult`, exports, consistency;
+* :mod:`~predicates.registration.partition` — the same run in partitions on Dask;
 * :mod:`~predicates.registration.pipeline` — :func:`intersect`, :func:`intersect_files`;
-* :mod:`~predicates.registration.partition`, :mod:`~predicates.registration.partition_run`
-  — the same run in spatial partitions on Dask (``intersect(..., partitions=k)``);
-* :mod:`~predicates.registration.result` — :class:`IntersectionResult`, :class:`KindPairs`;
-* :mod:`~predicates.registration.files` — mesh files in and out;
-* :mod:`~predicates.registration.io_read` — guarded reading of mesh files;
-* :mod:`~predicates.registration.io_write` — checked outputs, atomic writes;
-* :mod:`~predicates.registration.io_convert` — mesh objects (meshio, pyvista, trimesh);
-* :mod:`~predicates.registration.consistency` — inconsistency counters;
-* :mod:`~predicates.registration.plot` — pictures (matplotlib);
-* :mod:`~predicates.registration.demo` — the built-in examples of ``fperr demo``.
+* :mod:`~predicates.registration.io` — mesh objects and files in and out;
+* :mod:`~predicates.registration.split` — the virtual-node split along the cut;
+* :mod:`~predicates.registration.pictures` — pictures and ``fperr demo``;
+* :mod:`~predicates.registration.examples`, :mod:`~predicates.registration.portable` —
+  generated example meshes and the machine-independent arithmetic they use.
 """
-from .io_read import MeshFileError
-from .pipeline import intersect, intersect_files
-from .result import KIND_CODES, IntersectionResult, KindPairs
+from predicates.registration.io.read import MeshFileError
+from predicates.registration.pipeline import intersect, intersect_files
+from predicates.registration.result.intersection import (
+    KIND_CODES, IntersectionResult, KindPairs)
 
 __all__ = ["KIND_CODES", "IntersectionResult", "KindPairs", "MeshFileError", "intersect",
            "intersect_files"]

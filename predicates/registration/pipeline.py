@@ -18,7 +18,7 @@ kind as sorted int64 keys, so that look-up is a vectorised ``searchsorted``.
 
 How it runs
 -----------
-1. Validation (:mod:`predicates.registration.inputs`): every bad input is rejected up front.
+1. Validation (:mod:`predicates.registration.plan.inputs`): every bad input is rejected up front.
 2. Exact power-of-two scaling: coordinates are multiplied by 2^-e so that
    L_a + L_b ∈ [1/2, 1). Every tolerance and every quantity of the predicates (up to
    L⁶ in 3D edge-edge) is then of order one: no overflow, and nothing that matters can
@@ -32,21 +32,21 @@ How it runs
    handled; an input whose coordinates cannot be scaled exactly (a coordinate would
    become subnormal and lose bits, or overflow) is refused with a clear error.
 3. Primitives: unique vertices, edges, faces (and cells) of each mesh — of the cells
-   the first broad-phase stage keeps (step 5; :mod:`predicates.registration.complex`). Inside every primitive the vertices are
+   the first broad-phase stage keeps (step 5; :mod:`predicates.registration.levels.complex`). Inside every primitive the vertices are
    ordered lexicographically by coordinates, so that the predicates see the same
    numbers in the same order whatever the vertex numbering, the cell order or the
    orientation: the result is invariant under all three.
 4. Tolerances (Algorithms 1 and 6) from L_a, L_b, the largest bounding-box edge of any
    cell of each mesh, rounded up (they must be upper bounds).
-5. Broad phase (:mod:`predicates.registration.broadphase`): the cells of each mesh sharing a grid
+5. Broad phase (:mod:`predicates.registration.spatial.broadphase`): the cells of each mesh sharing a grid
    cell with a cell of the other mesh enlarged by σ+ (a superset of those within σ+),
    then per kind the primitives' boxes within that kind's reach (≤ σ+; see
    ``predicates.catalogue``), tested exactly.
-6. Per level, per kind (:mod:`predicates.registration.levels`): suppression by registered sub-pairs, then the predicate in
+6. Per level, per kind (:mod:`predicates.registration.levels.loop`): suppression by registered sub-pairs, then the predicate in
    numpy batch mode on chunks of candidates.
 
 With ``partitions=`` / ``scheduler=``, steps 3, 5 and 6 run per spatial partition as Dask
-tasks (:mod:`predicates.registration.partition_run`; the rest stays global, in
+tasks (:mod:`predicates.registration.partition.run`; the rest stays global, in
 ``_plan``), with the identical result (docs/partitioned.md).
 
 ``tolerance_scale=0`` runs the same pipeline with every tolerance zero (the naive
@@ -66,14 +66,17 @@ import numpy as np
 
 from fperr.warnings import ResolutionError, ResolutionWarning
 
-from ..catalogue import kinds as catalogue_kinds
-from . import plan_threads, resolution
-from .inputs import mesh_arrays, scale_points, validate_options, validate_pair
-from .levels import Registration
-from .refine import refine
-from .resolution import (Resolution, consistent_scale, estimate_cell_pairs,
-                         memory_error, near_cells, shortest_edge, t_plus)
-from .result import IntersectionResult
+from predicates.catalogue import kinds as catalogue_kinds
+from predicates.registration.plan import threads as plan_threads
+from predicates.registration.plan import resolution
+from predicates.registration.plan.inputs import (
+    mesh_arrays, scale_points, validate_options, validate_pair)
+from predicates.registration.levels.loop import Registration
+from predicates.registration.plan.refine import refine
+from predicates.registration.plan.resolution import (
+    Resolution, consistent_scale, estimate_cell_pairs, memory_error, near_cells,
+    shortest_edge, t_plus)
+from predicates.registration.result.intersection import IntersectionResult
 
 __all__ = ["CHUNK", "PLAN_STAGES", "intersect", "intersect_files"]
 
@@ -104,7 +107,7 @@ def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: b
     ``progress``: a tqdm bar on stderr (shown after one second; of the kinds, or of the
     partitions in a partitioned run). ``refine_cut``: refine
     cutting cells coarser than the simulation cells they meet (conforming midpoint
-    splits, :mod:`~predicates.registration.refine`); the registered cutting ids then
+    splits, :mod:`~predicates.registration.plan.refine`); the registered cutting ids then
     refer to ``res.cut_points`` / ``res.cut_cells``, the refined mesh (input points keep
     their ids; ``res.refinement`` maps back). ``strict``: raise
     :class:`fperr.ResolutionError` (a ValueError) instead of issuing a
@@ -114,21 +117,21 @@ def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: b
     :class:`fperr.ResolutionError`. ``partitions`` (an int or "auto") / ``scheduler``
     ("threads", "processes", "synchronous", a ``dask.distributed.Client`` or an
     address): run on Dask in spatial partitions, with the identical result
-    (:mod:`predicates.registration.partition_run`; needs ``fperr[dask]``); the default
+    (:mod:`predicates.registration.partition.run`; needs ``fperr[dask]``); the default
     is serial, without Dask. ``tolerances``: a tolerance table (e.g. from ``fperr
     synthesize``; see :func:`predicates.tolerance_table.resolve_table`) instead of
     Figure 1/5 — sound only if ``fperr verify --tolerances`` accepts it. ``timeout``:
     seconds a partitioned run on a dask.distributed scheduler waits for its tasks once
     submitted, then cancels them and raises
-    :class:`~predicates.registration.partition_run.PartitionError` (as when a worker
+    :class:`~predicates.registration.partition.run.PartitionError` (as when a worker
     dies under a task). Returns an
-    :class:`~predicates.registration.result.IntersectionResult`. See the module docstring.
+    :class:`~predicates.registration.result.intersection.IntersectionResult`. See the module docstring.
     """
     t0, c0 = time.perf_counter(), time.process_time()
     timings = {}
     serial = partitions is None and scheduler is None
     if timeout is not None:  # before any work (Dask is imported only for a partitioned run)
-        from .partition_run import check_timeout
+        from predicates.registration.partition.run import check_timeout
 
         timeout = check_timeout(timeout, not serial, scheduler)
     # a partitioned run's plan is its serial part: per-cell work on a thread per worker
@@ -142,7 +145,7 @@ def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: b
         check()
         pairs = _register(plan, chunk, progress, timings)
     else:
-        from .partition_run import run_partitioned
+        from predicates.registration.partition.run import run_partitioned
 
         # checked there, before any task: the memory guard counts the partitions held
         # at once, not the whole run
@@ -185,7 +188,7 @@ def _plan(args, dtype, tolerance_scale, progress, chunk, refine_cut, timings, si
     """Validation, refinement, L over the cells that can meet, exact scaling,
     tolerances, reach and the resolution report: the global part of the run.
     ``threads`` > 1: the per-cell work in chunks on a thread pool, identical values
-    (:mod:`~predicates.registration.plan_threads`)."""
+    (:mod:`~predicates.registration.plan.threads`)."""
     if threads <= 1:
         return _plan_with(plan_threads.Work(), args, dtype, tolerance_scale, progress, chunk,
                           refine_cut, timings, sim_region, cut_region, tolerances)
@@ -197,7 +200,7 @@ def _plan(args, dtype, tolerance_scale, progress, chunk, refine_cut, timings, si
 
 def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, timings,
                sim_region, cut_region, tolerances) -> Plan:
-    """:func:`_plan` with ``work`` (a :class:`~predicates.registration.plan_threads.Work`)."""
+    """:func:`_plan` with ``work`` (a :class:`~predicates.registration.plan.threads.Work`)."""
     dtype, ts = validate_options(dtype, tolerance_scale, progress, chunk)
     arrays = mesh_arrays(args, sim_region, cut_region)
     sp, sc, cp, cc = arrays
@@ -280,7 +283,7 @@ def _check(report: Resolution, strict: bool, limit: int | None, dim: int,
            share: float = 1.0, stacklevel: int = 3) -> None:
     """Warn (or raise, ``strict``) when coarse; refuse runs that would exhaust memory
     (``share``: the fraction of the cell pairs held at once, see
-    :func:`~predicates.registration.resolution.memory_error`). The naive baseline
+    :func:`~predicates.registration.plan.resolution.memory_error`). The naive baseline
     (tolerance_scale 0) is never called coarse; ``stacklevel``: the user's frame."""
     if report.coarse:
         if strict:
@@ -303,7 +306,7 @@ def intersect_files(sim, cut: str | os.PathLike, *,
     points to ``output`` (.vtu), the simulation mesh with cut-cell data to
     ``sim_output`` and a 2D picture to ``plot``. ``sim``: a file, or a list of files
     holding the pieces of one simulation mesh (merged where they share points:
-    :func:`~predicates.registration.files.merge_pieces`).
+    :func:`~predicates.registration.io.files.merge_pieces`).
 
     Output paths are checked before any work (format, directory, not an input file), the
     inputs are read under guard, and every problem raises an error naming the file, so
@@ -312,7 +315,8 @@ def intersect_files(sim, cut: str | os.PathLike, *,
     ``options``: as in :func:`intersect`; ``sim_region``/``cut_region``: a gmsh physical
     group or cell block (tag or name).
     """
-    from .files import check_outputs, input_roles, load_pair, write_results
+    from predicates.registration.io.files import (
+        check_outputs, input_roles, load_pair, write_results)
 
     validate_options(dtype, 0.0, progress, options.get("chunk", CHUNK))  # before any work
     if not isinstance(naive, (bool, np.bool_)):

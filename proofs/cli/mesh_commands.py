@@ -109,7 +109,7 @@ def _dask_client(args):
                 raise ValueError(f"{flag} is for a partitioned run: give --workers or "
                                  f"--scheduler")
         return contextlib.nullcontext()
-    from predicates.registration.partition_run import client_for
+    from predicates.registration.partition.run import client_for
 
     return client_for(args.workers, args.scheduler)
 
@@ -119,7 +119,7 @@ def _run_intersect(args) -> int:
 
     from fperr.warnings import ResolutionError, ResolutionWarning
     from predicates.registration import intersect_files
-    from predicates.registration.partition_run import PartitionError
+    from predicates.registration.partition.run import PartitionError
 
     table = None
     if args.tolerances:
@@ -179,8 +179,8 @@ def _run_intersect(args) -> int:
 def _check_parts(args, dask_run: bool) -> None:
     """-o with {part} (one file per partition): a partitioned run, a valid pattern,
     checked with the other outputs before any work."""
-    from predicates.registration.files import check_outputs, input_roles
-    from predicates.registration.partition_run import part_paths
+    from predicates.registration.io.files import check_outputs, input_roles
+    from predicates.registration.partition.files import part_paths
 
     if not dask_run:
         raise ValueError(f"{args.output}: '{{part}}' writes one file per partition of a "
@@ -194,8 +194,8 @@ def _check_parts(args, dask_run: bool) -> None:
 def _write_parts(args, res) -> int:
     """Write the per-partition files (one per partition of the run) and the other
     outputs, every path checked first (none is written if one is refused)."""
-    from predicates.registration.files import check_outputs, input_roles, write_results
-    from predicates.registration.partition_run import part_paths, write_parts
+    from predicates.registration.io.files import check_outputs, input_roles, write_results
+    from predicates.registration.partition.files import part_paths, write_parts
 
     k = res.timings["partition_count"]
     outs = {(f"-o (partition {r})", "mesh"): p
@@ -236,7 +236,7 @@ def _add_cut(sub) -> None:
 
 
 def _run_cut(args) -> int:
-    from predicates.registration.split import cut_files
+    from predicates.registration.split.files import cut_files
 
     try:
         res, sm = cut_files(args.sim, args.cut, output=args.output, png=args.png,
@@ -281,7 +281,7 @@ def _add_demo(sub) -> None:
 
 
 def _run_demo(args) -> int:
-    from predicates.registration.demo import demo
+    from predicates.registration.pictures.demo import demo
 
     try:
         demo(args.out, n=args.n, dtype=args.dtype, progress=not args.quiet)

@@ -103,7 +103,7 @@ def test_demo_n64_under_10s_with_progress_and_real_pictures(tmp_path):
     assert cpu < 10, (cpu, wall)  # CPU time: the machine may be shared
     assert "fperr demo" in r.stderr and "step" in r.stderr  # the progress bar
     assert "Traceback" not in r.stderr
-    from predicates.registration.demo import FILES
+    from predicates.registration.pictures.demo import FILES
 
     for f in FILES:
         assert (tmp_path / f).stat().st_size > 1000, f
@@ -130,7 +130,7 @@ def test_demo_3d_example_needs_no_refinement(n3):
     """The demo runs its 3D example with refine_cut=False: the icosphere is no coarser
     than the grid, so the refinement has nothing to do and the pairs are the same."""
     import predicates
-    from predicates.registration.demo import sphere_case
+    from predicates.registration.pictures.demo import sphere_case
 
     ex = sphere_case(n3)
     a = predicates.intersect(*ex["sim"], *ex["cut"])

@@ -1,4 +1,4 @@
-"""Per-row passes in blocks (predicates.registration.blocks): the same values and the same
+"""Per-row passes in blocks (predicates.registration.spatial.blocks): the same values and the same
 error messages for every block size, sequential or on a thread pool."""
 from __future__ import annotations
 
@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from predicates.registration import blocks as B
-from predicates.registration.inputs import validate_pair
-from predicates.registration.resolution import shortest_edge
+from predicates.registration.spatial import blocks as B
+from predicates.registration.plan.inputs import validate_pair
+from predicates.registration.plan.resolution import shortest_edge
 
 WHOLE = B.Blocks(block=1 << 30)
 

@@ -1,4 +1,4 @@
-"""The broad phase (predicates.registration.broadphase) against brute force: every pair within pad,
+"""The broad phase (predicates.registration.spatial.broadphase) against brute force: every pair within pad,
 exactly once, including crowded grid cells (refined recursively) and degenerate boxes;
 near_flags against its definition."""
 from __future__ import annotations
@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from predicates.registration.broadphase import box_pairs, box_pairs_bruteforce, near_flags
+from predicates.registration.spatial.broadphase import (
+    box_pairs, box_pairs_bruteforce, near_flags)
 
 
 def _pairs(la, ha, lb, hb, pad, chunk=1 << 22):
@@ -74,7 +75,7 @@ def test_near_flags_definition():
 def test_near_flags_dense_equals_expanded(dim, monkeypatch):
     """The summed-area path flags exactly the boxes sharing a grid cell with the other
     side, like the expanded-entries path it replaces on dense grids."""
-    import predicates.registration.broadphase as B
+    import predicates.registration.spatial.broadphase as B
     rng = np.random.default_rng(10 + dim)
     flagged = 0
     for trial in range(25):
@@ -104,7 +105,7 @@ def test_near_flags_dense_equals_expanded(dim, monkeypatch):
 def test_tighten_flags_superset_and_tighter(dim):
     """tighten_flags keeps every box with a partner within pad (also for flat inputs:
     one axis of zero extent), and on clustered inputs drops boxes near_flags kept."""
-    from predicates.registration.broadphase import tighten_flags
+    from predicates.registration.spatial.broadphase import tighten_flags
     rng = np.random.default_rng(20 + dim)
     dropped = 0
     for trial in range(20):
@@ -124,7 +125,7 @@ def test_tighten_flags_superset_and_tighter(dim):
 
 @pytest.mark.parametrize("dim,k", [(2, 2), (2, 3), (3, 3), (3, 4)])
 def test_boxes_of_equals_gathered_min_max(dim, k):
-    from predicates.registration.broadphase import boxes_of
+    from predicates.registration.spatial.broadphase import boxes_of
     rng = np.random.default_rng(dim * 10 + k)
     P = rng.normal(size=(500, dim)) * 10.0 ** rng.integers(-300, 300, size=(500, 1))
     rows = rng.integers(0, 500, size=(2000, k)).astype(np.int32)
@@ -153,7 +154,7 @@ def test_near_flags_do_not_depend_on_the_order_of_the_boxes():
 
 
 def test_the_grid_size_is_the_same_for_any_order_of_the_boxes():
-    from predicates.registration.broadphase import _mean_extent
+    from predicates.registration.spatial.broadphase import _mean_extent
     rng = np.random.default_rng(3)
     # one huge extent among many small ones: a sum in another order rounds differently
     ext = np.concatenate([[2.0 ** 53], np.ones(4999), rng.random(5000)])
@@ -169,7 +170,7 @@ def _random_side(rng, dim, k, n_cells, size):
     """A Side of ``n_cells`` random simplices (k vertices) of about ``size`` sharing
     vertices of a small pool, plus a repeated cell and a collapsed one; its complex
     of every cell."""
-    from predicates.registration.complex import Side
+    from predicates.registration.levels.complex import Side
 
     P = rng.uniform(0, 1, (max(k, n_cells // 2), dim))
     P = np.concatenate([P, P[:5] + rng.uniform(-size, size, (5, dim))])
@@ -191,8 +192,8 @@ def test_face_pairs_from_cell_pairs_equal_box_pairs_per_kind(dim, chunk):
     only) give, per kind, exactly the pairs of all the primitives' boxes within the
     kind's reach — each once."""
     from predicates.catalogue import kinds
-    from predicates.registration.broadphase import boxes_of
-    from predicates.registration.facepairs import FacePairs, cell_pairs
+    from predicates.registration.spatial.broadphase import boxes_of
+    from predicates.registration.levels.facepairs import FacePairs, cell_pairs
 
     rng = np.random.default_rng(dim * 100 + chunk % 7)
     sim = _random_side(rng, dim, dim + 1, 300, 0.05)
@@ -224,7 +225,7 @@ def test_face_pairs_from_cell_pairs_equal_box_pairs_per_kind(dim, chunk):
 def test_unique_rows_equal_numpy_unique(n, w):
     """complex.unique_rows (ids packed into one or several int64 keys, lexsorted)
     gives np.unique(axis=0)'s rows and inverse, also when n^w overflows one key."""
-    from predicates.registration.complex import unique_rows
+    from predicates.registration.levels.complex import unique_rows
 
     rng = np.random.default_rng(n % 1000 + w)
     base = rng.integers(0, n, (300, w), dtype=np.int64)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import predicates
-from predicates.registration.broadphase import box_pairs, box_pairs_bruteforce
+from predicates.registration.spatial.broadphase import box_pairs, box_pairs_bruteforce
 from predicates.catalogue import kinds
 from predicates.registration.examples import example, cube_grid, grid_plane, square_grid
 from shared_cases import check_exact, transformed
@@ -322,14 +322,14 @@ def test_result_object_and_meshio_export(tmp_path):
     m = res.to_meshio()
     assert len(m.points) == res.total
     path = tmp_path / "hits.vtu"
-    from predicates.registration.io_write import write_meshio
+    from predicates.registration.io.write import write_meshio
     write_meshio(path, m)  # meshio's own writer drops the field data (the legend)
     back = meshio.read(path)
     assert np.array_equal(back.point_data["kind"], m.point_data["kind"])
     assert np.array_equal(back.point_data["cut_ids"], m.point_data["cut_ids"])
     # the exported points are where the two primitives meet; kind codes are
     # KIND_CODES (the same in 2D and 3D), their legend is the field data
-    from predicates.registration.result import KIND_CODES
+    from predicates.registration.result.intersection import KIND_CODES
     for k in res.kinds:
         code = KIND_CODES[k]
         assert back.field_data[k].ravel().tolist() == [code]

@@ -16,7 +16,7 @@ import pytest
 
 import predicates
 from predicates.registration.examples import example
-from predicates.registration.result import KIND_CODES
+from predicates.registration.result.intersection import KIND_CODES
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
@@ -76,7 +76,7 @@ def test_output_naming_an_input_is_refused_and_the_input_kept(tmp_path):
 
 
 def test_failed_write_leaves_no_file(tmp_path):
-    from predicates.registration.io_write import write_atomic
+    from predicates.registration.io.write import write_atomic
 
     target = tmp_path / "x.vtu"
 

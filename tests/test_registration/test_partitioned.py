@@ -1,4 +1,4 @@
-"""Partitioned registration on Dask (predicates.registration.partition*): the result is
+"""Partitioned registration on Dask (predicates.registration.partition.assign*): the result is
 identical to the serial run — same pairs in every kind, bit-identical weights — for
 every number of partitions and every scheduler (docs/partitioned.md)."""
 from __future__ import annotations
@@ -17,7 +17,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 
 import predicates
 from predicates.registration.examples import example
-from predicates.registration.partition import assign, split
+from predicates.registration.partition.assign import assign, split
 from predicates.registration import portable
 
 dask = pytest.importorskip("dask")
@@ -147,7 +147,7 @@ def test_partitions_cover_and_halos_hold_owned_stars():
 def test_partitions_get_every_cutting_cell_within_reach(k):
     """Each partition holds every cutting cell whose box is within pad of one of its
     cells' boxes (the same float test as the broad phase, checked by brute force)."""
-    from predicates.registration.broadphase import box_pairs_bruteforce
+    from predicates.registration.spatial.broadphase import box_pairs_bruteforce
 
     sp, sc, cp, cc = CASES["sphere"](11)
     pad = 0.05
@@ -186,7 +186,7 @@ def _by_coordinates(res):
 
 
 def test_pieces_and_per_partition_files(tmp_path):
-    from predicates.registration.partition_run import read_pieces, write_parts
+    from predicates.registration.partition.files import read_pieces, write_parts
 
     sp, sc, cp, cc = CASES["plane"]()
     ref = predicates.intersect(sp, sc, cp, cc)
@@ -232,7 +232,7 @@ def test_bad_arguments():
 
 
 def test_without_dask(monkeypatch):
-    from predicates.registration.partition_run import DaskMissingError
+    from predicates.registration.partition.run import DaskMissingError
 
     monkeypatch.setitem(sys.modules, "dask", None)  # import dask now raises ImportError
     args = CASES["diagonal"]()
@@ -282,7 +282,7 @@ def _recording_bars(monkeypatch):
     """partition_run's bars, shown at once, each kept (with its count at close)."""
     import contextlib
 
-    from predicates.registration import partition_run
+    from predicates.registration.partition import run as partition_run
 
     monkeypatch.setattr(partition_run, "PROGRESS_DELAY", 0)
     bars, make = [], partition_run._bar
@@ -380,8 +380,8 @@ def test_timeout_cancels_the_tasks_and_names_the_partitions(monkeypatch):
 
     from distributed import Client, LocalCluster
 
-    from predicates.registration import partition_run
-    from predicates.registration.partition_run import PartitionError
+    from predicates.registration.partition import run as partition_run
+    from predicates.registration.partition.run import PartitionError
 
     args = CASES["sphere"]()
     ref = predicates.intersect(*args)
@@ -410,7 +410,7 @@ def test_a_worker_that_dies_under_a_task_is_a_partition_error():
     to do, instead of a bare Dask exception."""
     from distributed import Client, LocalCluster
 
-    from predicates.registration.partition_run import PartitionError, _gather
+    from predicates.registration.partition.run import PartitionError, _gather
 
     with dask.config.set({"distributed.scheduler.allowed-failures": 0}), \
             LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
@@ -460,7 +460,7 @@ def test_partitions_without_cutting_cells_are_skipped():
     the same pairs): those with an empty cutting slice run no task, and the merged
     result is still the serial one."""
     from predicates.registration import pipeline
-    from predicates.registration.partition_run import run_partitioned
+    from predicates.registration.partition.run import run_partitioned
 
     sp, sc, cp, cc = _corner_cut()
     ref = predicates.intersect(sp, sc, cp, cc)
@@ -497,7 +497,7 @@ def test_one_partition_holds_the_cell_that_sets_L():
 
 
 def _kp(kind, sim, cut):
-    from predicates.registration.result import KindPairs
+    from predicates.registration.result.intersection import KindPairs
 
     sim, cut = np.asarray(sim, np.int64), np.asarray(cut, np.int64)
     return KindPairs(kind, sim, cut, sim.astype(float) / 7, cut.astype(float) / 3)
@@ -505,7 +505,7 @@ def _kp(kind, sim, cut):
 
 def test_merge_restores_the_serial_order_and_refuses_a_shared_vertex():
     from predicates.catalogue import kinds
-    from predicates.registration.partition import merge
+    from predicates.registration.partition.assign import merge
 
     kind = kinds(2)[3]  # edge_edge: (2, 2) ids per pair
     serial = _kp(kind.name, [[0, 3], [0, 4], [1, 2], [2, 5], [2, 6], [4, 5]],
@@ -531,7 +531,7 @@ def test_merge_restores_the_serial_order_and_refuses_a_shared_vertex():
 def test_plan_counts_match_their_reference_forms(seed, dim):
     """The plan's faster forms give the same numbers: the dense cell-pair count against
     the keyed one, the shortest edge against the (n, k, d) gather."""
-    from predicates.registration import resolution as R
+    from predicates.registration.plan import resolution as R
 
     rng = np.random.default_rng(seed)
     sc_ = 10.0 ** rng.uniform(-3, 3)
@@ -564,7 +564,7 @@ def test_cell_pair_estimate_of_points_at_pad_zero(dim):
     """Point-like boxes at pad 0 (all extents 0): the estimate's grid stays within 2^20
     cells per axis (it used to take a cell of 1e-300 and fail on int64 overflow), and
     every coincident pair shares a grid cell, so each is counted."""
-    from predicates.registration import resolution as R
+    from predicates.registration.plan import resolution as R
 
     rng = np.random.default_rng(dim)
     a = rng.random((300, dim))
@@ -589,7 +589,7 @@ def test_memory_guard_counts_the_partitions_held_at_once():
     """The guard refuses before any work what would not fit; a partitioned run holds
     only the partitions running at once (one at a time under "synchronous")."""
     from fperr import ResolutionError
-    from predicates.registration.resolution import BYTES_PER_CELL_PAIR
+    from predicates.registration.plan.resolution import BYTES_PER_CELL_PAIR
 
     args = CASES["sphere"]()
     ref = predicates.intersect(*args)
@@ -638,7 +638,8 @@ def test_threaded_plan_equals_the_serial_plan(name, min_chunk, rotate, monkeypat
     (plan_threads): every field equals the serial plan's, bit for bit — with chunks of a
     few cells (MIN_CHUNK lowered: many chunks, uneven ends) on the small cases, and
     with the default chunking on a W1-like cube (82,944 tetrahedra × sphere)."""
-    from predicates.registration import blocks, pipeline
+    from predicates.registration.spatial import blocks
+    from predicates.registration import pipeline
     from predicates.registration.examples import cube_grid, icosphere
 
     if name == "w1":
@@ -666,7 +667,8 @@ def test_threaded_boxes_and_flags_equal_the_serial_ones(seed, dim, parts, pad):
     (one block), for any number of spans."""
     from concurrent.futures import ThreadPoolExecutor
 
-    from predicates.registration import blocks, broadphase
+    from predicates.registration.spatial import blocks
+    from predicates.registration.spatial import broadphase
 
     rng = np.random.default_rng(seed)
     P = rng.uniform(-1, 1, size=(60, dim))
@@ -720,7 +722,7 @@ def _morton_reference(points, cells):
 @given(seed=st.integers(0, 10**6), dim=st.sampled_from([2, 3]),
        scale=st.sampled_from([1e-6, 1.0, 1e5]), flat=st.booleans(), n=st.integers(1, 60))
 def test_morton_order_is_the_reference(seed, dim, scale, flat, n):
-    from predicates.registration.partition import morton_order
+    from predicates.registration.partition.assign import morton_order
 
     rng = np.random.default_rng(seed)
     P = rng.normal(size=(n, dim)) * scale
@@ -736,7 +738,7 @@ def test_morton_order_is_the_reference(seed, dim, scale, flat, n):
 def test_row_reductions_are_numpys(seed, cols, rows):
     """boxgrid.rowwise (the partitions' smallest vertex id, the cell-pair estimate's
     cell counts) gives numpy's row reductions: the same dtype and values."""
-    from predicates.registration.boxgrid import rowwise
+    from predicates.registration.spatial.boxgrid import rowwise
 
     rng = np.random.default_rng(seed)
     a = rng.integers(-(2**62), 2**62, size=(rows, cols))
@@ -755,7 +757,7 @@ def test_local_cluster_settings_submission_and_order(monkeypatch):
     end in."""
     import time
 
-    from predicates.registration import partition_run as pr
+    from predicates.registration.partition import run as pr
 
     args = CASES["sphere"](2)
     ref = predicates.intersect(*args)
@@ -790,7 +792,7 @@ def test_halos_are_the_definition(seed, dim, k, n, unused):
     """partition_slices.halos: partition r's halo is every cell sharing a vertex with a
     cell of r (its own cells included), ascending — checked cell by cell with sets, on
     random cells (repeated vertices, points in no cell, partitions with no cell)."""
-    from predicates.registration.partition_slices import halos
+    from predicates.registration.partition.slices import halos
 
     rng = np.random.default_rng(seed)
     C = rng.integers(0, n, size=(int(rng.integers(1, 60)), dim + 1))
@@ -811,8 +813,8 @@ def test_every_partition_gets_the_cutting_cells_within_reach(seed, k, pad):
     cell with a vertex of an owned cell) and every cutting cell within pad of a halo
     cell (brute force, the broad phase's float test), for many partitions of a
     rotated sphere case."""
-    from predicates.registration.broadphase import box_pairs_bruteforce
-    from predicates.registration.complex import any_flagged
+    from predicates.registration.spatial.broadphase import box_pairs_bruteforce
+    from predicates.registration.levels.complex import any_flagged
 
     sp, sc, cp, cc = CASES["sphere"](seed)
     pos, _ = assign(sp, sc, k)

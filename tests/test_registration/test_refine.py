@@ -1,4 +1,4 @@
-"""predicates.registration.refine: conforming refinement of coarse cutting meshes
+"""predicates.registration.plan.refine: conforming refinement of coarse cutting meshes
 (issue 10): conformity, orientation, map back (cut_origin, barycentric rows,
 input_weights), geometry-only (order/orientation invariance), the cell budget."""
 from __future__ import annotations
@@ -13,8 +13,8 @@ import fperr
 import predicates
 from predicates.registration.examples import cube_grid, square_grid
 from predicates.registration.portable import cos_sin, power, rotate, rotation, unit_rows
-from predicates.registration.refine import refine
-from predicates.registration.resolution import cell_boxes
+from predicates.registration.plan.refine import refine
+from predicates.registration.plan.resolution import cell_boxes
 from shared_cases import plane_case
 
 
@@ -219,7 +219,7 @@ def _random_boxes(rng, n, d, grid):
 
 
 def _check_index(lo, hi, val, qlo, qhi, qext):
-    from predicates.registration.refine_index import LevelIndex, max_over_bruteforce
+    from predicates.registration.plan.refine_index import LevelIndex, max_over_bruteforce
 
     index = LevelIndex(lo, hi, val)
     ref = max_over_bruteforce(lo, hi, val, qlo, qhi)
@@ -264,7 +264,7 @@ if given is not None:
 
 
 def test_level_index_nan_queries_and_bad_boxes():
-    from predicates.registration.refine_index import LevelIndex
+    from predicates.registration.plan.refine_index import LevelIndex
 
     lo = np.zeros((3, 2))
     hi = np.ones((3, 2))
@@ -281,7 +281,7 @@ def test_level_index_nan_queries_and_bad_boxes():
 def test_level_index_decides_from_counts_inside_a_uniform_mesh(monkeypatch):
     """Queries well inside a uniform mesh are decided by the summed-area counts alone:
     no box is listed (the constant-work path of the refinement's marks)."""
-    from predicates.registration import refine_index
+    from predicates.registration.plan import refine_index
 
     sp, sc = cube_grid(12)
     lo, hi = cell_boxes(sp, sc)

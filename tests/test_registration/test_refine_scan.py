@@ -1,4 +1,4 @@
-"""predicates.registration.refine_scan (issue 12): the refinement's one pass over the
+"""predicates.registration.plan.refine_scan (issue 12): the refinement's one pass over the
 simulation cells. Its near set is a superset of the cells meeting a reach box and its
 statistics are those of every cell (exact references: pairwise box tests, np.median);
 the marks built on it equal the marks defined over ALL cells and over bins of ALL
@@ -13,12 +13,12 @@ from collections import defaultdict
 import numpy as np
 import pytest
 
-from predicates.registration import refine as refine_mod
-from predicates.registration import refine_scan
-from predicates.registration.boxes import box_extent, boxes_of
+from predicates.registration.plan import refine as refine_mod
+from predicates.registration.plan import refine_scan
+from predicates.registration.spatial.boxes import box_extent, boxes_of
 from predicates.registration.examples import cube_grid
 from predicates.registration.portable import power, rotate, rotation
-from predicates.registration.refine_scan import points_near, scan_cells
+from predicates.registration.plan.refine_scan import points_near, scan_cells
 
 
 def _meets_any(lo, hi, rlo, rhi):

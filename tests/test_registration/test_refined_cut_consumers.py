@@ -17,8 +17,8 @@ import pytest
 
 import predicates
 from predicates.registration.examples import cube_grid, square_grid
-from predicates.registration.partition_run import write_parts
-from predicates.registration.plot import plot_2d, plot_3d_cells, plot_robust_naive
+from predicates.registration.partition.files import write_parts
+from predicates.registration.pictures.plot import plot_2d, plot_3d_cells, plot_robust_naive
 from predicates.registration.portable import weighted_sum
 
 #: a coarse closed quadrilateral well inside the unit square, not on grid lines

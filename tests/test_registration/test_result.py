@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import predicates
-from predicates.registration.demo import degenerate_cases
+from predicates.registration.pictures.demo import degenerate_cases
 from predicates.registration.examples import example
 from predicates.tolerance_table import TABLES
 

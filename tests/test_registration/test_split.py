@@ -1,4 +1,4 @@
-"""The virtual-node split (predicates.registration.split, issue 15) against exact ground truth.
+"""The virtual-node split (predicates.registration.split.mesh, issue 15) against exact ground truth.
 
 Sides are decided in exact rational arithmetic (every float64 coordinate is a
 ``Fraction``): inside a closed triangle mesh by exact ray parity along +x (a ray that
@@ -21,7 +21,7 @@ import pytest
 import predicates
 from predicates.registration.examples import circle_polygon, cube_grid, grid_plane, icosphere, square_grid
 from predicates.registration.portable import cos_sin, rotate, rotation
-from predicates.registration.split_rules import components
+from predicates.registration.split.rules import components
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -1,0 +1,198 @@
+"""The levels of the registration (section 1 of the paper; steps 5–6 of
+:mod:`predicates.registration.pipeline`): the cells near the other mesh, then per level,
+per kind, the candidate pairs of the broad phase, their suppression when a sub-pair was
+registered at a lower level (line 2 of every algorithm, "degenerate intersection"), and
+the predicate in numpy batch mode on chunks of candidates.
+
+Registered pairs are kept per kind as sorted int64 keys, so that the suppression look-up
+is a vectorised ``searchsorted``.
+"""
+from __future__ import annotations
+
+import sys
+import time
+
+import numpy as np
+
+from predicates.catalogue import kinds as catalogue_kinds
+from predicates.registration.spatial.broadphase import boxes_of, tighten_flags
+from predicates.registration.levels.complex import Side, any_flagged
+from predicates.registration.levels.facepairs import FacePairs, cell_pairs
+from predicates.registration.result.intersection import KindPairs
+
+__all__ = ["Registration"]
+
+
+class Registration:
+    """Both meshes in rank space and the pairs registered so far, level by level."""
+
+    def __init__(self, dim, P_sim, sim_cells, P_cut, cut_cells, tol, reach, chunk):
+        self.dim, self.tol, self.reach, self.chunk = dim, tol, reach, chunk
+        self.dtype = P_sim.dtype
+        self.sim = Side(P_sim, sim_cells)
+        self.cut = Side(P_cut, cut_cells)
+        self.registered = {}  # (i, j) -> sorted int64 keys s * n_cut[j] + c
+        self.sim_involved = {}  # i -> bool per sim i-simplex: in some registered pair
+        self.cut_involved = {}
+        self.empty = True
+
+    # -- broad phase ------------------------------------------------------------------
+    def _near(self):
+        """Keep only the cells of each mesh that share a grid cell with a cell of the
+        other mesh enlarged by σ+ (``tighten_flags``: a superset of the cells within σ+
+        of the other mesh; the plan's masks already dropped the far ones), find the
+        pairs of those cells within σ+ (every candidate pair of every kind is made of
+        their faces), and build the simplicial complexes of the cells in some pair only
+        (:mod:`~predicates.registration.levels.facepairs`)."""
+        sim, cut = self.sim, self.cut
+        if len(sim.cells) == 0 or len(cut.cells) == 0:
+            return
+        pad = max(self.reach.values())
+        near_s, near_c = tighten_flags(*boxes_of(sim.P, sim.cells),
+                                       *boxes_of(cut.P, cut.cells), pad)
+        if not (near_s.any() and near_c.any()):
+            return
+        # the pairs of distinct cells within σ+; complexes of the cells in some pair only
+        tops_s, tops_c = sim.unique_cells(near_s), cut.unique_cells(near_c)
+        T, C, keep_s, keep_c = cell_pairs(sim.P, tops_s, cut.P, tops_c, pad, 2 * self.chunk)
+        if len(T) == 0:
+            return
+        sim.build_unique(tops_s[keep_s])
+        cut.build_unique(tops_c[keep_c])
+        self.faces = FacePairs(sim, cut, T, C, self.reach, catalogue_kinds(self.dim),
+                               2 * self.chunk)
+        self.empty = False
+
+    def _candidates(self, kind, i, j):
+        yield from self.faces.candidates(kind, i, j)
+
+    # -- suppression --------------------------------------------------------------------
+    def _suspects(self, i, j):
+        """(lower, flag_s, flag_c) for kind (i, j): the registered lower kinds (pairs of
+        sub-simplex levels) and, per i-simplex / j-simplex, whether one of its faces
+        is in a registered pair of such a level — once per kind, for every simplex
+        (cheaper than per candidate). None when no lower pair is registered."""
+        lower = [(a, b) for (a, b), keys in self.registered.items()
+                 if a <= i and b <= j and (a, b) != (i, j) and len(keys)]
+        if not lower:
+            return None
+        flag_s = np.zeros(self.sim.count(i), dtype=bool)
+        for a in {a for a, _ in lower}:
+            flag_s |= _any_face(self.sim.cx, i, a, self.sim_involved[a])
+        flag_c = np.zeros(self.cut.count(j), dtype=bool)
+        for b in {b for _, b in lower}:
+            flag_c |= _any_face(self.cut.cx, j, b, self.cut_involved[b])
+        return lower, flag_s, flag_c
+
+    def _blocked(self, i, j, s, c, suspects):
+        """Per candidate (s, c): is a pair of its sub-simplices (the pair itself
+        excluded) registered? ``suspects`` from :meth:`_suspects`."""
+        blocked = np.zeros(len(s), dtype=bool)
+        if suspects is None:
+            return blocked
+        lower, flag_s, flag_c = suspects
+        maybe = np.flatnonzero(flag_s.take(s) & flag_c.take(c))
+        if maybe.size == 0:
+            return blocked
+        s, c = s.take(maybe), c.take(maybe)
+        hit = np.zeros(len(maybe), dtype=bool)
+        for a, b in lower:
+            A = _faces(self.sim.cx, i, a, s)
+            B = _faces(self.cut.cx, j, b, c)
+            keys = (A[:, :, None] * self.cut.count(b) + B[:, None, :]).reshape(len(s), -1)
+            R = self.registered[a, b]
+            pos = np.searchsorted(R, keys).clip(max=len(R) - 1)
+            hit |= (R.take(pos) == keys).any(axis=1)
+        blocked[maybe] = hit
+        return blocked
+
+    # -- levels ---------------------------------------------------------------------------
+    def run(self, progress: bool, timings: dict) -> dict:
+        """Register every kind in the catalogue's order; returns {kind: KindPairs} and
+        records the time of the broad phase and of every kind in ``timings``."""
+        from tqdm import tqdm
+
+        kinds = catalogue_kinds(self.dim)
+        pairs = {}
+        bar = tqdm(total=len(kinds) + 1, desc="registering", unit="step", delay=1.0,
+                   file=sys.stderr, disable=not progress, leave=False)
+        try:
+            bar.set_postfix_str("broad phase", refresh=False)  # refresh would defeat delay
+            t = time.perf_counter()
+            self._near()
+            timings["broadphase_cells"] = time.perf_counter() - t
+            bar.update(1)
+            for k in kinds:
+                t = time.perf_counter()
+                bar.set_postfix_str(k.name, refresh=False)
+                pairs[k.name] = self._level(k)
+                timings[k.name] = time.perf_counter() - t
+                bar.update(1)
+        finally:
+            bar.close()
+        return pairs
+
+    def _level(self, k) -> KindPairs:
+        """One kind (a :class:`predicates.catalogue.Kind`): candidates, suppression,
+        predicate; registers the hits and returns them in input ids."""
+        kind, i, j, dt = k.name, k.i, k.j, self.dtype
+        s_all, c_all, sw_all, cw_all = [], [], [], []
+        ncand = nsup = 0
+        if not self.empty:
+            suspects = self._suspects(i, j)
+            for s, c in self._candidates(kind, i, j):
+                ncand += len(s)
+                blocked = self._blocked(i, j, s, c, suspects)
+                nsup += int(blocked.sum())
+                s, c = s[~blocked], c[~blocked]
+                for lo in range(0, len(s), self.chunk):
+                    ss, cc = s[lo: lo + self.chunk], c[lo: lo + self.chunk]
+                    hit, sw, cw = k.evaluate(self.sim.coords(i, ss),
+                                             self.cut.coords(j, cc), self.tol)
+                    s_all.append(ss[hit])
+                    c_all.append(cc[hit])
+                    sw_all.append(sw[hit])
+                    cw_all.append(cw[hit])
+        s = np.concatenate(s_all) if s_all else np.zeros(0, dtype=np.int64)
+        c = np.concatenate(c_all) if c_all else np.zeros(0, dtype=np.int64)
+        sw = np.concatenate(sw_all) if sw_all else np.zeros((0, i + 1), dtype=dt)
+        cw = np.concatenate(cw_all) if cw_all else np.zeros((0, j + 1), dtype=dt)
+        self._register(i, j, s, c)
+        return self._output(kind, i, j, s, c, sw, cw, ncand, nsup)
+
+    def _register(self, i, j, s, c):
+        if self.empty:
+            self.registered[i, j] = np.zeros(0, dtype=np.int64)
+            return
+        keys = s.astype(np.int64) * self.cut.count(j) + c
+        self.registered[i, j] = np.sort(keys)
+        if i not in self.sim_involved:
+            self.sim_involved[i] = np.zeros(self.sim.count(i), dtype=bool)
+        if j not in self.cut_involved:
+            self.cut_involved[j] = np.zeros(self.cut.count(j), dtype=bool)
+        self.sim_involved[i][s] = True
+        self.cut_involved[j][c] = True
+
+    def _output(self, kind, i, j, s, c, sw, cw, ncand, nsup):
+        if self.empty:
+            return KindPairs(kind, np.zeros((0, i + 1), np.int64), np.zeros((0, j + 1), np.int64),
+                             np.zeros((0, i + 1), self.dtype), np.zeros((0, j + 1), self.dtype))
+        sid = self.sim.ids(i, s).reshape(len(s), i + 1)
+        cid = self.cut.ids(j, c).reshape(len(c), j + 1)
+        both = np.concatenate([np.sort(sid, axis=1), np.sort(cid, axis=1)], axis=1)
+        order = np.lexsort(both.T[::-1]) if len(both) else np.zeros(0, dtype=np.int64)
+        return KindPairs(kind, sid[order], cid[order], sw[order], cw[order],
+                         candidates=ncand, suppressed=nsup)
+
+
+def _faces(cx, k, j, idx):
+    """The j-faces (n, C(k+1, j+1)) of the k-simplices ``idx`` (``take``: faster than
+    fancy indexing; the simplex itself when j == k)."""
+    if j == k:
+        return idx[:, None]
+    return cx.face(k, j).take(idx, axis=0)
+
+
+def _any_face(cx, k, j, involved):
+    """Per k-simplex: is one of its j-faces flagged in ``involved`` (per j-simplex)?"""
+    return involved if j == k else any_flagged(involved, cx.face(k, j))

@@ -1,0 +1,87 @@
+"""Files of a partitioned mesh (docs/partitioned.md): one output file per partition
+(``-o 'hits_{part}.vtu'``) and a simulation mesh stored as several pieces read as one."""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+__all__ = ["part_paths", "read_pieces", "write_parts"]
+
+
+def part_paths(pattern: str | os.PathLike, k: int) -> list[str]:
+    """The k file names ``pattern.format(part=r)`` (e.g. ``"hits_{part}.vtu"``);
+    ValueError when ``pattern`` has no ``{part}`` or other braces."""
+    pattern = os.fspath(pattern)
+    if "{part}" not in pattern:
+        raise ValueError(f"{pattern}: a per-partition file name must contain '{{part}}' "
+                         f"(one file per partition, e.g. hits_{{part}}.vtu)")
+    try:
+        return [pattern.format(part=r) for r in range(k)]
+    except (KeyError, IndexError, ValueError) as e:
+        raise ValueError(f"{pattern}: only '{{part}}' may stand in braces in a "
+                         f"per-partition file name ({type(e).__name__}: {e})") from None
+
+
+def write_parts(res, k: int, pattern: str | os.PathLike) -> list[str]:
+    """Write ``res`` (an IntersectionResult) as k files, ``pattern.format(part=r)``
+    (e.g. ``"hits_{part}.vtu"``), file r holding the pairs owned by partition r of k
+    (the run's rule — the smallest-id vertex of the simulation primitive — over all
+    simulation cells).
+    Every pair is in exactly one file; each file is what ``res.to_meshio()`` writes,
+    restricted to its pairs, with the same kind legend (field data), written atomically
+    as the merged output is; every path is checked before any is written. Returns the
+    paths (a file is written even when empty)."""
+    from dataclasses import replace
+
+    from predicates.registration.io.files import check_output
+    from predicates.registration.io.write import write_meshio
+    from predicates.registration.partition.assign import assign
+    from predicates.registration.partition.run import count_partitions
+
+    k = count_partitions(k, None, len(res.sim_cells))
+    paths = part_paths(pattern, k)
+    for path in paths:
+        check_output(path, "mesh")
+    _, owner = assign(res.sim_points, res.sim_cells, k)
+    for r, path in enumerate(paths):
+        sub = {}
+        for kind in res.kinds:
+            p = res[kind]
+            keep = owner[p.sim.min(axis=1)] == r if len(p) else np.zeros(0, dtype=bool)
+            sub[kind] = replace(p, sim=p.sim[keep], cut=p.cut[keep],
+                                sim_weights=p.sim_weights[keep], cut_weights=p.cut_weights[keep])
+        write_meshio(path, replace(res, pairs=sub).to_meshio())
+    return paths
+
+
+def read_pieces(paths) -> tuple[np.ndarray, np.ndarray]:
+    """A simulation mesh stored as several files (pieces, any format meshio reads) as one
+    ``(points, cells)``: the pieces' points concatenated with bit-identical coordinates
+    merged (pieces share their boundary vertices), cells renumbered
+    (:func:`~predicates.registration.io.files.merge_pieces`). The partitioned and the
+    serial run of this mesh agree (it is one mesh). ``fperr intersect`` reads pieces
+    given as several SIM files the same way."""
+    from predicates.registration.io.files import merge_pieces, read_mesh
+    from predicates.registration.plan.inputs import from_meshio
+
+    pts, cells = [], []
+    for path in paths:
+        m = read_mesh(path)
+        p, c, _, _ = from_meshio(m, _dummy_cut(m))
+        pts.append(p)
+        cells.append(c)
+    if not pts:
+        raise ValueError("read_pieces needs at least one mesh file")
+    P, C, _ = merge_pieces(pts, cells)
+    return P, C
+
+
+def _dummy_cut(mesh):
+    """An empty cutting mesh of the right cell type, so that :func:`from_meshio` reads a
+    piece with the same rules as a whole mesh."""
+    import meshio
+
+    tets = any(b.type == "tetra" for b in mesh.cells)
+    return meshio.Mesh(np.zeros((0, 3)), [("triangle" if tets else "line",
+                                           np.zeros((0, 3 if tets else 2), dtype=np.int64))])

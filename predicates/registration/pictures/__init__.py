@@ -1,0 +1,1 @@
+"""Pictures of registrations (matplotlib) and ``fperr demo``, the built-in examples."""

@@ -1,0 +1,132 @@
+"""The broad phase's top grid (section 1 of the paper, :mod:`.broadphase`): its cell size
+(the larger mean box extent, summed in sorted order so that it does not depend on the
+order of the boxes), origin, number of cells per axis (doubled cell size while the boxes
+would cover too many cells), and every box's inclusive range of cells. The passes over
+the many boxes (the simulation cells) run in blocks (:mod:`.blocks`): the same values
+for any block size and on a thread pool."""
+from __future__ import annotations
+
+import numpy as np
+
+from predicates.registration.spatial.blocks import SERIAL, Blocks
+
+__all__ = ["BITS", "cell_index", "colmax", "colmin", "covered", "enlarge", "expand", "fit",
+           "grid", "mean_extent", "ncells", "rowwise"]
+
+BITS = 20  # at most 2^20 + 1 cells per axis: linear keys fit in int64
+
+
+def cell_index(x, origin, h, G, blocks: Blocks = SERIAL):
+    """Cell of each coordinate, clipped to the grid (int32: G ≤ 2^20 + 1 per axis);
+    block by block (the float temporaries stay cache-sized)."""
+    out = np.empty(x.shape, dtype=np.int32)
+
+    def index(a: int, b: int) -> None:
+        with np.errstate(all="ignore"):
+            i = np.floor((x[a:b] - origin) / h)
+        np.clip(i, 0, G - 1, out=i)
+        out[a:b] = i
+
+    blocks.rows(index, len(x))
+    return out
+
+
+def enlarge(lo_b, hi_b, pad):
+    """The boxes enlarged by ``pad``, rounded outwards (``nextafter``): they contain
+    every point within pad of the exact boxes."""
+    pad = float(pad)
+    if not pad >= 0:
+        raise ValueError(f"pad must be a non-negative number, got {pad!r}")
+    with np.errstate(over="ignore"):
+        return np.nextafter(lo_b - pad, -np.inf), np.nextafter(hi_b + pad, np.inf)
+
+
+def ncells(i0, i1):
+    """Cells covered by each box (int64), axis by axis."""
+    n = i1[:, 0].astype(np.int64) - i0[:, 0] + 1
+    for ax in range(1, i0.shape[1]):
+        n *= i1[:, ax].astype(np.int64) - i0[:, ax] + 1
+    return n
+
+
+def colmin(x):
+    """x.min(axis=0), column by column (several times faster on (n, 3) arrays)."""
+    return np.array([x[:, ax].min() for ax in range(x.shape[1])])
+
+
+def colmax(x):
+    return np.array([x[:, ax].max() for ax in range(x.shape[1])])
+
+
+def expand(starts: np.ndarray, counts: np.ndarray):
+    """For ranges [starts[i], starts[i] + counts[i]): (owner i, index) of every member, in
+    order (the CSR gather of rows of lengths ``counts``)."""
+    owner = np.repeat(np.arange(len(counts)), counts)
+    first = np.cumsum(counts) - counts
+    return owner, starts[owner] + np.arange(int(counts.sum())) - first[owner]
+
+
+def rowwise(ufunc, x):
+    """``ufunc.reduce(x, axis=1)`` column by column from the left (``np.minimum``,
+    ``np.multiply``, ...): the same values, several times faster on (n, 3) arrays."""
+    out = x[:, 0].copy()
+    for ax in range(1, x.shape[1]):
+        ufunc(out, x[:, ax], out=out)
+    return out
+
+
+def mean_extent(lo, hi, cap=np.inf, blocks: Blocks = SERIAL):
+    """The largest per-axis mean box extent (extents capped at ``cap``): a cell size.
+    The extents are summed in sorted order, so the grid, and with it every flag and
+    pair, does not depend on the order of the boxes (e.g. of the cells in the file).
+    The axes' sorts run concurrently on a pool."""
+    if len(lo) == 0:
+        return 0.0
+
+    def axis(ax: int) -> float:
+        return float(np.sort(np.minimum(hi[:, ax] - lo[:, ax], cap)).mean())
+
+    return max(f.result() for f in [blocks.submit(axis, ax) for ax in range(lo.shape[1])])
+
+
+def fit(lo_a, hi_a, lo_bx, hi_bx, origin, top, h, budget, blocks: Blocks = SERIAL):
+    """Grid over [origin, top] with cell size h, doubled until the boxes cover at most
+    ``budget`` cells: (G, h, ia0, ia1, ib0, ib1)."""
+    while True:
+        G = (np.floor((top - origin) / h).astype(np.int64) + 1).clip(1, (1 << BITS) + 1)
+        ia0, ia1 = (cell_index(x, origin, h, G, blocks) for x in (lo_a, hi_a))
+        ib0, ib1 = cell_index(lo_bx, origin, h, G), cell_index(hi_bx, origin, h, G)
+        total = covered(ia0, ia1, blocks) + ncells(ib0, ib1).sum()
+        if total <= budget or np.all(G == 1):
+            return G, h, ia0, ia1, ib0, ib1
+        h *= 2
+
+
+def covered(i0, i1, blocks: Blocks = SERIAL) -> int:
+    """Σ cells covered by the boxes (:func:`ncells`), block by block."""
+    def span(a: int, b: int) -> int:
+        return sum(int(ncells(i0[lo:hi], i1[lo:hi]).sum()) for lo, hi in blocks.each(a, b))
+
+    return sum(blocks.map(span, len(i0)))
+
+
+def grid(lo_a, hi_a, lo_b, hi_b, pad, blocks: Blocks = SERIAL):
+    """The top grid: b boxes enlarged by pad (outwards), cell size, per-box cell ranges:
+    (lo_bx, hi_bx, origin, G, h, ia0, ia1, ib0, ib1). ``blocks``: how the passes over
+    the a boxes (the many: the simulation cells) run; the same values either way."""
+    na, nb = len(lo_a), len(lo_b)
+    lo_bx, hi_bx = enlarge(lo_b, hi_b, pad)
+    origin = np.minimum(colmin(lo_a), colmin(lo_bx))
+    top = np.maximum(colmax(hi_a), colmax(hi_bx))
+    with np.errstate(over="ignore"):
+        span = float((top - origin).max())
+    if not np.isfinite(span):
+        raise ValueError("coordinates too large for the broad phase (their range "
+                         "overflows the floating-point format)")
+    h = max(mean_extent(lo_a, hi_a, blocks=blocks), mean_extent(lo_bx, hi_bx))
+    if h <= 0:
+        h = span / max(1.0, (na + nb) ** (1 / lo_a.shape[1]))
+    h = max(h, span * 2.0 ** -BITS, np.finfo(np.float64).tiny)
+    G, h, *ranges = fit(lo_a, hi_a, lo_bx, hi_bx, origin, top, h, 16 * (na + nb) + (1 << 20),
+                         blocks)
+    return (lo_bx, hi_bx, origin, G, h, *ranges)

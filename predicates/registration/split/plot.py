@@ -1,0 +1,107 @@
+"""Pictures of a virtual-node split (docs/split.md), with matplotlib (Agg backend).
+
+2D: the new cells filled, coloured by piece, the pieces moved apart (``explode``).
+3D: the boundary faces of every piece (faces of its new cells that no other cell of the
+piece shares, by node ids), Lambert-shaded, coloured by piece, moved apart; ``clip``
+keeps only the cells whose original centroid lies on one side of an axis-aligned plane,
+to look inside (a cube cut by a sphere). Cells cut into fragments are drawn lighter. Every new cell is drawn whole, virtual corners
+included, as the virtual node algorithm simulates it: the cut surface is embedded in the
+cells (``SplitMesh.hit_points``), not meshed.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["draw_pieces", "plot_split"]
+
+#: face colours of the pieces (cycled)
+PIECE_COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple",
+                 "tab:brown", "tab:pink", "tab:olive", "tab:cyan", "tab:gray")
+
+
+def _keep(sm, clip):
+    if clip is None:
+        return np.ones(len(sm.cells), dtype=bool)
+    axis, value, sign = clip
+    X = sm.points.astype(np.float64)[sm.cells].mean(axis=1)  # node copies sit on originals
+    return sign * (X[:, axis] - value) >= 0
+
+
+def _boundary_faces(cells: np.ndarray, frag: np.ndarray):
+    """Faces (triangles, by node ids) of a set of tetrahedra that belong to one only,
+    and whether that tetrahedron is a fragment of a cut cell."""
+    faces = np.concatenate([np.delete(cells, k, axis=1) for k in range(4)])
+    key = np.sort(faces, axis=1)
+    _, inv, cnt = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    once = cnt[inv.ravel()] == 1
+    return faces[once], np.tile(frag, 4)[once]
+
+
+def draw_pieces(ax, sm, explode: float = 0.3, clip=None, light=(-0.4, -0.8, 0.6)):
+    """Draw ``sm`` (a :class:`~predicates.registration.split.mesh.SplitMesh`) into a matplotlib axis (a 3D
+    axis for 3D meshes). ``clip``: (axis, value, sign): keep cells with
+    sign·(centroid[axis] − value) ≥ 0."""
+    from matplotlib.collections import PolyCollection
+    from matplotlib.colors import to_rgb
+
+    X = sm.exploded_points(explode)
+    keep = _keep(sm, clip)
+    cut = sm.cut_cells
+    if sm.dim == 2:
+        for p in range(sm.n_pieces):
+            for frag, alpha in ((False, 0.9), (True, 0.35)):  # fragments: lighter
+                sel = sm.cells[keep & (sm.piece == p) & (cut == frag)]
+                ax.add_collection(PolyCollection(
+                    X[sel], facecolors=PIECE_COLOURS[p % len(PIECE_COLOURS)],
+                    edgecolors="k", linewidths=0.3, alpha=alpha))
+        ax.set_aspect("equal")
+        ax.autoscale_view()
+        return
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    L = np.asarray(light, dtype=np.float64)
+    L /= np.linalg.norm(L)  # shading: pixels, not results (docs/design.md)
+    for p in range(sm.n_pieces):
+        sel = sm.cells[keep & (sm.piece == p)]
+        if len(sel) == 0:
+            continue
+        faces, frag = _boundary_faces(sel, cut[keep & (sm.piece == p)])
+        F = X[faces]
+        n = np.cross(F[:, 1] - F[:, 0], F[:, 2] - F[:, 0])
+        n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
+        shade = 0.45 + 0.55 * np.abs(n @ L)  # two-sided: face orientation is arbitrary
+        rgb = np.clip(np.outer(shade, to_rgb(PIECE_COLOURS[p % len(PIECE_COLOURS)])), 0, 1)
+        rgb[frag] = 0.45 * rgb[frag] + 0.55  # faces of fragments (cut cells): lighter
+        ax.add_collection3d(Poly3DCollection(F, facecolors=rgb, edgecolors=(0, 0, 0, 0.25),
+                                             linewidths=0.2))
+    lo, hi = X.min(axis=0), X.max(axis=0)
+    c, r = (lo + hi) / 2, (hi - lo).max() / 2
+    ax.set_xlim(c[0] - r, c[0] + r)
+    ax.set_ylim(c[1] - r, c[1] + r)
+    ax.set_zlim(c[2] - r, c[2] + r)
+    ax.set_box_aspect((1, 1, 1))
+    ax.set_xlabel("x")
+    ax.set_ylabel("y")
+    ax.set_zlabel("z")
+
+
+def _figure(dim, panels=1):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    kw = {"subplot_kw": {"projection": "3d"}} if dim == 3 else {}
+    fig, axes = plt.subplots(1, panels, figsize=(6.5 * panels, 6.5), **kw)
+    return plt, fig, np.atleast_1d(axes)
+
+
+def plot_split(sm, path: str, explode: float = 0.3, clip=None, title: str | None = None):
+    """Write a picture of the split ``sm`` to ``path`` (png, pdf or svg)."""
+    plt, fig, (ax,) = _figure(sm.dim)
+    draw_pieces(ax, sm, explode, clip)
+    ax.set_title(title or f"{sm.n_pieces} piece{'s' if sm.n_pieces != 1 else ''}, "
+                          f"{len(sm.cells)} cells (explode {explode:g})")
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)

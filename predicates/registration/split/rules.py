@@ -1,0 +1,180 @@
+"""The rules of the virtual-node split (docs/split.md), vectorised with numpy.
+
+Everything here is derived from the registered pairs only (paper, section 1: the
+hierarchical registration), so the split inherits their consistency: a simulation edge
+is either severed in every cell that contains it or in none, a vertex is on the cut in
+every cell or in none. See ``docs/split.md`` for the rules, their sources (Molino, Bao
+and Fedkiw 2004; Wang, Jiang, Schroeder and Teran, adaptive VNA) and approximations.
+
+The only loops are over constants (the d+1 corners or the C(d+1, 2) local edges of one
+cell, the kinds) or over rounds of the vectorised union-find, never over cells or edges.
+"""
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from predicates.registration.spatial.boxgrid import expand
+
+__all__ = ["LOCAL_EDGES", "cell_hits", "components", "fragments", "glue", "on_cut_vertices",
+           "row_ids", "severed_edges"]
+
+#: The local edges (pairs of corner positions) of a triangle (2D) and a tetrahedron (3D).
+LOCAL_EDGES = {d: tuple(itertools.combinations(range(d + 1), 2)) for d in (2, 3)}
+
+
+def row_ids(blocks: list, n: int) -> list:
+    """Integer ids of the rows of several (k, w) int arrays of ids < ``n``: equal rows
+    get equal ids (across blocks). One sort: O(R log R)."""
+    rows = np.concatenate(blocks) if blocks else np.zeros((0, 1), dtype=np.int64)
+    w = rows.shape[1]
+    if float(max(n, 1)) ** w < 2.0 ** 62:  # an exact int64 key per row
+        key = np.zeros(len(rows), dtype=np.int64)
+        for c in range(w):
+            key = key * max(n, 1) + rows[:, c]
+        _, inv = np.unique(key, return_inverse=True)
+    else:
+        _, inv = np.unique(rows, axis=0, return_inverse=True)
+    inv = inv.ravel()
+    return np.split(inv, np.cumsum([len(b) for b in blocks])[:-1])
+
+
+def on_cut_vertices(res, n: int) -> np.ndarray:
+    """(n,) bool: simulation vertices registered ON the cut — the simulation primitive of
+    a vertex_vertex, vertex_edge or (3D) vertex_triangle pair."""
+    on = np.zeros(n, dtype=bool)
+    for kind in res.kinds:
+        p = res[kind]
+        if p.sim.shape[1] == 1 and len(p):
+            on[p.sim[:, 0]] = True
+    return on
+
+
+def severed_edges(res, cells: np.ndarray, n: int) -> np.ndarray:
+    """(C, E) bool: local edge e of cell c is crossed by the cut — its simulation edge is
+    the simulation primitive of a registered edge_vertex, edge_edge or (3D) edge_triangle
+    pair. An edge crossed twice is severed all the same (docs/split.md)."""
+    d = cells.shape[1] - 1
+    E = LOCAL_EDGES[d]
+    local = np.sort(cells[:, np.array(E)], axis=2).reshape(-1, 2)
+    crossed = [np.sort(res[k].sim, axis=1) for k in res.kinds
+               if res[k].sim.shape[1] == 2 and len(res[k])]
+    if not crossed:
+        return np.zeros((len(cells), len(E)), dtype=bool)
+    ids = row_ids([local, *crossed], n)
+    flag = np.zeros(int(max(i.max(initial=-1) for i in ids)) + 1, dtype=bool)
+    for i in ids[1:]:
+        flag[i] = True
+    return flag[ids[0]].reshape(len(cells), len(E))
+
+
+def fragments(cells: np.ndarray, on_cut: np.ndarray, severed: np.ndarray):
+    """The fragments of every cell: the connected components of its OFF-cut vertices
+    through its unsevered edges (Molino et al. 2004: one copy of the element
+    per material component). A cell whose vertices are all on the cut is one fragment.
+
+    Returns ``cell_origin`` (F,), ``frag_of`` (C, d+1): the fragment (new cell) holding
+    each off-cut corner as material, −1 for on-cut corners, and ``material`` (F, d+1):
+    off-cut corners of the fragment's own component, and every on-cut corner (a vertex on
+    the cut lies on the closure of every fragment that touches it)."""
+    C, m = cells.shape
+    off = ~on_cut[cells]
+    lab = np.where(off, np.arange(m), m)  # m: no component (on-cut corner)
+    E = LOCAL_EDGES[m - 1]
+    conn = ~severed & np.stack([off[:, a] & off[:, b] for a, b in E], axis=1)
+    for _ in range(m - 1):  # a component of m corners has paths of at most m - 1 edges
+        for e, (a, b) in enumerate(E):
+            lo = np.minimum(lab[:, a], lab[:, b])
+            lab[:, a] = np.where(conn[:, e], lo, lab[:, a])
+            lab[:, b] = np.where(conn[:, e], lo, lab[:, b])
+    rep = off & (lab == np.arange(m))
+    rep[~off.any(axis=1), 0] = True  # all corners on the cut: the cell stays one fragment
+    cell_origin, rep_corner = np.nonzero(rep)  # new cells ordered by (cell, representative)
+    new_id = np.full((C, m), -1, dtype=np.int64)
+    new_id[cell_origin, rep_corner] = np.arange(len(cell_origin))
+    frag_of = np.where(off, np.take_along_axis(new_id, np.minimum(lab, m - 1), axis=1), -1)
+    mine = frag_of[cell_origin] == np.arange(len(cell_origin))[:, None]
+    material = mine | ~off[cell_origin]
+    return cell_origin.astype(np.int64), frag_of, material
+
+
+def glue(cells: np.ndarray, frag_of: np.ndarray, n: int):
+    """Glue fragments of neighbouring cells across their shared face through shared
+    material vertices (Molino et al. 2004: copies sharing material on a common face share
+    that face's nodes). Returns (g1, g2): glued fragment pairs, and (s1, s2): identified
+    node slots (slot = fragment·(d+1) + corner), every vertex of the face for every glue.
+    Faces shared by more than two cells are glued pairwise along the sorted order."""
+    C, m = cells.shape
+    order = np.argsort(cells, axis=1, kind="stable")
+    # face k of a cell omits corner k; L: its corners, by increasing vertex id
+    L = np.concatenate([order[order != k].reshape(C, m - 1) for k in range(m)])
+    occ_cell = np.tile(np.arange(C), m)
+    (fid,) = row_ids([np.take_along_axis(cells[occ_cell], L, axis=1)], n)
+    srt = np.argsort(fid, kind="stable")
+    same = np.flatnonzero(fid[srt[1:]] == fid[srt[:-1]])
+    o1, o2 = srt[same], srt[same + 1]
+    c1, c2, L1, L2 = occ_cell[o1], occ_cell[o2], L[o1], L[o2]
+    F1 = np.take_along_axis(frag_of[c1], L1, axis=1)  # (P, d): −1 where on the cut
+    F2 = np.take_along_axis(frag_of[c2], L2, axis=1)
+    p, j = np.nonzero(F1 >= 0)  # witnesses: a material vertex of the face in both cells
+    g1, g2 = F1[p, j], F2[p, j]
+    nf = int(frag_of.max(initial=-1)) + 1
+    _, first = np.unique(g1 * max(nf, 1) + g2, return_index=True)
+    p, g1, g2 = p[first], g1[first], g2[first]
+    s1 = (g1[:, None] * m + L1[p]).ravel()
+    s2 = (g2[:, None] * m + L2[p]).ravel()
+    return (g1, g2), (s1, s2)
+
+
+def components(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Connected components of the graph on 0..n−1 with edges (a[i], b[i]): the smallest
+    member of each node's component. Vectorised union-find: every round hooks each root
+    onto the smallest root it is joined to (``np.minimum.at``), then pointer jumping
+    compresses every path; a round that hooks nothing ends it. Parents only decrease,
+    so no cycle can form; each round removes at least one root."""
+    parent = np.arange(n, dtype=np.int64)
+    a, b = np.asarray(a, dtype=np.int64), np.asarray(b, dtype=np.int64)
+    while True:
+        pa, pb = parent[a], parent[b]
+        diff = pa != pb
+        if not diff.any():
+            return parent
+        np.minimum.at(parent, np.maximum(pa, pb)[diff], np.minimum(pa, pb)[diff])
+        while True:
+            nxt = parent[parent]
+            if np.array_equal(nxt, parent):
+                break
+            parent = nxt
+
+
+def cell_hits(cells: np.ndarray, hit_sim: np.ndarray, cell_origin: np.ndarray, n: int):
+    """CSR (offsets, index) of the intersection points lying on the closure of each new
+    cell: hit h belongs to new cell f when the simulation primitive of h (its vertex ids,
+    −1 padded in ``hit_sim``) is a face of f's original cell."""
+    C, m = cells.shape
+    owner_hit, owner_cell = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
+    size = (hit_sim >= 0).sum(axis=1)
+    for s in range(1, m + 1):
+        h = np.flatnonzero(size == s)
+        if h.size == 0:
+            continue
+        combos = np.array(list(itertools.combinations(range(m), s)))
+        sub = np.sort(cells[:, combos], axis=2).reshape(-1, s)
+        sub_ids, hit_ids = row_ids([sub, np.sort(hit_sim[h, :s], axis=1)], n)
+        srt = np.argsort(sub_ids, kind="stable")
+        lo = np.searchsorted(sub_ids[srt], hit_ids, side="left")
+        hi = np.searchsorted(sub_ids[srt], hit_ids, side="right")
+        i, k = expand(lo, hi - lo)
+        owner_hit.append(h[i])
+        owner_cell.append(srt[k] // len(combos))
+    hh, cc = np.concatenate(owner_hit), np.concatenate(owner_cell)
+    # original cell -> its new cells (contiguous: new cells are ordered by origin)
+    nfrag = np.bincount(cell_origin, minlength=C)
+    start = np.cumsum(nfrag) - nfrag
+    i, f = expand(start[cc], nfrag[cc])
+    hh = hh[i]
+    srt = np.lexsort((hh, f))
+    offsets = np.zeros(len(cell_origin) + 1, dtype=np.int64)
+    np.cumsum(np.bincount(f, minlength=len(cell_origin)), out=offsets[1:])
+    return offsets, hh[srt]
