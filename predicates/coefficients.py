@@ -54,6 +54,14 @@ class UnlikeTerms(CoefficientError):
     """A sum such as 1 + √3 or ε + L: an expression, but not one :class:`Monomial`."""
 
 
+class UnknownName(CoefficientError):
+    """A name that is neither eps, L, a function nor one the caller allows."""
+
+    def __init__(self, name: str):
+        super().__init__(f"unknown name {name!r}")
+        self.name = name
+
+
 @dataclass(frozen=True, eq=False)
 class Monomial:
     """The exact value c·√m·ε^q·L^p (c rational, m ≥ 1 an integer, q, p rational)."""
@@ -281,7 +289,7 @@ class _Parser:
                 return self.call(tok)
             if tok in BUILTIN_NAMES or tok in self.names:
                 return ("name", tok)
-            raise CoefficientError(f"unknown name {tok!r}")
+            raise UnknownName(tok)
         raise CoefficientError(f"unexpected {tok!r}")
 
     def call(self, func: str):

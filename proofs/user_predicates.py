@@ -177,12 +177,14 @@ def _symbols(names) -> list[str]:
 
 
 def _expression(text, names, where: str):
-    e = _parse(text, where, _symbols(names))
-    unknown = {str(s) for s in e.free_symbols} - set(_symbols(names)) - {"eps", "L"}
-    if unknown:
-        raise DeclarationError(f"{where}: unknown symbol(s) {', '.join(sorted(unknown))}; "
-                               f"use T_lo, T, T_hi for the tolerances {', '.join(names)}")
-    return e
+    try:
+        coefficients.parse(str(text), _symbols(names))
+    except coefficients.UnknownName as e:
+        raise DeclarationError(f"{where}: unknown symbol(s) {e.name}; use T_lo, T, T_hi "
+                               f"for the tolerances {', '.join(names)}") from None
+    except coefficients.CoefficientError:
+        pass  # _parse says what else is wrong
+    return _parse(text, where, _symbols(names))
 
 
 def _fact(f, names, dim: int) -> tuple[str, _Fact]:
