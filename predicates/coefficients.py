@@ -204,8 +204,10 @@ def _tokens(text: str) -> list[tuple[str, str]]:
     while pos < len(text):
         m = _TOKEN.match(text, pos)
         if m is None or m.end() == pos:
-            raise CoefficientError(f"unexpected character {text[pos:].lstrip()[:1]!r} "
-                                   f"at position {pos + 1}")
+            bad = text[pos:].lstrip()[:1]
+            raise CoefficientError(f"unexpected character {bad!r} at position "
+                                   f"{text.index(bad, pos) + 1} (a coefficient holds numbers, "
+                                   "eps, L, sqrt, + - * / ^ and parentheses)")
         kind = m.lastgroup
         tok = m.group(kind)
         if kind == "num" and len(re.sub(r"[eE].*", "", tok)) > MAX_DIGITS:
