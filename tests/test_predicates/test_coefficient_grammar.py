@@ -288,6 +288,11 @@ def test_float_and_numpy_paths_do_not_load_sympy():
                                    np.array([[0, 1]]))
         assert res.total > 0
         assert "sympy" not in sys.modules, "sympy was imported"
+        import fperr.checks  # loads the submodule fperr.bounds: fperr.bounds stays the function
+        import fperr
+        x = fperr.coord("A.x") - fperr.coord("B.x")
+        assert fperr.bounds(x).text() == "R ≤ 1ε, E ≤ 1εL" and "sympy" in sys.modules
+        assert d3.triangle_edge.instrumented().quantities["v_A"] is not None
         print("ok")
     """
     r = subprocess.run([sys.executable, "-c", code], env=ENV, capture_output=True, text=True,
