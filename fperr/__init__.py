@@ -7,16 +7,50 @@ This layer knows nothing of geometry: it provides the instrumented number type
 (:func:`to_fraction`, :func:`round_fraction`) and the number-system contexts predicates
 are written against (:func:`context`).
 """
-from .bounds import Bounds, bounds, error, paper_integer
-from .checks import Check
+import sys
+import types
+
 from .contexts import (Context, ExactContext, FloatContext, MpContext, NumpyContext, context,
                        context_for)
 from .exact import ROUNDING, round_fraction, to_fraction, ulp
-from .symbols import EPS_MAX, L, eps
-from .tracked import InvalidBound, Tracked, const, coord, exact_input, sqrt
-from .tracked_context import TrackedContext
 from .shadow import Shadow, ShadowContext  # noqa: F401  (shadow execution: proofs.audit)
 from .warnings import ResolutionError, ResolutionWarning
+
+#: The instrumented side (rules A–K are exact sympy arithmetic) loads on first use
+#: (PEP 562), so the float and numpy paths never import sympy (docs/design.md).
+_LAZY = {"Bounds": "bounds", "bounds": "bounds", "error": "bounds", "paper_integer": "bounds",
+         "Check": "checks", "EPS_MAX": "symbols", "L": "symbols", "eps": "symbols",
+         "InvalidBound": "tracked", "Tracked": "tracked", "const": "tracked",
+         "coord": "tracked", "exact_input": "tracked", "sqrt": "tracked",
+         "TrackedContext": "tracked_context"}
+
+
+class _Package(types.ModuleType):
+    """``fperr.bounds`` is the function: loading the submodule of that name lazily makes
+    the import system set ``fperr.bounds = <module>``, which is ignored here (the module
+    stays reachable as ``sys.modules["fperr.bounds"]``)."""
+
+    def __setattr__(self, name, value):
+        if not (name in _LAZY and isinstance(value, types.ModuleType)):
+            super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package
+
+
+def __getattr__(name: str):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'fperr' has no attribute {name!r}")
+    import importlib
+    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))
+
 
 __all__ = [
     "Bounds", "Check", "Context", "EPS_MAX", "ExactContext", "FloatContext", "InvalidBound",

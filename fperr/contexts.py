@@ -31,6 +31,7 @@ An instance holds the state of one predicate call (``ctx.fresh()`` per call).
 from __future__ import annotations
 
 import math
+import sys
 from contextlib import contextmanager
 from fractions import Fraction
 
@@ -405,7 +406,6 @@ def context(spec=None) -> Context:
     ``"mp17"`` or an int precision → :class:`MpContext`; ``"exact"`` / ``Fraction`` →
     :class:`ExactContext`; ``"tracked"`` → the instrumented context; a context → itself.
     """
-    from .tracked_context import TrackedContext
     if isinstance(spec, Context):
         return spec
     if spec is None or spec is float:
@@ -420,7 +420,7 @@ def context(spec=None) -> Context:
     if isinstance(spec, str):
         key = spec.strip().lower()
         named = {"binary64": FloatContext, "binary32": lambda: NumpyContext(np.float32),
-                 "exact": ExactContext, "tracked": TrackedContext}
+                 "exact": ExactContext, "tracked": _tracked}
         if key in named:
             return named[key]()
         if key.startswith("mp") and key[2:].isdigit():
@@ -433,16 +433,18 @@ def context(spec=None) -> Context:
     return NumpyContext(dt)
 
 
+def _tracked() -> Context:  # imported on use: it loads sympy, floats never do
+    from .tracked_context import TrackedContext
+    return TrackedContext()
+
+
 def context_for(*values) -> Context:
     """The context matching the inputs' number type (Tracked, numpy, mpmath, float)."""
-    from .tracked import Tracked
-    from .tracked_context import TrackedContext
+    tracked = sys.modules.get("fperr.tracked")  # not loaded: no Tracked value exists
     flat = [v for p in values for v in (p if isinstance(p, (tuple, list)) else (p,))]
-    if any(isinstance(v, Tracked) for v in flat):
-        return TrackedContext()
+    if tracked is not None and any(isinstance(v, tracked.Tracked) for v in flat):
+        return _tracked()
     if any(isinstance(v, np.ndarray) for v in values):
-        dt = np.result_type(*[np.asarray(v).dtype for v in values])
-        return NumpyContext(dt)
-    if any(isinstance(v, mpmath.mpf) for v in flat):
-        return MpContext(mpmath.mp.prec)
-    return FloatContext()
+        return NumpyContext(np.result_type(*[np.asarray(v).dtype for v in values]))
+    return MpContext(mpmath.mp.prec) if any(isinstance(v, mpmath.mpf) for v in flat) \
+        else FloatContext()

@@ -15,7 +15,7 @@ import sympy
 import fperr
 from fperr.notation import LATEX_GREEK, lpow
 
-from . import ALL
+from . import ALL, coefficients
 from .tolerances import tracked_tolerances
 
 
@@ -76,14 +76,19 @@ def render(recs: list[dict], fmt: str) -> str:
     return "\n".join(lines)
 
 
-_SYMS = {"eps": fperr.eps, "L": fperr.L}
-
-
 def _latex_expr(text: str) -> str:
-    return sympy.latex(sympy.sympify(text, locals=_SYMS), symbol_names={fperr.eps: r"\epsilon"})
+    """LaTeX of a record's exact expression, read by :mod:`predicates.coefficients` (the
+    records are data, e.g. read back from JSON: never evaluated as Python)."""
+    expr = coefficients.to_sympy(coefficients.parse(text))
+    return sympy.latex(expr, symbol_names={fperr.eps: r"\epsilon"})
 
 
 def _latex_name(q: str) -> str:
+    """LaTeX of a quantity name: greek letters, ``_hat``/``_bar`` accents, subscripts;
+    a trailing 2 is a square (d2 = d², m2 = m², d_hat2 = d̂²), as the predicates name
+    them (predicates/d2.py, d3.py)."""
+    if len(q) > 1 and q.endswith("2") and q[-2] != "_":
+        return f"{{{_latex_name(q[:-1])}}}^{{2}}"
     base, _, sub = q.partition("_")
     greek = LATEX_GREEK
     if q.endswith("_hat") or q.endswith("_bar"):

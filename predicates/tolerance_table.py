@@ -10,29 +10,40 @@ checks those identities rather than trusting these numbers.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from fractions import Fraction
 
-import sympy
+from .coefficients import CoefficientError, Monomial, constant, parse, value
 
-R = sympy.Rational
-S3 = sympy.sqrt(3)
+R = Fraction
+#: √3 as an exact coefficient (sympy-free: the float and numpy paths never load sympy)
+S3 = value(parse("sqrt(3)"))
 
 
 @dataclass(frozen=True)
 class ToleranceSpec:
-    """T = coefficient·ε^q·L^p, with brackets lo = T−, hi = T+ (same ε^q·L^p factor)."""
+    """T = coefficient·ε^q·L^p, with brackets lo = T−, hi = T+ (same ε^q·L^p factor).
+
+    Coefficients are exact: Fractions and :class:`~predicates.coefficients.Monomial`
+    here; the proofs hold sympy numbers (:data:`proofs.tables.TABLES`). Both compare
+    equal when equal."""
 
     name: str
-    lo: sympy.Expr
-    mid: sympy.Expr
-    hi: sympy.Expr
-    q: sympy.Rational
+    lo: object
+    mid: object
+    hi: object
+    q: Fraction
     p: int
     description: str
 
 
+def _exact(x: Monomial):
+    """A Fraction when rational, else the Monomial."""
+    return x.fraction() if x.is_rational else x
+
+
 def _spec(name, lo, mid, hi, q, p, desc):
-    return ToleranceSpec(name, sympy.nsimplify(lo), sympy.nsimplify(mid), sympy.nsimplify(hi),
-                         R(q), p, desc)
+    lo, mid, hi = (_exact(constant(x)) for x in (lo, mid, hi))
+    return ToleranceSpec(name, lo, mid, hi, R(q), p, desc)
 
 
 TABLE_2D = {
@@ -80,7 +91,9 @@ def resolve_table(dim: int, table=None) -> dict:
     overrides ``{name: {"lo"|"mid"|"hi": value}}``, optionally keyed by dimension first
     (``{3: {...}}``, the structure of ``fperr verify --tolerances`` files after
     :func:`proofs.tables.load_overrides`, and of ``fperr synthesize`` tables). Values are
-    exact: ints, Fractions, sympy numbers or strings such as "269/64" or "2*(7/2)**2".
+    exact: ints, Fractions, decimal floats, sympy numbers or strings of the grammar of
+    :mod:`predicates.coefficients` such as "269/64" or "2*(7/2)**2" (a
+    :class:`~predicates.coefficients.CoefficientError` names the entry otherwise).
     """
     base = dict(TABLES[dim])
     if table is None:
@@ -97,20 +110,43 @@ def resolve_table(dim: int, table=None) -> dict:
         if name not in base:
             raise ValueError(f"unknown {dim}D tolerance {name!r}; known: {', '.join(base)}")
         if isinstance(fields, ToleranceSpec):
-            base[name] = fields
+            base[name] = ToleranceSpec(name, *(_exact(constant(from_sympy(getattr(fields, f)),
+                                                               f"{dim}D {name}.{f}"))
+                                               for f in ("lo", "mid", "hi")),
+                                       spec_fraction(fields.q), fields.p, fields.description)
             continue
         new = {}
         for key, v in fields.items():
             f = _FIELD_NAMES.get(str(key).lower())
             if f is None:
                 raise ValueError(f"{dim}D {name}: unknown field {key!r} (use lo, mid, hi)")
-            x = sympy.sympify(str(v) if not isinstance(v, sympy.Basic) else v, rational=True)
-            if x.free_symbols or not x.is_positive:
-                raise ValueError(f"{dim}D {name}.{f}: must be a positive constant, got {v!r}")
-            if f == "mid" and not x.is_Rational:
-                raise ValueError(f"{dim}D {name}.mid must be rational, got {v!r}")
-            new[f] = x
+            x = constant(from_sympy(v), f"{dim}D {name}.{f}")
+            if f == "mid" and not x.is_rational:
+                raise CoefficientError(f"{dim}D {name}.mid must be rational, got {v!r}")
+            new[f] = _exact(x)
         spec = base[name]
         base[name] = ToleranceSpec(name, new.get("lo", spec.lo), new.get("mid", spec.mid),
                                    new.get("hi", spec.hi), spec.q, spec.p, spec.description)
     return base
+
+
+def from_sympy(v):
+    """A sympy number (the proofs' tables) as an exact value: Fraction when rational,
+    else read from its printed form by :mod:`predicates.coefficients` (never sympify);
+    anything else unchanged."""
+    if not type(v).__module__.startswith("sympy"):
+        return v
+    if v.is_Rational:
+        return Fraction(int(v.p), int(v.q))
+    return value(parse(str(v)))
+
+
+def spec_fraction(x) -> Fraction:
+    """The exact rational value of a coefficient or exponent (Fraction, int, sympy
+    Rational or rational Monomial); CoefficientError if it is irrational."""
+    x = from_sympy(x)
+    if isinstance(x, Monomial):
+        return x.fraction()
+    if isinstance(x, (int, Fraction)) and not isinstance(x, bool):
+        return Fraction(x)
+    raise CoefficientError(f"{x!r} is not an exact rational number")

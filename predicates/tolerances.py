@@ -30,7 +30,7 @@ import numpy as np
 import fperr
 from fperr import round_fraction, to_fraction
 
-from .tolerance_table import L_ROOT, L_SIGMA_PLUS, TABLES, resolve_table
+from .tolerance_table import L_ROOT, L_SIGMA_PLUS, TABLES, resolve_table, spec_fraction
 
 
 @dataclass
@@ -84,7 +84,7 @@ def compute_L(dim: int, L_a, L_b, ctx) -> object:
     representable in binary64). So F[L] ≥ L̂ is then checked exactly and, if it ever
     failed, L is raised until it holds: soundness by construction, not by argument.
     """
-    g = int(L_ROOT[dim].q)
+    g = L_ROOT[dim].denominator
     with ctx.session():
         eps = ctx.const(ctx.eps)
         root = ctx.sqrt(eps)
@@ -120,9 +120,10 @@ def tolerance_values(dim: int, L_power, ctx, table: dict | None = None) -> dict:
     """
     out = {}
     for name, spec in (TABLES[dim] if table is None else table).items():
-        k = int(spec.q.q)  # denominator of q: 1, 2 or 4
-        power = int(spec.q * k)
-        C = Fraction(int(spec.mid.p), int(spec.mid.q)) ** k
+        q = spec_fraction(spec.q)  # exact data, sympy (the proofs) or not
+        k = q.denominator  # 1, 2 or 4
+        power = int(q * k)
+        C = spec_fraction(spec.mid) ** k
         x = ctx.eps_multiple(C, power)
         if ctx.bits is not None and ctx.to_fraction(x) != C * Fraction(1, 2**ctx.bits) ** power:
             raise ValueError(f"{name}: T's coefficient {spec.mid} is not admissible in "

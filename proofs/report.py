@@ -24,11 +24,11 @@ import predicates
 from fperr import bounds
 from fperr.notation import GREEK, epow, lpow
 from fperr.symbols import EPS_MAX, L, eps
-from predicates.tolerance_table import TABLES
 
 from . import paper_printed as paper
 from .constraints import fmt
 from .decide import EPS32, EPS64
+from .tables import TABLES
 from .verify import instrument, verify
 
 # -- formatting helpers -------------------------------------------------------------------

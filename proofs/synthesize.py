@@ -37,11 +37,11 @@ import sympy
 import predicates
 from fperr import round_fraction
 from fperr.symbols import L, eps
-from predicates.tolerance_table import TABLES
 
 from . import tables
 from .constraints import GEOMETRIC
 from .decide import decide as _decide
+from .tables import TABLES
 from .verify import constraints, decide_constraint, instrument, verify
 
 #: Bottom-up order of the dependency chain of the declared facts (module docstring).

@@ -1,6 +1,6 @@
 """The tolerance table the proofs run on: Figure 1 / Figure 5, optionally overridden.
 
-Values come from :mod:`predicates.tolerance_table` (exact sympy data). A tolerance T
+Values come from :mod:`predicates.tolerance_table` (exact data), here in sympy. A tolerance T
 with spec (lo, mid, hi, q, p) stands for T− = lo·ε^q·L^p, T = mid·ε^q·L^p,
 T+ = hi·ε^q·L^p.
 
@@ -21,7 +21,8 @@ the tables (2D: sigma, tau, sigma_hat, kappa; 3D: sigma, tau, delta, gamma, sigm
 lam, phi, nu, zeta, mu, xi, rho); then any of ``lo`` (T−), ``mid`` (T), ``hi`` (T+)
 (aliases ``T-``/``minus``, ``T``, ``T+``/``plus``). A value is the coefficient of
 ε^q·L^p: an integer, a decimal (read exactly: 9.5 = 19/2, 0.1 = 1/10) or a string
-holding an exact expression ("12*sqrt(3)*1521/16"). ``mid`` must be rational (the code
+holding an exact expression ("12*sqrt(3)*1521/16") in the bounded grammar of
+:mod:`predicates.coefficients` (read as data, never evaluated as Python). ``mid`` must be rational (the code
 computes T from it); it is also re-run through the instrumented tolerance computation,
 so its derived R[T] is that of the new constant.
 """
@@ -30,43 +31,54 @@ from __future__ import annotations
 import json
 import tomllib
 from dataclasses import replace
+from fractions import Fraction
 from pathlib import Path
 
 import sympy
 
 from fperr.symbols import L, eps
-from predicates.tolerance_table import TABLES, ToleranceSpec
+from predicates import coefficients
+from predicates.tolerance_table import TABLES as EXACT_TABLES
+from predicates.tolerance_table import ToleranceSpec, from_sympy
 
 FIELDS = {"lo": "lo", "t-": "lo", "minus": "lo", "mid": "mid", "t": "mid",
           "hi": "hi", "t+": "hi", "plus": "hi"}
+#: the largest override file read (a table is a few hundred bytes)
+MAX_FILE_BYTES = 1 << 20
 
 
 class ToleranceFileError(ValueError):
     """An override file that cannot be used (unknown name, bad value, ...)."""
 
 
+def as_sympy(x) -> sympy.Expr:
+    """An exact coefficient (Fraction, int, :class:`predicates.coefficients.Monomial`
+    or already sympy) as sympy, built from its value (never from text)."""
+    if isinstance(x, sympy.Basic):
+        return x
+    if isinstance(x, (int, Fraction)):
+        return sympy.Rational(Fraction(x).numerator, Fraction(x).denominator)
+    return coefficients.to_sympy(x)
+
+
+def sympy_spec(spec: ToleranceSpec) -> ToleranceSpec:
+    """The same spec with sympy coefficients and exponent (what the proofs compute with)."""
+    return replace(spec, lo=as_sympy(spec.lo), mid=as_sympy(spec.mid), hi=as_sympy(spec.hi),
+                   q=as_sympy(spec.q))
+
+
+#: Figures 1 and 5 in sympy (:data:`predicates.tolerance_table.TABLES` holds them exactly
+#: without sympy, for the float and numpy paths).
+TABLES = {dim: {n: sympy_spec(s) for n, s in tab.items()} for dim, tab in EXACT_TABLES.items()}
+
+
 def _coefficient(v, where: str) -> sympy.Expr:
-    if isinstance(v, bool):
-        raise ToleranceFileError(f"{where}: a boolean is not a coefficient")
-    if isinstance(v, sympy.Basic):
-        x = v
-    elif isinstance(v, int):
-        x = sympy.Integer(v)
-    elif isinstance(v, float):
-        if v != v or v in (float("inf"), float("-inf")):
-            raise ToleranceFileError(f"{where}: coefficient must be finite, got {v!r}")
-        x = sympy.Rational(repr(v))  # the decimal the user wrote, exactly
-    elif isinstance(v, str):
-        try:
-            x = sympy.sympify(v, rational=True)
-        except (sympy.SympifyError, SyntaxError, TypeError) as e:
-            raise ToleranceFileError(f"{where}: cannot read {v!r}: {e}") from None
-    else:
-        raise ToleranceFileError(f"{where}: expected a number or a string, got {v!r}")
-    if x.free_symbols or not x.is_real or not x.is_positive:
-        raise ToleranceFileError(f"{where}: coefficient must be a positive constant, "
-                                 f"got {v!r}")
-    return x
+    """A positive constant read by :mod:`predicates.coefficients` (strings are data in
+    its bounded grammar, never sympified), as sympy."""
+    try:
+        return as_sympy(coefficients.constant(from_sympy(v)))
+    except coefficients.CoefficientError as e:
+        raise ToleranceFileError(f"{where}: {e}") from None
 
 
 def parse_overrides(data: dict, known: dict | None = None
@@ -110,6 +122,9 @@ def load_overrides(path: str | Path, known: dict | None = None
     :func:`parse_overrides`)."""
     p = Path(path)
     try:
+        if p.stat().st_size > MAX_FILE_BYTES:
+            raise ToleranceFileError(f"{path}: larger than {MAX_FILE_BYTES} bytes: not a "
+                                     "tolerance table")
         raw = p.read_bytes()
     except OSError as e:
         raise ToleranceFileError(f"cannot read {path}: {e}") from None
@@ -123,9 +138,12 @@ def load_overrides(path: str | Path, known: dict | None = None
                 data = json.loads(raw)
             except ValueError:
                 data = tomllib.loads(raw.decode())
-    except (ValueError, tomllib.TOMLDecodeError) as e:
+    except (ValueError, RecursionError) as e:  # (TOMLDecodeError is a ValueError)
         raise ToleranceFileError(f"{path}: not valid TOML/JSON: {e}") from None
-    return parse_overrides(data, known)
+    try:
+        return parse_overrides(data, known)
+    except ToleranceFileError as e:  # the message names the key; add the file
+        raise ToleranceFileError(f"{path}: {e}") from None
 
 
 def table(dim: int, overrides: dict | None = None) -> dict[str, ToleranceSpec]:

@@ -41,6 +41,7 @@ import sympy
 import fperr
 from fperr import to_fraction
 from fperr.symbols import L, eps
+from predicates import coefficients
 from predicates.core import Predicate
 from predicates.tolerance_table import ToleranceSpec
 from predicates.tolerances import (MAX_DEGREE, Tolerances, round_up_bits,
@@ -57,8 +58,8 @@ __all__ = ["ATTRIBUTE", "DeclarationError", "Fact", "PredicateTolerances", "load
 
 #: the module attribute ``fperr verify --predicates`` reads
 ATTRIBUTE = "FPERR_TOLERANCES"
-_FUNCS = {"sqrt": sympy.sqrt, "Min": sympy.Min, "Max": sympy.Max, "min": sympy.Min,
-          "max": sympy.Max, "eps": eps, "L": L}
+#: names a tolerance may not take: the grammar's functions and symbols
+_FUNCS = (*coefficients.FUNCTIONS, *coefficients.BUILTIN_NAMES)
 _RELATIONS = ("<=", ">=", "==", "<", ">", "=")
 
 
@@ -80,15 +81,17 @@ class Fact:
 
 
 def _parse(text, where: str, names=()) -> sympy.Expr:
-    """An expression in eps, L and the symbols ``names``, exact (decimals as written)."""
+    """An expression in eps, L and the symbols ``names``, exact (decimals as written),
+    read by the bounded grammar of :mod:`predicates.coefficients` (a declaration may
+    come from a TOML file: data, never evaluated as Python)."""
     if isinstance(text, sympy.Basic):
         return text
     if isinstance(text, bool) or not isinstance(text, (str, int, Fraction)):
         raise DeclarationError(f"{where}: expected an expression string, got {text!r}")
-    local = dict(_FUNCS, **{n: sympy.Symbol(n, positive=True) for n in names})
     try:
-        return sympy.sympify(str(text).replace("^", "**"), locals=local, rational=True)
-    except (sympy.SympifyError, SyntaxError, TypeError) as e:
+        tree = coefficients.parse(str(text), names)
+        return coefficients.to_sympy(tree, {n: sympy.Symbol(n, positive=True) for n in names})
+    except coefficients.CoefficientError as e:
         raise DeclarationError(f"{where}: cannot read {text!r}: {e}") from None
 
 
@@ -140,9 +143,12 @@ def _table(tolerances, dim: int) -> dict[str, ToleranceSpec]:
         import tomllib
         try:
             data = tomllib.loads(Path(tolerances).read_text())
-        except (OSError, ValueError) as e:
+        except (OSError, ValueError, RecursionError) as e:
             raise DeclarationError(f"cannot read tolerances {tolerances}: {e}") from None
-        tolerances = data.get(str(dim), data)
+        try:
+            return _table(data.get(str(dim), data), dim)
+        except DeclarationError as e:  # the message names the entry; add the file
+            raise DeclarationError(f"{tolerances}: {e}") from None
     if not isinstance(tolerances, dict) or not tolerances:
         raise DeclarationError("tolerances must be a non-empty mapping name → (T−, T, T+)")
     out = {}
@@ -171,12 +177,14 @@ def _symbols(names) -> list[str]:
 
 
 def _expression(text, names, where: str):
-    e = _parse(text, where, _symbols(names))
-    unknown = {str(s) for s in e.free_symbols} - set(_symbols(names)) - {"eps", "L"}
-    if unknown:
-        raise DeclarationError(f"{where}: unknown symbol(s) {', '.join(sorted(unknown))}; "
-                               f"use T_lo, T, T_hi for the tolerances {', '.join(names)}")
-    return e
+    try:
+        coefficients.parse(str(text), _symbols(names))
+    except coefficients.UnknownName as e:
+        raise DeclarationError(f"{where}: unknown symbol(s) {e.name}; use T_lo, T, T_hi "
+                               f"for the tolerances {', '.join(names)}") from None
+    except coefficients.CoefficientError:
+        pass  # _parse says what else is wrong
+    return _parse(text, where, _symbols(names))
 
 
 def _fact(f, names, dim: int) -> tuple[str, _Fact]:

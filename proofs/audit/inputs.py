@@ -11,8 +11,8 @@ from fractions import Fraction
 import numpy as np
 
 from fperr import round_fraction, ulp
-from predicates.tolerance_table import TABLES
 
+from ..tables import TABLES
 from .spec import FORMATS, NEAR_TOL, SCALES, Config, PredicateSpec, tolerance_info
 
 SCENARIOS = (("uniform", 1), ("boxes", 2), ("near", 5), ("flat", 2), ("short", 2),

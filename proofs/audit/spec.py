@@ -15,8 +15,9 @@ from fperr import to_fraction
 from fperr.intervals import interval_from_float
 from fperr.shadow import Shadow, ShadowContext
 from predicates.catalogue import pair_predicate
-from predicates.tolerance_table import TABLES
 from predicates.tolerances import Tolerances, tracked_tolerances
+
+from ..tables import TABLES
 
 #: name -> the working context (fperr.context(name))
 FORMATS = {name: fperr.context(name) for name in ("binary64", "binary32", "mp17")}

@@ -16,8 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from predicates.tolerance_table import TABLES
-
+from ..tables import TABLES
 from .spec import tolerance_info
 
 __all__ = ["Lanes", "StructuredInputs", "round_bits", "scale_units"]

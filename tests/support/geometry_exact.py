@@ -38,7 +38,7 @@ import sympy
 import fperr
 import predicates
 from fperr import round_fraction, to_fraction
-from predicates.tolerance_table import TABLES
+from proofs.tables import TABLES
 
 # ---------------------------------------------------------------------------------
 # numbers

@@ -48,7 +48,7 @@ import predicates
 from predicates import catalogue
 from predicates.registration.examples import cube_grid
 from predicates.registration.portable import rotate, rotation, unit_rows
-from predicates.tolerance_table import TABLES
+from proofs.tables import TABLES, sympy_spec
 from geometry_exact import Units, construct, frac, place
 
 KIND_DIMS = {2: {"vertex_vertex": (0, 0), "vertex_edge": (0, 1), "edge_vertex": (1, 0),
@@ -221,6 +221,7 @@ def thresholds(res, K, which):
     eps = mpmath.mpf(2) ** (-(np.finfo(res.dtype).nmant + 1))
     out = {}
     for name, spec in (res.tolerances.table or TABLES[res.dim]).items():
+        spec = sympy_spec(spec)  # a run's table holds exact values, not sympy
         coef = (spec.lo, spec.mid, spec.hi)[which]
         c = mpmath.mpf(str(coef.evalf(60)))
         q = mpmath.mpf(spec.q.p) / spec.q.q

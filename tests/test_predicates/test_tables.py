@@ -100,3 +100,25 @@ def test_notation_is_shared_by_tables_and_report():
     assert N.greek("lam", "hi") == "λ+" and N.greek("sigma_hat", "lo") == "σ̂−"
     assert R.lpow is N.lpow and R.epow is N.epow and R.GREEK is N.GREEK
     assert T.LATEX_GREEK is N.LATEX_GREEK and T._latex_name("lam") == r"\lambda"
+
+
+def test_latex_names_and_expressions(capsys):
+    """Quantities named with a trailing 2 are squares (d2 = d², m2 = m², d_hat2 = d̂²), and
+    the exact column is the LaTeX of the record's expression read as data (not sympified)."""
+    import sympy
+
+    from predicates.coefficients import CoefficientError
+    from predicates.tables import _latex_expr, _latex_name
+    assert (_latex_name("d2"), _latex_name("m2"), _latex_name("d_hat2")) == \
+        ("{d}^{2}", "{m}^{2}", r"{\hat{d}}^{2}")
+    assert main(["tables", "--format", "latex"]) == 0
+    rows = [line.split(" & ") for line in capsys.readouterr().out.splitlines() if " & " in line]
+    names = {r[2] for r in rows[1:]}
+    assert not {"$d2$", "$m2$", "$d_{hat2}$"} & names and "${d}^{2}$" in names
+    recs = {(r["dim"], r["algorithm"], r["quantity"], r["kind"]): r for r in records()}
+    exact = recs[(2, "vertex_vertex", "d2", "E")]["exact"]
+    eps, L = sympy.symbols("eps L", positive=True)
+    assert _latex_expr(exact) == sympy.latex(sympy.sympify(exact, locals={"eps": eps, "L": L}),
+                                             symbol_names={eps: r"\epsilon"})
+    with pytest.raises(CoefficientError):
+        _latex_expr('__import__("os").getcwd()')

@@ -20,10 +20,10 @@ import pytest
 
 import predicates
 from predicates.registration.examples import example
-from predicates.tolerance_table import TABLES
 from proofs import tables
 from proofs.synthesize import (ORDER, _Probe, _fact_equalities, _frac, admissible_mid,
                                table_section)
+from proofs.tables import TABLES
 from shared_cases import check_exact
 
 ROOT = Path(__file__).resolve().parents[2]
