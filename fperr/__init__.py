@@ -10,8 +10,8 @@ are written against (:func:`context`).
 import sys
 import types
 
-from .contexts import (Context, ExactContext, FloatContext, MpContext, NumpyContext, context,
-                       context_for)
+from .contexts import Context, ExactContext, FloatContext, MpContext, NumpyContext
+from .select import context, context_for
 from .exact import ROUNDING, round_fraction, to_fraction, ulp
 from .shadow import Shadow, ShadowContext  # noqa: F401  (shadow execution: proofs.audit)
 from .warnings import ResolutionError, ResolutionWarning

@@ -192,8 +192,9 @@ def _environ(values: dict):
 def _warm() -> bool:
     """A worker's first task: import the registration (~0.4 s CPU), which the first
     partition's task would otherwise pay when it is unpickled."""
-    from predicates.registration.levels import loop as levels
-    from predicates.registration.partition import assign as partition  # noqa: F401  (the imports are the point)
+    # the imports are the point
+    from predicates.registration.levels import loop  # noqa: F401
+    from predicates.registration.partition import assign  # noqa: F401
 
     return True
 
