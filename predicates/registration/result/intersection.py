@@ -186,19 +186,36 @@ class IntersectionResult:
         return np.flatnonzero(self._cut_mask(self._kinds(kind)))
 
     def _cut_mask(self, kinds) -> np.ndarray:
+        """(C,) bool: cells with a registered simulation primitive of ``kinds`` on one of
+        their faces."""
+        masks = self._cut_masks(kinds)
+        return np.logical_or.reduce(list(masks.values())) if masks else \
+            np.zeros(len(self.sim_cells), dtype=bool)
+
+    def _cut_masks(self, kinds) -> dict:
+        """{kind: (C,) bool} for every kind of ``kinds`` with pairs. Only the cells with a
+        vertex on a registered primitive are examined (one gather over the cells), and
+        each face width is formed once for all kinds: the cost follows the cut."""
         cells = self.sim_cells
-        hit = np.zeros(len(cells), dtype=bool)
-        k = cells.shape[1]
-        for r in range(1, k + 1):
-            prims = [self.pairs[x].sim for x in kinds if self.pairs[x].sim.shape[1] == r]
-            prims = [p for p in prims if len(p)]
-            if not prims:
-                continue
-            table = np.unique(np.sort(np.concatenate(prims), axis=1), axis=0)
-            combos = list(itertools.combinations(range(k), r))
-            faces = np.sort(cells[:, combos], axis=2).reshape(-1, r)
-            hit |= consistency.rows_in(faces, table).reshape(len(cells), -1).any(axis=1)
-        return hit
+        prims = {x: self.pairs[x].sim for x in kinds if len(self.pairs[x].sim)}
+        if not prims:
+            return {}
+        on = np.zeros(len(self.sim_points), dtype=bool)
+        for p in prims.values():
+            on[p.ravel()] = True
+        near = np.flatnonzero(on[cells].any(axis=1))
+        sub, k = cells[near], cells.shape[1]
+        faces = {}
+        out = {}
+        for kind, p in prims.items():
+            r = p.shape[1]
+            if r not in faces:
+                combos = list(itertools.combinations(range(k), r))
+                faces[r] = np.sort(sub[:, combos], axis=2).reshape(-1, r)
+            found = consistency.rows_in(faces[r], np.sort(p, axis=1))
+            out[kind] = np.zeros(len(cells), dtype=bool)
+            out[kind][near] = found.reshape(len(sub), -1).any(axis=1)
+        return out
 
     def to_dict(self, pairs: bool = False) -> dict:
         """Plain data (JSON-ready): sizes, counts per kind, tolerances in input units,
@@ -402,8 +419,9 @@ class IntersectionResult:
 
         data = {}
         bits = np.zeros(len(self.sim_cells), dtype=np.int32)
+        masks = self._cut_masks(self.kinds)
         for k in self.kinds:
-            m = self._cut_mask([k])
+            m = masks.get(k, np.zeros(len(self.sim_cells), dtype=bool))
             data[f"cut_by_{k}"] = m.astype(np.int8)
             bits |= m.astype(np.int32) << (KIND_CODES[k] - 1)
         data = {"cut": (bits != 0).astype(np.int8), "cut_kinds": bits, **data}
