@@ -149,8 +149,9 @@ def _table(tolerances, dim: int) -> dict[str, ToleranceSpec]:
             return _table(data.get(str(dim), data), dim)
         except DeclarationError as e:  # the message names the entry; add the file
             raise DeclarationError(f"{tolerances}: {e}") from None
-    if not isinstance(tolerances, dict) or not tolerances:
-        raise DeclarationError("tolerances must be a non-empty mapping name → (T−, T, T+)")
+    if not isinstance(tolerances, dict):
+        raise DeclarationError("tolerances must be a mapping name → (T−, T, T+) (empty for "
+                               "sign-only predicates)")
     out = {}
     for name, value in tolerances.items():
         if not (isinstance(name, str) and name.isidentifier()) or name in _FUNCS \
@@ -228,6 +229,33 @@ def _bounds(spec, names, what: str, dim: int, fmt_text=None) -> dict:
     return out
 
 
+def _sign_filter(spec, preds, names, dim: int) -> dict:
+    """{(dim, predicate): {"*": None} | {quantity: Bound θ}} from ``sign_filter``: True
+    (every predicate), predicates or their names (θ derived from the sign bound), or
+    {predicate: {quantity: θ expression}} (declared thresholds, checked)."""
+    if spec is None or spec is False:
+        return {}
+    known = {p.name for p in preds}
+    if spec is True:
+        return {(dim, n): {"*": None} for n in known}
+    items = spec.items() if isinstance(spec, dict) else ((x, None) for x in spec)
+    out: dict = {}
+    for pred, thetas in items:
+        pname = pred.name if isinstance(pred, Predicate) else pred
+        if pname not in known:
+            raise DeclarationError(f"sign_filter names {pname!r}, which is not one of the "
+                                   f"predicates {', '.join(sorted(known))}")
+        if thetas is None or thetas is True:
+            out[(dim, pname)] = {"*": None}
+            continue
+        if not isinstance(thetas, dict):
+            raise DeclarationError(f"sign_filter[{pname!r}] must be True or a mapping "
+                                   f"quantity → threshold expression, got {thetas!r}")
+        out.update(_bounds({pname: thetas}, names, "sign_filter", dim,
+                           lambda q, t: f"θ[{q}] = {t}"))
+    return out
+
+
 class PredicateTolerances:
     """The declaration of a set of ``@predicate`` functions' tolerances and facts
     (module docstring). It is also the constraint system :mod:`proofs.synthesize`
@@ -235,8 +263,8 @@ class PredicateTolerances:
 
     label = "declared"
 
-    def __init__(self, dim: int, predicates, tolerances, facts=(), *, protected=None,
-                 nonzero=None, m_lower=None, order=None, name: str = ""):
+    def __init__(self, dim: int, predicates, tolerances=None, facts=(), *, protected=None,
+                 nonzero=None, m_lower=None, order=None, sign_filter=None, name: str = ""):
         if dim not in (2, 3):
             raise DeclarationError(f"dim must be 2 or 3, got {dim!r}")
         preds = list(predicates)
@@ -247,7 +275,7 @@ class PredicateTolerances:
         if len({p.name for p in preds}) != len(preds):
             raise DeclarationError("two predicates have the same name")
         self.dim, self.predicates, self.name = dim, preds, name
-        self.base = _table(tolerances, dim)
+        self.base = _table({} if tolerances is None else tolerances, dim)
         names = list(self.base)
         grouped: dict = {}
         for g, f in (_fact(f, names, dim) for f in facts):
@@ -257,7 +285,8 @@ class PredicateTolerances:
             {p: {"m": e} for p, e in (m_lower or {}).items()}, names, "m_lower", dim,
             lambda q, t: f"m > {t}").items()}  # special.py shows the text after "> "
         self.declared = Declared(grouped, _bounds(protected, names, "protected", dim),
-                                 _bounds(nonzero, names, "nonzero", dim), m_low)
+                                 _bounds(nonzero, names, "nonzero", dim), m_low,
+                                 _sign_filter(sign_filter, preds, names, dim))
         order = list(order or ())
         if set(order) - set(names):
             raise DeclarationError(f"order names unknown tolerances: "
