@@ -47,7 +47,7 @@ from predicates.tolerance_table import ToleranceSpec
 from predicates.tolerances import (MAX_DEGREE, Tolerances, round_up_bits,
                                    safe_scale_range, tolerance_values)
 
-from . import tables
+from . import sign_tests, tables
 from .constraints import (Bound, Declared, geometric_constraints, run_constraints,
                           table_constraints)
 from .constraints import Fact as _Fact
@@ -229,33 +229,6 @@ def _bounds(spec, names, what: str, dim: int, fmt_text=None) -> dict:
     return out
 
 
-def _sign_filter(spec, preds, names, dim: int) -> dict:
-    """{(dim, predicate): {"*": None} | {quantity: Bound θ}} from ``sign_filter``: True
-    (every predicate), predicates or their names (θ derived from the sign bound), or
-    {predicate: {quantity: θ expression}} (declared thresholds, checked)."""
-    if spec is None or spec is False:
-        return {}
-    known = {p.name for p in preds}
-    if spec is True:
-        return {(dim, n): {"*": None} for n in known}
-    items = spec.items() if isinstance(spec, dict) else ((x, None) for x in spec)
-    out: dict = {}
-    for pred, thetas in items:
-        pname = pred.name if isinstance(pred, Predicate) else pred
-        if pname not in known:
-            raise DeclarationError(f"sign_filter names {pname!r}, which is not one of the "
-                                   f"predicates {', '.join(sorted(known))}")
-        if thetas is None or thetas is True:
-            out[(dim, pname)] = {"*": None}
-            continue
-        if not isinstance(thetas, dict):
-            raise DeclarationError(f"sign_filter[{pname!r}] must be True or a mapping "
-                                   f"quantity → threshold expression, got {thetas!r}")
-        out.update(_bounds({pname: thetas}, names, "sign_filter", dim,
-                           lambda q, t: f"θ[{q}] = {t}"))
-    return out
-
-
 class PredicateTolerances:
     """The declaration of a set of ``@predicate`` functions' tolerances and facts
     (module docstring). It is also the constraint system :mod:`proofs.synthesize`
@@ -286,7 +259,8 @@ class PredicateTolerances:
             lambda q, t: f"m > {t}").items()}  # special.py shows the text after "> "
         self.declared = Declared(grouped, _bounds(protected, names, "protected", dim),
                                  _bounds(nonzero, names, "nonzero", dim), m_low,
-                                 _sign_filter(sign_filter, preds, names, dim))
+                                 sign_tests.filters(sign_filter, preds, names, dim,
+                                                    _bounds, DeclarationError))
         order = list(order or ())
         if set(order) - set(names):
             raise DeclarationError(f"order names unknown tolerances: "
@@ -402,6 +376,17 @@ class PredicateTolerances:
             tab = self.table()
             values = tolerance_values(self.dim, powers.__getitem__, ctx, tab)
         return Tolerances(self.dim, Lc, ctx.eps, ctx, values, tab)
+
+
+def _sign_thresholds(self, L_bound, dtype=None) -> dict:
+    """{predicate: {quantity: θ}}: the thresholds of the sign tests declared "sign exact
+    or undecided" (``sign_filter``) in a working format, rounded up, for L as
+    :meth:`tolerances`: a lane with |F[x]| > θ has the exact sign
+    (:func:`proofs.sign_tests.thresholds`)."""
+    return sign_tests.thresholds(self, L_bound, dtype)
+
+
+PredicateTolerances.sign_thresholds = _sign_thresholds
 
 
 def load(module: str) -> list[PredicateTolerances]:
