@@ -288,3 +288,31 @@ def test_sign_filter_declaration_errors():
     with pytest.raises(DeclarationError, match="must be True or a mapping"):
         PredicateTolerances(2, [segment_crossing.seg_seg_cross],
                             sign_filter={"seg_seg_cross": "7*eps*L^2"})
+
+
+def _fperr(*argv, cwd):
+    return subprocess.run([sys.executable, "-m", "fperr", *argv], cwd=cwd,
+                          capture_output=True, text=True, timeout=600,
+                          env={**__import__("os").environ, "PYTHONPATH": str(EXAMPLES)})
+
+
+def test_cli_tables_of_a_users_module(tmp_path):
+    import json
+    r = _fperr("tables", "--predicates", "sign_predicates", "--format", "json", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    recs = {(x["algorithm"], x["quantity"], x["kind"]): x for x in json.loads(r.stdout)}
+    for name, (e_full, e_sign, power) in FIGURES.items():
+        det = PREDICATES[name].instrumented().quantities["det"]
+        assert recs[(name, "det", "E")]["exact"] == str(fperr.bounds(det).E)
+        assert recs[(name, "det", "S")]["exact"] == str(fperr.bounds(det, sign=True).E)
+        assert recs[(name, "det", "S")]["coefficient"] == e_sign + 1
+        assert recs[(name, "det", "S")]["power"] == power
+    md = _fperr("tables", "--predicates", "segment_crossing", cwd=tmp_path)
+    assert md.returncode == 0 and "| 2 | seg_seg_cross | o_ABC | E_sign ≤ 7εL^2 |" in md.stdout
+    tex = _fperr("tables", "--predicates", "segment_crossing", "--format", "latex",
+                 cwd=tmp_path)
+    assert tex.returncode == 0 and r"\mathcal{E}_{\mathrm{sign}} \le 7" in tex.stdout
+    for argv, msg in ((("--predicates", "no_such_module"), "cannot import"),
+                      (("--predicates", "segment_crossing", "--dim", "3"), "no 3D")):
+        bad = _fperr("tables", *argv, cwd=tmp_path)
+        assert bad.returncode == 2 and msg in bad.stderr and not bad.stdout
