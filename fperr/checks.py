@@ -6,6 +6,11 @@ model the error of a check as E[x] + E[y]. The paper instead bounds E[y − x] b
 which adds one rounding for a subtraction that never happens (for the 2D edge-vertex
 check d ≤ τ it prints "> 20εL" where E[d] + E[τ] = 19εL + O(ε^1.5)). Both are sound;
 ours is never larger, and the report (`proofs`) shows where they differ.
+
+A comparison with zero (a sign test) needs less: rounding to nearest cannot change the
+sign of a nonzero sum or difference, so its error is the *sign bound* of the left side,
+E without its last rounding (:func:`fperr.bounds` with ``sign=True``; docs/proofs.md,
+"Sign tests").
 """
 from __future__ import annotations
 
@@ -46,8 +51,11 @@ class Check:
         return self.lhs.p
 
     def error(self) -> sympy.Expr:
-        """E[lhs] + E[rhs] (exact, in ε and L). Raises InvalidBound for an invalid side."""
-        bl, br = bounds(self.lhs, strict=True), bounds(self.rhs, strict=True)
+        """E[lhs] + E[rhs] (exact, in ε and L); for a sign test the sign bound of lhs
+        (the rounding of its last sum or difference cannot change its sign). Raises
+        InvalidBound for an invalid side."""
+        bl = bounds(self.lhs, strict=True, sign=self.is_sign_test)
+        br = bounds(self.rhs, strict=True)
         if not self.is_sign_test and bl.power != br.power:
             raise InvalidBound(f"check {self} compares L^{bl.power} with L^{br.power}")
         return sympy.expand(bl.E + br.E)

@@ -2,7 +2,8 @@
 
 Every figure comes from running the predicates (and the tolerance computation)
 instrumented with :class:`fperr.Tracked`; nothing is typed in from the paper. Kinds:
-``E`` (absolute, coefficient·ε·L^power), ``R`` (relative, coefficient·ε) and ``M`` (the
+``E`` (absolute, coefficient·ε·L^power), ``S`` (the sign bound of a quantity compared
+with zero: E without the last rounding, docs/proofs.md "Sign tests"), ``R`` (relative, coefficient·ε) and ``M`` (the
 magnitude bound c·L^power, e.g. the paper's "m² ≤ 12L⁴"). Coefficients are the paper's
 integer form (see :func:`fperr.paper_integer`); ``exact`` is the exact sympy expression.
 """
@@ -27,18 +28,31 @@ def records(dims=(2, 3)) -> list[dict]:
             b = fperr.bounds(t)
             out.append(_rec(dim, "tolerances", name, "R", b.R_int, 0, b.R))
         for pred in ALL[dim]:
-            ins = pred.instrumented()
-            for q, x in ins.quantities.items():
-                b = fperr.bounds(x)
-                if not b.valid:
-                    continue
-                out.append(_rec(dim, pred.name, q, "E", b.E_int, b.power, b.E))
-                if b.R is not None:
-                    out.append(_rec(dim, pred.name, q, "R", b.R_int, 0, b.R))
-                c = x.state.c
-                if not c.free_symbols:
-                    out.append(_rec(dim, pred.name, q, "M", fperr.paper_integer(c), b.power,
-                                    c * fperr.L ** b.power))
+            out += predicate_records(pred, sign=False)
+    return out
+
+
+def predicate_records(pred, sign: bool = True) -> list[dict]:
+    """The records of one ``@predicate`` (the paper's or a user's): E, R and M of every
+    named quantity, and (``sign``) S — the sign bound, E without the last rounding
+    (docs/proofs.md, "Sign tests") — of every quantity a sign test compares with 0."""
+    out, dim = [], pred.dim
+    ins = pred.instrumented()
+    signs = {id(c.lhs) for c in ins.checks if c.is_sign_test}
+    for q, x in ins.quantities.items():
+        b = fperr.bounds(x)
+        if not b.valid:
+            continue
+        out.append(_rec(dim, pred.name, q, "E", b.E_int, b.power, b.E))
+        if sign and id(x) in signs and b.E is not None:
+            s = fperr.bounds(x, sign=True)
+            out.append(_rec(dim, pred.name, q, "S", s.E_int, s.power, s.E))
+        if b.R is not None:
+            out.append(_rec(dim, pred.name, q, "R", b.R_int, 0, b.R))
+        c = x.state.c
+        if not c.free_symbols:
+            out.append(_rec(dim, pred.name, q, "M", fperr.paper_integer(c), b.power,
+                            c * fperr.L ** b.power))
     return out
 
 
@@ -53,7 +67,7 @@ def _num(p):
 
 
 def _text(r) -> str:
-    sym = {"E": "E", "R": "R", "M": r"\|x\|"}[r["kind"]]
+    sym = {"E": "E", "S": "E_sign", "R": "R", "M": r"\|x\|"}[r["kind"]]
     eps = "" if r["kind"] == "M" else "ε"
     return f"{sym} ≤ {r['coefficient']}{eps}{lpow(r['power'], superscript=False)}"
 
@@ -99,7 +113,7 @@ def _latex_name(q: str) -> str:
 
 
 def _latex_bound(r) -> str:
-    sym = {"E": r"\mathcal{E}", "R": r"\mathcal{R}", "M": "|x|"}[r["kind"]]
+    sym = {"E": r"\mathcal{E}", "S": r"\mathcal{E}_{\mathrm{sign}}", "R": r"\mathcal{R}", "M": "|x|"}[r["kind"]]
     eps = "" if r["kind"] == "M" else r"\epsilon "
     return f"{sym} \\le {r['coefficient']}{eps}{lpow(r['power'], superscript=False)}"
 

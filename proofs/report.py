@@ -182,7 +182,9 @@ def _derived_requirement(o) -> str:
         if c.info.get("relative"):
             return _esc(c.statement) + "; " + _esc(c.detail)
         return f"{_esc(c.statement)}, E[x] + E[T] = {fmt(c.info['error'])}"
-    if c.kind in ("sign", "nonzero"):
+    if c.kind == "sign":
+        return f"{_esc(c.statement)}, E_sign[x] = {fmt(c.info['error'])}"
+    if c.kind == "nonzero":
         return f"{_esc(c.statement)}, E[x] = {fmt(c.info['error'])}"
     if c.kind == "special":
         return _esc(c.statement) + f" (see [section 5.4.4 below](#special-{c.dim}d-{c.algorithm}))"
@@ -319,7 +321,8 @@ def _summary(reps) -> list[str]:
                            "(all steps below).")
     out.append("- Derived window/sign bounds that differ from the printed integers "
                "(the paper bounds E[T − x] as a computed subtraction, one rounding more than "
-               "the exact comparison F[x] ≤ F[T]): " + ("; ".join(diffs) or "none") + ".")
+               "the exact comparison F[x] ≤ F[T]; a sign test is decided with the sign bound, "
+               "E without the last rounding, docs/proofs.md \"Sign tests\"): " + ("; ".join(diffs) or "none") + ".")
     out.append("")
     return out
 

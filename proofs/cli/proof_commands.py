@@ -23,14 +23,32 @@ def _add_tables(sub) -> None:
     p.add_argument("--dim", type=int, choices=(2, 3), help="only this dimension")
     p.add_argument("--format", choices=("md", "latex", "json"), default="md",
                    help="output format (default md)")
+    p.add_argument("--predicates", metavar="MODULE",
+                   help="the @predicate functions MODULE declares in FPERR_TOLERANCES "
+                        "instead of the paper's (with S: the sign bound of each quantity "
+                        "compared with zero)")
     p.set_defaults(_run=_run_tables)
 
 
 def _run_tables(args) -> int:
-    from predicates.tables import records, render
+    from predicates.tables import predicate_records, records, render
 
     dims = (args.dim,) if args.dim else (2, 3)
-    print(render(records(dims), args.format))
+    if not args.predicates:
+        print(render(records(dims), args.format))
+        return 0
+    args.dim = [args.dim] if args.dim else None  # _user_systems takes a list
+    systems = _user_systems(args, "tables")
+    if isinstance(systems, int):
+        return systems
+    try:
+        recs = [r for d in sorted(systems) for p in systems[d].predicates
+                for r in predicate_records(p)]
+    except (AttributeError, TypeError, ValueError, ArithmeticError) as e:
+        print(f"fperr tables: {args.predicates}: an instrumented run failed: "
+              f"{type(e).__name__}: {e}", file=sys.stderr)
+        return 2
+    print(render(recs, args.format))
     return 0
 
 

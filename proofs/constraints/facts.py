@@ -158,6 +158,10 @@ class Declared(NamedTuple):
     protected: dict
     nonzero: dict
     m_lower: dict
+    #: predicates whose sign tests without a protecting bound are "sign exact or
+    #: undecided" (docs/proofs.md, "Sign tests"): (dim, algorithm) → {quantity: Bound
+    #: of the threshold θ}, the key "*" with None meaning "θ derived from the sign bound"
+    filtered: dict = {}
 
 
 def table_constraints(dim: int, v: Values, setup: bool = True) -> list[Constraint]:

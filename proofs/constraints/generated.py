@@ -10,11 +10,21 @@ import sympy
 from fperr import InvalidBound, Tracked
 from fperr.notation import greek
 from fperr.ops import BY_RULE
+from fperr.symbols import EPS_MAX, L, eps
 
 from ..tables import Values
 from .facts import PAPER, Declared
 from .model import Constraint, Inequality, _ids, bounds, fmt, label
 from .special import special_argument
+
+
+def sign_threshold(E_sign: sympy.Expr, power) -> sympy.Expr:
+    """θ = K·ε·L^p, K the smallest integer ≥ (1 + ε)·E_sign/(ε·L^p) for every
+    ε ≤ 1e-5 (the coefficients are non-negative: the largest is at ε = 1e-5); a lane
+    with |F[x]| > θ has the exact sign (docs/proofs.md, "Sign tests")."""
+    unit = sympy.expand((1 + eps) * E_sign / (eps * L**power))
+    K = sympy.ceiling(unit.subs(eps, EPS_MAX))
+    return sympy.Integer(K) * eps * L**power
 
 
 class _Impure(Exception):
@@ -186,17 +196,20 @@ class _Run:
             self.fail(f"special.line{chk.line}", chk, str(e))
 
     def sign(self, chk) -> None:
-        """A sign test: the lower bound on |x| that protects it (section 3, case 2)."""
+        """A sign test: the lower bound on |x| that protects it (section 3, case 2), or,
+        for a predicate declared "sign exact or undecided", its filter threshold. The
+        error is the sign bound (docs/proofs.md, "Sign tests")."""
         x = chk.lhs
         lab = label(x)
         try:
-            E = chk.error()  # E[x] + E[0]
+            E = chk.error()  # E_sign[x] + E[0]
         except InvalidBound as e:
             self.fail(f"sign[{_ids([lab])}]", chk, f"no error bound: {e}")
             return
-        R_x = bounds(x).R
+        R_x = bounds(x, sign=True).R
         prot = self.protected_by_check.get(id(x))
         declared = self.declared.protected.get((self.dim, self.alg), {})
+        filtered = self.declared.filtered.get((self.dim, self.alg))
         if R_x is not None:
             key = ("relative", sympy.srepr(R_x))
             entry = self.signs.setdefault(key, {"labels": [], "lines": [], "kind": "relative",
@@ -217,10 +230,18 @@ class _Run:
                                                 "B": b.expr(self.v), "E": E,
                                                 "why": f"|x| > {b.text}",
                                                 "section": b.section})
+        elif filtered is not None and (x.name in filtered or "*" in filtered):
+            theta = filtered.get(x.name)
+            key = ("filter", x.name if theta is not None else None, sympy.srepr(E))
+            entry = self.signs.setdefault(key, {
+                "labels": [], "lines": [], "kind": "filter", "E": E,
+                "theta": theta.expr(self.v) if theta is not None
+                else sign_threshold(E, x.p), "declared": theta is not None})
         else:
             self.fail(f"sign[{_ids([lab])}]", chk,
-                      "unprotected sign test: no '|x| ≤ T' rejection before it and no "
-                      "declared geometric lower bound on |x|")
+                      "unprotected sign test: no '|x| ≤ T' rejection before it, no "
+                      "declared geometric lower bound on |x|, and the predicate is not "
+                      "declared sign-exact-or-undecided (sign_filter)")
             return
         if lab not in entry["labels"]:
             entry["labels"].append(lab)
@@ -235,12 +256,32 @@ class _Run:
                 "R[x] < 1 (a relative error below 1 keeps the sign)",
                 [Inequality(sympy.Integer(1), e["R"])],
                 detail=f"R[x] ≤ {fmt(e['R'])}", lines=lines)
+        if e["kind"] == "filter":
+            return self.filter_constraint(e, labs, lines)
         c = Constraint(
             f"{dim}D.{alg}.sign[{labs}]", dim, alg, e["section"], "sign",
-            f"sign of x ∈ {{{', '.join(e['labels'])}}} exact: {e['why']} > E[x]",
-            [Inequality(e["B"], e["E"])], detail=f"E[x] = {fmt(e['E'])}", lines=lines)
+            f"sign of x ∈ {{{', '.join(e['labels'])}}} exact: {e['why']} > E_sign[x]",
+            [Inequality(e["B"], e["E"])], detail=f"E_sign[x] = {fmt(e['E'])}", lines=lines)
         c.info.update(error=e["E"], bound=e["B"], quantities=list(e["labels"]),
                       tol=e.get("tol"))
+        return c
+
+    def filter_constraint(self, e: dict, labs: str, lines: tuple) -> Constraint:
+        """"Sign exact or undecided" (docs/proofs.md, "Sign tests"): a lane with
+        |F[x]| > θ is decided by the sign of F[x], any other is undecided; sound when
+        θ ≥ (1 + ε)·E_sign[x] (|y| ≥ |F[x]|/(1 + ε) for the value y the last operation
+        rounds)."""
+        dim, alg = self.dim, self.alg
+        theta, E = e["theta"], e["E"]
+        how = "declared" if e["declared"] else "derived"
+        c = Constraint(
+            f"{dim}D.{alg}.sign_filter[{labs}]", dim, alg, "3", "sign",
+            f"sign of x ∈ {{{', '.join(e['labels'])}}} exact or undecided: |F[x]| > θ = "
+            f"{fmt(theta)} ({how}) decides it, and θ ≥ (1 + ε)·E_sign[x]",
+            [Inequality(theta, sympy.expand((1 + eps) * E), strict=False,
+                        label="θ ≥ (1 + ε)·E_sign[x]")],
+            detail=f"E_sign[x] = {fmt(E)}", lines=lines)
+        c.info.update(error=E, bound=theta, quantities=list(e["labels"]), threshold=theta)
         return c
 
     def nonzero(self, qname: str, b) -> Constraint:

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 
 import sympy
 
-from fperr import Tracked
+from fperr import InvalidBound, Tracked
 from fperr import bounds as _fperr_bounds
 
 #: length-type tolerances (compared against distances), per dimension
@@ -15,15 +15,19 @@ LENGTHS = {2: ("sigma", "tau", "sigma_hat"),
            3: ("sigma", "tau", "delta", "gamma", "sigma_hat")}
 
 
-_BOUNDS_MEMO: dict[int, tuple] = {}
+_BOUNDS_MEMO: dict[tuple, tuple] = {}
 
 
-def bounds(t: Tracked, strict: bool = False):
-    """:func:`fperr.bounds`, memoised per Tracked object (its state never changes;
-    the memo keeps a reference so ids are not reused)."""
-    hit = _BOUNDS_MEMO.get(id(t))
+def bounds(t: Tracked, strict: bool = False, sign: bool = False):
+    """:func:`fperr.bounds`, memoised per Tracked object and ``sign`` (its state never
+    changes; the memo keeps a reference so ids are not reused)."""
+    key = (id(t), sign)
+    hit = _BOUNDS_MEMO.get(key)
     if hit is None or hit[0] is not t:
-        hit = _BOUNDS_MEMO[id(t)] = (t, _fperr_bounds(t))
+        try:
+            hit = _BOUNDS_MEMO[key] = (t, _fperr_bounds(t, sign=sign))
+        except InvalidBound:  # the sign bound of an expression with an invalid operand
+            hit = _BOUNDS_MEMO[key] = (t, _fperr_bounds(t))
     b = hit[1]
     if strict and not b.valid:
         return _fperr_bounds(t, strict=True)  # raises InvalidBound with the reason

@@ -297,7 +297,13 @@ def test_check_error_is_sum_of_side_errors():
     assert sympy.expand(chk.error() - (fperr.error(chk.lhs) + fperr.error(chk.rhs))) == 0
     sign = q["abar"] > 0
     assert sign.is_sign_test
-    assert sympy.expand(sign.error() - fperr.error(q["abar"])) == 0
+    # a sign test is decided with the sign bound: E without the last rounding, here the
+    # sum of the last difference's operand errors (docs/proofs.md, "Sign tests")
+    last = q["abar"]
+    assert last.rule in ("B", "D")
+    assert sympy.expand(sign.error() - sum(fperr.error(a) for a in last.args)) == 0
+    assert sympy.expand(sign.error() - fperr.bounds(last, sign=True).E) == 0
+    assert (fperr.error(last) - sign.error()).subs({eps: sympy.Rational(1, 10**5), L: 1}) > 0
     with pytest.raises(fperr.InvalidBound):        # L^1 against L^0, not a sign test
         (x <= const(1)).error()
     with pytest.raises(fperr.InvalidBound):
