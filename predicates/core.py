@@ -9,6 +9,7 @@ validates and converts the points, and runs the body in the context's session.
 from __future__ import annotations
 
 import functools
+import inspect
 from dataclasses import dataclass
 
 import numpy as np
@@ -52,6 +53,33 @@ class Predicate:
         self.bracket = bracket
         self.reach = reach
         functools.update_wrapper(self, fn)
+        self.__signature__ = self._call_signature(fn)
+        self.__doc__ = (fn.__doc__ or "").rstrip() + self._call_doc()
+
+    def _call_signature(self, fn) -> inspect.Signature:
+        """The signature a user calls, derived from the source: its points and ``tol``
+        (the source's parameters without ``ctx``), then the keyword ``ctx``."""
+        params = list(inspect.signature(fn).parameters.values())[1:]
+        point = "tuple[float, ...] | numpy.ndarray"
+        out = [q.replace(kind=inspect.Parameter.POSITIONAL_ONLY, annotation=point)
+               for q in params[:-1]]
+        out.append(params[-1].replace(kind=inspect.Parameter.POSITIONAL_ONLY,
+                                      annotation="predicates.Tolerances"))
+        out.append(inspect.Parameter("ctx", inspect.Parameter.KEYWORD_ONLY, default=None,
+                                     annotation="fperr.Context | None"))
+        return inspect.Signature(out, return_annotation="tuple[bool | numpy.ndarray, "
+                                                        "tuple | numpy.ndarray]")
+
+    def _call_doc(self) -> str:
+        k, pts = len(self.weight_names), ", ".join(self.points)
+        w = ", ".join(self.weight_names) or "none"
+        return (f"\n\n    Call: ``{self.name}({pts}, tol, *, ctx=None)``, each point a "
+                f"tuple of {self.dim} coordinates or an array of shape (..., {self.dim}) "
+                "(numpy's gufunc convention: leading axes broadcast). Returns ``(hit, "
+                f"weights)``: a bool and a tuple of {k} numbers ({w}), or arrays of shapes "
+                f"(...) and (..., {k}). ``tol``: ``predicates.tolerances({self.dim}, L_a, "
+                "L_b, dtype)``; ``ctx``: a number system (fperr.context), by default "
+                "the inputs' own.")
 
     def __repr__(self):
         return f"<predicate {self.dim}D {self.name}({', '.join(self.points)}, tol)>"

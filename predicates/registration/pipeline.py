@@ -60,7 +60,7 @@ import time
 import warnings
 from concurrent.futures import ThreadPoolExecutor
 from functools import partial
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -78,7 +78,10 @@ from predicates.registration.plan.resolution import (
     shortest_edge, t_plus)
 from predicates.registration.result.intersection import IntersectionResult
 
-__all__ = ["CHUNK", "PLAN_STAGES", "intersect", "intersect_files"]
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike, DTypeLike
+
+__all__ = ["CHUNK", "MeshLike", "PLAN_STAGES", "intersect", "intersect_files"]
 
 #: Pairs per predicate batch (bounds the gathered coordinates and temporaries).
 CHUNK = 1 << 17
@@ -87,17 +90,26 @@ CHUNK = 1 << 17
 PLAN_STAGES = ("plan_validate", "plan_boxes", "refine", "plan_scale", "plan_report")
 
 
-def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: bool = False,
-              chunk: int = CHUNK, refine_cut: bool = True, strict: bool = False,
-              memory_limit: int | None = None, partitions=None, scheduler=None,
-              sim_region=None, cut_region=None, tolerances=None,
+#: what a mesh argument of :func:`intersect` may be
+MeshLike = "tuple[ArrayLike, ArrayLike] | meshio.Mesh | pyvista.DataSet | trimesh.Trimesh"
+
+
+def intersect(sim: MeshLike | ArrayLike, cut: MeshLike | ArrayLike,
+              cut_points: ArrayLike | None = None, cut_cells: ArrayLike | None = None,
+              /, *, dtype: DTypeLike = np.float64, tolerance_scale: float = 1.0,
+              refine_cut: bool = True, strict: bool = False,
+              tolerances: str | os.PathLike | dict | None = None,
+              sim_region: int | str | None = None, cut_region: int | str | None = None,
+              progress: bool = False, chunk: int = CHUNK, memory_limit: int | None = None,
+              partitions: int | str | None = None, scheduler: str | object | None = None,
               timeout: float | None = None) -> IntersectionResult:
     """Register the intersections of a simulation mesh with a cutting mesh.
 
-    ``intersect(sim_points, sim_cells, cut_points, cut_cells)``, ``intersect(sim_mesh,
-    cut_mesh)`` (``meshio.Mesh``, pyvista, trimesh; ``sim_region``/``cut_region``: a
-    gmsh physical group or cell block, by tag or name) or ``intersect((sim_points, sim_cells), (cut_points,
-    cut_cells))``. 2D: triangles (M, 3) vs segments (K, 2), points (N, 2); 3D:
+    ``intersect(sim_mesh, cut_mesh)``: each a ``(points, cells)`` pair, a ``meshio.Mesh``,
+    a pyvista grid or a trimesh (``sim_region``/``cut_region``: a gmsh physical group or
+    cell block, by tag or name); or the four arrays ``intersect(sim_points, sim_cells,
+    cut_points, cut_cells)`` (then ``sim`` and ``cut`` are the simulation mesh's points
+    and cells). 2D: triangles (M, 3) vs segments (K, 2), points (N, 2); 3D:
     tetrahedra (M, 4) vs triangles (K, 3), points (N, 3). An empty cutting mesh gives an
     empty result.
 
@@ -105,8 +117,8 @@ def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: b
     ``res.rounded_inputs`` says whether that rounded them). ``tolerance_scale``: 1 for the
     robust method, 0 for the naive zero-tolerance baseline (values in [0, 1]).
     ``progress``: a tqdm bar on stderr (shown after one second; of the kinds, or of the
-    partitions in a partitioned run). ``refine_cut``: refine
-    cutting cells coarser than the simulation cells they meet (conforming midpoint
+    partitions in a partitioned run). ``refine_cut``: refine cutting cells coarser than
+    the simulation cells they meet (conforming midpoint
     splits, :mod:`~predicates.registration.plan.refine`); the registered cutting ids then
     refer to ``res.cut_points`` / ``res.cut_cells``, the refined mesh (input points keep
     their ids; ``res.refinement`` maps back). ``strict``: raise
@@ -124,9 +136,11 @@ def intersect(*args, dtype=np.float64, tolerance_scale: float = 1.0, progress: b
     seconds a partitioned run on a dask.distributed scheduler waits for its tasks once
     submitted, then cancels them and raises
     :class:`~predicates.registration.partition.run.PartitionError` (as when a worker
-    dies under a task). Returns an
-    :class:`~predicates.registration.result.intersection.IntersectionResult`. See the module docstring.
+    dies under a task). Returns an :class:`~predicates.registration.IntersectionResult`.
     """
+    args = [sim, cut, cut_points, cut_cells]
+    while len(args) > 2 and args[-1] is None:  # the two-mesh form, or a bad count
+        args.pop()
     t0, c0 = time.perf_counter(), time.process_time()
     timings = {}
     serial = partitions is None and scheduler is None

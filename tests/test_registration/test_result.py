@@ -14,6 +14,7 @@ import pytest
 import predicates
 from predicates.registration.pictures.demo import degenerate_cases
 from predicates.registration.examples import example
+from predicates.registration.result.pairs import KIND_CODES
 from predicates.tolerance_table import TABLES
 
 
@@ -79,15 +80,77 @@ def test_points_without_arguments_and_plain_data():
         assert np.allclose(np.reshape(back["pairs"][k]["points"], (-1, 3)), res[k].points())
 
 
-def test_dataframe():
+def test_dataframe_has_flat_columns():
+    """One row per pair, flat named columns (ids −1 padded, weights 0 padded), equal to
+    the KindPairs arrays row by row."""
     pd = pytest.importorskip("pandas")
     _, res = run("circle", 5)
     df = res.to_dataframe()
     assert isinstance(df, pd.DataFrame) and len(df) == res.total
+    assert list(df.columns) == ["kind", "sim_cell", "sim_0", "sim_1", "sim_2", "cut_0",
+                                "cut_1", "w_sim_0", "w_sim_1", "w_sim_2", "w_cut_0",
+                                "w_cut_1", "x", "y"]
     assert df["kind"].value_counts().to_dict() == {k: n for k, n in res.counts.items()}
-    row = df[df["kind"] == "edge_edge"].iloc[0]
-    p = res["edge_edge"]
-    assert row["sim_ids"] == tuple(p.sim[0]) and (row["x"], row["y"]) == tuple(p.points()[0])
+    for kind in res.kinds:
+        p, rows = res[kind], df[df["kind"] == kind]
+        i, j = p.sim.shape[1], p.cut.shape[1]
+        assert np.array_equal(rows[[f"sim_{c}" for c in range(i)]].to_numpy(), p.sim)
+        assert (rows[[f"sim_{c}" for c in range(i, 3)]].to_numpy() == -1).all()
+        assert np.array_equal(rows[[f"cut_{c}" for c in range(j)]].to_numpy(), p.cut)
+        assert np.array_equal(rows[[f"w_sim_{c}" for c in range(i)]].to_numpy(),
+                              p.sim_weights.astype(float))
+        assert np.array_equal(rows[["x", "y"]].to_numpy(), p.points())
+        assert np.array_equal(rows["sim_cell"].to_numpy(), p.sim_cell)
+
+
+@pytest.mark.parametrize("name,n", [("circle", 6), ("sphere", 3), ("plane", 3)])
+def test_sim_cell_is_the_lowest_cell_holding_the_primitive(name, n):
+    """KindPairs.sim_cell against the definition, by brute force over all cells."""
+    _, res = run(name, n)
+    cells = [set(c) for c in res.sim_cells.tolist()]
+    for kind in res.kinds:
+        p = res[kind]
+        for row, cell in zip(p.sim.tolist(), p.sim_cell.tolist()):
+            want = next(c for c, vs in enumerate(cells) if set(row) <= vs)
+            assert cell == want, (kind, row)
+
+
+def test_result_is_a_mapping_of_kinds():
+    from collections.abc import Mapping
+
+    _, res = run("circle", 5)
+    assert isinstance(res, Mapping)
+    d = dict(res)
+    assert list(d) == list(res.kinds) and all(d[k] is res[k] for k in res.kinds)
+    assert set(res.keys()) == set(res.kinds) and res.get("no_such_kind") is None
+    assert res == res and res != run("circle", 5)[1]  # a result equals only itself
+
+
+def test_paraview_arrays_by_kind_name(tmp_path):
+    """Per-kind 0/1 point arrays named by the kind besides the codes, through a VTU."""
+    import meshio
+
+    _, res = run("sphere", 3)
+    path = tmp_path / "hits.vtu"
+    meshio.write(path, res.to_meshio())
+    back = meshio.read(path)
+    codes = back.point_data["kind"]
+    for kind in res.kinds:
+        flag = back.point_data[f"is_{kind}"]
+        assert flag.dtype == np.uint8 and set(np.unique(flag)) <= {0, 1}
+        assert flag.sum() == len(res[kind]) == (codes == KIND_CODES[kind]).sum()
+    assert np.array_equal(back.point_data["sim_cell"],
+                          np.concatenate([res[k].sim_cell for k in res.kinds]))
+
+
+def test_scale_exponent_is_what_the_summary_says():
+    """input coordinates = used × 2^scale_exponent; the summary prints the factor used."""
+    ex = example("circle", 4)
+    (sp, sc), (cp, cc) = ex["sim"], ex["cut"]
+    res = predicates.intersect(sp * 2.0 ** 40, sc, cp * 2.0 ** 40, cc)
+    e = res.scale_exponent
+    assert e > 30 and f"coordinates × 2^{-e} (exact; scale_exponent = {e}" in str(res)
+    assert res.tolerances.L == predicates.intersect(sp, sc, cp, cc).tolerances.L * 2.0 ** 40
 
 
 def test_repr_len_iteration():

@@ -4,77 +4,15 @@ registered pairs per kind, readable summary, consistency counts, analysis and ex
 from __future__ import annotations
 
 import itertools
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from predicates.registration.result import consistency
-from predicates.registration.portable import weighted_sum
+from predicates.registration.result import consistency, export
+from predicates.registration.result.pairs import KIND_CODES, KindPairs
 
 __all__ = ["KIND_CODES", "IntersectionResult", "KindPairs"]
-
-#: one code per kind name, the same in 2D and 3D (0: none), stored with its legend
-KIND_CODES = {"vertex_vertex": 1, "vertex_edge": 2, "edge_vertex": 3, "edge_edge": 4,
-              "triangle_vertex": 5, "vertex_triangle": 6, "edge_triangle": 7,
-              "triangle_edge": 8, "tetrahedron_vertex": 9}
-
-
-@dataclass
-class KindPairs:
-    """The registered pairs of one kind (e.g. ``"edge_triangle"``).
-
-    ``sim`` (m, i+1) and ``cut`` (m, j+1): vertex ids (rows of the input point arrays)
-    of the simulation and cutting primitives; ``sim_weights`` / ``cut_weights``: the
-    barycentric weights of the intersection point on each primitive, column by column
-    for the ids beside them (a vertex has weight [1]). Within a primitive, vertices are
-    listed in lexicographic order of their coordinates (the order the predicate saw
-    them), rows are sorted by ids.
-
-    ``candidates``: pairs proposed by the broad phase; ``suppressed``: of those, pairs
-    skipped because a sub-pair was registered at a lower level; the rest were tested.
-    """
-
-    kind: str
-    sim: np.ndarray
-    cut: np.ndarray
-    sim_weights: np.ndarray
-    cut_weights: np.ndarray
-    candidates: int = 0
-    suppressed: int = 0
-    _points: tuple | None = field(default=None, repr=False, compare=False)
-
-    def __len__(self):
-        return len(self.sim)
-
-    def __repr__(self):
-        return (f"<KindPairs {self.kind}: {len(self)} registered of {self.tested} tested "
-                f"({self.candidates} candidates)>")
-
-    @property
-    def tested(self) -> int:
-        return self.candidates - self.suppressed
-
-    def keys(self) -> set:
-        """The pairs as a set of (sorted sim ids, sorted cut ids) tuples."""
-        s, c = np.sort(self.sim, axis=1), np.sort(self.cut, axis=1)
-        return {(tuple(a), tuple(b)) for a, b in zip(s.tolist(), c.tolist())}
-
-    def points(self, points: np.ndarray | None = None, side: str = "sim") -> np.ndarray:
-        """Intersection points Σ wᵢ·xᵢ on the simulation (``side="sim"``) or cutting
-        primitive, in float64 (m, dim): from the result's own meshes, or from
-        ``points`` (that side's point array) when given."""
-        if side not in ("sim", "cut"):
-            raise ValueError(f"side must be 'sim' or 'cut', got {side!r}")
-        ids, w = (self.sim, self.sim_weights) if side == "sim" else (self.cut, self.cut_weights)
-        if points is None:
-            if self._points is None:
-                raise ValueError("these pairs are not attached to a result: pass the points")
-            points = self._points[0 if side == "sim" else 1]
-        points = np.asarray(points, dtype=np.float64)
-        if len(ids) == 0:
-            return np.zeros((0, points.shape[1]))
-        return weighted_sum(w, points[ids])
-
 
 def _input_units(tol, e: int, dim: int):
     """The :class:`~predicates.Tolerances` ``tol`` (for coordinates scaled by 2^-e) in
@@ -91,8 +29,8 @@ def _input_units(tol, e: int, dim: int):
     return Tolerances(tol.dim, L, tol.eps, tol.ctx, vals, table)
 
 
-@dataclass
-class IntersectionResult:
+@dataclass(eq=False)
+class IntersectionResult(Mapping):
     """Registered intersections of a simulation mesh with a cutting mesh.
 
     A mapping from kind name to :class:`KindPairs`: ``res.kinds`` (registration order),
@@ -136,6 +74,11 @@ class IntersectionResult:
         self.notes = list(self.notes)
         for p in self.pairs.values():
             p._points = (self.sim_points, self.cut_points)
+            p._sim_cells = self.sim_cells
+
+    # arrays make field-wise equality meaningless: a result equals only itself
+    __eq__ = object.__eq__
+    __hash__ = object.__hash__
 
     # -- mapping over kinds ----------------------------------------------------------
     def __getitem__(self, kind: str) -> KindPairs:
@@ -155,6 +98,8 @@ class IntersectionResult:
         return kind in self.pairs
 
     def items(self):
+        """[(kind, KindPairs)] in registration order (a list, as before; ``dict(res)``
+        and the rest of ``collections.abc.Mapping`` work too)."""
         return [(k, self.pairs[k]) for k in self.kinds]
 
     @property
@@ -188,11 +133,11 @@ class IntersectionResult:
     def _cut_mask(self, kinds) -> np.ndarray:
         """(C,) bool: cells with a registered simulation primitive of ``kinds`` on one of
         their faces."""
-        masks = self._cut_masks(kinds)
+        masks = self.cut_masks(kinds)
         return np.logical_or.reduce(list(masks.values())) if masks else \
             np.zeros(len(self.sim_cells), dtype=bool)
 
-    def _cut_masks(self, kinds) -> dict:
+    def cut_masks(self, kinds) -> dict:
         """{kind: (C,) bool} for every kind of ``kinds`` with pairs. Only the cells with a
         vertex on a registered primitive are examined (one gather over the cells), and
         each face width is formed once for all kinds: the cost follows the cut."""
@@ -219,53 +164,17 @@ class IntersectionResult:
 
     def to_dict(self, pairs: bool = False) -> dict:
         """Plain data (JSON-ready): sizes, counts per kind, tolerances in input units,
-        notes, timings (and with ``pairs=True`` the ids, weights and points of every
-        pair). A ``resolution`` report is included when the run made one."""
-        out = {"dim": self.dim, "dtype": np.dtype(self.dtype).name,
-               "naive": self.tolerance_scale == 0, "tolerance_scale": self.tolerance_scale,
-               "simulation_cells": len(self.sim_cells), "cutting_cells": len(self.cut_cells),
-               "counts": self.counts, "total": self.total,
-               "candidates": {k: int(self.pairs[k].candidates) for k in self.kinds},
-               "tolerances": self.tolerances_input_units(), "L_a": float(self.L_a),
-               "L_b": float(self.L_b), "scale_exponent": int(self.scale_exponent),
-               "plane_z": self.plane, "rounded_inputs": bool(self.rounded_inputs),
-               "notes": list(self.notes) + self._status_notes(),
-               "timings": {k: v if isinstance(v, list) else float(v)  # list: partitions
-                           for k, v in self.timings.items()}}
-        res = getattr(self, "resolution", None)
-        if res is not None:
-            out["resolution"] = res.to_dict() if hasattr(res, "to_dict") else res
-        if pairs:
-            out["pairs"] = {k: {"sim": p.sim.tolist(), "cut": p.cut.tolist(),
-                                "sim_weights": p.sim_weights.astype(float).tolist(),
-                                "cut_weights": p.cut_weights.astype(float).tolist(),
-                                "points": p.points().tolist()} for k, p in self.items()}
-        return out
+        notes, timings (and with ``pairs=True`` the ids, weights, simulation cell and
+        points of every pair). A ``resolution`` report is included when the run made one."""
+        return export.to_dict(self, pairs)
 
     def to_dataframe(self):
-        """One row per registered pair: kind, sim_ids, cut_ids, sim_weights, cut_weights
-        and the point's x, y (, z). Needs pandas (not a dependency of fperr)."""
-        try:
-            import pandas as pd
-        except ImportError:
-            raise ImportError("to_dataframe needs pandas (pip install pandas); "
-                              "res.to_dict(pairs=True) gives the same as plain data") from None
-        cols = {"kind": [], "sim_ids": [], "cut_ids": [], "sim_weights": [],
-                "cut_weights": []}
-        xyz = []
-        for k, p in self.items():
-            cols["kind"] += [k] * len(p)
-            cols["sim_ids"] += [tuple(r) for r in p.sim.tolist()]
-            cols["cut_ids"] += [tuple(r) for r in p.cut.tolist()]
-            cols["sim_weights"] += [tuple(r) for r in p.sim_weights.astype(float).tolist()]
-            cols["cut_weights"] += [tuple(r) for r in p.cut_weights.astype(float).tolist()]
-            xyz.append(p.points())
-        X = np.concatenate(xyz) if xyz else np.zeros((0, self.dim))
-        for j, name in enumerate("xyz"[: self.dim]):
-            cols[name] = X[:, j]
-        df = pd.DataFrame(cols)
-        df["kind"] = pd.Categorical(df["kind"], categories=list(self.kinds))
-        return df
+        """One row per registered pair, flat columns: ``kind`` (categorical),
+        ``sim_cell``, ``sim_0..sim_d`` and ``cut_0..cut_{d-1}`` (vertex ids, −1 padded),
+        ``w_sim_*`` / ``w_cut_*`` (weights, 0 padded), the point's ``x, y (, z)`` and, on a
+        refined cutting mesh, ``cut_input_cell`` / ``w_cut_input_*`` (:meth:`cut_input`).
+        Needs pandas (not a dependency of fperr)."""
+        return export.to_dataframe(self)
 
     # -- consistency -----------------------------------------------------------------
     def location_counts(self, side: str = "cut") -> np.ndarray:
@@ -338,45 +247,22 @@ class IntersectionResult:
         return consistency.broken_walks(self)
 
     # -- export ------------------------------------------------------------------------
-    def _xyz(self, X: np.ndarray) -> np.ndarray:
-        X = np.asarray(X, dtype=np.float64)
-        if X.shape[1] == 2:  # a 2D mesh goes back into its plane z = c
-            X = np.column_stack([X, np.full(len(X), self.plane or 0.0)])
-        return X
-
     def kind_legend(self) -> dict:
         """{kind name: code} of this dimension's kinds (:data:`KIND_CODES`)."""
         return {k: KIND_CODES[k] for k in self.kinds}
 
     def to_meshio(self):
-        """The intersection points as a ``meshio.Mesh`` of vertex cells, with point data
-        ``kind`` (code of :data:`KIND_CODES`, the same in 2D and 3D; its legend is the
-        field data {kind name: [code]}), ``sim_ids`` / ``cut_ids`` (vertex ids of the
-        pair's primitives, −1 padded) and ``sim_weights`` / ``cut_weights``. Points are
-        Σ wᵢ·xᵢ on the simulation primitive, in 3D (a 2D mesh in its plane z = c). When
-        the cutting mesh was refined (:attr:`cut_refined`), ``cut_ids`` number the refined
-        mesh's points, and ``cut_input_cell`` / ``cut_input_weights`` give each point on
-        the cutting mesh as given (:meth:`cut_input`)."""
-        import meshio
-
-        pts, kind, sid, cid, sw, cw = [], [], [], [], [], []
-        ws, wc = self.dim + 1, self.dim
-        for k, p in self.items():
-            pts.append(p.points())
-            kind.append(np.full(len(p), KIND_CODES[k], dtype=np.int32))
-            sid.append(_pad(p.sim, ws, -1))
-            cid.append(_pad(p.cut, wc, -1))
-            sw.append(_pad(p.sim_weights.astype(np.float64), ws, 0.0))
-            cw.append(_pad(p.cut_weights.astype(np.float64), wc, 0.0))
-        X = self._xyz(np.concatenate(pts) if pts else np.zeros((0, self.dim)))
-        cells = [("vertex", np.arange(len(X), dtype=np.int64)[:, None])]
-        data = {"kind": np.concatenate(kind), "sim_ids": np.concatenate(sid),
-                "cut_ids": np.concatenate(cid), "sim_weights": np.concatenate(sw),
-                "cut_weights": np.concatenate(cw)}
-        if self.cut_refined:
-            data.update(self._cut_input_data())
-        legend = {k: np.array([c], dtype=np.int32) for k, c in self.kind_legend().items()}
-        return meshio.Mesh(X, cells, point_data=data, field_data=legend)
+        """The intersection points as a ``meshio.Mesh`` of vertex cells (for ParaView),
+        with point data ``kind`` (code of :data:`KIND_CODES`, the same in 2D and 3D; its
+        legend is the field data {kind name: [code]}), ``is_<kind>`` (0/1 per kind, to
+        colour or threshold by name), ``sim_ids`` / ``cut_ids`` (vertex ids of the pair's
+        primitives, −1 padded), ``sim_weights`` / ``cut_weights`` and ``sim_cell``
+        (:attr:`KindPairs.sim_cell`). Points are Σ wᵢ·xᵢ on the simulation primitive, in
+        3D (a 2D mesh in its plane z = c). When the cutting mesh was refined
+        (:attr:`cut_refined`), ``cut_ids`` number the refined mesh's points, and
+        ``cut_input_cell`` / ``cut_input_weights`` give each point on the cutting mesh as
+        given (:meth:`cut_input`)."""
+        return export.to_meshio(self)
 
     @property
     def cut_refined(self) -> bool:
@@ -401,37 +287,16 @@ class IntersectionResult:
                              len(self.cut_cells), len(self.cut_points))
         return ref.input_weights(p.cut, p.cut_weights)
 
-    def _cut_input_data(self) -> dict:
-        cells, weights = [], []
-        for k in self.kinds:
-            c, w = self.cut_input(k)
-            cells.append(c)
-            weights.append(w)
-        return {"cut_input_cell": np.concatenate(cells),
-                "cut_input_weights": np.concatenate(weights)}
-
     def sim_mesh(self):
         """The simulation mesh as a ``meshio.Mesh`` with cell data to threshold on:
         ``cut`` (1 for the cells of :meth:`intersected_cells`), ``cut_kinds`` (bit
         code−1 set for every kind cutting the cell) and ``cut_by_<kind>`` (0/1 per kind);
         field data: the kind legend {name: [code]}."""
-        import meshio
-
-        data = {}
-        bits = np.zeros(len(self.sim_cells), dtype=np.int32)
-        masks = self._cut_masks(self.kinds)
-        for k in self.kinds:
-            m = masks.get(k, np.zeros(len(self.sim_cells), dtype=bool))
-            data[f"cut_by_{k}"] = m.astype(np.int8)
-            bits |= m.astype(np.int32) << (KIND_CODES[k] - 1)
-        data = {"cut": (bits != 0).astype(np.int8), "cut_kinds": bits, **data}
-        ctype = "tetra" if self.dim == 3 else "triangle"
-        legend = {k: np.array([c], dtype=np.int32) for k, c in self.kind_legend().items()}
-        return meshio.Mesh(self._xyz(self.sim_points), [(ctype, self.sim_cells)],
-                           cell_data={k: [v] for k, v in data.items()}, field_data=legend)
+        return export.sim_mesh(self)
 
     # -- text --------------------------------------------------------------------------
-    def _status_notes(self) -> list:
+    def status_notes(self) -> list:
+        """Notes on what the run found: an empty cutting mesh, no intersections and why."""
         if len(self.cut_cells) == 0:
             return ["the cutting mesh is empty: nothing to register"]
         if self.total:
@@ -466,10 +331,11 @@ class IntersectionResult:
             lines.append(f"NAIVE BASELINE: tolerances × {self.tolerance_scale:g}")
         if self.rounded_inputs:
             lines.append(f"note: input coordinates were rounded to {self.dtype}")
-        lines += [f"note: {n}" for n in self.notes + self._status_notes()]
+        lines += [f"note: {n}" for n in self.notes + self.status_notes()]
         tu = self.tolerances_input_units()
         lines.append(f"L_a = {self.L_a:.6g}, L_b = {self.L_b:.6g}, L = {tu['L']:.6g}; "
-                     f"coordinates scaled by 2^{-self.scale_exponent} (exact)")
+                     f"coordinates × 2^{-self.scale_exponent} (exact; scale_exponent = "
+                     f"{self.scale_exponent}: input = used × 2^scale_exponent)")
         lines.append("tolerances (input units): " + ", ".join(
             f"{n} = {v:.4g}" for n, v in tu.items() if n != "L"))
         if self.resolution is not None:
@@ -505,9 +371,3 @@ def _partition_lines(parts) -> list[str]:
     return [f"partitions: {tasks} on {workers}, peak memory "
             f"per worker {mem}; {sent:.3g} MB sent to them, {back:.3g} MB back "
             f"(candidates, suppressed, tested: summed over the partitions)"]
-
-
-def _pad(a, width, fill):
-    out = np.full((len(a), width), fill, dtype=a.dtype)
-    out[:, : a.shape[1]] = a
-    return out
