@@ -129,15 +129,28 @@ class SplitMesh:
         return meshio.Mesh(X, [(CELL_TYPE[self.dim], self.cells.astype(np.int64))],
                            cell_data=cd, point_data={"node_origin": self.node_origin})
 
+    def summary(self) -> dict:
+        """The sizes of the split (JSON-ready). ``split_cells``: original cells cut into
+        several fragments — not the cells the cut merely meets (a cell touched at a
+        vertex, or crossed on one edge only, stays one fragment), which is what
+        ``IntersectionResult.intersected_cells`` (``fperr intersect --sim-output``)
+        counts."""
+        return {"dim": self.dim, "cells": len(self.cells),
+                "original_cells": int(self.cell_origin.max(initial=-1)) + 1,
+                "split_cells": int(np.count_nonzero(np.bincount(self.cell_origin) > 1)),
+                "nodes": len(self.points), "vertices": len(self.on_cut),
+                "vertices_on_cut": int(self.on_cut.sum()),
+                "cells_with_severed_edges": int(self.severed.any(axis=1).sum()),
+                "pieces": self.n_pieces, "intersection_points": len(self.hit_points)}
+
     def __str__(self):
-        n_orig = int(self.cell_origin.max(initial=-1)) + 1
-        split = int(np.count_nonzero(np.bincount(self.cell_origin) > 1))
-        return (f"{self.dim}D split: {len(self.cells)} cells from {n_orig} "
-                f"({split} cut into several fragments), {len(self.points)} nodes from "
-                f"{len(self.on_cut)} vertices ({int(self.on_cut.sum())} on the cut, "
-                f"{int(self.severed.any(axis=1).sum())} cells with severed edges), "
+        s = self.summary()
+        return (f"{self.dim}D split: {s['cells']} cells from {s['original_cells']} "
+                f"({s['split_cells']} split into several fragments), {s['nodes']} nodes "
+                f"from {s['vertices']} vertices ({s['vertices_on_cut']} on the cut, "
+                f"{s['cells_with_severed_edges']} cells with severed edges), "
                 f"{self.n_pieces} piece{'s' if self.n_pieces != 1 else ''}, "
-                f"{len(self.hit_points)} intersection points")
+                f"{s['intersection_points']} intersection points")
 
 
 def _hits(res, d: int):
@@ -206,19 +219,12 @@ def split_mesh(res) -> SplitMesh:
 SPLIT_FORMATS = (".vtu",)  # meshio's legacy .vtk writer drops field data
 
 
-def cut_files(sim, cut, *, output=None, png=None, explode: float = 0.0,
-              dtype: str = "float64", progress: bool = False, **options):
-    """``fperr cut``: register two mesh files, split the simulation mesh, write the split
-    mesh (``output``: .vtu, which keeps its cell data) and a picture (``png``). Every
-    argument is checked before any work (an output naming an input is refused), inputs
-    are read under guard, files are written atomically: a refused run writes nothing.
-    ``options``: as in :func:`~predicates.registration.intersect`. Returns
-    (IntersectionResult, SplitMesh)."""
+def check_cut_outputs(sim, cut, *, output=None, png=None, explode: float = 0.0) -> None:
+    """The checks of :func:`cut_files` that need no work: the outputs' formats and
+    directories (never an input file) and ``explode``; ValueError naming the problem."""
     import os
 
-    from .files import check_outputs, load_pair
-    from .io_write import write_atomic, write_meshio
-    from .pipeline import intersect
+    from .files import check_outputs, input_roles
 
     if output is not None:
         ext = os.path.splitext(os.fspath(output))[1].lower()
@@ -228,9 +234,24 @@ def cut_files(sim, cut, *, output=None, png=None, explode: float = 0.0,
                              f"{' or '.join(SPLIT_FORMATS)}")
     if not np.isfinite(explode) or explode < 0:
         raise ValueError(f"explode must be a finite number >= 0, got {explode}")
-    check_outputs({"SIM": sim, "CUT": cut}, {("-o", "mesh"): output, ("--png", "plot"): png})
-    arrays = load_pair(sim, cut, dtype=dtype)
-    res = intersect(*arrays, dtype=np.dtype(dtype), progress=progress, **options)
+    check_outputs(input_roles(sim, cut), {("-o", "mesh"): output, ("--png", "plot"): png})
+
+
+def cut_files(sim, cut, *, output=None, png=None, explode: float = 0.0, **options):
+    """``fperr cut``: register two mesh files, split the simulation mesh, write the split
+    mesh (``output``: .vtu, which keeps its cell data) and a picture (``png``). Every
+    argument is checked before any work (an output naming an input is refused), inputs
+    are read under guard, files are written atomically: a refused run writes nothing.
+    ``sim``: a file or the pieces of one mesh; ``options``: as in
+    :func:`~predicates.registration.intersect_files` (dtype, progress, regions,
+    refine_cut, strict, tolerances, partitions/scheduler/timeout), so that ``fperr cut``
+    registers exactly as ``fperr intersect`` does. Returns (IntersectionResult,
+    SplitMesh)."""
+    from .io_write import write_atomic, write_meshio
+    from .pipeline import intersect_files
+
+    check_cut_outputs(sim, cut, output=output, png=png, explode=explode)
+    res = intersect_files(sim, cut, **options)
     sm = res.split()
     if output is not None:
         write_meshio(output, sm.to_meshio(explode=explode))

@@ -83,6 +83,8 @@ def build_parser(argv: list[str]) -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for add in _NATIVE:
         add(sub)
+    for p in sub.choices.values():  # its own usage in its errors (main, run functions)
+        p.set_defaults(_parser=p)
     return parser
 
 
@@ -93,7 +95,9 @@ def main(argv: list[str] | None = None) -> int:
     1 and one line saying so and what to send (:func:`internal_error`); ``--debug``
     prints its traceback too."""
     argv = sys.argv[1:] if argv is None else list(argv)
-    args = build_parser(argv).parse_args(argv)
+    args, extra = build_parser(argv).parse_known_args(argv)
+    if extra:  # argparse would name the top level's usage; the command's is the useful one
+        args._parser.error(f"unrecognized arguments: {' '.join(extra)}")
     try:
         status = int(args._run(args) or 0)
         sys.stdout.flush()  # a closed pipe shows up here, not at interpreter exit
