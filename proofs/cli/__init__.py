@@ -61,6 +61,14 @@ def _versions() -> str:
             + ", ".join(one(n) for n in _REPORTED))
 
 
+class _Version(argparse.Action):
+    """--version, read only when asked (the metadata of every library takes ~60 ms)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(_versions())
+        parser.exit()
+
+
 def internal_error(command: str | None, exc: BaseException) -> str:
     """The one line of an internal error: an exception no input check expected, so a bug
     in fperr (exit status 1, never 2: the input may well be right)."""
@@ -75,7 +83,7 @@ def build_parser(argv: list[str]) -> argparse.ArgumentParser:
     """The parser of ``fperr`` (no library is imported: each run function imports its own)."""
     parser = argparse.ArgumentParser(prog="fperr", description=_DESCRIPTION,
                                      formatter_class=_RAW)
-    parser.add_argument("--version", action="version", version=_versions(),
+    parser.add_argument("--version", action=_Version, nargs=0,
                         help="show the versions of fperr, Python and the libraries it uses")
     parser.add_argument("--debug", action="store_true",
                         help="on an internal error (a bug), print the Python traceback "
