@@ -257,3 +257,17 @@ def test_cut_cells_counts_name_what_they_count(tmp_path, cube_plane):
     assert doc["split"]["split_cells"] == split == 0 and doc["split"]["pieces"] == 2
     assert doc["outputs"]["p.vtu"].startswith(f"384 cells; 0 of the {met} cells the cut "
                                               f"meets split")
+
+
+def test_synthesize_quiet_prints_nothing_on_stderr(tmp_path):
+    """--quiet: no bar; the user example's table (docs/examples) is what is cached."""
+    from proofs.synthesize import table_section
+
+    examples = ROOT / "docs" / "examples"
+    env = {**ENV, "PYTHONPATH": os.pathsep.join([str(ROOT), str(examples)])}
+    r = subprocess.run([sys.executable, "-m", "fperr", "synthesize", "--predicates",
+                        "incircle2d", "--quiet", "-o", "t.toml"], cwd=tmp_path, env=env,
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0 and r.stderr == "", r.stderr
+    assert table_section((tmp_path / "t.toml").read_text()) == \
+        table_section((examples / "incircle2d_synth.toml").read_text())
