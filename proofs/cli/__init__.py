@@ -21,7 +21,11 @@ __all__ = ["build_parser", "main", "report_main"]
 
 _DESCRIPTION = ("Robust intersections under floating point (Wang, Jiang, Schroeder, Teran),\n"
                 "with derived and verified error bounds. 'fperr COMMAND --help' shows the\n"
-                "options of a command.")
+                "options of a command.\n\n"
+                "Exit status: 0 done, 1 a failure the command names (a constraint, a\n"
+                "refused or unfinished run) or an internal error (a bug: one line saying\n"
+                "so and what to report; --debug adds the traceback), 2 bad arguments or\n"
+                "unusable input (one line on stderr, nothing written).")
 
 
 # -- the command -----------------------------------------------------------------------

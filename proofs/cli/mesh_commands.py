@@ -7,6 +7,7 @@ import sys
 from .common import RAW as _RAW
 from .common import _at_least_1, _at_least_2, _partitions, _seconds, error as _error
 
+
 def _precision_and_quiet(p) -> None:
     p.add_argument("--dtype", choices=("float64", "float32"), default="float64",
                    help="working precision (default float64)")
