@@ -61,3 +61,36 @@ def _output_file(text: str) -> str:
         raise argparse.ArgumentTypeError(
             f"directory {path.parent} does not exist (create it first)")
     return text
+
+
+def output_as(*extensions: str, what: str, stdout: bool = False):
+    """argparse type of a file written in a format its name says: ``extensions`` (with
+    the dot) are the formats the option writes, ``what`` names them in the message;
+    ``stdout``: "-" is accepted too. Checked when the arguments are parsed, so a name
+    the command would not honour is refused (exit 2) before any work."""
+    def check(text: str) -> str:
+        import os
+
+        if text == "-":
+            if stdout:
+                return text
+            raise argparse.ArgumentTypeError(f"'-' (stdout) is not accepted for {what}: "
+                                             f"give a file name ending in "
+                                             f"{' or '.join(extensions)}")
+        _output_file(text)  # its directory first: the likelier mistake
+        ext = os.path.splitext(text)[1].lower()
+        if ext not in extensions:
+            raise argparse.ArgumentTypeError(
+                f"{text}: {what} is written as {' or '.join(extensions)}"
+                + (" (or '-' for stdout)" if stdout else "")
+                + f", not '{ext or 'no extension'}': name the file accordingly")
+        return text
+
+    return check
+
+
+def _at_least_0(text: str) -> int:
+    n = _integer(text)
+    if n < 0:
+        raise argparse.ArgumentTypeError(f"must be at least 0, got {n}")
+    return n

@@ -7,22 +7,130 @@ import sys
 from .common import RAW as _RAW
 from .common import _at_least_1, _at_least_2, _partitions, _seconds, error as _error
 
-def _mesh_files(p, pieces: bool = False) -> None:
-    if pieces:
-        p.add_argument("sim", nargs="+", metavar="SIM",
-                       help="simulation mesh file (triangles in 2D, tetrahedra in 3D), or "
-                            "several: the pieces of one mesh, merged where they share "
-                            "points")
-    else:
-        p.add_argument("sim", help="simulation mesh file (triangles in 2D, tetrahedra in 3D)")
-    p.add_argument("cut", metavar="CUT" if pieces else None,
-                   help="cutting mesh file (segments in 2D, triangles in 3D)")
-
 
 def _precision_and_quiet(p) -> None:
     p.add_argument("--dtype", choices=("float64", "float32"), default="float64",
                    help="working precision (default float64)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def _registration_options(p) -> None:
+    """The inputs and options of a registration, one group shared by ``fperr intersect``
+    and ``fperr cut`` (the same run feeds both: :func:`_register`)."""
+    p.add_argument("sim", nargs="+", metavar="SIM",
+                   help="simulation mesh file (triangles in 2D, tetrahedra in 3D), or "
+                        "several: the pieces of one mesh, merged where they share points")
+    p.add_argument("cut", metavar="CUT",
+                   help="cutting mesh file (segments in 2D, triangles in 3D)")
+    p.add_argument("--sim-region", metavar="TAG|NAME",
+                   help="use only this gmsh physical group (tag or name) or cell block "
+                        "(index) of SIM")
+    p.add_argument("--cut-region", metavar="TAG|NAME", help="the same for CUT")
+    _precision_and_quiet(p)
+    p.add_argument("--format", choices=("text", "json"), default="text",
+                   help="summary on stdout: text (default) or json (counts per kind, "
+                        "tolerances in input units, notes, timings)")
+    p.add_argument("--strict", action="store_true",
+                   help="refuse (exit 1, nothing written) when the tolerances are coarse for "
+                        "the elements near the cut, instead of warning on stderr")
+    p.add_argument("--no-refine-cut", action="store_true",
+                   help="use the cutting mesh as given (default: refine cutting cells "
+                        "coarser than the simulation cells they meet)")
+    p.add_argument("--tolerances", metavar="FILE",
+                   help="tolerance table (TOML/JSON as for fperr verify --tolerances, e.g. "
+                        "from fperr synthesize) instead of the paper's Figure 1/5")
+    p.add_argument("--workers", type=_at_least_1, metavar="N",
+                   help="run in partitions on a local Dask cluster of N processes (same "
+                        "result; at most %d per CPU of this machine; needs pip install "
+                        "'fperr[dask]')" % WORKERS_PER_CPU)
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run in partitions on a running Dask cluster (e.g. tcp://host:8786)")
+    p.add_argument("--partitions", type=_partitions, metavar="K",
+                   help="with --workers/--scheduler: the number of spatial partitions (tasks), "
+                        "or 'auto' (default: one per worker thread, at least one per million "
+                        "cells); more partitions hold less memory each")
+    p.add_argument("--timeout", type=_seconds, metavar="SECONDS",
+                   help="with --workers/--scheduler: cancel the partitions' tasks and exit 1 "
+                        "(nothing written) when they have not all finished this many seconds "
+                        "after submission (default: wait)")
+
+
+#: local worker processes allowed per CPU: more only compete for the CPUs (each takes
+#: memory and about a second to start), and a typo like --workers 100000 would hang
+#: starting them
+WORKERS_PER_CPU = 4
+
+
+def _cpus() -> int:
+    """The CPUs this process may run on (its affinity, else the machine's count)."""
+    import os
+
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def _check_workers(args) -> None:
+    """--workers within the machine (and within --partitions K), before any work."""
+    n = args.workers
+    if n is None:
+        return
+    cpus = _cpus()
+    if n > WORKERS_PER_CPU * cpus:
+        raise ValueError(f"--workers {n}: this machine has {cpus} CPU{'s' * (cpus != 1)}, "
+                         f"and more than {WORKERS_PER_CPU} local worker processes per CPU "
+                         f"only compete for them: give at most {WORKERS_PER_CPU * cpus}, or "
+                         f"--scheduler ADDRESS to run on a cluster")
+    if isinstance(args.partitions, int) and n > args.partitions:
+        raise ValueError(f"--workers {n} with --partitions {args.partitions}: only "
+                         f"{args.partitions} of the workers would have a partition to run: "
+                         f"give at most --workers {args.partitions}, or more partitions")
+
+
+def _register(args, work, check):
+    """Run ``work(**options)`` (the registration with the shared options of
+    :func:`_registration_options`) and map what goes wrong to the exit status: a refused
+    or unfinished run (``--strict``, the memory guard, lost workers, ``--timeout``) is 1,
+    bad input or arguments 2, each one line on stderr; resolution warnings are printed
+    as one line each. ``check()``: the command's own checks that need no work (its
+    outputs), run with the workers' check before a cluster is started or a file read.
+    Returns (None, work's result) or (status, None)."""
+    import warnings
+
+    from fperr.warnings import ResolutionError, ResolutionWarning
+    from predicates.registration.partition.run import PartitionError
+
+    cmd = args.command
+    table = None
+    if args.tolerances:
+        from proofs.tables import ToleranceFileError, load_overrides
+        try:
+            table = load_overrides(args.tolerances)
+        except ToleranceFileError as e:
+            return _error(cmd, e), None
+    dask_run = args.workers is not None or args.scheduler is not None
+    options = dict(dtype=args.dtype, progress=not args.quiet, strict=args.strict,
+                   refine_cut=not args.no_refine_cut, sim_region=args.sim_region,
+                   cut_region=args.cut_region, tolerances=table, timeout=args.timeout,
+                   partitions=(args.partitions or "auto") if dask_run else None)
+    try:
+        _check_workers(args)
+        check()
+        with _dask_client(args) as client, warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", ResolutionWarning)
+            out = work(**options, scheduler=client)
+    except (ResolutionError, PartitionError) as e:
+        # valid input this precision cannot resolve, or a partitioned run's tasks that
+        # did not finish (a worker died, the timeout): exit 1, nothing written
+        print(f"fperr {cmd}: error: {e}", file=sys.stderr)
+        return 1, None
+    except (ValueError, TypeError, OSError, ArithmeticError, ImportError, MemoryError) as e:
+        # bad input (meshes, paths): a message, never a traceback; nothing was written
+        return _error(cmd, e), None
+    for w in caught:  # one line each, no Python warning boilerplate
+        print(f"fperr {cmd}: warning: {w.message}", file=sys.stderr)
+    return None, out
 
 
 # -- intersect -------------------------------------------------------------------------
@@ -52,47 +160,19 @@ def _add_intersect(sub) -> None:
                 "exit status: 0 done (a coarse resolution is warned about on stderr),\n"
                 "1 refused by --strict or the memory guard, or a partitioned run whose\n"
                 "tasks did not finish (a worker lost, --timeout), 2 bad input or arguments"))
-    _mesh_files(p, pieces=True)
+    _registration_options(p)
     p.add_argument("-o", "--output", metavar="OUT.vtu",
                    help="write the intersection points (.vtu, for ParaView); with "
                         "--workers/--scheduler a name with {part} (hits_{part}.vtu) writes "
                         "one file per partition, each pair in the file of the partition "
                         "that owns it")
     p.add_argument("--sim-output", metavar="CELLS.vtu",
-                   help="write the simulation mesh with cut-cell data (.vtu)")
+                   help="write the simulation mesh with cut-cell data (.vtu): 'cut' marks "
+                        "every cell the cut meets (a registered pair on one of its "
+                        "vertices, edges, faces or inside)")
     p.add_argument("--plot", metavar="OUT.png", help="draw a 2D case (png, pdf or svg)")
-    p.add_argument("--sim-region", metavar="TAG|NAME",
-                   help="use only this gmsh physical group (tag or name) or cell block "
-                        "(index) of SIM")
-    p.add_argument("--cut-region", metavar="TAG|NAME", help="the same for CUT")
-    _precision_and_quiet(p)
     p.add_argument("--naive", action="store_true",
                    help="zero tolerances: the naive floating-point baseline, for comparison")
-    p.add_argument("--format", choices=("text", "json"), default="text",
-                   help="summary on stdout: text (default) or json (counts per kind, "
-                        "tolerances in input units, notes, timings)")
-    p.add_argument("--strict", action="store_true",
-                   help="refuse (exit 1, nothing written) when the tolerances are coarse for "
-                        "the elements near the cut, instead of warning on stderr")
-    p.add_argument("--no-refine-cut", action="store_true",
-                   help="use the cutting mesh as given (default: refine cutting cells "
-                        "coarser than the simulation cells they meet)")
-    p.add_argument("--workers", type=_at_least_1, metavar="N",
-                   help="run in partitions on a local Dask cluster of N processes (same "
-                        "result; needs pip install 'fperr[dask]')")
-    p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="run in partitions on a running Dask cluster (e.g. tcp://host:8786)")
-    p.add_argument("--partitions", type=_partitions, metavar="K",
-                   help="with --workers/--scheduler: the number of spatial partitions (tasks), "
-                        "or 'auto' (default: one per worker thread, at least one per million "
-                        "cells); more partitions hold less memory each")
-    p.add_argument("--timeout", type=_seconds, metavar="SECONDS",
-                   help="with --workers/--scheduler: cancel the partitions' tasks and exit 1 "
-                        "(nothing written) when they have not all finished this many seconds "
-                        "after submission (default: wait)")
-    p.add_argument("--tolerances", metavar="FILE",
-                   help="tolerance table (TOML/JSON as for fperr verify --tolerances, e.g. "
-                        "from fperr synthesize) instead of the paper's Figure 1/5")
     p.set_defaults(_run=_run_intersect)
 
 
@@ -115,62 +195,56 @@ def _dask_client(args):
 
 
 def _run_intersect(args) -> int:
-    import warnings
-
-    from fperr.warnings import ResolutionError, ResolutionWarning
     from predicates.registration import intersect_files
-    from predicates.registration.partition.run import PartitionError
 
-    table = None
-    if args.tolerances:
-        from proofs.tables import ToleranceFileError, load_overrides
-        try:
-            table = load_overrides(args.tolerances)
-        except ToleranceFileError as e:
-            return _error("intersect", e)
     sim = args.sim[0] if len(args.sim) == 1 else args.sim  # one file, or the pieces
-    try:
-        dask_run = args.workers is not None or args.scheduler is not None
-        per_part = args.output is not None and "{part}" in args.output
+    per_part = args.output is not None and "{part}" in args.output
+    outputs = {"output": args.output, "plot": args.plot, "sim_output": args.sim_output}
+
+    def check():
+        from predicates.registration.io.files import check_outputs, input_roles
+
         if per_part:  # one file per partition: checked now, written after the run
-            _check_parts(args, dask_run)
-        outputs = {"output": args.output, "plot": args.plot, "sim_output": args.sim_output}
-        with _dask_client(args) as client, warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", ResolutionWarning)
-            res = intersect_files(sim, args.cut, **({} if per_part else outputs),
-                                  dtype=args.dtype,
-                                  naive=args.naive, progress=not args.quiet,
-                                  strict=args.strict, refine_cut=not args.no_refine_cut,
-                                  sim_region=args.sim_region, cut_region=args.cut_region,
-                                  partitions=(args.partitions or "auto") if dask_run else None,
-                                  scheduler=client,
-                                  tolerances=table, timeout=args.timeout)
-        if per_part:
-            n_parts = _write_parts(args, res)
-    except (ResolutionError, PartitionError) as e:
-        # valid input this precision cannot resolve, or a partitioned run's tasks that
-        # did not finish (a worker died, the timeout): exit 1, nothing written
-        print(f"fperr intersect: error: {e}", file=sys.stderr)
-        return 1
-    except (ValueError, TypeError, OSError, ArithmeticError, ImportError, MemoryError) as e:
-        # bad input (meshes, paths): a message, never a traceback; nothing was written
-        return _error("intersect", e)
-    for w in caught:  # one line each, no Python warning boilerplate
-        print(f"fperr intersect: warning: {w.message}", file=sys.stderr)
+            _check_parts(args, args.workers is not None or args.scheduler is not None)
+        else:
+            check_outputs(input_roles(sim, args.cut),
+                          {("-o", "mesh"): args.output, ("--plot", "plot"): args.plot,
+                           ("--sim-output", "mesh"): args.sim_output})
+
+    def work(**options):
+        res = intersect_files(sim, args.cut, **({} if per_part else outputs),
+                              naive=args.naive, **options)
+        return res, (_write_parts(args, res) if per_part else None)
+
+    status, out = _register(args, work, check)
+    if status is not None:
+        return status
+    res, n_parts = out
     points = f"{res.total} points" + (f" in {n_parts} files" if per_part else "")
+    cells = f"{len(res.sim_cells)} cells, {len(res.intersected_cells())} meet the cut"
     written = [(f, what) for f, what in ((args.output, points),
-                                         (args.sim_output, f"{len(res.sim_cells)} cells, "
-                                          f"{len(res.intersected_cells())} cut"),
+                                         (args.sim_output, cells),
                                          (args.plot, "plot")) if f]
+    return _summary(args, res, written)
+
+
+def _summary(args, res, written: list, split=None) -> int:
+    """Print the run's summary on stdout (text, or one JSON document) and the files
+    written; ``split``: ``fperr cut``'s split mesh."""
+    sim = args.sim[0] if len(args.sim) == 1 else args.sim
     if args.format == "json":
         import json
 
         d = res.to_dict()
+        if split is not None:
+            d["split"] = split.summary()
         d["inputs"] = {"sim": sim, "cut": args.cut}
         d["outputs"] = {f: what for f, what in written}
         print(json.dumps(d, indent=1))
         return 0
     print(res)
+    if split is not None:
+        print(split)
     for f, what in written:
         print(f"wrote {f} ({what})")
     return 0
@@ -220,36 +294,46 @@ def _add_cut(sub) -> None:
             "(rules: docs/split.md). -o writes the split mesh with cell data piece,\n"
             "cell_origin, material (bitmask of material corners), material_count and point\n"
             "data node_origin (.vtu: other formats drop cell or field data); --explode moves\n"
-            "the pieces apart in the written mesh and the picture; --png draws them."),
+            "the pieces apart in the written mesh and the picture; --png draws them.\n"
+            "The inputs and the registration's options are fperr intersect's (the same\n"
+            "run); 'split' counts the cells cut into several fragments, fewer than the\n"
+            "cells the cut meets (fperr intersect's 'cut': a cell touched at a vertex or\n"
+            "crossed on one edge only stays whole).\n\n"
+            "Exit status: 0 done, 1 refused (--strict, the memory guard) or unfinished\n"
+            "(a partitioned run), 2 bad arguments or unusable input (one line on stderr)."),
         epilog=("examples:\n"
                 "  fperr cut cube.vtu sphere.stl -o pieces.vtu --png pieces.png --explode 0.3\n"
                 "  fperr cut square.msh polyline.vtk -o pieces.vtu"))
-    _mesh_files(p)
+    _registration_options(p)
     p.add_argument("-o", "--output", metavar="PIECES.vtu",
                    help="write the split mesh with its cell data (.vtu)")
     p.add_argument("--explode", type=float, default=0.0, metavar="FACTOR",
                    help="move each piece by FACTOR x (its centroid - the mesh centroid), "
                         "in -o and --png (default 0; --png alone uses 0.3)")
     p.add_argument("--png", metavar="FILE", help="draw the pieces (png, pdf or svg)")
-    _precision_and_quiet(p)
     p.set_defaults(_run=_run_cut)
 
 
 def _run_cut(args) -> int:
-    from predicates.registration.split.files import cut_files
+    from predicates.registration.split.files import check_cut_outputs, cut_files
 
-    try:
-        res, sm = cut_files(args.sim, args.cut, output=args.output, png=args.png,
-                            explode=args.explode, dtype=args.dtype, progress=not args.quiet)
-    except (ValueError, TypeError, OSError, ArithmeticError) as e:
-        return _error("cut", e)
-    print(res)
-    print(sm)
-    if args.output:
-        print(f"wrote {args.output} ({len(sm.cells)} cells, {sm.n_pieces} pieces)")
-    if args.png:
-        print(f"wrote {args.png}")
-    return 0
+    sim = args.sim[0] if len(args.sim) == 1 else args.sim
+    outputs = dict(output=args.output, png=args.png, explode=args.explode)
+
+    def work(**options):
+        return cut_files(sim, args.cut, **outputs, **options)
+
+    status, out = _register(args, work, lambda: check_cut_outputs(sim, args.cut, **outputs))
+    if status is not None:
+        return status
+    res, sm = out
+    s = sm.summary()
+    written = [(f, what) for f, what in (
+        (args.output, f"{s['cells']} cells; {s['split_cells']} of the "
+                      f"{len(res.intersected_cells())} cells the cut meets split into "
+                      f"several fragments; {sm.n_pieces} pieces"),
+        (args.png, "plot")) if f]
+    return _summary(args, res, written, split=sm)
 
 
 # -- demo ------------------------------------------------------------------------------

@@ -7,7 +7,7 @@ import argparse
 import sys
 
 from .common import RAW as _RAW
-from .common import _output_file
+from .common import _at_least_0, _at_least_1, output_as
 from .common import error as _error
 
 # -- tables ----------------------------------------------------------------------------
@@ -83,6 +83,9 @@ def _formats(text: str) -> tuple[str, ...]:
     return formats
 
 
+#: the report (Markdown) of fperr verify --report and python -m proofs.report
+_REPORT_FILE = output_as(".md", what="the report (Markdown)", stdout=True)
+
 #: audit --dtype names (the same as intersect's and demo's) -> the audit's formats
 AUDIT_DTYPES = {"float64": "binary64", "float32": "binary32", "mp17": "mp17"}
 
@@ -114,11 +117,12 @@ or declaration. See proofs.verify for the constraints.
     parser.add_argument("--require-paper-argument", action="store_true",
                         help="fail when the paper's own 5.4.4 argument does not hold "
                              "for every ε (even if another encoded argument does)")
-    parser.add_argument("--report", metavar="PATH", nargs="?", const=REPORT_PATH,
-                        type=_output_file,
+    parser.add_argument("--report", metavar="PATH.md", nargs="?", const=REPORT_PATH,
+                        type=_REPORT_FILE,
                         help=f"also write the generated report (default: {REPORT_PATH} "
                              "in the current directory)")
-    parser.add_argument("--certificate", metavar="FILE", type=_output_file,
+    parser.add_argument("--certificate", metavar="FILE.json",
+                        type=output_as(".json", what="the certificate"),
                         help="also write a certificate of every decision, checkable with "
                              "python -m proofs.check_certificate FILE")
     parser.add_argument("--format", choices=("text", "json"), default="text",
@@ -151,7 +155,7 @@ def _user_systems(args, command: str):
 def _run_verify(args: argparse.Namespace) -> int:
     if args.report is not None:
         try:
-            _output_file(args.report)  # the default (const) is not checked by argparse
+            _REPORT_FILE(args.report)  # the default (const) is not checked by argparse
         except argparse.ArgumentTypeError as e:
             args._parser.error(f"argument --report: {e}")
         if args.predicates:
@@ -240,10 +244,10 @@ bounds, in binary64, binary32 and mpmath at 17 bits (see proofs.audit).
 
 Exit status 1 when any violation was found, 2 for bad arguments.
 """
-    parser.add_argument("--samples", type=int,
+    parser.add_argument("--samples", type=_at_least_1,
                         help="random/adversarial samples per predicate and format "
                              "(default 100, the CI size)")
-    parser.add_argument("--search-steps", type=int,
+    parser.add_argument("--search-steps", type=_at_least_0,
                         help="hill-climbing steps per seed (2 seeds per quantity and check; "
                              "default 10; 0 disables the search)")
     parser.add_argument("--format", choices=("md", "json"), default="md",
@@ -259,8 +263,11 @@ Exit status 1 when any violation was found, 2 for bad arguments.
     parser.add_argument("--dims", type=_dims, help=argparse.SUPPRESS)
     parser.add_argument("--predicates", default="",
                         help="comma-separated predicate names to audit (default all)")
-    parser.add_argument("-o", "--output", type=_output_file,
-                        help="also write the report to this file")
+    parser.add_argument("-o", "--output", metavar="FILE.md|FILE.json",
+                        type=output_as(".md", ".json", what="the audit report"),
+                        help="also write the report to this file, in the format its "
+                             "extension says (.md Markdown, .json JSON; --format is "
+                             "stdout's)")
     parser.add_argument("--quiet", action="store_true", help="no progress lines")
     parser.add_argument("--thorough", action="store_true",
                         help="hunt the worst case of every quantity: a wall-clock budget "
@@ -308,11 +315,13 @@ def _run_audit(args: argparse.Namespace) -> int:
     worst = thorough_budget(args.budget or 6.0) if args.thorough else CI_BUDGET
     s = audit(dims=args.dims, formats=args.formats, names=names, seed=args.seed,
               progress=progress, worst_budget=worst, **sizes)
-    text = json.dumps(s, indent=1) if args.format == "json" else render_markdown(s)
-    print(text)
-    if args.output:
-        with open(args.output, "w") as fh:
-            fh.write(text)
+    def text(fmt):
+        return json.dumps(s, indent=1) if fmt == "json" else render_markdown(s)
+
+    print(text(args.format))
+    if args.output:  # the format its extension says (checked when parsed)
+        with open(args.output, "w", encoding="utf-8") as fh:
+            fh.write(text("json" if args.output.lower().endswith(".json") else "md"))
     return 1 if s["violation_count"] else 0
 
 
@@ -334,10 +343,13 @@ start from), 2 for bad arguments or an unusable declaration.
 """
     parser.add_argument("--dim", type=int, choices=(2, 3), action="append",
                         help="dimension (default: both)")
-    parser.add_argument("-o", "--output", metavar="FILE", type=_output_file,
-                        help="write the table (TOML) for fperr verify --tolerances")
-    parser.add_argument("--check", metavar="FILE",
+    parser.add_argument("-o", "--output", metavar="FILE.toml|FILE.json",
+                        type=output_as(".toml", ".json", what="the table"),
+                        help="write the table for fperr verify --tolerances, in the format "
+                             "its extension says (TOML or JSON)")
+    parser.add_argument("--check", metavar="FILE.toml|FILE.json", type=_table_file,
                         help="exit 1 when FILE is not what a fresh synthesis writes")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.add_argument("--predicates", metavar="MODULE",
                         help="synthesize the table MODULE declares in FPERR_TOLERANCES")
 
@@ -345,16 +357,16 @@ start from), 2 for bad arguments or an unusable declaration.
 def _run_synthesize(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from proofs.synthesize import ratio_table, synthesize, to_toml, write
+    from proofs.synthesize import ratio_table, synthesize, write
     systems = _user_systems(args, "synthesize") if args.predicates else {}
     if isinstance(systems, int):
         return systems
     results = []
     for dim in sorted(systems or set(args.dim or [2, 3])):
         try:
-            r = synthesize(dim, progress=lambda n, f, v: print(f"  {dim}D {n}.{f} = {v}",
-                                                               file=sys.stderr),
-                           system=systems.get(dim))
+            with _synthesis_bar(dim, systems.get(dim), args.quiet) as bar:
+                r = synthesize(dim, progress=lambda *_: bar.update(),
+                               system=systems.get(dim))
         except RuntimeError as e:  # the declared table does not verify
             print(f"fperr synthesize: {e}", file=sys.stderr)
             return 1
@@ -369,12 +381,12 @@ def _run_synthesize(args: argparse.Namespace) -> int:
         write(args.output, results, args.predicates)
         print(f"wrote {args.output}")
     if args.check:
-        from proofs.synthesize import table_section
+        from proofs.synthesize import is_current
         try:
-            old = Path(args.check).read_text()
+            old = Path(args.check).read_text(encoding="utf-8")
         except OSError as e:
             return _error("synthesize", e)
-        if table_section(old) != table_section(to_toml(results)):
+        if not is_current(old, results, Path(args.check).suffix):
             how = (f"--predicates {args.predicates}" if args.predicates else
                    f"--dim {','.join(str(r.dim) for r in results)}")
             print(f"{args.check} is stale: regenerate with fperr synthesize "
@@ -385,12 +397,36 @@ def _run_synthesize(args: argparse.Namespace) -> int:
     return 0
 
 
+def _table_file(text: str) -> str:
+    """argparse type of synthesize --check: a table file, TOML or JSON by extension."""
+    import os
+
+    from proofs.synthesize import TABLE_FORMATS
+    ext = os.path.splitext(text)[1].lower()
+    if ext not in TABLE_FORMATS:
+        raise argparse.ArgumentTypeError(f"{text}: a table is TOML or JSON "
+                                         f"({' or '.join(TABLE_FORMATS)}), not "
+                                         f"'{ext or 'no extension'}'")
+    return text
+
+
+def _synthesis_bar(dim: int, system, quiet: bool):
+    """The progress bar of one dimension's synthesis (tqdm on stderr, like fperr demo's):
+    one step per coefficient lowered (T−, T, T+ and T− raised, per tolerance)."""
+    from tqdm import tqdm
+
+    from proofs.synthesize import ORDER
+    order = system.order if system is not None else ORDER[dim]
+    return tqdm(total=4 * len(order), desc=f"fperr synthesize {dim}D", unit="coefficient",
+                leave=False, disable=quiet, file=sys.stderr, mininterval=0.5)
+
+
 def report_main(argv: list[str] | None = None) -> int:
     """python -m proofs.report: write docs/error-bounds.md, or check it is current."""
     from proofs import report
     p = argparse.ArgumentParser(prog="python -m proofs.report", description=report.__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("-o", "--output", default=REPORT_PATH, type=_output_file,
+    p.add_argument("-o", "--output", default=REPORT_PATH, type=_REPORT_FILE,
                    help=f"file to write or check (default {REPORT_PATH}; '-': stdout)")
     p.add_argument("--check", action="store_true",
                    help="do not write; exit 1 when the file differs from a fresh render")

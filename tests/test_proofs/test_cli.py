@@ -34,7 +34,8 @@ def test_version_is_the_package_version():
 
     r = _run("-m", "fperr", "--version")
     assert r.returncode == 0, r.stderr
-    assert r.stdout.strip() == f"fperr {fperr.__version__}"
+    # first line: fperr's version; then Python's and the libraries' (for bug reports)
+    assert r.stdout.strip().splitlines()[0] == f"fperr {fperr.__version__}"
 
 
 def test_intersect_help_does_not_import_sympy():

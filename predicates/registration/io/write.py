@@ -15,6 +15,7 @@ import contextlib
 import io
 import os
 import tempfile
+import threading
 
 import numpy as np
 
@@ -75,7 +76,8 @@ def check_outputs(inputs: dict, outputs: dict) -> None:
 def write_atomic(path: str | os.PathLike, write) -> None:
     """Call ``write(tmp_path)`` on a temporary file beside ``path`` (same extension),
     then rename it to ``path``; on any failure the temporary file is removed and
-    nothing is left at ``path``."""
+    nothing is left at ``path``. The file gets the mode a plain ``open`` would give it,
+    0o666 less the user's umask (``mkstemp`` makes it 0o600, private to the writer)."""
     path = os.fspath(path)
     d, base = os.path.split(os.path.abspath(path))
     ext = os.path.splitext(base)[1]
@@ -83,11 +85,25 @@ def write_atomic(path: str | os.PathLike, write) -> None:
     os.close(fd)
     try:
         write(tmp)
+        os.chmod(tmp, 0o666 & ~_umask())
         os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(OSError):
             os.remove(tmp)
         raise
+
+
+_UMASK_LOCK = threading.Lock()
+
+
+def _umask() -> int:
+    """The process's umask. Reading it means setting it, so it is set back at once (to
+    0o077 meanwhile: a file another thread creates in between is private, never more
+    open than asked), under a lock so two readers never see each other's 0o077."""
+    with _UMASK_LOCK:
+        mask = os.umask(0o077)
+        os.umask(mask)
+    return mask
 
 
 def write_meshio(path: str | os.PathLike, mesh) -> None:

@@ -130,8 +130,13 @@ def client_for(workers: int | None = None, address: str | None = None):
         # started earlier in this process would impose MALLOC_TRIM_THRESHOLD_=65536);
         # so WORKER_ENV goes through os.environ, restored once the workers are spawned
         with _environ(WORKER_ENV):
+            # no dashboard: the scheduler's HTTP server still starts, by default on
+            # port 8787, and warns on stderr when that port is taken (another cluster,
+            # another fperr run); a free port on loopback only never collides
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1,
-                                   processes=True, dashboard_address=None)
+                                   processes=True, dashboard_address=None,
+                                   scheduler_kwargs={"dashboard": False,
+                                                     "dashboard_address": "127.0.0.1:0"})
     with cluster, Client(cluster) as client:
         # not waited for: the workers import while the client reads and plans (kept
         # referenced, or the scheduler would drop them unrun)

@@ -250,11 +250,15 @@ def memory_limit() -> int:
 def shortest_edge(points: np.ndarray, cells: np.ndarray, mask,
                   blocks: Blocks = SERIAL) -> float | None:
     """Shortest edge (binary64 length) of the selected cells, None if none; block by
-    block (the minimum of the blocks' minima: exact)."""
+    block (the minimum of the blocks' minima: exact). Computed on the coordinates scaled
+    exactly by a power of two to magnitude ≤ 1, so that no square overflows or
+    underflows (a mesh at 1e±300 has the same edges, scaled)."""
     if not mask.any():
         return None
-    cols = np.ascontiguousarray(points.T, dtype=np.float64)
     C = np.ascontiguousarray(cells[mask].T)
+    top = float(np.abs(points[np.unique(C)]).max()) if C.size else 0.0
+    shift = int(np.frexp(top)[1]) if top > 0 and np.isfinite(top) else 0
+    cols = np.ldexp(np.ascontiguousarray(points.T, dtype=np.float64), -shift)
     k, dim = cells.shape[1], points.shape[1]
 
     def span(a: int, b: int) -> float:
@@ -277,7 +281,7 @@ def shortest_edge(points: np.ndarray, cells: np.ndarray, mask,
                     best = min(best, float(sq.min()))
         return best
 
-    return float(np.sqrt(min(blocks.map(span, C.shape[1]))))
+    return float(np.ldexp(np.sqrt(min(blocks.map(span, C.shape[1]))), shift))
 
 
 @dataclass

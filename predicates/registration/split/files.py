@@ -1,28 +1,23 @@
-"""``fperr cut``'s files: register two mesh files, split the simulation mesh along the
-cut (:mod:`predicates.registration.split.mesh`, docs/split.md) and write the split mesh
-and its picture. Above the split and the pipeline: it runs both."""
+"""``fperr cut``'s files: register two mesh files as ``fperr intersect`` does, split the
+simulation mesh along the cut (:mod:`predicates.registration.split.mesh`, docs/split.md)
+and write the split mesh and its picture. Above the split and the pipeline: it runs
+both."""
 from __future__ import annotations
 
 import os
 
 import numpy as np
 
-__all__ = ["SPLIT_FORMATS", "cut_files"]
+__all__ = ["SPLIT_FORMATS", "check_cut_outputs", "cut_files"]
 
+#: formats whose meshio writers keep cell data (checked: .msh, .off, .ply, .stl drop it)
 SPLIT_FORMATS = (".vtu",)  # meshio's legacy .vtk writer drops field data
 
 
-def cut_files(sim, cut, *, output=None, png=None, explode: float = 0.0,
-              dtype: str = "float64", progress: bool = False, **options):
-    """``fperr cut``: register two mesh files, split the simulation mesh, write the split
-    mesh (``output``: .vtu, which keeps its cell data) and a picture (``png``). Every
-    argument is checked before any work (an output naming an input is refused), inputs
-    are read under guard, files are written atomically: a refused run writes nothing.
-    ``options``: as in :func:`~predicates.registration.intersect`. Returns
-    (IntersectionResult, SplitMesh)."""
-    from predicates.registration.io.files import check_outputs, load_pair
-    from predicates.registration.io.write import write_atomic, write_meshio
-    from predicates.registration.pipeline import intersect
+def check_cut_outputs(sim, cut, *, output=None, png=None, explode: float = 0.0) -> None:
+    """The checks of :func:`cut_files` that need no work: the outputs' formats and
+    directories (never an input file) and ``explode``; ValueError naming the problem."""
+    from predicates.registration.io.files import check_outputs, input_roles
 
     if output is not None:
         ext = os.path.splitext(os.fspath(output))[1].lower()
@@ -32,9 +27,24 @@ def cut_files(sim, cut, *, output=None, png=None, explode: float = 0.0,
                              f"{' or '.join(SPLIT_FORMATS)}")
     if not np.isfinite(explode) or explode < 0:
         raise ValueError(f"explode must be a finite number >= 0, got {explode}")
-    check_outputs({"SIM": sim, "CUT": cut}, {("-o", "mesh"): output, ("--png", "plot"): png})
-    arrays = load_pair(sim, cut, dtype=dtype)
-    res = intersect(*arrays, dtype=np.dtype(dtype), progress=progress, **options)
+    check_outputs(input_roles(sim, cut), {("-o", "mesh"): output, ("--png", "plot"): png})
+
+
+def cut_files(sim, cut, *, output=None, png=None, explode: float = 0.0, **options):
+    """``fperr cut``: register two mesh files, split the simulation mesh, write the split
+    mesh (``output``: .vtu, which keeps its cell data) and a picture (``png``). Every
+    argument is checked before any work (an output naming an input is refused), inputs
+    are read under guard, files are written atomically: a refused run writes nothing.
+    ``sim``: a file or the pieces of one mesh; ``options``: as in
+    :func:`~predicates.registration.intersect_files` (dtype, progress, regions,
+    refine_cut, strict, tolerances, partitions/scheduler/timeout), so that ``fperr cut``
+    registers exactly as ``fperr intersect`` does. Returns (IntersectionResult,
+    SplitMesh)."""
+    from predicates.registration.io.write import write_atomic, write_meshio
+    from predicates.registration.pipeline import intersect_files
+
+    check_cut_outputs(sim, cut, output=output, png=png, explode=explode)
+    res = intersect_files(sim, cut, **options)
     sm = res.split()
     if output is not None:
         write_meshio(output, sm.to_meshio(explode=explode))

@@ -130,15 +130,28 @@ class SplitMesh:
         return meshio.Mesh(X, [(CELL_TYPE[self.dim], self.cells.astype(np.int64))],
                            cell_data=cd, point_data={"node_origin": self.node_origin})
 
+    def summary(self) -> dict:
+        """The sizes of the split (JSON-ready). ``split_cells``: original cells cut into
+        several fragments — not the cells the cut merely meets (a cell touched at a
+        vertex, or crossed on one edge only, stays one fragment), which is what
+        ``IntersectionResult.intersected_cells`` (``fperr intersect --sim-output``)
+        counts."""
+        return {"dim": self.dim, "cells": len(self.cells),
+                "original_cells": int(self.cell_origin.max(initial=-1)) + 1,
+                "split_cells": int(np.count_nonzero(np.bincount(self.cell_origin) > 1)),
+                "nodes": len(self.points), "vertices": len(self.on_cut),
+                "vertices_on_cut": int(self.on_cut.sum()),
+                "cells_with_severed_edges": int(self.severed.any(axis=1).sum()),
+                "pieces": self.n_pieces, "intersection_points": len(self.hit_points)}
+
     def __str__(self):
-        n_orig = int(self.cell_origin.max(initial=-1)) + 1
-        split = int(np.count_nonzero(np.bincount(self.cell_origin) > 1))
-        return (f"{self.dim}D split: {len(self.cells)} cells from {n_orig} "
-                f"({split} cut into several fragments), {len(self.points)} nodes from "
-                f"{len(self.on_cut)} vertices ({int(self.on_cut.sum())} on the cut, "
-                f"{int(self.severed.any(axis=1).sum())} cells with severed edges), "
+        s = self.summary()
+        return (f"{self.dim}D split: {s['cells']} cells from {s['original_cells']} "
+                f"({s['split_cells']} split into several fragments), {s['nodes']} nodes "
+                f"from {s['vertices']} vertices ({s['vertices_on_cut']} on the cut, "
+                f"{s['cells_with_severed_edges']} cells with severed edges), "
                 f"{self.n_pieces} piece{'s' if self.n_pieces != 1 else ''}, "
-                f"{len(self.hit_points)} intersection points")
+                f"{s['intersection_points']} intersection points")
 
 
 def _hits(res, d: int):
@@ -201,6 +214,3 @@ def split_mesh(res) -> SplitMesh:
                      n_pieces=int(piece.max(initial=-1)) + 1, hit_points=hp, hit_kind=hk,
                      hit_sim=hs, hit_weights=hw, hit_offsets=offsets, hit_index=index,
                      on_cut=on_cut, severed=severed)
-
-
-#: formats whose meshio writers keep cell data (checked: .msh, .off, .ply, .stl drop it)
