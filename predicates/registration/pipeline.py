@@ -222,9 +222,10 @@ def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, 
     dim, sim, cut = validate_pair(sp, sc, cp, cc, dtype, work.blocks)
     clock("plan_validate")
     sim_box = work.boxes(sim.points, sim.cells)  # once: the check, refine and L use it
-    if _flat(sim_box) and _flat(work.boxes(cut.points, cut.cells)):
-        raise ValueError("every cell of both meshes collapses to a single point (zero "
-                         "bounding boxes): the tolerances would be zero")
+    for name, mesh, given, box in (("simulation", sim, sp, sim_box),
+                                   ("cutting", cut, cp, None)):
+        if len(mesh.cells) and _one_point(mesh):
+            raise ValueError(_collapse_reason(name, given, mesh, dtype))
     clock("plan_boxes")
     refinement = None
     if refine_cut and len(cut.cells):
@@ -257,9 +258,33 @@ class _Stages:
         self.timings[stage], self.t = t - self.t, t
 
 
-def _flat(box) -> bool:
-    """Every box is a single point (the largest box edge is 0)."""
-    return all(np.array_equal(box[0][:, ax], box[1][:, ax]) for ax in range(box[0].shape[1]))
+def _one_point(mesh) -> bool:
+    """Every vertex of the mesh's cells is the same point (in the working dtype)."""
+    P = mesh.points[np.unique(mesh.cells)]
+    return bool((P == P[0]).all())
+
+
+def _collapse_reason(name: str, given, mesh, dtype) -> str:
+    """Why every vertex of a mesh is one point, and what to do: the input's vertices are
+    one point, or they differ by less than the working format's spacing at their
+    magnitude (a large offset), or they underflow in float32."""
+    used = np.unique(mesh.cells)
+    G = np.asarray(given, dtype=np.float64)[used] if np.asarray(given).dtype.kind == "f" \
+        else np.asarray(given)[used].astype(np.float64)
+    mag = float(np.abs(G).max())
+    head = f"every vertex of the {name} mesh is the same point"
+    if (G == G[0]).all():
+        far = "" if mag < 2.0 ** 20 else (
+            f"; at magnitude {mag:.3g} float64 numbers are {float(np.spacing(mag)):.3g} "
+            "apart: a mesh translated this far from the origin collapses, translate it back")
+        return f"{head} ({', '.join(f'{x:.6g}' for x in G[0])}): a mesh needs extent{far}"
+    if dtype == np.float32 and mag < float(np.finfo(np.float32).tiny) * 2 ** 23:
+        return (f"{head} in float32: its coordinates (magnitude {mag:.3g}) underflow to "
+                "zero or subnormals; use float64 (--dtype float64) or scale the meshes")
+    ext = float((G.max(axis=0) - G.min(axis=0)).max())
+    return (f"{head} in {dtype.name}: its coordinates span {ext:.3g} at magnitude {mag:.3g}, "
+            f"less than {dtype.name}'s spacing there ({float(np.spacing(dtype.type(mag))):.3g}); "
+            "translate the meshes near the origin before registering")
 
 
 def _register(plan: Plan, chunk: int, progress: bool, timings: dict) -> dict:

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Converted", "as_meshio", "common_plane", "convert_cut", "convert_pair",
+__all__ = ["Converted", "as_meshio", "common_plane", "convert_cut", "convert_pair", "plane_of",
            "convert_sim", "select_region"]
 
 #: cell types used through their corner nodes: type -> (linear type, corners)
@@ -23,6 +23,12 @@ CORNERS = {"tetra": ("tetra", 4), "tetra10": ("tetra", 4), "triangle": ("triangl
 #: VTK cell type ids (pyvista's cells_dict keys) of the types above
 VTK_TYPES = {3: "line", 5: "triangle", 10: "tetra", 21: "line3", 22: "triangle6",
              24: "tetra10"}
+#: VTK cell types that are not simplices: named in messages, never registered
+VTK_OTHER = {1: "vertex", 9: "quad", 12: "hexahedron", 13: "wedge", 14: "pyramid",
+             23: "quad8", 25: "hexahedron20", 26: "wedge15", 27: "pyramid13"}
+#: volume cells fperr cannot take as they are (tetrahedra are needed)
+VOLUMES = {"hexahedron", "wedge", "pyramid", "hexahedron20", "hexahedron27", "wedge15",
+           "wedge18", "pyramid13", "pyramid14"}
 
 
 @dataclass
@@ -45,9 +51,7 @@ def as_meshio(obj, role: str):
     if hasattr(obj, "vertices") and hasattr(obj, "faces"):  # trimesh.Trimesh
         return meshio.Mesh(np.asarray(obj.vertices), [("triangle", np.asarray(obj.faces))])
     if hasattr(obj, "cells_dict") and hasattr(obj, "points"):  # pyvista.UnstructuredGrid
-        blocks = [(VTK_TYPES.get(int(t), f"vtk type {int(t)}"), np.asarray(c))
-                  for t, c in obj.cells_dict.items()]
-        return meshio.Mesh(np.asarray(obj.points), blocks)
+        return _from_pyvista_grid(obj)
     if hasattr(obj, "points") and (hasattr(obj, "faces") or hasattr(obj, "lines")):
         return meshio.Mesh(np.asarray(obj.points), _polydata_blocks(obj))  # pyvista.PolyData
     if hasattr(obj, "points") and hasattr(obj, "cells"):
@@ -55,6 +59,31 @@ def as_meshio(obj, role: str):
     raise TypeError(f"the {role} mesh must be a meshio.Mesh, a pyvista UnstructuredGrid or "
                     f"PolyData, a trimesh.Trimesh or a (points, cells) tuple, got "
                     f"{type(obj).__name__}")
+
+
+def _from_pyvista_grid(obj):
+    """A pyvista UnstructuredGrid as a ``meshio.Mesh``: a block per cell type (vertices,
+    quads, wedges... kept by name so that messages can name them; simplices used), with
+    gmsh's physical groups carried over when the grid has them (cell data
+    ``gmsh:physical`` and field data {name: [tag, dim]}, as meshio hands them to
+    pyvista), so that regions select by tag or name as from the file."""
+    import meshio
+
+    kinds = np.asarray(obj.celltypes)
+    phys = obj.cell_data.get("gmsh:physical") if hasattr(obj, "cell_data") else None
+    blocks, groups = [], []
+    for t, conn in obj.cells_dict.items():
+        name = VTK_TYPES.get(int(t)) or VTK_OTHER.get(int(t))
+        if name is None:
+            continue  # a variable-size or exotic VTK cell: nothing fperr can use
+        blocks.append((name, np.asarray(conn)))
+        if phys is not None:
+            groups.append(np.asarray(phys)[kinds == t])
+    cell_data = {"gmsh:physical": groups} if phys is not None else {}
+    field = {str(k): np.asarray(v) for k, v in getattr(obj, "field_data", {}).items()
+             if np.asarray(v).dtype.kind in "iu"}
+    return meshio.Mesh(np.asarray(obj.points), blocks, cell_data=cell_data,
+                       field_data=field)
 
 
 def _polydata_blocks(obj):
@@ -101,8 +130,11 @@ def select_region(mesh, region, role: str):
     choices = (f"physical groups: {_groups(mesh, phys)}" if phys is not None else
                f"cell blocks 0..{len(mesh.cells) - 1} "
                f"({', '.join(b.type for b in mesh.cells)})")
+    lost = ("; its group names are not known (pyvista keeps gmsh's group tags but not "
+            "their names): pass the tag, or read the file with meshio" if phys is not None
+            and not mesh.field_data and not text.lstrip("-").isdigit() else "")
     raise ValueError(f"the {role} mesh has no region {region!r}; choose one of its {choices}"
-                     + (f" or cell sets {', '.join(sets)}" if sets else ""))
+                     + (f" or cell sets {', '.join(sets)}" if sets else "") + lost)
 
 
 def _groups(mesh, phys) -> str:
@@ -132,7 +164,7 @@ def _types(mesh) -> str:
     return ", ".join(sorted({b.type for b in mesh.cells})) or "none"
 
 
-def _plane(points, role: str):
+def plane_of(points, role: str):
     """A 2D mesh stored with 3 coordinates: its (x, y) and the plane z = c it lies in."""
     pts = np.asarray(points)
     if pts.ndim != 2 or pts.shape[1] != 3:
@@ -164,6 +196,12 @@ def _sim(mesh, role: str, notes: list):
     tets = _blocks(mesh, "tetra", notes, role)
     if tets is not None:
         return 3, np.asarray(mesh.points), tets, None
+    volumes = sorted({b.type for b in mesh.cells} & VOLUMES)
+    if volumes:
+        raise ValueError(f"the {role} mesh has {', '.join(volumes)} cells and no tetrahedra: "
+                         "fperr needs a tetrahedral mesh; mesh the volume with tetrahedra "
+                         "(gmsh: the default 3D algorithms without recombination) or split "
+                         "each cell into tetrahedra")
     tris = _blocks(mesh, "triangle", notes, role)
     if tris is None:
         raise ValueError(f"the {role} mesh has no tetrahedra or triangles (cell types: "
@@ -174,7 +212,7 @@ def _sim(mesh, role: str, notes: list):
             and not (np.all(pts[:, 0] == pts[0, 0]) or np.all(pts[:, 1] == pts[0, 1])):
         raise ValueError(f"the {role} mesh is a triangle surface in 3D: a volume "
                          "(tetrahedral) mesh is needed as the simulation mesh in 3D")
-    pts, plane = _plane(pts, role)
+    pts, plane = plane_of(pts, role)
     return 2, pts, tris, plane
 
 
@@ -182,6 +220,10 @@ def _cut(mesh, dim: int, role: str, notes: list):
     """(points, cells, plane) of the cutting mesh for a ``dim``-D simulation mesh."""
     if dim == 3:
         tris = _blocks(mesh, "triangle", notes, role)
+        if tris is not None and _blocks(mesh, "tetra", [], role) is not None:
+            notes.append(f"the {role} mesh has tetrahedra and triangles: its {len(tris)} "
+                         "triangles are the cutting surface, the tetrahedra are ignored "
+                         "(select a region to choose other cells)")
         if tris is None:
             tets = _blocks(mesh, "tetra", notes, role)
             if tets is None:
@@ -205,7 +247,7 @@ def _cut(mesh, dim: int, role: str, notes: list):
     if lines is None:
         raise ValueError(f"mixed dimensions: the simulation mesh has triangles (2D) but the "
                          f"{role} mesh has no line segments (cell types: {_types(mesh)})")
-    pts, plane = _plane(mesh.points, role)
+    pts, plane = plane_of(mesh.points, role)
     return pts, lines, plane
 
 

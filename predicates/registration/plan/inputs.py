@@ -210,7 +210,7 @@ def mesh_arrays(args: tuple, sim_region=None, cut_region=None) -> Arrays:
     group or cell block of a mesh object (tag, name or block index)."""
     if len(args) == 4:
         _no_region(sim_region, cut_region)
-        return Arrays(args)
+        return _in_a_plane(*args)
     if len(args) != 2:
         raise TypeError("intersect(sim_points, sim_cells, cut_points, cut_cells) or "
                         f"intersect(sim_mesh, cut_mesh); got {len(args)} positional arguments")
@@ -221,10 +221,29 @@ def mesh_arrays(args: tuple, sim_region=None, cut_region=None) -> Arrays:
                             f"{len(m)} items")
     if all(tuples):
         _no_region(sim_region, cut_region)
-        return Arrays((*args[0], *args[1]))
+        return _in_a_plane(*args[0], *args[1])
     if any(tuples):
         raise TypeError("pass both meshes as mesh objects or both as (points, cells)")
     return from_meshio(args[0], args[1], sim_region, cut_region)
+
+
+def _in_a_plane(sp, sc, cp, cc) -> Arrays:
+    """Arrays as given, except 2D meshes (triangles and segments) whose points have three
+    coordinates: registered in 2D in their common plane z = c, as mesh objects are
+    (:func:`~predicates.registration.io.convert.plane_of`, one rule for both)."""
+    shapes = [np.shape(a) for a in (sp, sc, cp, cc)]
+    if not (all(len(s) == 2 for s in shapes) and shapes[0][1] == 3 and shapes[1][1] == 3
+            and shapes[3][1] == 2):
+        return Arrays((sp, sc, cp, cc))
+    from predicates.registration.io.convert import Converted, common_plane, plane_of
+
+    ps, zs = plane_of(np.asarray(sp), "simulation")
+    pc, zc = plane_of(np.asarray(cp), "cutting")
+    s, c = Converted(ps, np.asarray(sc), [], zs), Converted(pc, np.asarray(cc), [], zc)
+    plane = common_plane(s, c)
+    return Arrays((s.points, sc, c.points, cc),
+                  [f"2D meshes given with 3 coordinates: registered in their plane z = {plane:g}"],
+                  plane)
 
 
 def _no_region(*regions):
