@@ -14,7 +14,7 @@ docs/design.md has one line per module):
 * :mod:`~predicates.registration.io` — mesh objects and files in and out;
 * :mod:`~predicates.registration.split` — the virtual-node split along the cut;
 * :mod:`~predicates.registration.pictures` — pictures and ``fperr demo``;
-* :mod:`~predicates.registration.examples`, :mod:`~predicates.registration.portable` —
+* :mod:`~predicates.registration.examples` (with :mod:`predicates.portable`) —
   generated example meshes and the machine-independent arithmetic they use.
 """
 from predicates.registration.io.read import MeshFileError

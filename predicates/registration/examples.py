@@ -25,7 +25,7 @@ import math
 
 import numpy as np
 
-from predicates.registration.portable import cos_sin, unit_rows
+from predicates.portable import cos_sin, unit_rows
 
 __all__ = ["EXAMPLES", "circle_polygon", "cube_grid", "diagonal_cut", "example",
            "grid_coordinates", "grid_plane", "icosphere", "square_grid", "zigzag_cut"]

@@ -11,6 +11,7 @@ from fractions import Fraction
 import numpy as np
 
 from fperr import round_fraction, ulp
+from predicates.portable import dirichlet_ones, dot, exp2, exp10, log, norm
 
 from ..tables import TABLES
 from .spec import FORMATS, NEAR_TOL, SCALES, Config, PredicateSpec, tolerance_info
@@ -33,11 +34,13 @@ class Generator:
 
     # helpers ------------------------------------------------------------------------
     def _unit(self):
-        v = self.np_rng.normal(size=self.d)
-        return v / np.linalg.norm(v)
+        v = self.np_rng.uniform(-1.0, 1.0, size=self.d)
+        while norm(v) < 0.25:  # a direction, not a tiny vector
+            v = self.np_rng.uniform(-1.0, 1.0, size=self.d)
+        return v / norm(v)
 
     def _k(self):
-        return 10 ** self.rng.uniform(-1, 1)
+        return exp10(self.rng.uniform(-1, 1))
 
     def _tol(self, info, name):
         """A length: the tolerance ``name`` (power 1), or T/L^(p-1) for an area (p = 2),
@@ -98,11 +101,11 @@ class Generator:
         return p1 + p2
 
     def _point_on(self, face):
-        w = self.np_rng.dirichlet(np.ones(len(face)))
+        w = dirichlet_ones(self.np_rng, 1, len(face))[0]
         r = self.rng.random()
         if len(face) > 1 and r < 0.3:  # on a sub-face, or just outside it
             k = self.rng.randrange(len(face))
-            w[k] = 0 if r < 0.15 else -abs(self.np_rng.normal()) * 0.05
+            w[k] = 0 if r < 0.15 else -self.np_rng.random() * 0.1
             w = w / w.sum()
         return sum(wi * p for wi, p in zip(w, face))
 
@@ -113,13 +116,13 @@ class Generator:
             for p in face[1:]:
                 e = np.array(p - face[0], dtype=float)
                 for b in basis:
-                    e = e - (e @ b) * b
-                n = np.linalg.norm(e)
+                    e = e - dot(e, b) * b
+                n = norm(e)
                 if n > 0:
                     basis.append(e / n)
             for b in basis:
-                v = v - (v @ b) * b
-            n = np.linalg.norm(v)
+                v = v - dot(v, b) * b
+            n = norm(v)
             v = v / n if n > 0 else self._unit()
         return v
 
@@ -159,9 +162,9 @@ class Generator:
         m = self._unit()
         T = self._tol(info, self.rng.choice(names))  # one scale for the whole sample
         for p in pts:
-            q = p - ((p - o) @ n) * n
+            q = p - dot(p - o, n) * n
             if line:
-                q = q - ((q - o) @ m) * m
+                q = q - dot(q - o, m) * m
             q = q + n * self.rng.choice((-1, 1)) * self._k() * T * (self.rng.random() < 0.9)
             out.append(q)
         return out
@@ -176,16 +179,16 @@ class Generator:
         c = sum(pts[k] for k in which) / len(which)
         if self.rng.random() < 0.5:  # tiny element, size ~ a tolerance
             T = self._tol(info, self.rng.choice(["sigma_hat", "sigma", "tau", "delta"]))
-            size = max(np.linalg.norm(pts[k] - c) for k in which) or 1.0
+            size = max(norm(pts[k] - c) for k in which) or 1.0
             s = self._k() * T / size
             for k in which:
                 pts[k] = c + (pts[k] - c) * s
         else:  # sliver: squash along one direction
             n = self._unit()
-            f = 10 ** -self.rng.uniform(0, 9)
+            f = exp10(-self.rng.uniform(0, 9))
             for k in which:
                 v = pts[k] - c
-                pts[k] = c + v - (1 - f) * (v @ n) * n
+                pts[k] = c + v - (1 - f) * dot(v, n) * n
         return pts
 
     def _grid(self, info):
@@ -230,11 +233,11 @@ class Generator:
             c = pts[i][a]
             ulp_ = (ulp(c, self.fmt.bits) if c
                     else ulp(info.L, self.fmt.bits) * 2 ** -self.rng.randint(0, 40))
-            pts[i][a] = c + self.rng.choice((-1, 1)) * ulp_ * 2 ** int(self.rng.expovariate(0.25))
+            pts[i][a] = c + self.rng.choice((-1, 1)) * ulp_ * 2 ** int(-4 * log(1.0 - self.rng.random()))
         elif r < 0.85:  # a random step of a random scale on one point
-            s = float(info.L) * 2.0 ** -self.rng.uniform(2, 45)
+            s = float(info.L) * exp2(-self.rng.uniform(2, 45))
             for a in range(self.d):
-                pts[i][a] = pts[i][a] + Fraction(float(self.np_rng.normal() * s))
+                pts[i][a] = pts[i][a] + Fraction(float(self.np_rng.uniform(-2.0, 2.0) * s))
         elif r < 0.93:  # snap one coordinate to the box extremes
             a = self.rng.randrange(self.d)
             pts[i][a] = h if pts[i][a] >= 0 else -h

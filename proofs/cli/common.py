@@ -94,3 +94,21 @@ def _at_least_0(text: str) -> int:
     if n < 0:
         raise argparse.ArgumentTypeError(f"must be at least 0, got {n}")
     return n
+
+
+def user_systems(args, command: str):
+    """The declarations of --predicates MODULE for the selected dimensions, or an exit
+    status (2) after printing why they cannot be used."""
+    from proofs.user_predicates import DeclarationError, load
+    try:
+        decls = load(args.predicates)
+    except DeclarationError as e:
+        print(f"fperr {command}: {e}", file=sys.stderr)
+        return 2
+    chosen = [d for d in decls if not args.dim or d.dim in args.dim]
+    if not chosen:
+        print(f"fperr {command}: {args.predicates} declares no "
+              f"{'/'.join(f'{d}D' for d in sorted(set(args.dim)))} predicates "
+              f"(it has {', '.join(f'{d.dim}D' for d in decls)})", file=sys.stderr)
+        return 2
+    return {d.dim: d for d in chosen}

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 
 import mpmath
+from mpmath.libmp import to_float
 import numpy as np
 import sympy
 
@@ -39,6 +40,32 @@ import fperr
 import predicates
 from fperr import round_fraction, to_fraction
 from proofs.tables import TABLES
+
+
+# -- machine-independent arithmetic for the constructions (docs/design.md, "The same
+# answer on every machine"): sums in a fixed order, correctly rounded transcendentals
+def _dot(a, b) -> float:
+    a, b = np.asarray(a, dtype=np.float64).ravel(), np.asarray(b, dtype=np.float64).ravel()
+    acc = a[0] * b[0]
+    for j in range(1, len(a)):
+        acc = acc + a[j] * b[j]
+    return float(acc)
+
+
+def _norm(v) -> float:
+    return math.sqrt(_dot(v, v))
+
+
+def _rounded(f, x: float) -> float:
+    with mpmath.workprec(128):
+        return to_float(f(mpmath.mpf(float(x)))._mpf_, rnd="n")
+
+
+def _cos(x): return _rounded(mpmath.cos, x)  # noqa: E704
+def _sin(x): return _rounded(mpmath.sin, x)  # noqa: E704
+def _exp(x): return _rounded(mpmath.exp, x)  # noqa: E704
+def _log(x): return _rounded(mpmath.log, x)  # noqa: E704
+
 
 # ---------------------------------------------------------------------------------
 # numbers
@@ -437,7 +464,7 @@ class Source:
         return seq[self.integer(0, len(seq) - 1)]
 
     def loguniform(self, a: float, b: float) -> float:
-        return math.exp(self.uniform(math.log(a), math.log(b)))
+        return _exp(self.uniform(_log(a), _log(b)))
 
     def sign(self) -> int:
         return self.choice((-1, 1))
@@ -473,13 +500,13 @@ class DataSource(Source):
 
 
 def _unit(v):
-    return v / np.linalg.norm(v)
+    return v / _norm(v)
 
 
 def _rand_dir(src, dim):
     """A random unit vector (no rejection loop: hypothesis' minimal draws are zeros)."""
     v = np.array([src.uniform(-1, 1) for _ in range(dim)])
-    if np.linalg.norm(v) < 0.2:
+    if _norm(v) < 0.2:
         v = v + np.array([1.0, 0.3, 0.1][:dim])
     return _unit(v)
 
@@ -490,11 +517,11 @@ def _perp(src, v):
     if len(v) == 2:
         return src.sign() * np.array([-v[1], v[0]])
     w = _rand_dir(src, 3)
-    w = w - np.dot(w, v) * v
-    if np.linalg.norm(w) < 0.2:
+    w = w - _dot(w, v) * v
+    if _norm(w) < 0.2:
         e = np.zeros(3)
         e[int(np.argmin(np.abs(v)))] = 1.0
-        w = e - np.dot(e, v) * v
+        w = e - _dot(e, v) * v
     return _unit(w)
 
 
@@ -594,7 +621,7 @@ def triangle(src, u: Units):
         return pts
     if mode == 2:
         A, B = segment(src, u)
-        t = _along(src, np.linalg.norm(B - A), u)
+        t = _along(src, _norm(B - A), u)
         C = A + t * (B - A) + u.near(src, "tau") * _perp(src, B - A)
         return [A, B, C]
     if mode == 3:
@@ -638,17 +665,17 @@ def _in_plane_point(src, tri, u: Units):
     if mode in (1, 2):
         i = src.integer(0, 2)
         X, Y, Z = tri[i], tri[(i + 1) % 3], tri[(i + 2) % 3]
-        t = _along(src, np.linalg.norm(Y - X), u)
+        t = _along(src, _norm(Y - X), u)
         foot = X + t * (Y - X)
         e = Y - X
-        inward = (Z - X) - np.dot(Z - X, e) / np.dot(e, e) * e
-        if np.linalg.norm(inward) == 0:
+        inward = (Z - X) - _dot(Z - X, e) / _dot(e, e) * e
+        if _norm(inward) == 0:
             return foot
         return foot + src.sign() * u.near(src, "tau") * _unit(inward)
     if mode == 3:
         V = tri[src.integer(0, 2)]
         d = (B - A) * src.uniform(-1, 1) + (C - A) * src.uniform(-1, 1)
-        if np.linalg.norm(d) == 0:
+        if _norm(d) == 0:
             return V
         return V + u.near(src, "sigma") * _unit(d)
     return A + src.uniform(-0.5, 1.5) * (B - A) + src.uniform(-0.5, 1.5) * (C - A)
@@ -679,7 +706,7 @@ def construct_big(name: str, src: Source, u: Units):
         uu = _unit(B - A)
         e = _perp(src, uu)
         ang = src.choice((src.uniform(0.3, math.pi - 0.3), src.uniform(0.02, 0.3)))
-        v = math.cos(ang) * uu + math.sin(ang) * e
+        v = _cos(ang) * uu + _sin(ang) * e
         if dim == 3:
             n = _unit(np.cross(uu, v))
             Y = X + src.sign() * u.near(src, "gamma") * n
@@ -698,8 +725,8 @@ def construct_big(name: str, src: Source, u: Units):
         n = _normal(tri)
         e = _perp(src, n)
         phi = src.choice((src.uniform(0.3, math.pi / 2), src.uniform(0.02, 0.3)))
-        d = math.cos(phi) * e + math.sin(phi) * n
-        arms = [min(src.choice((u.near(src, "delta") / math.sin(phi), src.uniform(0.1, 0.5))),
+        d = _cos(phi) * e + _sin(phi) * n
+        arms = [min(src.choice((u.near(src, "delta") / _sin(phi), src.uniform(0.1, 0.5))),
                     0.7) for _ in range(2)]
         return tri + [X - arms[0] * d, X + arms[1] * d]
     if name == "tetrahedron_vertex":
@@ -711,7 +738,7 @@ def construct_big(name: str, src: Source, u: Units):
             return tet + [sum(tet) / 4 + src.uniform(0, 0.6) * _rand_dir(src, 3)]
         f = [tet[i] for i in _TET_FACES[src.integer(0, 3)]]
         n = _normal(f)
-        inward = n if np.dot(n, sum(tet) / 4 - f[0]) > 0 else -n
+        inward = n if _dot(n, sum(tet) / 4 - f[0]) > 0 else -n
         foot = _in_plane_point(src, f, u)
         if mode == 1:  # within 0.1–10 δ of a face, either side
             return tet + [foot + src.choice((1, 1, -1)) * u.near(src, "delta") * inward]
@@ -759,7 +786,7 @@ def construct(name: str, src: Source, u: Units, big: bool | None = None):
         if src.integer(0, 3) == 0:  # near an endpoint
             P = src.choice((A, B)) + u.near(src, "sigma") * _rand_dir(src, dim)
         else:
-            t = _along(src, np.linalg.norm(B - A), u)
+            t = _along(src, _norm(B - A), u)
             P = A + t * (B - A) + u.near(src, "tau") * _perp(src, B - A)
         return [A, B, P]
 
@@ -771,16 +798,16 @@ def construct(name: str, src: Source, u: Units, big: bool | None = None):
             n = _perp(src, B - A) * (u.near(src, "tau") if src.integer(0, 1) else 0.0)
             return [A, B, A + t1 * (B - A) + n, A + t2 * (B - A) + n]
         if mode == 1:  # a vertex of PQ near AB
-            t = _along(src, np.linalg.norm(B - A), u)
+            t = _along(src, _norm(B - A), u)
             P = A + t * (B - A) + u.near(src, "tau") * _perp(src, B - A)
             Q = np.array([src.uniform(0, 1) for _ in range(dim)])
             return [A, B, P, Q] if src.integer(0, 1) else [P, Q, A, B]
         # crossing at X with an angle (possibly tiny), short or long arms, optional shift
-        X = A + _along(src, np.linalg.norm(B - A), u) * (B - A)
+        X = A + _along(src, _norm(B - A), u) * (B - A)
         ang = src.choice((src.uniform(0, math.pi), src.loguniform(1e-12, 1e-2), 0.0,
                           math.pi / 2))
-        e = _unit(B - A) if np.linalg.norm(B - A) > 0 else np.array([1.0, 0.0])
-        c, s = math.cos(ang), math.sin(ang)
+        e = _unit(B - A) if _norm(B - A) > 0 else np.array([1.0, 0.0])
+        c, s = _cos(ang), _sin(ang)
         d = np.array([c * e[0] - s * e[1], s * e[0] + c * e[1]])
         arms = [src.choice((u.near(src, "tau"), src.uniform(0.02, 0.5),
                             u.t["sigma"] * src.uniform(0.5, 3))) for _ in range(2)]
@@ -800,15 +827,15 @@ def construct(name: str, src: Source, u: Units, big: bool | None = None):
             t1, t2 = src.uniform(-0.5, 1.5), src.uniform(-0.5, 1.5)
             return [A, B, A + t1 * v + off, A + t2 * v + off]
         if mode == 1:  # an endpoint of PQ near AB
-            t = _along(src, np.linalg.norm(B - A), u)
+            t = _along(src, _norm(B - A), u)
             P = A + t * (B - A) + u.near(src, "tau") * _perp(src, B - A)
             Q = P + src.uniform(0.05, 0.6) * _rand_dir(src, 3)
             return [A, B, P, Q] if src.integer(0, 1) else [P, Q, A, B]
-        uu = _unit(B - A) if np.linalg.norm(B - A) > 0 else np.array([1.0, 0, 0])
-        X = A + _along(src, np.linalg.norm(B - A), u) * (B - A)
+        uu = _unit(B - A) if _norm(B - A) > 0 else np.array([1.0, 0, 0])
+        X = A + _along(src, _norm(B - A), u) * (B - A)
         e = _perp(src, uu)
         ang = src.choice((src.uniform(0, math.pi), src.loguniform(1e-12, 1e-2), math.pi / 2))
-        v = math.cos(ang) * uu + math.sin(ang) * e
+        v = _cos(ang) * uu + _sin(ang) * e
         n = _unit(np.cross(uu, v)) if ang > 0 else _perp(src, uu)
         Y = X + src.sign() * u.near(src, "gamma") * n
         arms = [src.choice((u.near(src, "tau"), src.uniform(0.02, 0.5),
@@ -839,12 +866,12 @@ def construct(name: str, src: Source, u: Units, big: bool | None = None):
             return tri + [X - src.uniform(0, 0.5) * e + off, X + src.uniform(0, 0.5) * e + off]
         phi = src.choice((src.uniform(0.05, math.pi / 2), src.loguniform(1e-9, 0.05),
                           math.pi / 2))
-        d = math.cos(phi) * e + math.sin(phi) * n
+        d = _cos(phi) * e + _sin(phi) * n
         arms = []
         for _ in range(2):
             k = src.integer(0, 2)
             if k == 0:  # endpoint within 0.1–10 δ of the plane (grazing: any length)
-                a = u.near(src, "delta") / math.sin(phi)
+                a = u.near(src, "delta") / _sin(phi)
                 arms.append(a if a < 0.7 else src.uniform(0.02, 0.5))
             elif k == 1:
                 arms.append(src.uniform(0.02, 0.5))
@@ -883,8 +910,8 @@ def construct(name: str, src: Source, u: Units, big: bool | None = None):
         elif pmode == 2:  # near an edge
             i, j = _TET_EDGES[src.integer(0, 5)]
             X, Y = tet[i], tet[j]
-            t = _along(src, np.linalg.norm(Y - X), u)
-            P = X + t * (Y - X) + u.near(src, "tau") * _perp(src, Y - X if np.linalg.norm(Y - X) else np.ones(3))
+            t = _along(src, _norm(Y - X), u)
+            P = X + t * (Y - X) + u.near(src, "tau") * _perp(src, Y - X if _norm(Y - X) else np.ones(3))
         else:
             P = tet[src.integer(0, 3)] + u.near(src, "sigma") * _rand_dir(src, 3)
         return tet + [P]

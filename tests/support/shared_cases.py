@@ -47,7 +47,7 @@ import fperr
 import predicates
 from predicates import catalogue
 from predicates.registration.examples import cube_grid
-from predicates.registration.portable import rotate, rotation, unit_rows
+from predicates.portable import rotate, rotation, unit_rows
 from proofs.tables import TABLES, sympy_spec
 from geometry_exact import Units, construct, frac, place
 

@@ -18,7 +18,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 import predicates
 from predicates.registration.examples import example
 from predicates.registration.partition.assign import assign, split
-from predicates.registration import portable
+from predicates import portable
 
 dask = pytest.importorskip("dask")
 ROOT = Path(__file__).resolve().parents[2]

@@ -12,7 +12,7 @@ import pytest
 import fperr
 import predicates
 from predicates.registration.examples import cube_grid, square_grid
-from predicates.registration.portable import cos_sin, power, rotate, rotation, unit_rows
+from predicates.portable import cos_sin, power, rotate, rotation, unit_rows
 from predicates.registration.plan.refine import refine
 from predicates.registration.plan.resolution import cell_boxes
 from shared_cases import plane_case

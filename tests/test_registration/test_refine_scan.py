@@ -17,7 +17,7 @@ from predicates.registration.plan import refine as refine_mod
 from predicates.registration.plan import refine_scan
 from predicates.registration.spatial.boxes import box_extent, boxes_of
 from predicates.registration.examples import cube_grid
-from predicates.registration.portable import power, rotate, rotation
+from predicates.portable import power, rotate, rotation
 from predicates.registration.plan.refine_scan import points_near, scan_cells
 
 

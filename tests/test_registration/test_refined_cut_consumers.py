@@ -19,7 +19,7 @@ import predicates
 from predicates.registration.examples import cube_grid, square_grid
 from predicates.registration.partition.files import write_parts
 from predicates.registration.pictures.plot import plot_2d, plot_3d_cells, plot_robust_naive
-from predicates.registration.portable import weighted_sum
+from predicates.portable import weighted_sum
 
 #: a coarse closed quadrilateral well inside the unit square, not on grid lines
 QUAD = np.array([[0.21, 0.23], [0.78, 0.26], [0.74, 0.81], [0.24, 0.77]])

@@ -20,7 +20,7 @@ import pytest
 
 import predicates
 from predicates.registration.examples import circle_polygon, cube_grid, grid_plane, icosphere, square_grid
-from predicates.registration.portable import cos_sin, rotate, rotation
+from predicates.portable import cos_sin, rotate, rotation
 from predicates.registration.split.rules import components
 
 ROOT = Path(__file__).resolve().parents[2]

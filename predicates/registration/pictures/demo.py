@@ -28,7 +28,7 @@ import sys
 
 import numpy as np
 
-from predicates.registration import portable
+from predicates import portable
 from predicates.registration.examples import example
 from predicates.registration.io.write import write_meshio, write_mesh
 from predicates.registration.pipeline import intersect

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from predicates.registration.portable import weighted_sum
+from predicates.portable import weighted_sum
 
 __all__ = ["KIND_CODES", "KindPairs", "cells_holding", "pad_rows"]
 

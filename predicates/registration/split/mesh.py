@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from predicates.registration.split import rules as R
-from predicates.registration.portable import row_norms, weighted_sum
+from predicates.portable import row_norms, weighted_sum
 
 __all__ = ["SplitMesh", "split_mesh"]
 

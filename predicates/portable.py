@@ -16,7 +16,8 @@ from fractions import Fraction
 
 import numpy as np
 
-__all__ = ["cos_sin", "power", "rotate", "rotation", "row_norms", "unit_rows", "weighted_sum"]
+__all__ = ["cos_sin", "dirichlet_ones", "dot", "exp2", "exp10", "log", "norm", "power",
+           "rotate", "rotation", "row_norms", "unit_rows", "weighted_sum"]
 
 
 def rotation(dim: int, seed: int = 1) -> np.ndarray:
@@ -119,3 +120,58 @@ def cos_sin(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             c.flat[i] = to_float(mpmath.cos(m)._mpf_, rnd="n")
             s.flat[i] = to_float(mpmath.sin(m)._mpf_, rnd="n")
     return c, s
+
+
+def dot(a, b) -> float:
+    """Σ aⱼbⱼ of two vectors, summed left to right (``a @ b`` calls BLAS)."""
+    a = np.asarray(a, dtype=np.float64).ravel()
+    b = np.asarray(b, dtype=np.float64).ravel()
+    acc = a[0] * b[0]
+    for j in range(1, len(a)):
+        acc = acc + a[j] * b[j]
+    return float(acc)
+
+
+def norm(v) -> float:
+    """√(v·v) with :func:`dot` (``np.linalg.norm`` calls BLAS)."""
+    return float(np.sqrt(dot(v, v)))
+
+
+def _rounded(f, x: float) -> float:
+    import mpmath
+    from mpmath.libmp import to_float
+
+    with mpmath.workprec(128):
+        return to_float(f(mpmath.mpf(float(x)))._mpf_, rnd="n")
+
+
+def exp2(x: float) -> float:
+    """2^x correctly rounded (``2.0 ** x`` calls libm's pow)."""
+    import mpmath
+
+    return _rounded(lambda m: mpmath.power(2, m), x)
+
+
+def exp10(x: float) -> float:
+    """10^x correctly rounded (``10 ** x`` calls libm's pow)."""
+    import mpmath
+
+    return _rounded(lambda m: mpmath.power(10, m), x)
+
+
+def log(x: float) -> float:
+    """The natural logarithm, correctly rounded (``math.log`` is libm's)."""
+    import mpmath
+
+    if not x > 0:
+        raise ValueError(f"log of a non-positive number {x!r}")
+    return _rounded(mpmath.log, x)
+
+
+def dirichlet_ones(rng: np.random.Generator, size: int, n: int) -> np.ndarray:
+    """(size, n) weights uniform on the simplex (Dirichlet(1, …, 1)): the spacings of
+    n − 1 sorted uniform draws in [0, 1] (``rng.dirichlet`` draws gammas through libm's
+    exp/log)."""
+    u = np.sort(rng.random((size, n - 1)), axis=1)
+    edges = np.concatenate([np.zeros((size, 1)), u, np.ones((size, 1))], axis=1)
+    return np.diff(edges, axis=1)
