@@ -14,11 +14,19 @@ def error(command: str, e: Exception) -> int:
     return 2
 
 
-def _at_least_1(text: str) -> int:
-    n = _integer(text)
-    if n < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {n}")
-    return n
+def at_least(k: int):
+    """argparse type: an integer ≥ k (one message for every bound)."""
+    def check(text: str) -> int:
+        n = _integer(text)
+        if n < k:
+            raise argparse.ArgumentTypeError(f"must be at least {k}, got {n}")
+        return n
+
+    check.__name__ = f"at_least_{k}"
+    return check
+
+
+_at_least_0, _at_least_1, _at_least_2 = at_least(0), at_least(1), at_least(2)
 
 
 def _integer(text: str) -> int:
@@ -42,13 +50,6 @@ def _seconds(text: str) -> float:
     if not t > 0:
         raise argparse.ArgumentTypeError(f"must be more than 0 seconds, got {text}")
     return t
-
-
-def _at_least_2(text: str) -> int:
-    n = _integer(text)
-    if n < 2:
-        raise argparse.ArgumentTypeError(f"must be at least 2, got {n}")
-    return n
 
 
 def _output_file(text: str) -> str:
@@ -87,13 +88,6 @@ def output_as(*extensions: str, what: str, stdout: bool = False):
         return text
 
     return check
-
-
-def _at_least_0(text: str) -> int:
-    n = _integer(text)
-    if n < 0:
-        raise argparse.ArgumentTypeError(f"must be at least 0, got {n}")
-    return n
 
 
 def user_systems(args, command: str):

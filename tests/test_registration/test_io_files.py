@@ -219,13 +219,15 @@ def test_second_order_cells_use_their_corners_with_a_note(tmp_path):
     assert "tetra10" in notes and "triangle6" in notes and "corner nodes" in notes
 
 
-@pytest.mark.parametrize("ctype, k", [("quad", 4), ("hexahedron", 8), ("wedge", 6)])
-def test_non_simplex_meshes_get_their_cell_types_named(tmp_path, ctype, k):
+@pytest.mark.parametrize("ctype, k, need", [
+    ("quad", 4, "tetrahedral (3D) or triangle (2D) mesh is needed"),
+    ("hexahedron", 8, "fperr needs a tetrahedral mesh"),  # a volume: named, and what to do
+    ("wedge", 6, "fperr needs a tetrahedral mesh")])
+def test_non_simplex_meshes_get_their_cell_types_named(tmp_path, ctype, k, need):
     pts = np.random.default_rng(0).random((8, 3))
     meshio.Mesh(pts, [(ctype, np.arange(k)[None])]).write(tmp_path / "s.vtu")
     _, _, cut = write_3d(tmp_path)
-    one_line_error(fperr("intersect", "s.vtu", cut, cwd=tmp_path), "s.vtu", ctype,
-                   "tetrahedral (3D) or triangle (2D) mesh is needed")
+    one_line_error(fperr("intersect", "s.vtu", cut, cwd=tmp_path), "s.vtu", ctype, need)
 
 
 def test_triangle_surface_as_simulation_mesh_needs_a_volume_mesh(tmp_path):

@@ -69,8 +69,9 @@ def _from_pyvista_grid(obj):
     pyvista), so that regions select by tag or name as from the file."""
     import meshio
 
-    kinds = np.asarray(obj.celltypes)
-    phys = obj.cell_data.get("gmsh:physical") if hasattr(obj, "cell_data") else None
+    kinds = getattr(obj, "celltypes", None)
+    data = getattr(obj, "cell_data", None)
+    phys = data.get("gmsh:physical") if data is not None and kinds is not None else None
     blocks, groups = [], []
     for t, conn in obj.cells_dict.items():
         name = VTK_TYPES.get(int(t)) or VTK_OTHER.get(int(t))
@@ -78,7 +79,7 @@ def _from_pyvista_grid(obj):
             continue  # a variable-size or exotic VTK cell: nothing fperr can use
         blocks.append((name, np.asarray(conn)))
         if phys is not None:
-            groups.append(np.asarray(phys)[kinds == t])
+            groups.append(np.asarray(phys)[np.asarray(kinds) == t])
     cell_data = {"gmsh:physical": groups} if phys is not None else {}
     field = {str(k): np.asarray(v) for k, v in getattr(obj, "field_data", {}).items()
              if np.asarray(v).dtype.kind in "iu"}
