@@ -262,3 +262,36 @@ def test_custom_predicate_doc():
     det = env["orient2d"].instrumented().quantities["det"]
     assert fperr.bounds(det).E_int == 9 and fperr.bounds(det).power == 2
     assert env["orient2d"]((0.0, 0.0), (1.0, 0.0), (0.0, 1.0), env["tol"]) == (True, ())
+
+
+# ---------------------------------------------------------------------------------
+# the signatures users call
+
+@pytest.mark.parametrize("pred", PREDICATES, ids=PRED_IDS)
+def test_predicates_show_the_signature_a_user_calls(pred):
+    """help()/inspect show the points, tol and the keyword ctx (not the source's leading
+    ctx), derived from the source; the docstring states the return shapes."""
+    import inspect
+
+    sig = inspect.signature(pred)
+    names = list(sig.parameters)
+    assert names == [*pred.points, "tol", "ctx"]
+    assert sig.parameters["ctx"].kind is inspect.Parameter.KEYWORD_ONLY
+    assert all(sig.parameters[p].kind is inspect.Parameter.POSITIONAL_ONLY
+               for p in (*pred.points, "tol"))
+    assert "Returns ``(hit, weights)``" in pred.__doc__
+    assert f"(..., {len(pred.weight_names)})" in pred.__doc__
+
+
+def test_intersect_shows_named_typed_parameters():
+    import inspect
+
+    sig = inspect.signature(predicates.intersect)
+    params = sig.parameters
+    assert list(params)[:4] == ["sim", "cut", "cut_points", "cut_cells"]
+    for name in ("dtype", "tolerance_scale", "refine_cut", "strict", "tolerances",
+                 "sim_region", "cut_region", "progress", "partitions", "scheduler",
+                 "timeout", "memory_limit", "chunk"):
+        assert params[name].kind is inspect.Parameter.KEYWORD_ONLY, name
+        assert params[name].annotation is not inspect.Parameter.empty, name
+    assert sig.return_annotation == "IntersectionResult"
