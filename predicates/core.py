@@ -219,6 +219,9 @@ def predicate(dim: int, points: str, weights: tuple = (), algorithm: int = 0, *,
     whose bracket its inside-test uses (``bracket``; None for sign tests only) and its
     broad-phase ``reach`` ``(tolerance, factor)``: the pairs it can register are within
     factor·T of each other. :mod:`predicates.catalogue` derives everything else."""
+    if dim not in (2, 3):
+        raise ValueError(f"dim must be 2 or 3 (the paper's registrations), got {dim!r}")
+
     def wrap(fn):
         return Predicate(fn, dim, points, weights, algorithm, section=section, sim=sim,
                          bracket=bracket, reach=reach)

@@ -53,7 +53,14 @@ class Tolerances:
         try:
             return self.__dict__["values"][name]
         except KeyError:
-            raise AttributeError(name) from None
+            if name.startswith("__") or "values" not in self.__dict__:
+                raise AttributeError(name) from None
+            known = ", ".join(self.__dict__["values"]) or "none"
+            raise AttributeError(
+                f"no tolerance {name!r} in this {self.__dict__.get('dim')}D table (it has: "
+                f"{known}); a predicate with its own tolerances runs with its table: "
+                "pred.instrumented(table=...), predicates.tolerances(..., table=...) "
+                "(docs/custom-predicates.md, FPERR_TOLERANCES)") from None
 
     def names(self):
         return tuple(self.values)
@@ -157,7 +164,7 @@ def tolerances(dim: int, L_a, L_b, dtype=np.float64, table=None) -> Tolerances:
     L = compute_L(dim, L_a, L_b, ctx)
     check_scale(dim, L, ctx)
     with ctx.session():
-        powers = {p: L ** p for p in (1, 2, 3, 4)}
+        powers = {p: L ** p for p in range(1, 7)}
         for p, v in powers.items():
             if ctx.to_fraction(v) != ctx.to_fraction(L) ** p:
                 raise ArithmeticError(f"L^{p} is not exact (overflow or underflow: L = {L})")
@@ -212,7 +219,7 @@ def tracked_tolerances(dim: int, table: dict | None = None) -> Tolerances:
     """
     ctx = fperr.context("tracked")
     powers = {p: fperr.exact_input("L" if p == 1 else f"L^{p}", 1, p, nonnegative=True)
-              for p in (1, 2, 3, 4)}
+              for p in range(1, 7)}
     values = tolerance_values(dim, powers.__getitem__, ctx, table)
     for name, t in values.items():  # keep the paper's short names in check records
         t.s = name

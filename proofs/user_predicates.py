@@ -107,8 +107,9 @@ def _monomial(e: sympy.Expr, where: str) -> tuple:
     if not (q > 0 and q.q in (1, 2, 4)):
         raise DeclarationError(f"{where}: the power of eps must be positive with "
                                f"denominator 1, 2 or 4 (T = root_k(C^k·eps^(qk))), got {q}")
-    if not (p.is_integer and 1 <= p <= 4):
-        raise DeclarationError(f"{where}: the power of L must be 1, 2, 3 or 4, got {p}")
+    if not (p.is_integer and 1 <= p <= 6):  # up to the 3D predicates' L^6 (MAX_DEGREE)
+        raise DeclarationError(f"{where}: the power of L must be an integer from 1 to 6, "
+                               f"got {p}")
     return sympy.nsimplify(c), q, int(p)
 
 
@@ -371,7 +372,7 @@ class PredicateTolerances:
                                       "rescale the coordinates by a power of two")
         with ctx.session():
             Lc = ctx.const(ctx.from_fraction(Lq))
-            powers = {p: Lc ** p for p in (1, 2, 3, 4)}
+            powers = {p: Lc ** p for p in range(1, 7)}
             if any(ctx.to_fraction(v) != Lq ** p for p, v in powers.items()):
                 raise ArithmeticError(f"L^p is not exact in this format (L = {Lq})")
             tab = self.table()

@@ -244,3 +244,25 @@ def test_17_bit_context_refuses_unrepresentable_coordinates():
 def test_scale_outside_the_formats_range_is_refused_clearly(dtype, L_a):
     with pytest.raises((ValueError, ArithmeticError), match="(?i)underflow|overflow|range"):
         predicates.tolerances(3, L_a, 0.0, dtype=dtype)
+
+
+def test_unsupported_dimensions_and_missing_tolerances_say_so():
+    """dim=4 and a tolerance the table lacks are clear errors, not a bare KeyError or
+    AttributeError (docs/custom-predicates.md)."""
+    from predicates.core import predicate
+    from predicates.vector import cross2, sub
+
+    with pytest.raises(ValueError, match="dim must be 2 or 3"):
+        predicates.tolerances(4, 1.0, 1.0)
+    with pytest.raises(ValueError, match="dim must be 2 or 3"):
+        predicate(dim=4, points="AB")
+
+    @predicate(dim=2, points="ABC")
+    def near_line(ctx, A, B, C, tol):
+        o = ctx.name("o", cross2(sub(B, A), sub(C, A)))
+        if ctx.reject(abs(o) > tol.omega, line=1):
+            return ctx.miss()
+        return ctx.hit(())
+
+    with pytest.raises(AttributeError, match=r"no tolerance 'omega'.*instrumented\(table="):
+        near_line.instrumented()

@@ -355,3 +355,40 @@ def test_overrides_for_another_dimension_are_not_ignored():
         assert_tolerances_hold("incircle2d", {3: {"omega": {"lo": 1}}})
     with pytest.raises(DeclarationError, match="unknown 2D tolerance 'kappa'"):
         assert_tolerances_hold("incircle2d", {2: {"kappa": {"lo": 1}}})
+
+
+DEGREE5 = '''
+from predicates.core import predicate
+from predicates.vector import sub, triple
+from proofs.user_predicates import PredicateTolerances
+
+
+@predicate(dim=3, points="ABCDE")
+def inside_sphere(ctx, A, B, C, D, E, tol):
+    a, b, c, d = sub(A, E), sub(B, E), sub(C, E), sub(D, E)
+    la, lb, lc, ld = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2] for p in (a, b, c, d))
+    det = ctx.name("det", (ld * triple(a, b, c) - lc * triple(a, b, d))
+                   + (lb * triple(a, c, d) - la * triple(b, c, d)))
+    if ctx.reject(det <= tol.omega, line=1):
+        return ctx.miss()
+    return ctx.hit(())
+
+
+FPERR_TOLERANCES = PredicateTolerances(
+    dim=3, predicates=[inside_sphere],
+    tolerances={"omega": ("1100*eps*L^5", "MID*eps*L^5", "HI*eps*L^5")})
+'''
+
+
+@pytest.mark.parametrize("mid,hi,code,text", [(2300, 3500, 0, "2 hold, 0 fail"),
+                                              (1500, 2000, 1, "window.omega[det]")])
+def test_a_degree_5_tolerance_is_decided(tmp_path, mid, hi, code, text):
+    """A tolerance-based insphere: its tolerance is of degree 5 in L (refused before);
+    fperr verify decides its window (a too narrow one fails, naming it)."""
+    (tmp_path / "insphere5.py").write_text(
+        DEGREE5.replace("MID", str(mid)).replace("HI", str(hi)))
+    env = {**os.environ, "PYTHONPATH": f"{tmp_path}{os.pathsep}{ROOT}"}
+    r = subprocess.run([sys.executable, "-m", "fperr", "verify", "--predicates", "insphere5"],
+                       cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+    assert r.returncode == code, r.stderr
+    assert text in r.stdout + r.stderr
