@@ -101,6 +101,22 @@ def rule_G(x: State, y: State) -> State:
     return State(ONE, x.p - y.p, x.n and y.n, a, b, True)
 
 
+def rule_P(x: State, y: State, factor=None) -> State:
+    """P: x = x1·2^k, x1 scaled by an exact power of two (a rule-J constant ±2^k): no
+    rounding (the significand is unchanged; underflow and overflow are excluded by the
+    premise on L, predicates.tolerances.safe_scale_range), c scaled by 2^k."""
+    if factor is None or isinstance(factor, bool):
+        raise NoRule("rule P needs an exact power-of-two constant factor")
+    return State(x.c * abs(factor), x.p, x.n and factor > 0, x.a, x.b, x.r)
+
+
+def rule_Q(x: State, y: State, factor=None) -> State:
+    """Q: x = x1 / 2^k, an exact power-of-two divisor: rule P with 2^−k."""
+    if factor is None or isinstance(factor, bool):
+        raise NoRule("rule Q needs an exact power-of-two constant divisor")
+    return rule_P(x, y, 1 / factor)
+
+
 def rule_H(x: State) -> State:
     """H: x = √x1, restriction n1 and r1."""
     if not (x.n and x.r):

@@ -106,6 +106,9 @@ class Tracked:
             if x.inv or y.inv:
                 return self._invalid(s, o.rules[-1], (x, y), _INV_MSG)
             return self._apply(s, o.rules, (x, y), (x.state, y.state))
+        scaled = _power_of_two_scaling(s, op, x, y)
+        if scaled is not None:
+            return scaled
         if op == "*":
             if x.inv and y.inv:
                 return self._invalid(s, "F", (x, y), _INV_MSG)
@@ -285,6 +288,33 @@ def const(x, exact: bool | None = None, name: str | None = None) -> Tracked:
     use_exact = representable if exact is None else (exact and representable)
     s = name or _const_string(value)
     return Tracked(s, rules.rule_J(value, use_exact), "J")
+
+
+def _power_of_two(t: "Tracked"):
+    """±2^k (a sympy Rational) when ``t`` is an exact rule-J constant of that value."""
+    if t.rule != "J" or not t.v or t.inv or t.a != 0 or t.b != 0:
+        return None
+    try:
+        value = sympy.Rational(sympy.sympify(t.s))
+    except (TypeError, ValueError, sympy.SympifyError):
+        return None
+    m = abs(value)
+    if m == 0 or (m.p & (m.p - 1)) or (m.q & (m.q - 1)):
+        return None
+    return value
+
+
+def _power_of_two_scaling(s: str, op: str, x: "Tracked", y: "Tracked"):
+    """Rules P/Q: x·2^k, 2^k·y or x/2^k with an exact constant 2^k cost no rounding."""
+    if x.inv or y.inv or not (x.v and y.v):
+        return None
+    if op == "/" and (f := _power_of_two(y)) is not None:
+        return Tracked._apply(s, ("Q",), (x, y), (x.state, y.state, f))
+    if op == "*":
+        for t, c in ((x, y), (y, x)):
+            if (f := _power_of_two(c)) is not None and t.rule != "J":
+                return Tracked._apply(s, ("P",), (x, y), (t.state, c.state, f))
+    return None
 
 
 def _representable(value: sympy.Expr) -> bool:

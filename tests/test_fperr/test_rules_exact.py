@@ -156,6 +156,12 @@ RULES = [
          pre=lambda x: x[1] != x[0] and 0 <= (x[2] - x[0]) / (x[1] - x[0]) <= 1),
     Expr("G:(x0*x1)/(x2*x3)", X(4), lambda x, K: (x[0] * x[1]) / (x[2] * x[3]), "G",
          pre=lambda x: x[2] * x[3] != 0),
+    # P, Q: scaling by an exact power of two costs no rounding (x·2^k, x/2^k)
+    Expr("P:(x0*x1-x2*x3)*0.5", X(4), lambda x, K: (x[0] * x[1] - x[2] * x[3]) * K.const(0.5),
+         "P"),
+    Expr("P:-4*(x0-x1)", X(2), lambda x, K: K.const(-4) * (x[0] - x[1]), "P"),
+    Expr("Q:(x0^2+x1^2)/2", X(2), lambda x, K: (sq(x[0]) + sq(x[1])) / K.const(2), "Q"),
+    Expr("Q:(x0-x1)/0.25", X(2), lambda x, K: (x[0] - x[1]) / K.const(0.25), "Q"),
     # H: x = sqrt(x1)
     Expr("H:sqrt(x0^2+x1^2)", X(2), lambda x, K: K.sqrt(sq(x[0]) + sq(x[1])), "H", sqrt=True),
     Expr("H:m 2D", names("A B", 2), lambda x, K: norm(sub(*pts(x, 2, 2)), K), "H", sqrt=True),
@@ -288,7 +294,7 @@ def test_every_rule_is_exercised():
     for e in RULES:
         used |= {y.rule for y in tracked(e).walk()}
     every = set(BY_RULE) | {"J", "K"}     # the operator table's rules and the two leaves
-    assert every == set("ABCDEFGHIJK")
+    assert every == set("ABCDEFGHIJKPQ")
     assert used >= every
     assert {e.rule for e in RULES} >= every
 
