@@ -82,8 +82,10 @@ def round_up_bits(x: Fraction, bits: int) -> Fraction:
     return round_fraction(x, bits, "up")
 
 
-def compute_L(dim: int, L_a, L_b, ctx) -> object:
-    """L of Algorithms 1/6, in the working precision, rounded up to ⌊prec/4⌋ bits.
+def compute_L(dim: int, L_a, L_b, ctx, degree: int = 4) -> object:
+    """L of Algorithms 1/6, in the working precision, rounded up to ⌊prec/degree⌋ bits
+    (4: the paper's tolerances; a table with tolerances up to L^degree needs L^degree
+    exact, so fewer bits).
 
     The paper's factor 1 + 5ε is meant to absorb the roundings of line 5 so that
     F[L] ≥ L̂ = (L_a + L_b)/(1 − 7ε^g); that holds for binary64, binary32 and 17-bit
@@ -102,7 +104,7 @@ def compute_L(dim: int, L_a, L_b, ctx) -> object:
                   if x else ctx.const(0) for x in (L_a, L_b))
         L = (ctx.const(1) + ctx.const(5) * eps) / (ctx.const(1) - ctx.const(L_SIGMA_PLUS) * root) \
             * (La + Lb)
-    bits = ctx.bits // 4
+    bits = ctx.bits // max(4, degree)
     S, e = ctx.to_fraction(La) + ctx.to_fraction(Lb), Fraction(1, 2**ctx.bits)
     q = round_up_bits(ctx.to_fraction(L), bits)
     while not bounds_L_hat(q, S, e, g):
@@ -161,14 +163,15 @@ def tolerances(dim: int, L_a, L_b, dtype=np.float64, table=None) -> Tolerances:
     if float(L_a) + float(L_b) <= 0:
         raise ValueError("L_a + L_b must be positive (both meshes are single points?)")
     ctx = fperr.context(dtype)
-    L = compute_L(dim, L_a, L_b, ctx)
+    tab = None if table is None else resolve_table(dim, table)
+    degree = max([4] + [int(s.p) for s in (tab or {}).values()])
+    L = compute_L(dim, L_a, L_b, ctx, degree)
     check_scale(dim, L, ctx)
     with ctx.session():
-        powers = {p: L ** p for p in range(1, 7)}
+        powers = {p: L ** p for p in range(1, degree + 1)}
         for p, v in powers.items():
             if ctx.to_fraction(v) != ctx.to_fraction(L) ** p:
                 raise ArithmeticError(f"L^{p} is not exact (overflow or underflow: L = {L})")
-        tab = None if table is None else resolve_table(dim, table)
         values = tolerance_values(dim, powers.__getitem__, ctx, tab)
     return Tolerances(dim, L, ctx.eps, ctx, values, tab)
 
@@ -218,8 +221,9 @@ def tracked_tolerances(dim: int, table: dict | None = None) -> Tolerances:
     ``table``: optional replacement of ``TABLES[dim]`` (see :func:`tolerance_values`).
     """
     ctx = fperr.context("tracked")
+    degree = max([4] + [int(s.p) for s in (table or {}).values()])
     powers = {p: fperr.exact_input("L" if p == 1 else f"L^{p}", 1, p, nonnegative=True)
-              for p in range(1, 7)}
+              for p in range(1, degree + 1)}
     values = tolerance_values(dim, powers.__getitem__, ctx, table)
     for name, t in values.items():  # keep the paper's short names in check records
         t.s = name

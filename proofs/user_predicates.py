@@ -361,7 +361,8 @@ class PredicateTolerances:
         import numpy as np
         ctx = fperr.context(np.float64 if dtype is None else dtype)
         Lq = to_fraction(L_bound) if not isinstance(L_bound, Fraction) else L_bound
-        Lq = round_up_bits(Lq, max(1, ctx.bits // 4))
+        degree = max([4] + [int(s.p) for s in self.table().values()])
+        Lq = round_up_bits(Lq, max(1, ctx.bits // degree))  # L^degree exact
         rng, deg = safe_scale_range(self.dim, ctx), self.degree()
         if rng is not None:  # the paper's range is for its degree: rescale the exponents
             k = MAX_DEGREE[self.dim] / deg
@@ -372,7 +373,7 @@ class PredicateTolerances:
                                       "rescale the coordinates by a power of two")
         with ctx.session():
             Lc = ctx.const(ctx.from_fraction(Lq))
-            powers = {p: Lc ** p for p in range(1, 7)}
+            powers = {p: Lc ** p for p in range(1, degree + 1)}
             if any(ctx.to_fraction(v) != Lq ** p for p, v in powers.items()):
                 raise ArithmeticError(f"L^p is not exact in this format (L = {Lq})")
             tab = self.table()
