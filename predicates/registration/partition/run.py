@@ -11,6 +11,7 @@ imported only here, only when a partitioned run is asked for.
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import resource
 import socket
@@ -133,8 +134,11 @@ def client_for(workers: int | None = None, address: str | None = None):
             # no dashboard: the scheduler's HTTP server still starts, by default on
             # port 8787, and warns on stderr when that port is taken (another cluster,
             # another fperr run); a free port on loopback only never collides
+            # worker warnings (a task cancelled under a timeout logs one with a
+            # traceback) are not the user's: fperr reports the failure itself
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1,
                                    processes=True, dashboard_address=None,
+                                   silence_logs=logging.ERROR,
                                    scheduler_kwargs={"dashboard": False,
                                                      "dashboard_address": "127.0.0.1:0"})
     with cluster, Client(cluster) as client:
