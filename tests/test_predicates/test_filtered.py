@@ -133,27 +133,3 @@ def test_thresholds_are_rounded_up_from_the_exact_bound():
         assert exact <= k <= exact * (1 + Fraction(1, 2 ** 20))  # up, and barely
         big = Fraction(classic.orient3d.threshold(3.0, dtype))  # K·L^p, every step up
         assert exact * 27 <= big <= exact * 27 * (1 + Fraction(1, 2 ** 20))
-
-
-def test_sign_bound_is_used_when_fperr_offers_it(monkeypatch):
-    """A comparison with 0 takes fperr.bounds(x, sign=True) when it exists (feature
-    check); here a stand-in that halves the ordinary bound: the threshold follows."""
-    import fperr
-    from predicates import filtered as filtered_module
-
-    ordinary = filtered_module.check_bounds(classic.orient2d, 53)[0].K
-    real = fperr.bounds
-
-    class Half:
-        def __init__(self, b):
-            self.E = b.E / 2
-
-    def bounds(x, strict=False, sign=False):
-        return Half(real(x, strict=strict)) if sign else real(x, strict=strict)
-
-    filtered_module.check_bounds.cache_clear()
-    monkeypatch.setattr(fperr, "bounds", bounds)
-    try:
-        assert filtered_module.check_bounds(classic.orient2d, 53)[0].K == ordinary / 2
-    finally:
-        filtered_module.check_bounds.cache_clear()
