@@ -39,23 +39,12 @@ import sympy
 import fperr
 import predicates
 from fperr import round_fraction, to_fraction
+from predicates.portable import norm as _norm  # fixed order, not BLAS
 from proofs.tables import TABLES
 
 
 # -- machine-independent arithmetic for the constructions (docs/design.md, "The same
 # answer on every machine"): sums in a fixed order, correctly rounded transcendentals
-def _dot(a, b) -> float:
-    a, b = np.asarray(a, dtype=np.float64).ravel(), np.asarray(b, dtype=np.float64).ravel()
-    acc = a[0] * b[0]
-    for j in range(1, len(a)):
-        acc = acc + a[j] * b[j]
-    return float(acc)
-
-
-def _norm(v) -> float:
-    return math.sqrt(_dot(v, v))
-
-
 def _rounded(f, x: float) -> float:
     with mpmath.workprec(128):
         return to_float(f(mpmath.mpf(float(x)))._mpf_, rnd="n")
