@@ -14,8 +14,11 @@ from dataclasses import dataclass
 
 import sympy
 
+from .symbols import eps as _EPS
+
 ONE = sympy.Integer(1)
 ZERO = sympy.Integer(0)
+
 
 
 class NoRule(Exception):
@@ -95,6 +98,65 @@ def rule_G(x: State, y: State) -> State:
     a = 1 + x.a + y.a
     b = (1 + x.a) * (1 + y.a) + x.b + y.b + y.a**2
     return State(ONE, x.p - y.p, x.n and y.n, a, b, True)
+
+
+def rule_S(x: State, y: State) -> State:
+    """S: x = x1·2^k (y the exact constant ±2^k): no rounding, the state scaled.
+
+    Multiplying a binary floating-point number by a power of two only changes its
+    exponent, so F[x1·2^k] = F[x1]·2^k exactly unless the result underflows or overflows,
+    which section 2's model (and the safe scale range) excludes (docs/proofs.md,
+    "Quotients and roots")."""
+    v = y.c
+    if not _power_of_two(y):
+        raise NoRule("rule S needs an exact constant ±2^k")
+    return State(x.c * v, x.p, x.n and y.n, x.a, x.b, x.r)
+
+
+def rule_SD(x: State, y: State) -> State:
+    """SD: x = x1/2^k, exact like rule S (the constant's reciprocal is a power of two)."""
+    if not _power_of_two(y):
+        raise NoRule("rule SD needs an exact constant ±2^k")
+    return State(x.c / y.c, x.p, x.n and y.n, x.a, x.b, x.r)
+
+
+def _power_of_two(y: State) -> bool:
+    """y is an exact, ε-free constant whose magnitude is 2^k (k any integer)."""
+    c = y.c
+    if y.p != 0 or y.a != 0 or y.b != 0 or not y.r or not isinstance(c, sympy.Rational) \
+            or c <= 0:
+        return False
+    num, den = int(c.p), int(c.q)
+    return num & (num - 1) == 0 and den & (den - 1) == 0
+
+
+def rule_GL(x: State, y: State, floor: sympy.Expr) -> State:
+    """GL: x = x1/x2 where a passed check bounds the computed divisor: |F[x2]| > f·L^p2.
+
+    With e2 = c2·(a2ε + b2ε²) (E[x2] = e2·L^p2) and D = f − e2 > 0 (the premise, checked
+    by the verifier), the exact divisor has |x2| ≥ D·L^p2, so |x| ≤ (c1/D)·L^(p1−p2) and
+    |F[x] − x| ≤ L^(p1−p2)·[(e1/f + c1·e2/(f·D))(1 + ε) + (c1/D)·ε] (docs/proofs.md,
+    "Quotients and roots"). The state is c = c1/D and aε = that bracket divided by c
+    (b = 0): an error in ε that need not be O(ε), exact all the same."""
+    e2 = y.c * (y.a * _EPS + y.b * _EPS**2)
+    D = floor - e2
+    rel = (1 + _EPS) * (D * (x.a * _EPS + x.b * _EPS**2) + e2) / floor + _EPS
+    return State(x.c / D, x.p - y.p, x.n and y.n, rel / _EPS, ZERO, False)
+
+
+def relative_from_floor(x: State, floor: sympy.Expr) -> State:
+    """x with its error made relative to itself by |F[x]| > f·L^p: |x| ≥ D·L^p with
+    D = f − e (premise D > 0), so |F[x] − x| ≤ e·L^p ≤ (e/D)·|x|; aε = e/D (b = 0)."""
+    e = x.c * (x.a * _EPS + x.b * _EPS**2)
+    return State(x.c, x.p, x.n, e / (floor - e) / _EPS, ZERO, True)
+
+
+def rule_HL(x: State, floor: sympy.Expr) -> State:
+    """HL: x = √x1 of a non-negative x1 whose computed value passed |F[x1]| > f·L^p:
+    rule H on x1 made relative (:func:`relative_from_floor`)."""
+    if not x.n:
+        raise NoRule("square root needs a non-negative operand (rule H)")
+    return rule_H(relative_from_floor(x, floor))
 
 
 def rule_H(x: State) -> State:

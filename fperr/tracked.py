@@ -13,7 +13,7 @@ from typing import Iterator
 
 import sympy
 
-from . import ops, rules
+from . import guards, ops, rules
 from .exact import is_exact, to_fraction
 from .rules import NoRule, State
 
@@ -33,7 +33,8 @@ class Tracked:
     only factors whose product with it has |x| ≤ 1).
     """
 
-    __slots__ = ("s", "state", "rule", "args", "why", "inv", "name", "unit_of")
+    __slots__ = ("s", "state", "rule", "args", "why", "inv", "name", "unit_of", "tight",
+                 "floor", "sign_link")
     __array_priority__ = 1000  # so numpy scalars defer to our reflected operators
 
     def __init__(self, s: str, state: State | None, rule: str, args: tuple = (),
@@ -46,6 +47,14 @@ class Tracked:
         self.inv = inv
         self.name = name
         self.unit_of: frozenset = frozenset()
+        # tight: the exact value is exactly c·L^p (constants, L^p, tolerances), so a
+        # passed check x > t bounds x below by t's value (guards.py);
+        # floor: |F[x]| > floor·L^p holds wherever x is used (a passed check, guards.py);
+        # sign_link: (other, parity): x's computed sign equals (parity 0) or is opposite
+        # to (parity 1) other's (a rejected same/differ-sign test, guards.py).
+        self.tight = False
+        self.floor = None
+        self.sign_link = None
 
     # -- the paper's fields -------------------------------------------------
     @property
@@ -94,7 +103,16 @@ class Tracked:
         s = o.s_form.format(self.s)
         if self.v and self.inv:
             return self._invalid(s, o.rules[0], (self,), _INV_MSG)
-        return self._apply(s, o.rules, (self,), (self.state,))
+        if op == "sqrt":
+            out = self._apply(s, ("H",), (self,), (self.state,))
+            if not out.v and self.v and self.floor is not None:
+                out = self._apply(s, ("HL",), (self,), (self.state, self.floor))
+                out.rule = out.rule if out.v else "H"
+            out.tight = self.tight and out.v
+            return out
+        out = self._apply(s, o.rules, (self,), (self.state,))
+        guards.after_unary(out, self, op)
+        return out
 
     def __pos__(self) -> "Tracked":
         return self
@@ -109,28 +127,58 @@ class Tracked:
         if op in "+-":
             if x.inv or y.inv:
                 return self._invalid(s, o.rules[-1], (x, y), _INV_MSG)
-            return self._apply(s, o.rules, (x, y), (x.state, y.state))
-        if op == "*":
-            if x.inv and y.inv:
-                return self._invalid(s, "F", (x, y), _INV_MSG)
-            q, f = (x, y) if x.inv else (y, x)
-            if q.inv and f.s not in q.unit_of:
-                return self._invalid(s, "F", (x, y), _INV_MSG)
-            out = self._apply(s, o.rules, (x, y), (x.state, y.state, x.s == y.s))
-            if out.v and q.inv:
-                # Rule G's "*": v_i·(1/‖v‖) is a component of a unit vector, c = 1.
-                st = out.state
-                out.state = State(sympy.Integer(1), st.p, st.n, st.a, st.b, st.r)
-            return out
-        if op == "/":
-            if x.inv or y.inv:
-                return self._invalid(s, "G", (x, y), _INV_MSG)
             out = self._apply(s, o.rules, (x, y), (x.state, y.state))
-            out.inv = out.v
-            if out.v and x.rule == "J" and x.c == 1:
+            guards.after_sum(out, x, y, op)
+            return out
+        if op == "*":
+            return self._product(s, x, y)
+        if op == "/":
+            return self._quotient(s, x, y)
+        raise AssertionError(op)
+
+    def _product(self, s: str, x: "Tracked", y: "Tracked") -> "Tracked":
+        if x.inv and y.inv:
+            return self._invalid(s, "F", (x, y), _INV_MSG)
+        q, f = (x, y) if x.inv else (y, x)
+        scale = guards.power_of_two(y) or guards.power_of_two(x)
+        if scale and not q.inv:  # rule S: ·2^k is exact (rules.rule_S)
+            k, v = (x, y) if guards.power_of_two(y) else (y, x)
+            out = self._apply(s, ("S",), (x, y), (k.state, v.state))
+            guards.after_scale(out, k, v)
+            return out
+        if q.inv and f.s not in q.unit_of:
+            return self._invalid(s, "F", (x, y), _INV_MSG)
+        out = self._apply(s, ("F",), (x, y), (x.state, y.state, x.s == y.s))
+        if out.v and q.inv:
+            # Rule G's "*": v_i·(1/‖v‖) is a component of a unit vector, c = 1.
+            st = out.state
+            out.state = State(sympy.Integer(1), st.p, st.n, st.a, st.b, st.r)
+        out.tight = out.v and x.tight and y.tight
+        return out
+
+    def _quotient(self, s: str, x: "Tracked", y: "Tracked") -> "Tracked":
+        """Rule SD (÷2^k, exact), else G (relative operands: a quotient with c = 1*),
+        else GL (a divisor bounded below by a passed check: a true magnitude bound)."""
+        if x.inv or y.inv:
+            return self._invalid(s, "G", (x, y), _INV_MSG)
+        if guards.power_of_two(y):
+            out = self._apply(s, ("SD",), (x, y), (x.state, y.state))
+            guards.after_scale(out, x, y)
+            return out
+        out = self._apply(s, ("G",), (x, y), (x.state, y.state))
+        if out.v:
+            out.inv = True
+            if x.rule == "J" and x.c == 1:
                 out.unit_of = _norm_components(y)
             return out
-        raise AssertionError(op)
+        if x.v and y.v and y.floor is not None:
+            gl = self._apply(s, ("GL",), (x, y), (x.state, y.state, y.floor))
+            if gl.v:
+                return gl
+        if y.v and y.floor is None and x.v:
+            out.why += (f"; or a divisor bounded below: reject |{y.label}| <= T (a "
+                        "tolerance) before dividing (rule GL, docs/custom-predicates.md)")
+        return out
 
     def __pow__(self, k):
         """x**k for an integer k ≥ 1 is evaluated as repeated multiplication, left to right."""
@@ -263,11 +311,15 @@ def coord(name: str) -> Tracked:
     return Tracked(name, rules.rule_K(), "K")
 
 
-def exact_input(name: str, c=1, p=1, nonnegative: bool = False) -> Tracked:
-    """An exact input of magnitude c·L^p (rule K generalised: e.g. the scale L itself)."""
+def exact_input(name: str, c=1, p=1, nonnegative: bool = False,
+                tight: bool = False) -> Tracked:
+    """An exact input of magnitude c·L^p (rule K generalised: e.g. the scale L itself);
+    ``tight``: its value is exactly c·L^p (L^p itself), not only bounded by it."""
     st = State(sympy.sympify(c), sympy.sympify(p), nonnegative,
                sympy.Integer(0), sympy.Integer(0), True)
-    return Tracked(name, st, "K")
+    out = Tracked(name, st, "K")
+    out.tight = tight and nonnegative
+    return out
 
 
 def const(x, exact: bool | None = None, name: str | None = None) -> Tracked:
@@ -288,7 +340,9 @@ def const(x, exact: bool | None = None, name: str | None = None) -> Tracked:
         raise ValueError(f"constant {x!r} is not exactly representable in a 17-bit format")
     use_exact = representable if exact is None else (exact and representable)
     s = name or _const_string(value)
-    return Tracked(s, rules.rule_J(value, use_exact), "J")
+    out = Tracked(s, rules.rule_J(value, use_exact), "J")
+    out.tight = bool(value >= 0)  # |value| = c: a non-negative constant is its bound
+    return out
 
 
 def _representable(value: sympy.Expr) -> bool:

@@ -33,6 +33,25 @@ from fperr import round_fraction, to_fraction
 from .tolerance_table import L_ROOT, L_SIGMA_PLUS, TABLES, resolve_table, spec_fraction
 
 
+class UnknownTolerance(AttributeError):
+    """A predicate asked for a tolerance its table does not have (``name``; ``known``:
+    the table's names)."""
+
+    def __init__(self, name: str, known: tuple):
+        super().__init__(f"no tolerance {name!r} in this table (it has: "
+                         f"{', '.join(known) or 'none'})")
+        self.name, self.known = name, known
+
+
+def check_dim(dim, table=None) -> None:
+    """Raise a clear ValueError for a dimension without a tolerance table: Figures 1
+    and 5 are 2D and 3D; another dimension needs its own ``table``."""
+    if table is None and dim not in TABLES:
+        raise ValueError(f"dim must be 2 or 3 (the paper's Figures 1 and 5), got {dim!r}; "
+                         "predicates of another dimension need their own tolerance table "
+                         "(name → ToleranceSpec), see docs/custom-predicates.md")
+
+
 @dataclass
 class Tolerances:
     """Every tolerance of Figure 1 (dim 2) or Figure 5 (dim 3) in the working format.
@@ -53,7 +72,9 @@ class Tolerances:
         try:
             return self.__dict__["values"][name]
         except KeyError:
-            raise AttributeError(name) from None
+            if name.startswith("__"):  # copy/pickle probe dunders: the plain error
+                raise AttributeError(name) from None
+            raise UnknownTolerance(name, tuple(self.__dict__.get("values", ()))) from None
 
     def names(self):
         return tuple(self.values)
@@ -146,8 +167,7 @@ def tolerances(dim: int, L_a, L_b, dtype=np.float64, table=None) -> Tolerances:
     ``float`` (Python floats, binary64), ``"mp17"``, or anything :func:`fperr.context`
     accepts (a context included).
     """
-    if dim not in (2, 3):
-        raise ValueError(f"dim must be 2 or 3, not {dim!r}")
+    check_dim(dim)
     for name, v in (("L_a", L_a), ("L_b", L_b)):
         if not (math.isfinite(float(v)) and float(v) >= 0):
             raise ValueError(f"{name} must be finite and non-negative, got {v!r}")
@@ -157,13 +177,29 @@ def tolerances(dim: int, L_a, L_b, dtype=np.float64, table=None) -> Tolerances:
     L = compute_L(dim, L_a, L_b, ctx)
     check_scale(dim, L, ctx)
     with ctx.session():
-        powers = {p: L ** p for p in (1, 2, 3, 4)}
-        for p, v in powers.items():
-            if ctx.to_fraction(v) != ctx.to_fraction(L) ** p:
-                raise ArithmeticError(f"L^{p} is not exact (overflow or underflow: L = {L})")
         tab = None if table is None else resolve_table(dim, table)
-        values = tolerance_values(dim, powers.__getitem__, ctx, tab)
+        values = tolerance_values(dim, exact_powers(L, ctx), ctx, tab)
     return Tolerances(dim, L, ctx.eps, ctx, values, tab)
+
+
+def exact_powers(L, ctx):
+    """p ↦ L^p in ``ctx`` (any p ≥ 1: a table may hold tolerances of degree 5 and
+    more), checked exact: L has ⌊prec/4⌋ bits, so L^p is exact for p ≤ 4 and for
+    higher p while ``p·bits(L)`` fits the significand; otherwise ArithmeticError."""
+    cache: dict = {}
+
+    def power(p: int):
+        if p not in cache:
+            v = L
+            for _ in range(p - 1):
+                v = v * L
+            if ctx.to_fraction(v) != ctx.to_fraction(L) ** p:
+                raise ArithmeticError(f"L^{p} is not exact in this format (L = {L}): a "
+                                      f"degree-{p} tolerance needs L with at most "
+                                      f"{ctx.bits}/{p} significant bits")
+            cache[p] = v
+        return cache[p]
+    return power
 
 
 #: Highest power of L any predicate computes: ‖A−B‖², areas (2D); d̂², γ²·m² (3D).
@@ -210,10 +246,16 @@ def tracked_tolerances(dim: int, table: dict | None = None) -> Tolerances:
 
     ``table``: optional replacement of ``TABLES[dim]`` (see :func:`tolerance_values`).
     """
+    check_dim(dim, table)
     ctx = fperr.context("tracked")
-    powers = {p: fperr.exact_input("L" if p == 1 else f"L^{p}", 1, p, nonnegative=True)
-              for p in (1, 2, 3, 4)}
-    values = tolerance_values(dim, powers.__getitem__, ctx, table)
+    powers: dict = {}
+
+    def power(p: int):  # L^p is exact (module docstring): an exact input of any degree
+        if p not in powers:
+            powers[p] = fperr.exact_input("L" if p == 1 else f"L^{p}", 1, p,
+                                          nonnegative=True, tight=True)
+        return powers[p]
+    values = tolerance_values(dim, power, ctx, table)
     for name, t in values.items():  # keep the paper's short names in check records
         t.s = name
-    return Tolerances(dim, powers[1], fperr.eps, ctx, values)
+    return Tolerances(dim, power(1), fperr.eps, ctx, values)

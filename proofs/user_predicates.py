@@ -11,7 +11,8 @@ rests on::
         facts=[Fact("omega_hi <= alpha_lo*power_lo", "det = orient·power (why)")])
 
 T−, T, T+ are expressions c·ε^q·L^p in ``eps`` and ``L`` (the same monomial for the
-three; q > 0 with denominator 1, 2 or 4 and p ∈ 1..4, as Figures 1 and 5), or a
+three; q > 0 with denominator 1, 2 or 4 and an integer p ≥ 1: Figures 1 and 5 stop
+at 4, a tolerance-based insphere needs 5), or a
 :class:`predicates.tolerance_table.ToleranceSpec`, or a TOML file of such tables.
 A fact relates T− (``name_lo``), T (``name``) and T+ (``name_hi``) with <, <=, >, >=;
 ``name_hi = expr`` is a fact the proof needs only as T+ ≤ expr (checked so), which
@@ -44,7 +45,7 @@ from fperr.symbols import L, eps
 from predicates import coefficients
 from predicates.core import Predicate
 from predicates.tolerance_table import ToleranceSpec
-from predicates.tolerances import (MAX_DEGREE, Tolerances, round_up_bits,
+from predicates.tolerances import (MAX_DEGREE, Tolerances, exact_powers, round_up_bits,
                                    safe_scale_range, tolerance_values)
 
 from . import tables
@@ -106,8 +107,8 @@ def _monomial(e: sympy.Expr, where: str) -> tuple:
     if not (q > 0 and q.q in (1, 2, 4)):
         raise DeclarationError(f"{where}: the power of eps must be positive with "
                                f"denominator 1, 2 or 4 (T = root_k(C^k·eps^(qk))), got {q}")
-    if not (p.is_integer and 1 <= p <= 4):
-        raise DeclarationError(f"{where}: the power of L must be 1, 2, 3 or 4, got {p}")
+    if not (p.is_integer and p >= 1):
+        raise DeclarationError(f"{where}: the power of L must be an integer ≥ 1, got {p}")
     return sympy.nsimplify(c), q, int(p)
 
 
@@ -367,11 +368,8 @@ class PredicateTolerances:
                                       "rescale the coordinates by a power of two")
         with ctx.session():
             Lc = ctx.const(ctx.from_fraction(Lq))
-            powers = {p: Lc ** p for p in (1, 2, 3, 4)}
-            if any(ctx.to_fraction(v) != Lq ** p for p, v in powers.items()):
-                raise ArithmeticError(f"L^p is not exact in this format (L = {Lq})")
             tab = self.table()
-            values = tolerance_values(self.dim, powers.__getitem__, ctx, tab)
+            values = tolerance_values(self.dim, exact_powers(Lc, ctx), ctx, tab)
         return Tolerances(self.dim, Lc, ctx.eps, ctx, values, tab)
 
 

@@ -279,7 +279,70 @@ def run_constraints(ins, v: Values, algorithm: str | None = None,
     run.out += [run.sign_constraint(e) for e in run.signs.values()]
     run.out += [run.nonzero(q, b) for q, b in
                 run.declared.nonzero.get((run.dim, run.alg), {}).items()]
+    run.out += divisor_constraints(run)
     return run.out
+
+
+_DIVISIONS = ("G", "GL", "HL")  # SD divides by ±2^k: never zero
+
+
+def divisor_constraints(run) -> list[Constraint]:
+    """Every divisor (and radicand of rule HL) bounded below by a passed check:
+    |F[d]| > f·L^p with f·L^p > E[d], so the exact |d| ≥ (f − e)·L^p > 0 (the premise
+    of rules GL/HL, docs/proofs.md "Quotients and roots"). A division in a returned
+    weight whose divisor no check bounds below fails, naming the divisor: it may be
+    0 (a weight of −inf, or ZeroDivisionError)."""
+    ins, out, seen = run.ins, [], set()
+    declared = run.declared.nonzero.get((run.dim, run.alg), {})
+    roots = [*ins.quantities.values(), *(x for c in ins.checks for x in (c.lhs, c.rhs))]
+    weights = {id(w) for w in ins.weights}
+    for top in [*ins.weights, *roots]:
+        for t in top.walk():
+            if t.rule not in _DIVISIONS or not t.args:
+                continue
+            d = t.args[-1] if t.rule != "HL" else t.args[0]
+            if id(d) in seen:
+                continue
+            in_weight = id(top) in weights
+            if d.floor is None and (t.rule != "G" or not in_weight or d.name in declared):
+                continue  # rule G on relative operands outside a weight: as before
+            seen.add(id(d))
+            out.append(_divisor(run, d, t.rule == "HL"))
+    return out
+
+
+def _short(t: Tracked, budget: int = 6) -> str:
+    """t written with the names of its named parts (``a_A + a_B + a_C``), else label."""
+    if t.name or not t.args or t.rule not in BY_RULE or budget <= 0:
+        return label(t)
+    parts = [_short(a, budget - 1) for a in t.args]
+    parts = [f"({p})" if " " in p and len(t.args) == 2 and t.rule in ("F", "G", "GL")
+             else p for p in parts]
+    return BY_RULE[t.rule].text.format(*parts)
+
+
+def _divisor(run, d: Tracked, radicand: bool) -> Constraint:
+    what = "radicand" if radicand else "divisor"
+    lab = _short(d)
+    lab = lab if len(lab) <= 60 else label(d)
+    cid = f"{run.dim}D.{run.alg}.{what}[{_ids([lab])}]"
+    if d.floor is None:
+        return Constraint(cid, run.dim, run.alg, "3", "nonzero", f"{lab} ≠ 0",
+                          error=f"unguarded divisor {lab} of a returned weight: no check "
+                                f"bounds |{lab}| from below, so it may be 0; reject "
+                                f"|{lab}| <= T (a tolerance) before dividing, or declare "
+                                f"it nonzero (docs/custom-predicates.md, 'A quotient')")
+    stmt = (f"|{lab}| > 0: |F[{lab}]| > f·L^p (a passed check) and f·L^p > E[{lab}]")
+    try:
+        E = bounds(d, strict=True).E
+    except InvalidBound as e:
+        return Constraint(cid, run.dim, run.alg, "3", "nonzero", stmt, error=str(e))
+    from fperr.symbols import L
+    f = d.floor * L**d.state.p
+    c = Constraint(cid, run.dim, run.alg, "3", "nonzero", stmt, [Inequality(f, E)],
+                   detail=f"f·L^p = {fmt(f)}, E[{lab}] = {fmt(E)}")
+    c.info.update(error=E, quantities=[lab])
+    return c
 
 
 def _special_pattern(chk, T: str, names):
