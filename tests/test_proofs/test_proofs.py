@@ -4,6 +4,7 @@ decides by proof rather than sampling, and the generated report is up to date.""
 from __future__ import annotations
 
 import json
+from fractions import Fraction
 import subprocess
 import sys
 from pathlib import Path
@@ -191,9 +192,9 @@ def test_bad_tolerance_files(tmp_path, capsys, content, msg):
 
 @predicate(dim=2, points="ABP", weights=("a",), algorithm=3)
 def edge_vertex(ctx, A, B, P, tol):
-    """Test-only 2D edge-vertex: d goes through a needless rescaling chain (×2, ×0.5,
-    twenty times; exact in floating point, but each product is a rounding for the
-    rules), and w = P − A is computed as (P − B) + (B − A)."""
+    """Test-only 2D edge-vertex: d goes through a needless rescaling chain (×3, ×1/3,
+    thirteen times: three roundings each for the rules, 1/3 being inexact; ×2, ×0.5
+    would cost none, rule S), and w = P − A is computed as (P − B) + (B − A)."""
     u_hat = sub(B, A)
     m = ctx.name("m", ctx.sqrt(dot(u_hat, u_hat)))
     if ctx.reject(m <= tol.sigma_hat, line=7):
@@ -201,8 +202,8 @@ def edge_vertex(ctx, A, B, P, tol):
     u = scale(u_hat, 1 / m)
     w = tuple(x + y for x, y in zip(sub(P, B), sub(B, A)))
     c = cross2(u, w)
-    for _ in range(20):
-        c = c * ctx.const(2) * ctx.const(0.5)
+    for _ in range(13):
+        c = c * ctx.const(3) * ctx.const(Fraction(1, 3))
     d = ctx.name("d", abs(c))
     if ctx.reject(d > tol.tau, line=12):
         return ctx.miss()
@@ -215,13 +216,13 @@ def edge_vertex(ctx, A, B, P, tol):
 
 def test_variant_2d_edge_vertex_error_grows_past_tau_window():
     ins = instrument(edge_vertex)
-    assert bounds(ins.quantities["d"]).E_int == 201  # 19 for the real predicate
+    assert bounds(ins.quantities["d"]).E_int == 197  # 19 for the real predicate
     rep = verify(2, runs=[edge_vertex])
     assert [o.id for o in rep.failures] == ["2D.edge_vertex.window.tau[d]"]
     o = rep.failures[0]
     # fails near ε = 1e-5 only: binary64 and binary32 would pass a sampled check
     lo, hi = o.decisions[0].fails_on[0]
-    assert 6.2e-6 < lo < 6.3e-6 and hi == pytest.approx(1e-5)
+    assert 6.50e-6 < lo < 6.51e-6 and hi == pytest.approx(1e-5)
     assert o.decisions[0].at64[0] > 0 and o.decisions[0].at32[0] > 0
     # the verifier also accepts the instrumented run itself
     rep_i = verify(2, runs={"edge_vertex": ins})
@@ -245,8 +246,9 @@ def _edge_edge_variant(extra_rounding: bool, sign_test: bool = False):
         n = cross3(r, w)
         a_hat = ctx.name("a_hat", dot(n, v))
         b_hat = ctx.name("b_hat", dot(n, u))
-        one = ctx.const(1)
-        a_bar = ctx.name("a_bar", m2 - (a_hat * one if extra_rounding else a_hat))
+        # (a_hat + a_hat)·0.5: one more rounding (the sum; ·0.5 is exact, rule S)
+        again = (a_hat + a_hat) * ctx.const(0.5) if extra_rounding else a_hat
+        a_bar = ctx.name("a_bar", m2 - again)
         b_bar = ctx.name("b_bar", m2 - b_hat)
         phi = tol.phi
         conds = [a_hat <= phi, b_hat <= phi, a_bar <= phi, b_bar <= phi]
@@ -281,7 +283,9 @@ def test_invalid_bound_is_a_failure():
         if ctx.reject(m <= tol.sigma_hat, line=7):
             return ctx.miss()
         w = sub(P, A)
-        d = ctx.name("d", abs(cross2(u_hat, w) / m))  # no relative error to divide
+        # a divisor without relative error and bounded below by no check (m would be:
+        # rule GL)
+        d = ctx.name("d", abs(cross2(u_hat, w) / dot(u_hat, w)))
         if ctx.reject(d > tol.tau, line=12):
             return ctx.miss()
         return ctx.hit((m,))
@@ -352,7 +356,7 @@ def test_interval_evaluation_is_an_enclosure():
 def test_cli_passes_both_dims(capsys):
     assert fperr_main(["verify", "--dim", "2"]) == 0
     out = capsys.readouterr().out
-    assert "2D: 21 constraints, 21 hold, 0 fail" in out
+    assert "2D: 25 constraints, 25 hold, 0 fail" in out  # 21 + 4 divisors (rule GL)
     assert fperr_main(["verify", "--dim", "3"]) == 0
     assert "0 fail" in capsys.readouterr().out
 
