@@ -130,33 +130,58 @@ def _power_of_two(y: State) -> bool:
     return num & (num - 1) == 0 and den & (den - 1) == 0
 
 
-def rule_GL(x: State, y: State, floor: sympy.Expr) -> State:
+def rule_GL(x: State, y: State, floor_y: sympy.Expr, floor_x=None) -> State:
     """GL: x = x1/x2 where a passed check bounds the computed divisor: |F[x2]| > f·L^p2.
 
-    With e2 = c2·(a2ε + b2ε²) (E[x2] = e2·L^p2) and D = f − e2 > 0 (the premise, checked
-    by the verifier), the exact divisor has |x2| ≥ D·L^p2, so |x| ≤ (c1/D)·L^(p1−p2) and
-    |F[x] − x| ≤ L^(p1−p2)·[(e1/f + c1·e2/(f·D))(1 + ε) + (c1/D)·ε] (docs/proofs.md,
-    "Quotients and roots"). The state is c = c1/D and aε = that bracket divided by c
-    (b = 0): an error in ε that need not be O(ε), exact all the same."""
-    e2 = y.c * (y.a * _EPS + y.b * _EPS**2)
-    D = floor - e2
-    rel = (1 + _EPS) * (D * (x.a * _EPS + x.b * _EPS**2) + e2) / floor + _EPS
-    return State(x.c / D, x.p - y.p, x.n and y.n, rel / _EPS, ZERO, False)
+    With E[x2] = e2·L^p2 and D = f − e2 > 0 (a premise the verifier checks), the exact
+    |x2| ≥ D·L^p2, so |x| ≤ (c1/D)·L^(p1−p2): a true magnitude bound (not rule G's
+    c = 1*). The error (docs/proofs.md, "Quotients and roots"):
+
+    * x1 with a relative bound R1 (r1, or its own floor: :func:`relative_from_floor`):
+      x2/F[x2] = 1 + η with |η| = |x2 − F[x2]|/|F[x2]| ≤ e2/f, so the quotient is
+      relative with R = (1 + R1)(1 + e2/f)(1 + ε) − 1, exactly;
+    * otherwise |F[x] − x| ≤ L^(p1−p2)·[(e1/f + c1·e2/(f·D))(1 + ε) + (c1/D)·ε].
+
+    Either is stored as aε (a = that bound/ε, b = 0): an error in ε that need not be
+    O(ε), exact all the same."""
+    e2 = _e(y)
+    D = floor_y - e2
+    c = x.c / D
+    if x.r or floor_x is not None:
+        xr = x if x.r else relative_from_floor(x, floor_x)
+        R1 = xr.a * _EPS + xr.b * _EPS**2
+        R = (1 + R1) * (1 + e2 / floor_y) * (1 + _EPS) - 1
+        return State(c, x.p - y.p, x.n and y.n, R / _EPS, ZERO, True)
+    rel = (1 + _EPS) * (D * (x.a * _EPS + x.b * _EPS**2) + e2) / floor_y + _EPS
+    return State(c, x.p - y.p, x.n and y.n, rel / _EPS, ZERO, False)
+
+
+def _e(x: State) -> sympy.Expr:
+    """e with E[x] = e·L^p."""
+    return x.c * (x.a * _EPS + x.b * _EPS**2)
 
 
 def relative_from_floor(x: State, floor: sympy.Expr) -> State:
     """x with its error made relative to itself by |F[x]| > f·L^p: |x| ≥ D·L^p with
     D = f − e (premise D > 0), so |F[x] − x| ≤ e·L^p ≤ (e/D)·|x|; aε = e/D (b = 0)."""
-    e = x.c * (x.a * _EPS + x.b * _EPS**2)
+    e = _e(x)
     return State(x.c, x.p, x.n, e / (floor - e) / _EPS, ZERO, True)
 
 
 def rule_HL(x: State, floor: sympy.Expr) -> State:
-    """HL: x = √x1 of a non-negative x1 whose computed value passed |F[x1]| > f·L^p:
-    rule H on x1 made relative (:func:`relative_from_floor`)."""
+    """HL: x = √x1 of a non-negative x1 whose computed value passed |F[x1]| > f·L^p.
+
+    With D = f − e1 > 0 (premise), x1 ≥ D·L^p and F[x1] > f·L^p, so
+    |√F[x1] − √x1| = |F[x1] − x1|/(√F[x1] + √x1) ≤ e1·L^p/(√f + √D)/L^(p/2) and,
+    relative to √x1 ≥ √D·L^(p/2): R1 = e1/(√(f·D) + D); with the rounding of the root
+    R = R1·(1 + ε) + ε, exactly. c = √c1, p = p1/2 as rule H."""
     if not x.n:
         raise NoRule("square root needs a non-negative operand (rule H)")
-    return rule_H(relative_from_floor(x, floor))
+    e = _e(x)
+    D = floor - e
+    R1 = e / (sympy.sqrt(floor * D) + D)
+    R = R1 * (1 + _EPS) + _EPS
+    return State(sympy.sqrt(x.c), x.p / 2, True, R / _EPS, ZERO, True)
 
 
 def rule_H(x: State) -> State:

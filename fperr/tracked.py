@@ -34,7 +34,7 @@ class Tracked:
     """
 
     __slots__ = ("s", "state", "rule", "args", "why", "inv", "name", "unit_of", "tight",
-                 "floor", "sign_link")
+                 "floor", "sign_link", "premises")
     __array_priority__ = 1000  # so numpy scalars defer to our reflected operators
 
     def __init__(self, s: str, state: State | None, rule: str, args: tuple = (),
@@ -55,6 +55,9 @@ class Tracked:
         self.tight = False
         self.floor = None
         self.sign_link = None
+        # premises: ((d, k), ...): this state holds if F[d]'s floor f satisfies
+        # f·L^p > k·E[d] (rules GL, HL: k = 1, the exact |d| > 0; the verifier checks)
+        self.premises: tuple = ()
 
     # -- the paper's fields -------------------------------------------------
     @property
@@ -108,6 +111,7 @@ class Tracked:
             if not out.v and self.v and self.floor is not None:
                 out = self._apply(s, ("HL",), (self,), (self.state, self.floor))
                 out.rule = out.rule if out.v else "H"
+                out.premises = ((self, 1),) if out.v else ()
             out.tight = self.tight and out.v
             return out
         out = self._apply(s, o.rules, (self,), (self.state,))
@@ -172,8 +176,10 @@ class Tracked:
                 out.unit_of = _norm_components(y)
             return out
         if x.v and y.v and y.floor is not None:
-            gl = self._apply(s, ("GL",), (x, y), (x.state, y.state, y.floor))
+            fx = None if x.r else x.floor
+            gl = self._apply(s, ("GL",), (x, y), (x.state, y.state, y.floor, fx))
             if gl.v:
+                gl.premises = ((y, 1),) + (((x, 1),) if fx is not None else ())
                 return gl
         if y.v and y.floor is None and x.v:
             out.why += (f"; or a divisor bounded below: reject |{y.label}| <= T (a "

@@ -283,32 +283,32 @@ def run_constraints(ins, v: Values, algorithm: str | None = None,
     return run.out
 
 
-_DIVISIONS = ("G", "GL", "HL")  # SD divides by ±2^k: never zero
+_DIVISIONS = ("G", "GL")  # SD divides by ±2^k: never zero
 
 
 def divisor_constraints(run) -> list[Constraint]:
-    """Every divisor (and radicand of rule HL) bounded below by a passed check:
-    |F[d]| > f·L^p with f·L^p > E[d], so the exact |d| ≥ (f − e)·L^p > 0 (the premise
-    of rules GL/HL, docs/proofs.md "Quotients and roots"). A division in a returned
-    weight whose divisor no check bounds below fails, naming the divisor: it may be
-    0 (a weight of −inf, or ZeroDivisionError)."""
-    ins, out, seen = run.ins, [], set()
+    """The premises of rules GL/HL: a divisor (or radicand) d whose computed value
+    passed |F[d]| > f·L^p needs f·L^p > k·E[d] (k = 1: the exact |d| > 0; k = 2: d's
+    relative error below 1), docs/proofs.md "Quotients and roots". A division in a
+    returned weight whose divisor no check bounds below fails, naming the divisor: it
+    may be 0 (a weight of −inf, or ZeroDivisionError)."""
+    ins = run.ins
     declared = run.declared.nonzero.get((run.dim, run.alg), {})
+    need: dict[int, list] = {}  # id(d) -> [d, k, radicand]
     roots = [*ins.quantities.values(), *(x for c in ins.checks for x in (c.lhs, c.rhs))]
     weights = {id(w) for w in ins.weights}
     for top in [*ins.weights, *roots]:
         for t in top.walk():
-            if t.rule not in _DIVISIONS or not t.args:
-                continue
-            d = t.args[-1] if t.rule != "HL" else t.args[0]
-            if id(d) in seen:
-                continue
-            in_weight = id(top) in weights
-            if d.floor is None and (t.rule != "G" or not in_weight or d.name in declared):
-                continue  # rule G on relative operands outside a weight: as before
-            seen.add(id(d))
-            out.append(_divisor(run, d, t.rule == "HL"))
-    return out
+            for d, k in t.premises:
+                role = "radicand" if t.rule == "HL" else \
+                    "divisor" if d is t.args[-1] else "numerator"
+                entry = need.setdefault(id(d), [d, k, role])
+                entry[1] = max(entry[1], k)
+            if id(top) in weights and t.rule in _DIVISIONS and t.args:
+                d = t.args[1]
+                if d.floor is None and d.name not in declared:
+                    need.setdefault(id(d), [d, 1, "divisor"])
+    return [_divisor(run, d, k, role) for d, k, role in need.values()]
 
 
 def _short(t: Tracked, budget: int = 6) -> str:
@@ -321,8 +321,7 @@ def _short(t: Tracked, budget: int = 6) -> str:
     return BY_RULE[t.rule].text.format(*parts)
 
 
-def _divisor(run, d: Tracked, radicand: bool) -> Constraint:
-    what = "radicand" if radicand else "divisor"
+def _divisor(run, d: Tracked, k: int, what: str) -> Constraint:
     lab = _short(d)
     lab = lab if len(lab) <= 60 else label(d)
     cid = f"{run.dim}D.{run.alg}.{what}[{_ids([lab])}]"
@@ -332,14 +331,16 @@ def _divisor(run, d: Tracked, radicand: bool) -> Constraint:
                                 f"bounds |{lab}| from below, so it may be 0; reject "
                                 f"|{lab}| <= T (a tolerance) before dividing, or declare "
                                 f"it nonzero (docs/custom-predicates.md, 'A quotient')")
-    stmt = (f"|{lab}| > 0: |F[{lab}]| > f·L^p (a passed check) and f·L^p > E[{lab}]")
+    times = "" if k == 1 else f"{k}·"
+    stmt = (f"|{lab}| > 0: |F[{lab}]| > f·L^p (a passed check) and f·L^p > {times}E[{lab}]"
+            + ("" if k == 1 else f" ({k}: a relative error below 1)"))
     try:
         E = bounds(d, strict=True).E
     except InvalidBound as e:
         return Constraint(cid, run.dim, run.alg, "3", "nonzero", stmt, error=str(e))
     from fperr.symbols import L
     f = d.floor * L**d.state.p
-    c = Constraint(cid, run.dim, run.alg, "3", "nonzero", stmt, [Inequality(f, E)],
+    c = Constraint(cid, run.dim, run.alg, "3", "nonzero", stmt, [Inequality(f, k * E)],
                    detail=f"f·L^p = {fmt(f)}, E[{lab}] = {fmt(E)}")
     c.info.update(error=E, quantities=[lab])
     return c

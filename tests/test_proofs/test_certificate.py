@@ -76,7 +76,7 @@ def _first_ineq(doc, method="dominance", radical=False):
 
 # -- certificates of the paper's tables ----------------------------------------------------
 
-@pytest.mark.parametrize("dim,n", [(2, 25), (3, 54)])  # + the divisors of the weights (rule GL)
+@pytest.mark.parametrize("dim,n", [(2, 30), (3, 67)])  # + the premises of rule GL
 def test_certificates_of_paper_tables_check(certs, dim, n):
     r = _check_file(certs[dim])
     assert r.returncode == 0, r.stdout + r.stderr

@@ -356,7 +356,7 @@ def test_interval_evaluation_is_an_enclosure():
 def test_cli_passes_both_dims(capsys):
     assert fperr_main(["verify", "--dim", "2"]) == 0
     out = capsys.readouterr().out
-    assert "2D: 25 constraints, 25 hold, 0 fail" in out  # 21 + 4 divisors (rule GL)
+    assert "2D: 30 constraints, 30 hold, 0 fail" in out  # 21 + 9 divisors, numerators (rule GL)
     assert fperr_main(["verify", "--dim", "3"]) == 0
     assert "0 fail" in capsys.readouterr().out
 
