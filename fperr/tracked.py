@@ -29,17 +29,21 @@ class Tracked:
     r; None when invalid), ``v`` (valid), ``rule`` (the rule ID that produced it),
     ``args`` (operands), ``why`` (reason when invalid), ``inv`` (a quotient: rule G's
     c = 1 is a convention, not a bound, until it is multiplied into a normalised
-    quantity), ``unit_of`` (for a quotient 1/‖v‖: the strings of v's components, the
-    only factors whose product with it has |x| ≤ 1).
+    quantity), ``unit_of`` (for a quotient 1/‖v‖: the keys of v's components, the
+    only factors whose product with it has |x| ≤ 1), ``key`` (an integer equal for equal
+    texts ``s``: the same computation of the same leaves).
     """
 
-    __slots__ = ("s", "state", "rule", "args", "why", "inv", "name", "unit_of", "tight",
-                 "floor", "sign_link", "premises")
+    __slots__ = ("_s", "key", "state", "rule", "args", "why", "inv", "name", "unit_of",
+                 "tight", "floor", "sign_link", "premises")
     __array_priority__ = 1000  # so numpy scalars defer to our reflected operators
 
-    def __init__(self, s: str, state: State | None, rule: str, args: tuple = (),
+    def __init__(self, s: str | None, state: State | None, rule: str, args: tuple = (),
                  why: str = "", inv: bool = False, name: str | None = None):
-        self.s = s
+        # s: a leaf's name; None for an operation, whose text is built on demand
+        self._s = s
+        self.key = _intern(("leaf", s) if s is not None else
+                           (ops.BY_RULE[rule].key, *(a.key for a in args)))
         self.state = state
         self.rule = rule
         self.args = args
@@ -80,6 +84,19 @@ class Tracked:
     def label(self) -> str:
         return self.name or self.s
 
+    @property
+    def s(self) -> str:
+        """The canonical text of the computation ("((x0*x1)-(x2*x3))"), built on demand
+        (iteratively) from the operations: no state holds it, so a long computation
+        costs memory linear in its operations, not in the lengths of its texts."""
+        return self._s if self._s is not None else _text(self)
+
+    @s.setter
+    def s(self, text: str) -> None:
+        """Name a quantity as a leaf of later texts (the tolerances: "sigma")."""
+        self._s = text
+        self.key = _intern(("leaf", text))
+
     # -- construction ---------------------------------------------------------
     @staticmethod
     def _invalid(s, rule, args, why) -> "Tracked":
@@ -103,7 +120,7 @@ class Tracked:
     # -- operators (installed from fperr.ops.OPS below) ---------------------------------
     def _unary(self, op: str) -> "Tracked":
         o = ops.OPS[op]
-        s = o.s_form.format(self.s)
+        s = None  # the text is built on demand (Tracked.s)
         if self.v and self.inv:
             return self._invalid(s, o.rules[0], (self,), _INV_MSG)
         if op == "sqrt":
@@ -127,7 +144,7 @@ class Tracked:
             return NotImplemented
         x, y = (other, self) if reflected else (self, other)
         o = ops.OPS[op]
-        s = o.s_form.format(x.s, y.s)
+        s = None  # the text is built on demand (Tracked.s)
         if op in "+-":
             if x.inv or y.inv:
                 return self._invalid(s, o.rules[-1], (x, y), _INV_MSG)
@@ -150,9 +167,9 @@ class Tracked:
             out = self._apply(s, ("S",), (x, y), (k.state, v.state))
             guards.after_scale(out, k, v)
             return out
-        if q.inv and f.s not in q.unit_of:
+        if q.inv and f.key not in q.unit_of:
             return self._invalid(s, "F", (x, y), _INV_MSG)
-        out = self._apply(s, ("F",), (x, y), (x.state, y.state, x.s == y.s))
+        out = self._apply(s, ("F",), (x, y), (x.state, y.state, x.key == y.key))
         if out.v and q.inv:
             # Rule G's "*": v_i·(1/‖v‖) is a component of a unit vector, c = 1.
             st = out.state
@@ -283,7 +300,7 @@ _INV_MSG = ("a quotient (rule G, c = 1*) may only be multiplied by a component v
 
 
 def _norm_components(m: "Tracked") -> frozenset:
-    """The strings of v's components when m = sqrt(v_1·v_1 + ... + v_k·v_k), else empty."""
+    """The keys of v's components when m = sqrt(v_1·v_1 + ... + v_k·v_k), else empty."""
     if m.rule != "H" or not m.args:
         return frozenset()
     comps, stack = set(), [m.args[0]]
@@ -291,16 +308,53 @@ def _norm_components(m: "Tracked") -> frozenset:
         t = stack.pop()
         if t.rule in ("B", "C") and len(t.args) == 2:
             stack.extend(t.args)
-        elif t.rule == "F" and t.args[0].s == t.args[1].s:
-            comps.add(t.args[0].s)
+        elif t.rule == "F" and t.args[0].key == t.args[1].key:
+            comps.add(t.args[0].key)
         else:
             return frozenset()
     return frozenset(comps)
 
 
 def _simplify(st: State) -> State:
-    f = lambda e: sympy.nsimplify(e) if isinstance(e, sympy.Float) else sympy.radsimp(e)
-    return State(f(st.c), sympy.nsimplify(st.p), st.n, f(st.a), f(st.b), st.r)
+    """Sympy-valued fields simplified as before; rational ones (Fractions) are exact
+    and canonical already, so the common case costs nothing."""
+    if all(isinstance(v, Fraction) for v in (st._c, st._p, st._a, st._b)):
+        return st
+    f = lambda e: e if isinstance(e, Fraction) else \
+        sympy.nsimplify(e) if isinstance(e, sympy.Float) else sympy.radsimp(e)
+    p = st._p if isinstance(st._p, Fraction) else sympy.nsimplify(st._p)
+    return State(f(st._c), p, st.n, f(st._a), f(st._b), st.r)
+
+
+_KEYS: dict[tuple, int] = {}
+
+
+def _intern(structure: tuple) -> int:
+    """A small integer per structure (a leaf's text, or an operation and its operands'
+    keys): equal keys ⇔ equal texts, compared in O(1)."""
+    return _KEYS.setdefault(structure, len(_KEYS))
+
+
+def _text(root: "Tracked") -> str:
+    """The canonical text of ``root``, post-order without recursion (no depth limit)."""
+    memo: dict[int, str] = {}
+    stack = [root]
+    while stack:
+        t = stack[-1]
+        if id(t) in memo:
+            stack.pop()
+            continue
+        if t._s is not None:
+            memo[id(t)] = t._s
+            stack.pop()
+            continue
+        pending = [a for a in t.args if id(a) not in memo]
+        if pending:
+            stack.extend(pending)
+            continue
+        stack.pop()
+        memo[id(t)] = ops.BY_RULE[t.rule].s_form.format(*(memo[id(a)] for a in t.args))
+    return memo[id(root)]
 
 
 def _lift(x):
