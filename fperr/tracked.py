@@ -16,6 +16,7 @@ import sympy
 from . import guards, ops, rules
 from .exact import is_exact, to_fraction
 from .rules import NoRule, State
+from .state import EpsFrac
 
 
 class InvalidBound(ValueError):
@@ -318,9 +319,10 @@ def _norm_components(m: "Tracked") -> frozenset:
 def _simplify(st: State) -> State:
     """Sympy-valued fields simplified as before; rational ones (Fractions) are exact
     and canonical already, so the common case costs nothing."""
-    if all(isinstance(v, Fraction) for v in (st._c, st._p, st._a, st._b)):
+    exact = (Fraction, EpsFrac)  # canonical already: reduced fractions
+    if all(isinstance(v, exact) for v in (st._c, st._p, st._a, st._b)):
         return st
-    f = lambda e: e if isinstance(e, Fraction) else \
+    f = lambda e: e if isinstance(e, exact) else \
         sympy.nsimplify(e) if isinstance(e, sympy.Float) else sympy.radsimp(e)
     p = st._p if isinstance(st._p, Fraction) else sympy.nsimplify(st._p)
     return State(f(st._c), p, st.n, f(st._a), f(st._b), st.r)
