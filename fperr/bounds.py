@@ -91,10 +91,17 @@ def bounds(x: Tracked, strict: bool = False, sign: bool = False) -> Bounds:
             raise InvalidBound(f"no absolute bound for the quotient {x.label} (rule G's "
                                "c = 1 is not a magnitude bound); use R")
         return Bounds(True, st.p, None, R, None, paper_integer(st.a, st.b), st.r)
-    E = sympy.expand(st.c * L**st.p * rel)
+    E = _tidy(st.c * L**st.p * rel)
     E_int = paper_integer(st.c * st.a, st.c * st.b)
     R_int = paper_integer(st.a, st.b) if st.r else None
     return Bounds(True, st.p, E, R, E_int, R_int, st.r)
+
+
+def _tidy(e: sympy.Expr) -> sympy.Expr:
+    """Expanded when a polynomial in ε (every bound of rules A–K); one fraction when a
+    divisor bounded below (rules GL/HL) put ε in a denominator."""
+    e = sympy.expand(e)
+    return e if e.is_polynomial(eps) else sympy.cancel(sympy.together(e))
 
 
 #: Operations whose last rounding the sign bound drops: a sum or difference (rules B–E).
@@ -110,7 +117,7 @@ def _sign_error(x: Tracked) -> sympy.Expr:
     while x.rule in _SIGN_EXACT_OPS and x.args:
         x = x.args[0]
     if x.rule in _SIGN_DROPS and len(x.args) == 2:
-        return sympy.expand(sum(bounds(a, strict=True).E for a in x.args))
+        return _tidy(sum(bounds(a, strict=True).E for a in x.args))
     return bounds(x, strict=True).E
 
 

@@ -1,5 +1,6 @@
-"""The operator table of :class:`fperr.Tracked` (section 2, rules A–I; P and Q: exact
-scaling by a power of two, docs/proofs.md).
+"""The operator table of :class:`fperr.Tracked` (section 2, rules A–I; S, SD, GL, HL:
+exact power-of-two scaling and divisors/radicands bounded below by a passed check,
+docs/proofs.md "Quotients and roots").
 
 One row per operation: the rules tried in order (the more restricted first, as section 2
 prescribes: C before B, E before D), the exact operation on exact values (Fractions or
@@ -34,11 +35,11 @@ class Op:
 OPS: dict[str, Op] = {op.key: op for op in (
     Op("+", 2, ("C", "B"), operator.add, "({0}+{1})", "{0} + {1}", "add"),
     Op("-", 2, ("E", "D"), operator.sub, "({0}-{1})", "{0} - {1}", "sub"),
-    Op("*", 2, ("F", "P"), operator.mul, "({0}*{1})", "{0} * {1}", "mul"),
-    Op("/", 2, ("G", "Q"), operator.truediv, "({0}/{1})", "{0} / {1}", "truediv"),
+    Op("*", 2, ("S", "F"), operator.mul, "({0}*{1})", "{0} * {1}", "mul"),
+    Op("/", 2, ("SD", "G", "GL"), operator.truediv, "({0}/{1})", "{0} / {1}", "truediv"),
     Op("neg", 1, ("A",), operator.neg, "(-{0})", "-{0}", "neg"),
     Op("abs", 1, ("I",), abs, "|{0}|", "|{0}|", "abs"),
-    Op("sqrt", 1, ("H",), sympy.sqrt, "sqrt({0})", "sqrt({0})", None),
+    Op("sqrt", 1, ("H", "HL"), sympy.sqrt, "sqrt({0})", "sqrt({0})", None),
 )}
 
 #: Rule letter -> the operation it belongs to (J, K are leaves: constants, inputs).

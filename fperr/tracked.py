@@ -13,9 +13,10 @@ from typing import Iterator
 
 import sympy
 
-from . import ops, rules
+from . import guards, ops, rules
 from .exact import is_exact, to_fraction
 from .rules import InvalidBound, NoRule, State  # noqa: F401  (InvalidBound: re-exported)
+from .state import EpsFrac
 
 
 class Tracked:
@@ -25,16 +26,21 @@ class Tracked:
     r; None when invalid), ``v`` (valid), ``rule`` (the rule ID that produced it),
     ``args`` (operands), ``why`` (reason when invalid), ``inv`` (a quotient: rule G's
     c = 1 is a convention, not a bound, until it is multiplied into a normalised
-    quantity), ``unit_of`` (for a quotient 1/‖v‖: the strings of v's components, the
-    only factors whose product with it has |x| ≤ 1).
+    quantity), ``unit_of`` (for a quotient 1/‖v‖: the keys of v's components, the
+    only factors whose product with it has |x| ≤ 1), ``key`` (an integer equal for equal
+    texts ``s``: the same computation of the same leaves).
     """
 
-    __slots__ = ("s", "state", "rule", "args", "why", "inv", "name", "unit_of")
+    __slots__ = ("_s", "key", "state", "rule", "args", "why", "inv", "name", "unit_of",
+                 "tight", "floor", "sign_link", "premises")
     __array_priority__ = 1000  # so numpy scalars defer to our reflected operators
 
-    def __init__(self, s: str, state: State | None, rule: str, args: tuple = (),
+    def __init__(self, s: str | None, state: State | None, rule: str, args: tuple = (),
                  why: str = "", inv: bool = False, name: str | None = None):
-        self.s = s
+        # s: a leaf's name; None for an operation, whose text is built on demand
+        self._s = s
+        self.key = _intern(("leaf", s) if s is not None else
+                           (ops.BY_RULE[rule].key, *(a.key for a in args)))
         self.state = state
         self.rule = rule
         self.args = args
@@ -42,6 +48,17 @@ class Tracked:
         self.inv = inv
         self.name = name
         self.unit_of: frozenset = frozenset()
+        # tight: the exact value is exactly c·L^p (constants, L^p, tolerances), so a
+        # passed check x > t bounds x below by t's value (guards.py);
+        # floor: |F[x]| > floor·L^p holds wherever x is used (a passed check, guards.py);
+        # sign_link: (other, parity): x's computed sign equals (parity 0) or is opposite
+        # to (parity 1) other's (a rejected same/differ-sign test, guards.py).
+        self.tight = False
+        self.floor = None
+        self.sign_link = None
+        # premises: ((d, k), ...): this state holds if F[d]'s floor f satisfies
+        # f·L^p > k·E[d] (rules GL, HL: k = 1, the exact |d| > 0; the verifier checks)
+        self.premises: tuple = ()
 
     # -- the paper's fields -------------------------------------------------
     @property
@@ -63,6 +80,19 @@ class Tracked:
     @property
     def label(self) -> str:
         return self.name or self.s
+
+    @property
+    def s(self) -> str:
+        """The canonical text of the computation ("((x0*x1)-(x2*x3))"), built on demand
+        (iteratively) from the operations: no state holds it, so a long computation
+        costs memory linear in its operations, not in the lengths of its texts."""
+        return self._s if self._s is not None else _text(self)
+
+    @s.setter
+    def s(self, text: str) -> None:
+        """Name a quantity as a leaf of later texts (the tolerances: "sigma")."""
+        self._s = text
+        self.key = _intern(("leaf", text))
 
     # -- construction ---------------------------------------------------------
     @staticmethod
@@ -87,10 +117,20 @@ class Tracked:
     # -- operators (installed from fperr.ops.OPS below) ---------------------------------
     def _unary(self, op: str) -> "Tracked":
         o = ops.OPS[op]
-        s = o.s_form.format(self.s)
+        s = None  # the text is built on demand (Tracked.s)
         if self.v and self.inv:
             return self._invalid(s, o.rules[0], (self,), _INV_MSG)
-        return self._apply(s, o.rules, (self,), (self.state,))
+        if op == "sqrt":
+            out = self._apply(s, ("H",), (self,), (self.state,))
+            if not out.v and self.v and self.floor is not None:
+                out = self._apply(s, ("HL",), (self,), (self.state, self.floor))
+                out.rule = out.rule if out.v else "H"
+                out.premises = ((self, 1),) if out.v else ()
+            out.tight = self.tight and out.v
+            return out
+        out = self._apply(s, o.rules, (self,), (self.state,))
+        guards.after_unary(out, self, op)
+        return out
 
     def __pos__(self) -> "Tracked":
         return self
@@ -101,35 +141,64 @@ class Tracked:
             return NotImplemented
         x, y = (other, self) if reflected else (self, other)
         o = ops.OPS[op]
-        s = o.s_form.format(x.s, y.s)
+        s = None  # the text is built on demand (Tracked.s)
         if op in "+-":
             if x.inv or y.inv:
                 return self._invalid(s, o.rules[-1], (x, y), _INV_MSG)
-            return self._apply(s, o.rules, (x, y), (x.state, y.state))
-        scaled = _power_of_two_scaling(s, op, x, y)
-        if scaled is not None:
-            return scaled
-        if op == "*":
-            if x.inv and y.inv:
-                return self._invalid(s, "F", (x, y), _INV_MSG)
-            q, f = (x, y) if x.inv else (y, x)
-            if q.inv and f.s not in q.unit_of:
-                return self._invalid(s, "F", (x, y), _INV_MSG)
-            out = self._apply(s, o.rules, (x, y), (x.state, y.state, x.s == y.s))
-            if out.v and q.inv:
-                # Rule G's "*": v_i·(1/‖v‖) is a component of a unit vector, c = 1.
-                st = out.state
-                out.state = State(sympy.Integer(1), st.p, st.n, st.a, st.b, st.r)
-            return out
-        if op == "/":
-            if x.inv or y.inv:
-                return self._invalid(s, "G", (x, y), _INV_MSG)
             out = self._apply(s, o.rules, (x, y), (x.state, y.state))
-            out.inv = out.v
-            if out.v and x.rule == "J" and x.c == 1:
+            guards.after_sum(out, x, y, op)
+            return out
+        if op == "*":
+            return self._product(s, x, y)
+        if op == "/":
+            return self._quotient(s, x, y)
+        raise AssertionError(op)
+
+    def _product(self, s: str, x: "Tracked", y: "Tracked") -> "Tracked":
+        if x.inv and y.inv:
+            return self._invalid(s, "F", (x, y), _INV_MSG)
+        q, f = (x, y) if x.inv else (y, x)
+        scale = guards.power_of_two(y) or guards.power_of_two(x)
+        if scale and not q.inv:  # rule S: ·2^k is exact (rules.rule_S)
+            k, v = (x, y) if guards.power_of_two(y) else (y, x)
+            out = self._apply(s, ("S",), (x, y), (k.state, v.state))
+            guards.after_scale(out, k, v)
+            return out
+        if q.inv and f.key not in q.unit_of:
+            return self._invalid(s, "F", (x, y), _INV_MSG)
+        out = self._apply(s, ("F",), (x, y), (x.state, y.state, x.key == y.key))
+        if out.v and q.inv:
+            # Rule G's "*": v_i·(1/‖v‖) is a component of a unit vector, c = 1.
+            st = out.state
+            out.state = State(sympy.Integer(1), st.p, st.n, st.a, st.b, st.r)
+        out.tight = out.v and x.tight and y.tight
+        return out
+
+    def _quotient(self, s: str, x: "Tracked", y: "Tracked") -> "Tracked":
+        """Rule SD (÷2^k, exact), else G (relative operands: a quotient with c = 1*),
+        else GL (a divisor bounded below by a passed check: a true magnitude bound)."""
+        if x.inv or y.inv:
+            return self._invalid(s, "G", (x, y), _INV_MSG)
+        if guards.power_of_two(y):
+            out = self._apply(s, ("SD",), (x, y), (x.state, y.state))
+            guards.after_scale(out, x, y)
+            return out
+        out = self._apply(s, ("G",), (x, y), (x.state, y.state))
+        if out.v:
+            out.inv = True
+            if x.rule == "J" and x.c == 1:
                 out.unit_of = _norm_components(y)
             return out
-        raise AssertionError(op)
+        if x.v and y.v and y.floor is not None:
+            fx = None if x.r else x.floor
+            gl = self._apply(s, ("GL",), (x, y), (x.state, y.state, y.floor, fx))
+            if gl.v:
+                gl.premises = ((y, 1),) + (((x, 1),) if fx is not None else ())
+                return gl
+        if y.v and y.floor is None and x.v:
+            out.why += (f"; or a divisor bounded below: reject |{y.label}| <= T (a "
+                        "tolerance) before dividing (rule GL, docs/custom-predicates.md)")
+        return out
 
     def __pow__(self, k):
         """x**k for an integer k ≥ 1 is evaluated as repeated multiplication, left to right."""
@@ -228,7 +297,7 @@ _INV_MSG = ("a quotient (rule G, c = 1*) may only be multiplied by a component v
 
 
 def _norm_components(m: "Tracked") -> frozenset:
-    """The strings of v's components when m = sqrt(v_1·v_1 + ... + v_k·v_k), else empty."""
+    """The keys of v's components when m = sqrt(v_1·v_1 + ... + v_k·v_k), else empty."""
     if m.rule != "H" or not m.args:
         return frozenset()
     comps, stack = set(), [m.args[0]]
@@ -236,16 +305,54 @@ def _norm_components(m: "Tracked") -> frozenset:
         t = stack.pop()
         if t.rule in ("B", "C") and len(t.args) == 2:
             stack.extend(t.args)
-        elif t.rule == "F" and t.args[0].s == t.args[1].s:
-            comps.add(t.args[0].s)
+        elif t.rule == "F" and t.args[0].key == t.args[1].key:
+            comps.add(t.args[0].key)
         else:
             return frozenset()
     return frozenset(comps)
 
 
 def _simplify(st: State) -> State:
-    f = lambda e: sympy.nsimplify(e) if isinstance(e, sympy.Float) else sympy.radsimp(e)
-    return State(f(st.c), sympy.nsimplify(st.p), st.n, f(st.a), f(st.b), st.r)
+    """Sympy-valued fields simplified as before; rational ones (Fractions) are exact
+    and canonical already, so the common case costs nothing."""
+    exact = (Fraction, EpsFrac)  # canonical already: reduced fractions
+    if all(isinstance(v, exact) for v in (st._c, st._p, st._a, st._b)):
+        return st
+    f = lambda e: e if isinstance(e, exact) else \
+        sympy.nsimplify(e) if isinstance(e, sympy.Float) else sympy.radsimp(e)
+    p = st._p if isinstance(st._p, Fraction) else sympy.nsimplify(st._p)
+    return State(f(st._c), p, st.n, f(st._a), f(st._b), st.r)
+
+
+_KEYS: dict[tuple, int] = {}
+
+
+def _intern(structure: tuple) -> int:
+    """A small integer per structure (a leaf's text, or an operation and its operands'
+    keys): equal keys ⇔ equal texts, compared in O(1)."""
+    return _KEYS.setdefault(structure, len(_KEYS))
+
+
+def _text(root: "Tracked") -> str:
+    """The canonical text of ``root``, post-order without recursion (no depth limit)."""
+    memo: dict[int, str] = {}
+    stack = [root]
+    while stack:
+        t = stack[-1]
+        if id(t) in memo:
+            stack.pop()
+            continue
+        if t._s is not None:
+            memo[id(t)] = t._s
+            stack.pop()
+            continue
+        pending = [a for a in t.args if id(a) not in memo]
+        if pending:
+            stack.extend(pending)
+            continue
+        stack.pop()
+        memo[id(t)] = ops.BY_RULE[t.rule].s_form.format(*(memo[id(a)] for a in t.args))
+    return memo[id(root)]
 
 
 def _lift(x):
@@ -262,11 +369,15 @@ def coord(name: str) -> Tracked:
     return Tracked(name, rules.rule_K(), "K")
 
 
-def exact_input(name: str, c=1, p=1, nonnegative: bool = False) -> Tracked:
-    """An exact input of magnitude c·L^p (rule K generalised: e.g. the scale L itself)."""
+def exact_input(name: str, c=1, p=1, nonnegative: bool = False,
+                tight: bool = False) -> Tracked:
+    """An exact input of magnitude c·L^p (rule K generalised: e.g. the scale L itself);
+    ``tight``: its value is exactly c·L^p (L^p itself), not only bounded by it."""
     st = State(sympy.sympify(c), sympy.sympify(p), nonnegative,
                sympy.Integer(0), sympy.Integer(0), True)
-    return Tracked(name, st, "K")
+    out = Tracked(name, st, "K")
+    out.tight = tight and nonnegative
+    return out
 
 
 def const(x, exact: bool | None = None, name: str | None = None) -> Tracked:
@@ -287,34 +398,9 @@ def const(x, exact: bool | None = None, name: str | None = None) -> Tracked:
         raise ValueError(f"constant {x!r} is not exactly representable in a 17-bit format")
     use_exact = representable if exact is None else (exact and representable)
     s = name or _const_string(value)
-    return Tracked(s, rules.rule_J(value, use_exact), "J")
-
-
-def _power_of_two(t: "Tracked"):
-    """±2^k (a sympy Rational) when ``t`` is an exact rule-J constant of that value."""
-    if t.rule != "J" or not t.v or t.inv or t.a != 0 or t.b != 0:
-        return None
-    try:
-        value = sympy.Rational(sympy.sympify(t.s))
-    except (TypeError, ValueError, sympy.SympifyError):
-        return None
-    m = abs(value)
-    if m == 0 or (m.p & (m.p - 1)) or (m.q & (m.q - 1)):
-        return None
-    return value
-
-
-def _power_of_two_scaling(s: str, op: str, x: "Tracked", y: "Tracked"):
-    """Rules P/Q: x·2^k, 2^k·y or x/2^k with an exact constant 2^k cost no rounding."""
-    if x.inv or y.inv or not (x.v and y.v):
-        return None
-    if op == "/" and (f := _power_of_two(y)) is not None:
-        return Tracked._apply(s, ("Q",), (x, y), (x.state, y.state, f))
-    if op == "*":
-        for t, c in ((x, y), (y, x)):
-            if (f := _power_of_two(c)) is not None and t.rule != "J":
-                return Tracked._apply(s, ("P",), (x, y), (t.state, c.state, f))
-    return None
+    out = Tracked(s, rules.rule_J(value, use_exact), "J")
+    out.tight = bool(value >= 0)  # |value| = c: a non-negative constant is its bound
+    return out
 
 
 def _representable(value: sympy.Expr) -> bool:

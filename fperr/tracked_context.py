@@ -10,6 +10,7 @@ from fractions import Fraction
 
 import sympy
 
+from . import guards
 from . import tracked as _t
 from .checks import Check
 from .contexts import Context
@@ -87,16 +88,20 @@ class TrackedContext(Context):
         for c in self._flatten(cond):
             c.line = line
             self.checks.append(c)
+            guards.record_rejection(c)  # afterwards lhs > rhs: a floor for lhs
+        for pair in _sign_pairs(cond):
+            # rejected "same sign" leaves opposite computed signs, "differ" equal ones
+            guards.relate_signs(pair.x, pair.y, 1 if pair.same else 0)
         return False
 
     def any(self, *conds):
         return list(conds)
 
     def same_sign(self, x, y):
-        zero = _t.const(0)
-        return [Check(x, zero, ">", label="sign"), Check(y, zero, ">", label="sign")]
+        return _SignPair(x, y, True)
 
-    differ_sign = same_sign  # the same two sign tests are recorded
+    def differ_sign(self, x, y):  # the same two sign tests are recorded
+        return _SignPair(x, y, False)
 
     def hit(self, weights):
         self.weights = tuple(weights)
@@ -104,3 +109,24 @@ class TrackedContext(Context):
 
     def miss(self):  # pragma: no cover - reject never asks for it
         raise AssertionError("the instrumented run never returns early")
+
+
+class _SignPair(list):
+    """The two sign tests of ``same_sign``/``differ_sign`` (a list of checks, as
+    before) that also remember which relation they test."""
+
+    def __init__(self, x, y, same: bool):
+        zero = _t.const(0)
+        super().__init__([Check(x, zero, ">", label="sign"), Check(y, zero, ">", label="sign")])
+        self.x, self.y, self.same = x, y, same
+
+
+def _sign_pairs(cond):
+    stack, out = [cond], []
+    while stack:
+        c = stack.pop()
+        if isinstance(c, _SignPair):
+            out.append(c)
+        elif isinstance(c, (list, tuple)):
+            stack.extend(c)
+    return out

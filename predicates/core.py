@@ -16,7 +16,7 @@ import numpy as np
 
 import fperr
 
-from .tolerances import Tolerances, tracked_tolerances
+from .tolerances import Tolerances, UnknownTolerance, check_dim, tracked_tolerances
 
 
 @dataclass(frozen=True)
@@ -196,12 +196,23 @@ class Predicate:
 
 @functools.lru_cache(maxsize=128)
 def _instrumented(pred: Predicate, frozen_table) -> Instrumented:
-    axes = "xyz"[: pred.dim]
+    check_dim(pred.dim, frozen_table)
+    axes = "xyz"[: pred.dim] if pred.dim <= 3 else [f"x{i}" for i in range(pred.dim)]
     pts = [tuple(fperr.coord(f"{p}.{a}") for a in axes) for p in pred.points]
     run = fperr.context("tracked").fresh(len(pred.weight_names))
     tol = tracked_tolerances(pred.dim, None if frozen_table is None else dict(frozen_table))
     coords = [run.coords(p, lbl) for p, lbl in zip(pts, pred.points)]
-    pred.fn(run, *coords, tol)
+    try:
+        pred.fn(run, *coords, tol)
+    except UnknownTolerance as e:
+        figure = "Figure 1" if pred.dim == 2 else "Figure 5"
+        source = f"the paper's {figure}" if frozen_table is None else "the table given"
+        raise ValueError(
+            f"{pred.name}: tolerance {e.name!r} is not in {source} (it has: "
+            f"{', '.join(e.known)}); pass the table of your tolerances, "
+            f"{pred.name}.instrumented({{'{e.name}': ToleranceSpec(...), ...}}), or declare "
+            "it in FPERR_TOLERANCES and use fperr verify --predicates "
+            "(docs/custom-predicates.md)") from None
     for name, w in zip(pred.weight_names, run.weights):
         w.name = name
     return Instrumented(pred.name, pred.dim, dict(run.quantities), list(run.checks),

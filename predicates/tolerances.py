@@ -33,6 +33,28 @@ from fperr import round_fraction, to_fraction
 from .tolerance_table import L_ROOT, L_SIGMA_PLUS, TABLES, resolve_table, spec_fraction
 
 
+class UnknownTolerance(AttributeError):
+    """A predicate asked for a tolerance its table does not have (``name``; ``known``:
+    the table's names)."""
+
+    def __init__(self, name: str, known: tuple, dim: int | None = None):
+        super().__init__(
+            f"no tolerance {name!r} in this {dim}D table (it has: {', '.join(known) or 'none'}); "
+            "a predicate with its own tolerances runs with its table: "
+            "pred.instrumented(table=...), predicates.tolerances(..., table=...) "
+            "(docs/custom-predicates.md, FPERR_TOLERANCES)")
+        self.name, self.known = name, known
+
+
+def check_dim(dim, table=None) -> None:
+    """Raise a clear ValueError for a dimension without a tolerance table: Figures 1
+    and 5 are 2D and 3D; another dimension needs its own ``table``."""
+    if table is None and dim not in TABLES:
+        raise ValueError(f"dim must be 2 or 3 (the paper's Figures 1 and 5), got {dim!r}; "
+                         "predicates of another dimension need their own tolerance table "
+                         "(name → ToleranceSpec), see docs/custom-predicates.md")
+
+
 @dataclass
 class Tolerances:
     """Every tolerance of Figure 1 (dim 2) or Figure 5 (dim 3) in the working format.
@@ -55,12 +77,8 @@ class Tolerances:
         except KeyError:
             if name.startswith("__") or "values" not in self.__dict__:
                 raise AttributeError(name) from None
-            known = ", ".join(self.__dict__["values"]) or "none"
-            raise AttributeError(
-                f"no tolerance {name!r} in this {self.__dict__.get('dim')}D table (it has: "
-                f"{known}); a predicate with its own tolerances runs with its table: "
-                "pred.instrumented(table=...), predicates.tolerances(..., table=...) "
-                "(docs/custom-predicates.md, FPERR_TOLERANCES)") from None
+            raise UnknownTolerance(name, tuple(self.__dict__["values"]),
+                                   self.__dict__.get("dim")) from None
 
     def names(self):
         return tuple(self.values)
@@ -155,8 +173,7 @@ def tolerances(dim: int, L_a, L_b, dtype=np.float64, table=None) -> Tolerances:
     ``float`` (Python floats, binary64), ``"mp17"``, or anything :func:`fperr.context`
     accepts (a context included).
     """
-    if dim not in (2, 3):
-        raise ValueError(f"dim must be 2 or 3, not {dim!r}")
+    check_dim(dim)
     for name, v in (("L_a", L_a), ("L_b", L_b)):
         if not (math.isfinite(float(v)) and float(v) >= 0):
             raise ValueError(f"{name} must be finite and non-negative, got {v!r}")
@@ -220,9 +237,11 @@ def tracked_tolerances(dim: int, table: dict | None = None) -> Tolerances:
 
     ``table``: optional replacement of ``TABLES[dim]`` (see :func:`tolerance_values`).
     """
+    check_dim(dim, table)
     ctx = fperr.context("tracked")
     degree = max([4] + [int(s.p) for s in (table or {}).values()])
-    powers = {p: fperr.exact_input("L" if p == 1 else f"L^{p}", 1, p, nonnegative=True)
+    powers = {p: fperr.exact_input("L" if p == 1 else f"L^{p}", 1, p, nonnegative=True,
+                                   tight=True)
               for p in range(1, degree + 1)}
     values = tolerance_values(dim, powers.__getitem__, ctx, table)
     for name, t in values.items():  # keep the paper's short names in check records

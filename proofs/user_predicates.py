@@ -11,7 +11,8 @@ rests on::
         facts=[Fact("omega_hi <= alpha_lo*power_lo", "det = orient·power (why)")])
 
 T−, T, T+ are expressions c·ε^q·L^p in ``eps`` and ``L`` (the same monomial for the
-three; q > 0 with denominator 1, 2 or 4 and p ∈ 1..4, as Figures 1 and 5), or a
+three; q > 0 with denominator 1, 2 or 4 and an integer p ≥ 1: Figures 1 and 5 stop
+at 4, a tolerance-based insphere needs 5), or a
 :class:`predicates.tolerance_table.ToleranceSpec`, or a TOML file of such tables.
 A fact relates T− (``name_lo``), T (``name``) and T+ (``name_hi``) with <, <=, >, >=;
 ``name_hi = expr`` is a fact the proof needs only as T+ ≤ expr (checked so), which

@@ -320,7 +320,71 @@ def run_constraints(ins, v: Values, algorithm: str | None = None,
     run.out += [run.sign_constraint(e) for e in run.signs.values()]
     run.out += [run.nonzero(q, b) for q, b in
                 run.declared.nonzero.get((run.dim, run.alg), {}).items()]
+    run.out += divisor_constraints(run)
     return run.out
+
+
+_DIVISIONS = ("G", "GL")  # SD divides by ±2^k: never zero
+
+
+def divisor_constraints(run) -> list[Constraint]:
+    """The premises of rules GL/HL: a divisor (or radicand) d whose computed value
+    passed |F[d]| > f·L^p needs f·L^p > k·E[d] (k = 1: the exact |d| > 0; k = 2: d's
+    relative error below 1), docs/proofs.md "Quotients and roots". A division in a
+    returned weight whose divisor no check bounds below fails, naming the divisor: it
+    may be 0 (a weight of −inf, or ZeroDivisionError)."""
+    ins = run.ins
+    declared = run.declared.nonzero.get((run.dim, run.alg), {})
+    need: dict[int, list] = {}  # id(d) -> [d, k, radicand]
+    roots = [*ins.quantities.values(), *(x for c in ins.checks for x in (c.lhs, c.rhs))]
+    weights = {id(w) for w in ins.weights}
+    for top in [*ins.weights, *roots]:
+        for t in top.walk():
+            for d, k in t.premises:
+                role = "radicand" if t.rule == "HL" else \
+                    "divisor" if d is t.args[-1] else "numerator"
+                entry = need.setdefault(id(d), [d, k, role])
+                entry[1] = max(entry[1], k)
+            if id(top) in weights and t.rule in _DIVISIONS and t.args:
+                d = t.args[1]
+                if d.floor is None and d.name not in declared:
+                    need.setdefault(id(d), [d, 1, "divisor"])
+    return [_divisor(run, d, k, role) for d, k, role in need.values()]
+
+
+def _short(t: Tracked, budget: int = 6) -> str:
+    """t written with the names of its named parts (``a_A + a_B + a_C``), else label."""
+    if t.name or not t.args or t.rule not in BY_RULE or budget <= 0:
+        return label(t)
+    parts = [_short(a, budget - 1) for a in t.args]
+    parts = [f"({p})" if " " in p and len(t.args) == 2 and t.rule in ("F", "G", "GL")
+             else p for p in parts]
+    return BY_RULE[t.rule].text.format(*parts)
+
+
+def _divisor(run, d: Tracked, k: int, what: str) -> Constraint:
+    lab = _short(d)
+    lab = lab if len(lab) <= 60 else label(d)
+    cid = f"{run.dim}D.{run.alg}.{what}[{_ids([lab])}]"
+    if d.floor is None:
+        return Constraint(cid, run.dim, run.alg, "3", "nonzero", f"{lab} ≠ 0",
+                          error=f"unguarded divisor {lab} of a returned weight: no check "
+                                f"bounds |{lab}| from below, so it may be 0; reject "
+                                f"|{lab}| <= T (a tolerance) before dividing, or declare "
+                                f"it nonzero (docs/custom-predicates.md, 'A quotient')")
+    times = "" if k == 1 else f"{k}·"
+    stmt = (f"|{lab}| > 0: |F[{lab}]| > f·L^p (a passed check) and f·L^p > {times}E[{lab}]"
+            + ("" if k == 1 else f" ({k}: a relative error below 1)"))
+    try:
+        E = bounds(d, strict=True).E
+    except InvalidBound as e:
+        return Constraint(cid, run.dim, run.alg, "3", "nonzero", stmt, error=str(e))
+    from fperr.symbols import L
+    f = d.floor * L**d.state.p
+    c = Constraint(cid, run.dim, run.alg, "3", "nonzero", stmt, [Inequality(f, k * E)],
+                   detail=f"f·L^p = {fmt(f)}, E[{lab}] = {fmt(E)}")
+    c.info.update(error=E, quantities=[lab])
+    return c
 
 
 def _special_pattern(chk, T: str, names):

@@ -197,9 +197,11 @@ def coefficients(expr: Expr, bits: int):
     st = x.state
     assert st is not None, f"{expr.name} is invalid: {x.why}"
     e = sympy.Rational(1, 2 ** bits)
-    rel = st.a * e + st.b * e ** 2
+    at = {fperr.eps: e}  # a divisor bounded below (rules GL/HL) puts ε in c and a
+    c = sympy.sympify(st.c).subs(at)
+    rel = (st.a * fperr.eps + st.b * fperr.eps ** 2).subs(at)
     assert st.p.is_integer, f"{expr.name}: non-integer power {st.p}"
-    return (Coef.of(st.c), Coef.of(st.c * rel), Coef.of(rel) if st.r else None, int(st.p))
+    return (Coef.of(c), Coef.of(c * rel), Coef.of(rel) if st.r else None, int(st.p))
 
 
 class BoundViolation(AssertionError):

@@ -29,10 +29,11 @@ from hypothesis import assume, given, reject, settings
 from hypothesis import strategies as st
 
 import fperr
-from exact_eval import (BINARY32, BINARY64, FORMATS, MP17, TRACKED, BoundViolation,
-                        Expr, OutOfRange, check, check_bounds, coordinates, eps_of,
-                        tracked)
+from exact_eval import (BINARY32, BINARY64, EXACT, FORMATS, INTERVAL, MP17, SYMBOLIC,
+                        TRACKED, BoundViolation, Expr, OutOfRange, check, check_bounds,
+                        coordinates, eps_of, tracked)
 from fperr import round_fraction as round_to_bits
+from fperr import guards
 from fperr.ops import BY_RULE
 
 # ---------------------------------------------------------------------------------
@@ -88,6 +89,31 @@ def nonzero(*idx_pairs):
 
 def sq(x):
     return x * x
+
+
+def guarded(d, t: Fraction, p: int, xs, K):
+    """d, used only where a passed check |F[d]| > t·Λ^p holds (Λ: the power of two
+    ≥ 2·max|x|, so Λ ≥ the checker's L and the floor t·L^p is implied). Instrumented,
+    the check is recorded as a predicate's rejection would be (rules GL/HL); in a
+    format, inputs that fail it are discarded (OutOfRange) as the predicate would."""
+    if K is TRACKED:
+        T = fperr.const(t) * fperr.exact_input(f"L^{p}", 1, p, nonnegative=True, tight=True)
+        guards.record_rejection(abs(d) <= T)
+        return d
+    if K in (EXACT, INTERVAL, SYMBOLIC):
+        return d
+    m = max((abs(K.to_fraction(x)) for x in xs), default=Fraction(0))
+    lam = Fraction(1)
+    while lam < 2 * m:
+        lam *= 2
+    while m and lam / 2 >= 2 * m:
+        lam /= 2
+    if not abs(K.to_fraction(d)) > t * lam ** p:
+        raise OutOfRange("the guard |d| > T fails: the predicate rejects this input")
+    return d
+
+
+_T = Fraction(1, 2 ** 12)
 
 
 # ---------------------------------------------------------------------------------
@@ -156,12 +182,9 @@ RULES = [
          pre=lambda x: x[1] != x[0] and 0 <= (x[2] - x[0]) / (x[1] - x[0]) <= 1),
     Expr("G:(x0*x1)/(x2*x3)", X(4), lambda x, K: (x[0] * x[1]) / (x[2] * x[3]), "G",
          pre=lambda x: x[2] * x[3] != 0),
-    # P, Q: scaling by an exact power of two costs no rounding (x·2^k, x/2^k)
-    Expr("P:(x0*x1-x2*x3)*0.5", X(4), lambda x, K: (x[0] * x[1] - x[2] * x[3]) * K.const(0.5),
-         "P"),
-    Expr("P:-4*(x0-x1)", X(2), lambda x, K: K.const(-4) * (x[0] - x[1]), "P"),
-    Expr("Q:(x0^2+x1^2)/2", X(2), lambda x, K: (sq(x[0]) + sq(x[1])) / K.const(2), "Q"),
-    Expr("Q:(x0-x1)/0.25", X(2), lambda x, K: (x[0] - x[1]) / K.const(0.25), "Q"),
+    # S, SD: more exact scalings (rule S's negative factor on the left, ÷2^−2)
+    Expr("SD:(x0^2+x1^2)/2", X(2), lambda x, K: (sq(x[0]) + sq(x[1])) / K.const(2), "SD"),
+    Expr("SD:(x0-x1)/0.25", X(2), lambda x, K: (x[0] - x[1]) / K.const(0.25), "SD"),
     # H: x = sqrt(x1)
     Expr("H:sqrt(x0^2+x1^2)", X(2), lambda x, K: K.sqrt(sq(x[0]) + sq(x[1])), "H", sqrt=True),
     Expr("H:m 2D", names("A B", 2), lambda x, K: norm(sub(*pts(x, 2, 2)), K), "H", sqrt=True),
@@ -192,6 +215,26 @@ RULES = [
     Expr("J:0.1+1/3", (), lambda x, K: K.const("0.1") + K.const(Fraction(1, 3)), "C"),
     # K: a coordinate
     Expr("K:x0", X(1), lambda x, K: x[0], "K"),
+    # S, SD: scaling by ±2^k is exact (no rounding)
+    Expr("S:(x0*x1-x2*x3)*0.5", X(4), lambda x, K: (x[0] * x[1] - x[2] * x[3]) * K.const(0.5),
+         "S"),
+    Expr("S:-4*(x0-x1)", X(2), lambda x, K: K.const(-4) * (x[0] - x[1]), "S"),
+    Expr("SD:(x0*x1-x2*x3)/2", X(4), lambda x, K: (x[0] * x[1] - x[2] * x[3]) / K.const(2),
+         "SD"),
+    # GL: a divisor bounded below by a passed check (docs/proofs.md, Quotients and roots)
+    Expr("GL:(x0*x1-x2*x3)/(x4-x5), |x4-x5|>T", X(6),
+         lambda x, K: (x[0] * x[1] - x[2] * x[3]) / guarded(x[4] - x[5], _T, 1, x, K), "GL"),
+    Expr("GL:t=(P-A).(B-A)/|B-A|^2, |B-A|^2>T", names("A B P", 2),
+         lambda x, K: (lambda A, B, P: dot(sub(P, A), sub(B, A)) / guarded(
+             dot(sub(B, A), sub(B, A)), _T, 2, x, K))(*pts(x, 2, 3)), "GL"),
+    Expr("GL:o/(o-o'), |o-o'|>T", X(4),
+         lambda x, K: (lambda o, o2: o / guarded(o - o2, _T, 1, x, K))(
+             x[0] - x[1], x[2] - x[3]), "GL"),
+    # HL: a radicand without relative error, bounded below by a passed check
+    Expr("HL:sqrt(n.n), n.n>T", X(6),
+         lambda x, K: K.sqrt(guarded(sq((x[0] - x[1]) - (x[2] - x[3])) + sq(x[4] - x[5]),
+                                     _T, 2, x, K)),
+         "HL", sqrt=True),
 ]
 
 
@@ -294,7 +337,7 @@ def test_every_rule_is_exercised():
     for e in RULES:
         used |= {y.rule for y in tracked(e).walk()}
     every = set(BY_RULE) | {"J", "K"}     # the operator table's rules and the two leaves
-    assert every == set("ABCDEFGHIJKPQ")
+    assert every == set("ABCDEFGHIJK") | {"S", "SD", "GL", "HL"}
     assert used >= every
     assert {e.rule for e in RULES} >= every
 

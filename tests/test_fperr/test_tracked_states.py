@@ -423,6 +423,12 @@ def reference(t):
         return (c1 + c2, p1, (n1 and n2) if op == "+" else False,
                 1 + (c1 * a1 + c2 * a2) / (c1 + c2),
                 (1 + c1 * (a1 + b1) + c2 * (a2 + b2)) / (c1 + c2), False)              # B, D
+    scale = [i for i in (2, 1) if _power_of_two_leaf(t[i])]
+    if op == "*" and scale:  # S: ·±2^k is exact, the other operand's state scaled
+        (cs, _, ns, *_), (c, p, n, a, b, r) = xs[scale[0] - 1], xs[2 - scale[0]]
+        return (c * cs, p, n and ns, a, b, r)
+    if op == "/" and 2 in scale:                                                       # SD
+        return (c1 / c2, p1, n1 and n2, a1, b1, r1)
     if op == "*":
         return (c1 * c2, p1 + p2, t[1] == t[2] or (n1 and n2), 1 + a1 + a2,
                 (1 + a1) * (1 + a2) + b1 + b2, r1 and r2)                              # F
@@ -432,6 +438,14 @@ def reference(t):
         return (1, p1 - p2, n1 and n2, 1 + a1 + a2,
                 (1 + a1) * (1 + a2) + b1 + b2 + a2 ** 2, True)                         # G
     raise AssertionError(op)
+
+
+def _power_of_two_leaf(t) -> bool:
+    """A constant leaf ±2^k (k any integer): rules S/SD scale by it exactly."""
+    if t[0] != "const" or t[1] == 0:
+        return False
+    q = abs(t[1])
+    return q.numerator & (q.numerator - 1) == 0 and q.denominator & (q.denominator - 1) == 0
 
 
 def build(t):

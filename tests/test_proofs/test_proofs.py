@@ -194,7 +194,7 @@ def test_bad_tolerance_files(tmp_path, capsys, content, msg):
 def edge_vertex(ctx, A, B, P, tol):
     """Test-only 2D edge-vertex: d goes through a needless rescaling chain (×3, ×1/3,
     twenty times: two roundings each, and 1/3 is itself rounded; ×2, ×0.5 would be
-    exact, rules P/Q), and w = P − A is computed as (P − B) + (B − A)."""
+    exact, rules S/SD), and w = P − A is computed as (P − B) + (B − A)."""
     u_hat = sub(B, A)
     m = ctx.name("m", ctx.sqrt(dot(u_hat, u_hat)))
     if ctx.reject(m <= tol.sigma_hat, line=7):
@@ -247,7 +247,7 @@ def _edge_edge_variant(extra_rounding: bool, sign_test: bool = False):
         a_hat = ctx.name("a_hat", dot(n, v))
         b_hat = ctx.name("b_hat", dot(n, u))
         one = ctx.const(1)
-        # one more rounding: ×3 (×1 or ×2^k would be exact: rules P/Q)
+        # one more rounding: ×3 (×1 or ×2^k would be exact: rules S/SD)
         a_bar = ctx.name("a_bar", m2 - ((a_hat * ctx.const(3)) * ctx.const(Fraction(1, 3))
                                         if extra_rounding else a_hat))
         b_bar = ctx.name("b_bar", m2 - b_hat)
@@ -284,7 +284,9 @@ def test_invalid_bound_is_a_failure():
         if ctx.reject(m <= tol.sigma_hat, line=7):
             return ctx.miss()
         w = sub(P, A)
-        d = ctx.name("d", abs(cross2(u_hat, w) / m))  # no relative error to divide
+        # a divisor without relative error and bounded below by no check (m would be:
+        # rule GL)
+        d = ctx.name("d", abs(cross2(u_hat, w) / dot(u_hat, w)))
         if ctx.reject(d > tol.tau, line=12):
             return ctx.miss()
         return ctx.hit((m,))
@@ -355,7 +357,7 @@ def test_interval_evaluation_is_an_enclosure():
 def test_cli_passes_both_dims(capsys):
     assert fperr_main(["verify", "--dim", "2"]) == 0
     out = capsys.readouterr().out
-    assert "2D: 21 constraints, 21 hold, 0 fail" in out
+    assert "2D: 30 constraints, 30 hold, 0 fail" in out  # 21 + 9 divisors, numerators (rule GL)
     assert fperr_main(["verify", "--dim", "3"]) == 0
     assert "0 fail" in capsys.readouterr().out
 
