@@ -15,6 +15,7 @@ import numpy as np
 
 import fperr
 
+from . import premise
 from .tolerances import Tolerances, tracked_tolerances
 
 
@@ -68,6 +69,8 @@ class Predicate:
         if ctx.vectorised:
             return self._batch(pts, tol, ctx)
         self._check_scalar_points(pts)
+        if ctx.bits is not None:  # a rounding number system: rule K's premise
+            premise.check_scalar(self, pts, tol.L)
         run = ctx.fresh(len(self.weight_names))
         tol_values = self._tolerances_for(tol, run)
         with run.session():
@@ -99,6 +102,7 @@ class Predicate:
             for b, lbl in zip(blocks, self.points):  # a cache-resident check per block
                 if not np.isfinite(b).all():
                     raise ValueError(f"{self.name}: point {lbl} has non-finite coordinates")
+            premise.check_batch(self, blocks, tol.L)  # rule K's premise, one reduction
             run = ctx.fresh(k, stop - start)
             run.out = weights[start:stop]  # hit() writes the weights in place
             if tol_values is None:
