@@ -57,7 +57,7 @@ import fperr
 from fperr import round_fraction
 
 from . import premise
-from .filtered_run import FilterContext, Lanes
+from .filtered_run import FilterContext, Lanes, RunningLanes
 from .tolerances import Tolerances
 
 MODES = ("semi-static", "static")
@@ -70,6 +70,8 @@ class FilteredResult:
 
     hit: np.ndarray
     fell_back: np.ndarray
+    first_stage: np.ndarray | None = None  #: lanes the derived-bound filter left
+
 
     @property
     def share(self) -> float:
@@ -135,7 +137,8 @@ class FilteredPredicate:
 
     BLOCK = 1 << 15  #: lanes per block (temporaries stay in cache)
 
-    def __init__(self, pred, mode: str = "semi-static", L=None, table: dict | None = None):
+    def __init__(self, pred, mode: str = "semi-static", L=None, table: dict | None = None,
+                 running: bool = True):
         if mode not in MODES:
             raise ValueError(f"mode must be one of {', '.join(MODES)}, not {mode!r}")
         if L is not None and not (np.isfinite(float(L)) and float(L) > 0):
@@ -143,6 +146,7 @@ class FilteredPredicate:
         if mode == "semi-static" and L is not None:
             raise ValueError("L is the static filter's scale: pass mode='static' with it")
         self.pred, self.mode, self.L = pred, mode, None if L is None else float(L)
+        self.running = running
         self.table = None if table is None else tuple(sorted(table.items()))
         self.name = pred.name
         functools.update_wrapper(self, pred.fn)
@@ -172,10 +176,17 @@ class FilteredPredicate:
             undecided |= too_big
             hit[start:stop] = h & ~undecided
             fell[start:stop] = undecided
+        first = fell.copy()
         lanes = np.flatnonzero(fell)
+        if lanes.size and self.running:  # second stage: a per-lane running error bound
+            sub = [a[lanes] for a in arrs]
+            h, still = self._native(sub, tol, dtype, bounds, None, running=True)
+            hit[lanes[~still]] = h[~still]
+            fell[lanes[~still]] = False
+            lanes = lanes[still]
         if lanes.size:
             hit[lanes] = self._exact_lanes(arrs, lanes, tol)
-        return FilteredResult(hit.reshape(batch), fell.reshape(batch))
+        return FilteredResult(hit.reshape(batch), fell.reshape(batch), first.reshape(batch))
 
     def exact(self, *args, tol: Tolerances | None = None) -> np.ndarray:
         """The all-exact path (every lane in Fractions): the reference and baseline."""
@@ -217,9 +228,15 @@ class FilteredPredicate:
             np.maximum(L, float(tol.L), out=L)
         return L
 
-    def _native(self, blocks, tol, dtype, bounds, L):
-        """(native answer, undecided lanes) of one block."""
+    def _native(self, blocks, tol, dtype, bounds, L, running=False):
+        """(native answer, undecided lanes) of one block (``running``: of the lanes
+        ``blocks`` hold, with the running error bound)."""
         k = len(self.pred.weight_names)
+        if running:
+            ctx = FilterContext(dtype, bounds, L, blocks[0].shape[0], k, running=True)
+            with np.errstate(all="ignore"):
+                hit, undecided = self._run(ctx, blocks, tol)
+            return hit & ~ctx.flagged, undecided | ctx.flagged
         ctx = FilterContext(dtype, bounds, L, blocks[0].shape[0], k)
         try:
             with np.errstate(under="raise", over="raise", divide="ignore", invalid="ignore"):
@@ -231,7 +248,8 @@ class FilteredPredicate:
             return hit, undecided | ctx.flagged
 
     def _run(self, ctx, blocks, tol):
-        coords = [tuple(Lanes(b[:, j], ctx) for j in range(self.pred.dim)) for b in blocks]
+        kind = RunningLanes if ctx.running else Lanes
+        coords = [tuple(kind(b[:, j], ctx) for j in range(self.pred.dim)) for b in blocks]
         tol_values = _NoTolerances(self.pred) if tol is None else \
             self.pred._tolerances_for(tol, fperr.NumpyContext(ctx.dtype))
         hit, _ = self.pred.fn(ctx, *coords, tol_values)
@@ -268,7 +286,7 @@ class _NoTolerances:
         return self
 
 
-def filtered(pred, mode: str = "semi-static", L=None, table: dict | None = None
-             ) -> FilteredPredicate:
+def filtered(pred, mode: str = "semi-static", L=None, table: dict | None = None,
+             running: bool = True) -> FilteredPredicate:
     """``pred`` as a :class:`FilteredPredicate` (see the module docstring)."""
-    return FilteredPredicate(pred, mode=mode, L=L, table=table)
+    return FilteredPredicate(pred, mode=mode, L=L, table=table, running=running)

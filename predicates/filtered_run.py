@@ -78,6 +78,8 @@ class Lanes:
         return self
 
     def _cmp(self, o, rel):
+        if isinstance(o, RunningLanes):
+            return o._cmp(self, _reflect(rel))
         return Compare(self.v, _value(o), rel)
 
     def __le__(self, o): return self._cmp(o, "<=")
@@ -89,17 +91,101 @@ class Lanes:
         raise TypeError("a predicate may not branch on a number: use the context")
 
 
+def _as_lanes(x, ctx):
+    return x if isinstance(x, Lanes) else Lanes(x, ctx)
+
+
+def _error(x):
+    """The running-error bound of an operand (0: an exact input or constant)."""
+    return getattr(x, "e", 0.0) if isinstance(x, Lanes) else 0.0
+
+
+def _up(x):
+    """One ulp up: ≥ the exact value of the operation just rounded to nearest (binary64,
+    subnormals included)."""
+    return np.nextafter(x, np.inf)
+
+
+class RunningLanes(Lanes):
+    """Lanes with a per-lane running error bound ``e`` ≥ |exact − computed| (the
+    permanent-style second stage, :mod:`predicates.filtered`): with ẑ = fl(x̂ ∘ ŷ) and
+    |fl(s) − s| ≤ u·|fl(s)| (round to nearest, no underflow: checked),
+    e(x ± y) = e_x + e_y + u|ẑ| and e(x·y) = |x̂|e_y + |ŷ|e_x + e_x·e_y + u|ẑ|, each
+    evaluated in binary64 with every operation rounded one ulp up. Division and square
+    roots have no such bound here: e = ∞ (the lane goes to the exact path)."""
+
+    __slots__ = ("e",)
+
+    def __init__(self, v, ctx, e=0.0):
+        super().__init__(v, ctx)
+        self.e = e
+
+    def _round(self, r):
+        return self.ctx.u * np.abs(np.asarray(r, dtype=np.float64))  # exact: u = 2^-p
+
+    def _sum(self, r, o):
+        e = _up(_up(self.e + _error(o)) + self._round(r))
+        return e
+
+    def _new(self, r, a=None, b=None, product=False):
+        self.ctx.flag(r, a, b, product)
+        return r
+
+    def __add__(self, o):
+        r = self._new(self.v + _value(o))
+        return RunningLanes(r, self.ctx, self._sum(r, o))
+
+    __radd__ = __add__
+
+    def __sub__(self, o):
+        r = self._new(self.v - _value(o))
+        return RunningLanes(r, self.ctx, self._sum(r, o))
+
+    def __rsub__(self, o):
+        r = self._new(_value(o) - self.v)
+        return RunningLanes(r, self.ctx, self._sum(r, o))
+
+    def __mul__(self, o):
+        b, eb = _value(o), _error(o)
+        r = self._new(self.v * b, self.v, b, True)
+        xa = np.abs(np.asarray(self.v, dtype=np.float64))
+        xb = np.abs(np.asarray(b, dtype=np.float64))
+        e = _up(_up(_up(xa * eb) + _up(xb * self.e)) + _up(self.e * eb))
+        return RunningLanes(r, self.ctx, _up(e + self._round(r)))
+
+    __rmul__ = __mul__
+
+    def _no_bound(self, r):
+        return RunningLanes(r, self.ctx, np.inf)
+
+    def __truediv__(self, o):
+        return self._no_bound(self._new(self.v / _value(o), self.v, None, True))
+
+    def __rtruediv__(self, o):
+        return self._no_bound(self._new(_value(o) / self.v, _value(o), None, True))
+
+    def __neg__(self):
+        return RunningLanes(-self.v, self.ctx, self.e)
+
+    def __abs__(self):
+        return RunningLanes(np.abs(self.v), self.ctx, self.e)
+
+    def _cmp(self, o, rel):
+        return Compare(self.v, _value(o), rel, _up(self.e + _error(o)))
+
+
 def _reflect(rel):
     return {"<=": ">=", "<": ">", ">=": "<=", ">": "<"}[rel]
 
 
 class Compare:
-    """A recorded comparison ``lhs rel rhs`` of lane values."""
+    """A recorded comparison ``lhs rel rhs`` of lane values; ``err``: the per-lane bound
+    of |error of lhs| + |error of rhs| in a running-error run (None otherwise)."""
 
-    __slots__ = ("lhs", "rhs", "rel")
+    __slots__ = ("lhs", "rhs", "rel", "err")
 
-    def __init__(self, lhs, rhs, rel):
-        self.lhs, self.rhs, self.rel = lhs, rhs, rel
+    def __init__(self, lhs, rhs, rel, err=None):
+        self.lhs, self.rhs, self.rel, self.err = lhs, rhs, rel, err
 
     def native(self):
         op = {"<=": np.less_equal, "<": np.less, ">=": np.greater_equal, ">": np.greater}
@@ -123,9 +209,12 @@ class FilterContext(fperr.NumpyContext):
     :class:`predicates.filtered.CheckBound`) at scale ``L`` (an array per lane or one
     number). ``undecided`` collects the lanes that must fall back."""
 
-    def __init__(self, dtype, bounds, L, lanes: int, n_weights: int, careful: bool = False):
+    def __init__(self, dtype, bounds, L, lanes: int, n_weights: int, careful: bool = False,
+                 running: bool = False):
         super().__init__(dtype)
-        self.bounds, self.L, self.careful = bounds, L, careful
+        self.bounds, self.L, self.careful, self.running = bounds, L, careful, running
+        self.careful |= running  # the running stage always flags underflow per lane
+        self.u = float(self.eps)
         self.n_weights = n_weights
         self.active = np.ones(lanes, dtype=bool)
         self.undecided = np.zeros(lanes, dtype=bool)
@@ -144,7 +233,15 @@ class FilterContext(fperr.NumpyContext):
         r = np.sqrt(_value(x))
         if self.careful:
             self.flag(r)
-        return Lanes(r, self)
+        return RunningLanes(r, self, np.inf) if self.running else Lanes(r, self)
+
+    def const(self, x):
+        c = super().const(x)
+        return RunningLanes(c, self, self.u * abs(float(c))) if self.running else c
+
+    def eps_multiple(self, q, power: int = 1):
+        c = super().eps_multiple(q, power)
+        return RunningLanes(c, self, self.u * abs(float(c))) if self.running else c
 
     def flag(self, r, a=None, b=None, product=False):
         """Careful run: lanes where ``r`` is not finite, or (a product/quotient) where it
@@ -181,12 +278,13 @@ class FilterContext(fperr.NumpyContext):
         b = self.bounds[self.index]
         self.index += 1
         if b.rel == _reflect(cmp.rel) and b.rel != cmp.rel:  # T >= x written, x <= T seen
-            cmp = Compare(cmp.rhs, cmp.lhs, b.rel)
+            cmp = Compare(cmp.rhs, cmp.lhs, b.rel, cmp.err)
         if b.rel != cmp.rel:
             raise RuntimeError(f"internal error: comparison {self.index} is {cmp.rel} here "
                                f"but {b.rel} in the instrumented run ({b.label})")
         with np.errstate(all="ignore"):
-            thr = np.nextafter(np.nextafter(b.K * self._L_power(b.power), np.inf), np.inf)
+            E = b.K * self._L_power(b.power) if cmp.err is None else cmp.err
+            thr = np.nextafter(np.nextafter(E, np.inf), np.inf)
             gap = np.abs(np.asarray(cmp.lhs, dtype=np.float64)
                          - np.asarray(cmp.rhs, dtype=np.float64))
             return cmp.native(), gap > thr  # nan (overflowed operands): never sure
@@ -196,8 +294,8 @@ class FilterContext(fperr.NumpyContext):
         if isinstance(cond, Compare):
             return self._sure(cond)
         if isinstance(cond, _SameSign):
-            vx, sx = self._sure(Compare(_value(cond.x), 0, ">"))
-            vy, sy = self._sure(Compare(_value(cond.y), 0, ">"))
+            vx, sx = self._sure(_as_lanes(cond.x, self) > 0)
+            vy, sy = self._sure(_as_lanes(cond.y, self) > 0)
             value = (vx != vy) if cond.differ else (vx == vy)
             return value, sx & sy
         if isinstance(cond, (list, tuple)):

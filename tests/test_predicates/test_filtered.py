@@ -141,9 +141,9 @@ def random_points(name, n, rng, dtype, offset=0.0, scale=1.0):
             for _ in pred.points]
 
 
-def check(name, P, mode="semi-static", L=None):
-    f = classic.FILTERED[name] if mode == "semi-static" else filtered(
-        classic.PREDICATES[name], mode=mode, L=L)
+def check(name, P, mode="semi-static", L=None, running=True):
+    f = classic.FILTERED[name] if (mode, running) == ("semi-static", True) else filtered(
+        classic.PREDICATES[name], mode=mode, L=L, running=running)
     res = f(*P)
     want = exact_signs(name, P)
     np.testing.assert_array_equal(res.hit, want > 0)
@@ -159,11 +159,12 @@ def test_random_inputs_exact_and_mostly_native(name, dtype):
     assert res.share < 0.02, res.share
 
 
+@pytest.mark.parametrize("running", [True, False])
 @pytest.mark.parametrize("dtype", [np.float64, np.float32])
 @pytest.mark.parametrize("name", NAMES)
-def test_near_degenerate_inputs_exact_and_exercise_the_exact_path(name, dtype):
+def test_near_degenerate_inputs_exact_and_exercise_the_exact_path(name, dtype, running):
     rng = np.random.default_rng(11)
-    res, want = check(name, near_degenerate(name, 150, rng, dtype))
+    res, want = check(name, near_degenerate(name, 150, rng, dtype), running=running)
     assert res.share == res.fell_back.mean() > 0  # the exact path decided some lanes,
     assert (res.fell_back & (want != 0)).any()     # nonzero signs among them
 
@@ -195,17 +196,34 @@ def test_static_filter_is_exact_and_never_better_than_semi_static(name):
     P = near_degenerate(name, 100, rng, np.float64)
     semi, _ = check(name, P)
     static, _ = check(name, P, mode="static")
-    assert static.share >= semi.share
+    assert static.first_stage.mean() >= semi.first_stage.mean()
     R = random_points(name, 200, rng, np.float64)
     semi, _ = check(name, R)
     tight, _ = check(name, R, mode="static", L=0.25)  # lanes beyond L fall back, still exact
-    assert tight.share > 0.5 > semi.share
+    assert tight.first_stage.mean() > 0.5 > semi.first_stage.mean()
+    alone, _ = check(name, R, mode="static", L=0.25, running=False)
+    np.testing.assert_array_equal(alone.fell_back, tight.first_stage)
+    assert tight.share < alone.share  # the running-error stage decided most of them
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_running_error_stage_decides_lanes_the_derived_bound_leaves(name):
+    """Points at 2^-20..2^-50 from the degenerate set: the per-lane running error bound
+    (second stage) decides lanes the derived bound cannot, and stays exact."""
+    rng = np.random.default_rng(29)
+    P = near_degenerate(name, 200, rng, np.float64)
+    step = 2.0 ** -rng.uniform(20, 50, size=P[-1].shape) * rng.choice([-1.0, 1.0], P[-1].shape)
+    P[-1] = P[-1] + step
+    res, _ = check(name, P)
+    assert res.first_stage.any() and res.share < res.first_stage.mean()
+    assert not (res.fell_back & ~res.first_stage).any()
 
 
 @settings(max_examples=40, deadline=None)
 @given(name=st.sampled_from(NAMES), seed=st.integers(0, 2**32 - 1),
-       exponent=st.integers(-60, 60), f32=st.booleans(), degenerate=st.booleans())
-def test_filtered_equals_exact_hypothesis(name, seed, exponent, f32, degenerate):
+       exponent=st.integers(-60, 60), f32=st.booleans(), degenerate=st.booleans(),
+       running=st.booleans())
+def test_filtered_equals_exact_hypothesis(name, seed, exponent, f32, degenerate, running):
     rng = np.random.default_rng(seed)
     dtype = np.float32 if f32 else np.float64
     offset = int(rng.integers(-2**20, 2**20)) * 2**exponent
@@ -213,7 +231,7 @@ def test_filtered_equals_exact_hypothesis(name, seed, exponent, f32, degenerate)
         P = near_degenerate(name, 8, rng, dtype, offset=offset, scale=Fraction(2)**exponent)
     else:
         P = random_points(name, 8, rng, dtype, offset=float(offset), scale=2.0**exponent)
-    check(name, P)
+    check(name, P, running=running)
 
 
 def test_sign_and_batch_shapes():
