@@ -22,7 +22,7 @@ as ours: differences to the last point first, Shewchuk's expansion), which is wh
 shares depend on; CGAL evaluates incircle and insphere in another order, for which its
 constants are derived, so its shares there are indicative.
 
-    python benchmarks/filtered_bench.py [--n 131072] [--exact 2000] [--repeat 3] [--json OUT]
+    python benchmarks/filtered_bench.py [--n 65536] [--exact 2000] [--repeat 3] [--json OUT]
 """
 from __future__ import annotations
 
@@ -91,7 +91,7 @@ INPUTS = {"random": random_inputs, "on the set": near_degenerate_inputs,
 
 
 # -- naive numpy and the published filters ---------------------------------------------
-def naive_det(name, P):
+def naive_det(name, P, permanent=True):
     """The determinant in Shewchuk's order (the classic module's), plus the pieces the
     published filters need: differences to the last point and Shewchuk's permanent."""
     *rows, last = P
@@ -116,7 +116,7 @@ def naive_det(name, P):
                 + (np.abs(m[4]) + np.abs(m[5])) * cl)
         return det, d, perm
     (ax, ay, az), (bx, by, bz), (cx, cy, cz), (dx, dy, dz) = [v.T for v in d]
-    p = {k: np.abs(v) for k, v in dict(ab=ax * by, ba=bx * ay, bc=bx * cy, cb=cx * by,
+    p = {} if not permanent else {k: np.abs(v) for k, v in dict(ab=ax * by, ba=bx * ay, bc=bx * cy, cb=cx * by,
                                         cd=cx * dy, dc=dx * cy, da=dx * ay, ad=ax * dy,
                                         ac=ax * cy, ca=cx * ay, bd=bx * dy, db=dx * by).items()}
     ab, bc, cd, da = ax * by - bx * ay, bx * cy - cx * by, cx * dy - dx * cy, dx * ay - ax * dy
@@ -126,12 +126,32 @@ def naive_det(name, P):
     al, bl = ax * ax + ay * ay + az * az, bx * bx + by * by + bz * bz
     cl, dl = cx * cx + cy * cy + cz * cz, dx * dx + dy * dy + dz * dz
     det = (dl * abc - cl * dab) + (bl * cda - al * bcd)
+    if not permanent:
+        return det, d, None
     A, B, C, D = np.abs(az), np.abs(bz), np.abs(cz), np.abs(dz)
     perm = (((p["cd"] + p["dc"]) * B + (p["db"] + p["bd"]) * C + (p["bc"] + p["cb"]) * D) * al
             + ((p["da"] + p["ad"]) * C + (p["ac"] + p["ca"]) * D + (p["cd"] + p["dc"]) * A) * bl
             + ((p["ab"] + p["ba"]) * D + (p["bd"] + p["db"]) * A + (p["da"] + p["ad"]) * B) * cl
             + ((p["bc"] + p["cb"]) * A + (p["ca"] + p["ac"]) * B + (p["ab"] + p["ba"]) * C) * dl)
     return det, d, perm
+
+
+def naive_sign(name, P):
+    """The naive baseline: the classic determinant in plain numpy (same order), det > 0."""
+    *rows, last = P
+    d = [p - last for p in rows]
+    if name == "orient2d":
+        (ax, ay), (bx, by) = [(v[:, 0], v[:, 1]) for v in d]
+        return ax * by - ay * bx > 0
+    if name in ("orient3d", "incircle"):
+        cols = [v.T for v in d]
+        if name == "orient3d":
+            (ax, ay, az), (bx, by, bz), (cx, cy, cz) = cols
+        else:
+            (ax, ay), (bx, by), (cx, cy) = cols
+            az, bz, cz = ax * ax + ay * ay, bx * bx + by * by, cx * cx + cy * cy
+        return az * (bx * cy - cx * by) + bz * (cx * ay - ax * cy) + cz * (ax * by - bx * ay) > 0
+    return naive_det(name, P, permanent=False)[0] > 0
 
 
 def cgal_undecided(name, det, d):
@@ -162,7 +182,8 @@ def run_case(name, kind, n, n_exact, repeat, rng):
     P = INPUTS[kind](name, n, rng)
     semi, static = classic.FILTERED[name], filtered(classic.PREDICATES[name], mode="static")
     semi(*[p[:8] for p in P])  # the analysis (sympy) once, outside the timings
-    t_naive, (det, d, perm) = cpu(lambda: naive_det(name, P), repeat)
+    t_naive, _ = cpu(lambda: naive_sign(name, P), repeat)
+    det, d, perm = naive_det(name, P)
     t_semi, rs = cpu(lambda: semi(*P), repeat)
     t_static, rt = cpu(lambda: static(*P), repeat)
     sub = [p[:n_exact] for p in P]
@@ -184,7 +205,7 @@ def run_case(name, kind, n, n_exact, repeat, rng):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--n", type=int, default=1 << 17)
+    ap.add_argument("--n", type=int, default=1 << 16)
     ap.add_argument("--exact", type=int, default=2000)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--json")

@@ -184,6 +184,14 @@ def check_scalar(pred, points, L) -> None:
     """Raise :class:`PremiseError` unless one call's ``points`` (tuples of numbers of any
     exact type: float, mpmath) satisfy the premise for ``L`` (compared exactly)."""
     use = coordinate_use(pred)
+    if type(L) is float and all(type(v) is float for p in points for v in p):
+        # binary64 fast path: |x| and 2|x| are exact; a rounded difference below L is
+        # exactly below L (rounding is monotone and L is representable)
+        if use.absolute:
+            if all(2 * abs(v) <= L for p in points for v in p):
+                return
+        elif all(abs(points[i][k] - points[j][k]) < L for i, j, k in use.pairs):
+            return
     Lq = to_fraction(L)
     if use.absolute:
         for lbl, p in zip(pred.points, points):
