@@ -184,7 +184,7 @@ def check_scalar(pred, points, L) -> None:
     """Raise :class:`PremiseError` unless one call's ``points`` (tuples of numbers of any
     exact type: float, mpmath) satisfy the premise for ``L`` (compared exactly)."""
     use = coordinate_use(pred)
-    if type(L) is float and all(type(v) is float for p in points for v in p):
+    if isinstance(L, float) and all(isinstance(v, float) for p in points for v in p):
         # binary64 fast path: |x| and 2|x| are exact; a rounded difference below L is
         # exactly below L (rounding is monotone and L is representable)
         if use.absolute:
@@ -254,9 +254,10 @@ def _axis_extent_max(arrs, use: CoordinateUse) -> float:
     worst = 0.0
     for k in sorted({k for _, _, k in use.pairs}):
         cols = [arrs[i][:, k] for i in points]
-        lo, hi = cols[0].copy(), cols[0].copy()
-        for c in cols[1:]:
+        lo, hi = np.minimum(cols[0], cols[1]), np.maximum(cols[0], cols[1])
+        for c in cols[2:]:
             np.minimum(lo, c, out=lo)
             np.maximum(hi, c, out=hi)
-        worst = max(worst, float(np.max(hi.astype(np.float64) - lo.astype(np.float64))))
+        np.subtract(hi, lo, out=hi, dtype=hi.dtype)
+        worst = max(worst, float(hi.max()))
     return worst
