@@ -99,7 +99,10 @@ def _sign_bounds_supported() -> bool:
 def _error_expr(check, sign_bounds: bool):
     """E of a recorded check (sympy in ε, L): the sign bound for a comparison with 0."""
     if check.is_sign_test and sign_bounds:
-        return fperr.bounds(check.lhs, strict=True, sign=True).E
+        E = fperr.bounds(check.lhs, strict=True, sign=True).E
+        if E is None:
+            raise fperr.InvalidBound(f"no sign bound for {check}")
+        return E
     return check.error()
 
 
