@@ -169,14 +169,16 @@ def test_near_degenerate_inputs_exact_and_exercise_the_exact_path(name, dtype, r
     assert (res.fell_back & (want != 0)).any()     # nonzero signs among them
 
 
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
 @pytest.mark.parametrize("offset", [2.0**20, 2.0**40])
 @pytest.mark.parametrize("name", NAMES)
-def test_translated_inputs(name, offset):
+def test_translated_inputs(name, offset, dtype):
     rng = np.random.default_rng(13)
-    check(name, random_points(name, 200, rng, np.float64, offset=offset))
-    check(name, near_degenerate(name, 60, rng, np.float64, offset=int(offset)))
-    res, want = check(name, exactly_degenerate(name, 40, rng, offset))
-    assert (want == 0).all() and res.fell_back.all()
+    check(name, random_points(name, 200, rng, dtype, offset=offset))
+    check(name, near_degenerate(name, 60, rng, dtype, offset=int(offset)))
+    if dtype is np.float64:  # integers + 2^40 are exact in binary64 only
+        res, want = check(name, exactly_degenerate(name, 40, rng, offset))
+        assert (want == 0).all() and res.fell_back.all()
 
 
 @pytest.mark.parametrize("dtype,power", [(np.float64, 500), (np.float64, -500),
@@ -327,3 +329,15 @@ def test_difference_predicates_check_every_lane():
         ev(A, B, far, tol)
     with pytest.raises(PremiseError, match="difference"):
         ev(tuple(A[1]), tuple(B[1]), tuple(far[1]), predicates.tolerances(2, 1.0, 1.0, float))
+
+
+def test_premise_checked_in_mpmath_and_exact_runs_unchecked():
+    """A rounding number system (mpmath at 17 bits) checks the premise; the exact one
+    has no rounding, hence no premise, and answers."""
+    import fperr
+    ev = predicates.d2.edge_vertex
+    A, B, far = (0.0, 0.0), (0.5, 0.0), (2.0**30, 0.0)
+    with pytest.raises(PremiseError, match="P − A on axis x"):
+        ev(A, B, far, predicates.tolerances(2, 1.0, 1.0, "mp17"), ctx=fperr.MpContext(17))
+    hit, _ = ev(A, B, far, predicates.tolerances(2, 1.0, 1.0, float), ctx=fperr.ExactContext())
+    assert hit is False
