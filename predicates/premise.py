@@ -193,6 +193,10 @@ def check_scalar(pred, points, L) -> None:
         elif all(abs(points[i][k] - points[j][k]) < L for i, j, k in use.pairs):
             return
     Lq = to_fraction(L)
+    try:
+        [to_fraction(v) for p in points for v in p]
+    except (ValueError, TypeError):  # non-finite or odd: the context's own check names it
+        return
     if use.absolute:
         for lbl, p in zip(pred.points, points):
             worst = max(abs(to_fraction(v)) for v in p)
