@@ -16,6 +16,7 @@ import numpy as np
 
 import fperr
 
+from . import premise
 from .tolerances import Tolerances, UnknownTolerance, check_dim, tracked_tolerances
 
 
@@ -98,6 +99,8 @@ class Predicate:
         self._check_scalar_points(pts)
         run = ctx.fresh(len(self.weight_names))
         tol_values = self._tolerances_for(tol, run)
+        if ctx.bits is not None:  # a rounding number system: rule K's premise
+            premise.check_scalar(self, pts, tol.L)
         with run.session():
             coords = [run.coords(p, lbl) for p, lbl in zip(pts, self.points)]
             return self.fn(run, *coords, tol_values)
@@ -127,6 +130,7 @@ class Predicate:
             for b, lbl in zip(blocks, self.points):  # a cache-resident check per block
                 if not np.isfinite(b).all():
                     raise ValueError(f"{self.name}: point {lbl} has non-finite coordinates")
+            premise.check_batch(self, blocks, tol.L)  # rule K's premise, one reduction
             run = ctx.fresh(k, stop - start)
             run.out = weights[start:stop]  # hit() writes the weights in place
             if tol_values is None:

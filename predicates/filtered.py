@@ -1,223 +1,295 @@
-"""Filtered sign predicates: decided in floating point where the derived bound allows,
-exactly elsewhere, never wrong (docs/custom-predicates.md, "A filtered predicate").
+"""Filtered predicates: decide natively when the derived bound allows, else exactly.
 
-A sign predicate is one function of its points that computes a quantity with ``+ − ×``
-(the usual determinant expansions, differences first). The same source runs three ways:
+From one ``@predicate`` source (:mod:`predicates.core`), :class:`FilteredPredicate`
+gives a batched predicate (numpy's gufunc convention: points of shape (..., dim)
+broadcast) whose answer equals the exact answer — the same source run on exact
+rationals with the same inputs and tolerance values — on every lane, and reports the
+share of lanes that needed the exact path (docs/custom-predicates.md, "A filtered
+predicate").
 
-1. **instrumented** (``fperr.Tracked``, rules A–K, section 2 of the paper): its sign
-   bound E_sign = E without the final rounding (docs/proofs.md, "Sign tests"), a
-   polynomial in ε times L^p for inputs with |coordinate| ≤ L/2 (rule K). The threshold
-   is θ(L) = K·L^p with K ≥ (1 + ε)·E_sign(ε, 1) rounded up in the working format;
-2. **natively on numpy** (float64 or float32, any batch shape, numpy's gufunc convention
-   for the points (..., dim)): a lane is decided by the sign of the computed value q̂
-   when |q̂| > θ(L_lane), which implies sign(q̂) = sign(q);
-3. **exactly** (``fractions.Fraction``) on the lanes left: the exact sign.
+**Why a native decision is exact.** The instrumented run (section 2, rules A–K) bounds
+the error of every comparison ``x rel y`` the predicate makes: E = E[x] + E[y]
+(docs/design.md, "Error of a check"); for a comparison with zero the bound without the
+final rounding (``fperr.bounds(x, sign=True)``) when fperr provides it — a rounding to
+nearest never changes a sign — else the ordinary bound, also sound. E = K(ε)·L^p holds
+when rule K's premise holds and no operation underflows or overflows. If the computed
+operands satisfy |fl(x) − fl(y)| > E·(1 + u) then the computed difference of the
+operands (rounded once, |d| ≥ |fl(d)|/(1 + u)) exceeds E, so the exact X − Y has the
+sign of the computed comparison: the native decision is the exact one. A lane is
+decided natively when each comparison it reaches is so decided (or, inside
+``ctx.any``, one operand is surely true); otherwise it *falls back* and is decided
+exactly. Every threshold is rounded upward (K up to binary64, each product of L^p·K one
+ulp up), so it stays an upper bound of E.
 
-The premise of the bound, |coordinate| ≤ L/2, is *established* per lane rather than
-assumed: ``L_lane`` is 2·max |coordinate| of the lane, or, for a source that uses its
-coordinates only through differences of one axis (found by a probe run:
-:attr:`SignPredicate.through_differences`), the largest extent of the lane's box —
-fl(a − b) errs by at most ε·|a − b|, so such a source's errors depend only on the
-differences (CGAL's semi-static filters rest on the same fact). Semi-static: a lane far
-from the origin, or a large one, gets the threshold its magnitudes need; with
-``per_lane=False`` one L for the whole batch (static, one reduction). A lane
-whose L is outside the range where underflow cannot matter
-(:func:`predicates.tolerances.safe_scale_range`) is decided exactly. So a shoelace
-orient2d of a unit triangle at offset 2^20 is either decided with the threshold of its
-magnitude 2^21 or exactly; never by a threshold derived for L = 1.
+**The premise, per lane.** The derived bounds hold for coordinates |x| ≤ L/2 (rule K).
+For a predicate that uses coordinates only through same-axis differences they hold for
+untranslated points whenever every difference it computes is at most L
+(:mod:`predicates.premise`). So each lane gets its own L: the largest difference it
+computes, one ulp up (``semi-static``, the per-call magnitude of CGAL's semi-static
+filters, the difference set being the one the predicate actually forms), or one L for
+the batch (``static``: ``L`` given, or the batch's largest); a predicate that uses raw
+coordinates gets L = 2·max|coordinate| of the lane (exact). With a tolerance table, L is
+at least ``tol.L``, the scale the tolerances were computed for. A lane whose L exceeds a
+given static ``L`` falls back: never a silent wrong answer.
 
-Exact fallback in Python fractions: exactness first; the fallback share is small on
-non-degenerate inputs (``benchmarks/filtered_bench.py`` measures it).
+**Underflow and overflow** (section 2 assumes neither) are detected, not assumed away:
+each block runs with numpy's underflow and overflow traps; a block that raises is rerun
+with per-lane flags (a nonzero product or quotient below the smallest normal, a zero
+one from nonzero operands, a non-finite value), and flagged lanes fall back.
+
+**The exact path** evaluates the same source with :class:`fperr.ExactContext`
+(``fractions.Fraction``, ε = 0, square roots refused unless rational) on the lanes that
+fell back. Exactness comes first: Fractions are exact for every +, −, ×, ÷ a predicate
+writes, with no expansion arithmetic to get wrong, and Python's big integers make a
+degree-5 insphere on binary64 inputs cost tens of microseconds a lane — fine for the
+small share a filter leaves (benchmarks/README.md, "Filtered predicates").
 """
 from __future__ import annotations
 
 import functools
-import math
+import inspect
+from dataclasses import dataclass
 from fractions import Fraction
 
 import numpy as np
 
-__all__ = ["SignPredicate", "sign_predicate"]
+import fperr
+from fperr import round_fraction
+
+from . import premise
+from .filtered_run import FilterContext, Lanes, RunningLanes
+from .tolerances import Tolerances
+
+MODES = ("semi-static", "static")
 
 
-class SignPredicate:
-    """A sign predicate from one source (see the module docstring). Call it with the
-    points, each (dim,) or (..., dim): returns the exact signs (int8: −1, 0, 1) of the
-    quantity, shape (...). ``decide(...)`` also returns the fraction of lanes decided
-    exactly; ``threshold(L, dtype)`` is θ(L) in that format."""
+@dataclass(frozen=True)
+class FilteredResult:
+    """``hit``: the exact answer per lane (batch shape); ``fell_back``: the lanes the
+    exact path decided; ``share``: their fraction (0 for an empty batch)."""
 
-    def __init__(self, fn, dim: int, points: str):
-        self.fn, self.dim, self.points = fn, dim, tuple(points)
-        self.name = fn.__name__
-        functools.update_wrapper(self, fn)
+    hit: np.ndarray
+    fell_back: np.ndarray
+    first_stage: np.ndarray | None = None  #: lanes the derived-bound filter left
 
-    def __repr__(self) -> str:
-        return f"<sign predicate {self.dim}D {self.name}({', '.join(self.points)})>"
 
-    # -- the analysis -------------------------------------------------------------------
-    @functools.cached_property
-    def bound(self):
-        """The sign bound of the quantity (``fperr.Bounds``, ``sign=True``)."""
-        import fperr
+    @property
+    def share(self) -> float:
+        return float(self.fell_back.mean()) if self.fell_back.size else 0.0
 
-        pts = [tuple(fperr.coord(f"{p}.{'xyz'[a]}") for a in range(self.dim))
-               for p in self.points]
-        b = fperr.bounds(self.fn(*pts), sign=True)
-        if not b.valid or b.E is None:
-            raise ValueError(f"{self.name}: no error bound for its quantity ({b.text()})")
-        return b
 
-    @functools.lru_cache(maxsize=8)
-    def _coefficient(self, dtype: np.dtype) -> tuple[float, int]:
-        """(K, p): θ(L) = K·L^p, K ≥ (1 + ε)·E_sign(ε, L = 1) rounded up in ``dtype``."""
-        import sympy
+@dataclass(frozen=True)
+class CheckBound:
+    """The bound of one recorded comparison: E ≤ ``K``·L^``power`` in the working
+    format (``K`` rounded up to binary64; inf when no bound is valid)."""
 
-        from fperr.symbols import L, eps
+    rel: str
+    K: float
+    power: int
+    label: str
 
-        ft = np.finfo(dtype)
-        e = Fraction(1, 2 ** (ft.nmant + 1))
-        exact = sympy.Rational(1) + sympy.Rational(e.numerator, e.denominator)
-        value = sympy.nsimplify(self.bound.E.subs({eps: sympy.Rational(e.numerator,
-                                                                       e.denominator),
-                                                   L: 1}) * exact)
-        K = Fraction(int(sympy.numer(value)), int(sympy.denom(value)))
-        k = dtype.type(float(K))
-        while Fraction(float(k)) < K:  # round up: a threshold too small is a bug
-            k = np.nextafter(k, dtype.type(np.inf))
-        return float(k), int(self.bound.power)
 
-    def threshold(self, L: float, dtype=np.float64) -> float:
-        """θ(L) = K·L^p, rounded up (float64)."""
-        K, p = self._coefficient(np.dtype(dtype))
-        return float(_times_power_up(np.array([K]), np.array([float(L)]), p)[0])
+def _sign_bounds_supported() -> bool:
+    try:
+        return "sign" in inspect.signature(fperr.bounds).parameters
+    except (TypeError, ValueError):  # pragma: no cover - a builtin without a signature
+        return False
 
-    @functools.cached_property
-    def through_differences(self) -> bool:
-        """True when the source uses its coordinates only as differences of one axis
-        (x_P − x_Q): its errors then depend only on the differences' magnitudes (the
-        error of fl(a − b) is at most ε·|a − b|), so L may bound 2·|x − c| for any
-        centre c instead of 2·|x| (translation-invariant: the premise is established
-        per lane by its own extent). Found by running the source on probes."""
-        pts = [tuple(_Probe(a) for a in range(self.dim)) for _ in self.points]
+
+def _error_expr(check, sign_bounds: bool):
+    """E of a recorded check (sympy in ε, L): the sign bound for a comparison with 0."""
+    if check.is_sign_test and sign_bounds:
+        E = fperr.bounds(check.lhs, strict=True, sign=True).E
+        if E is None:
+            raise fperr.InvalidBound(f"no sign bound for {check}")
+        return E
+    return check.error()
+
+
+@functools.lru_cache(maxsize=64)
+def check_bounds(pred, bits: int, table=None) -> tuple[CheckBound, ...]:
+    """Every comparison of ``pred``'s instrumented run, in execution order, with its
+    bound K·L^p at ε = 2^-bits (exact, then rounded up)."""
+    import sympy
+    ins = pred.instrumented(None if table is None else dict(table))
+    sign_bounds = _sign_bounds_supported()
+    out = []
+    for c in ins.checks:
         try:
-            self.fn(*pts)
-        except _NotADifference:
-            return False
-        return True
-
-    # -- running it -----------------------------------------------------------------------
-    def __call__(self, *points) -> np.ndarray:
-        return self.decide(*points)[0]
-
-    def decide(self, *points, dtype=None, per_lane: bool = True) -> tuple[np.ndarray, float]:
-        """(exact signs (...) int8, fraction of lanes decided exactly)."""
-        if len(points) != len(self.points):
-            raise TypeError(f"{self.name} takes the points {', '.join(self.points)}")
-        arrs = [np.asarray(p) for p in points]
-        dt = np.dtype(dtype) if dtype is not None else np.result_type(*arrs, np.float32)
-        if dt not in (np.float32, np.float64):
-            raise TypeError(f"{self.name}: float64 or float32 points, got {dt}")
-        for p, a in zip(self.points, arrs):
-            if a.shape[-1:] != (self.dim,):
-                raise ValueError(f"{self.name}: point {p} must have shape (..., {self.dim}), "
-                                 f"got {a.shape}")
-        shape = np.broadcast_shapes(*[a.shape[:-1] for a in arrs])
-        X = [np.broadcast_to(a.astype(dt, copy=False), shape + (self.dim,)).reshape(-1, self.dim)
-             for a in arrs]
-        signs, exact = self._lanes(X, dt, per_lane)
-        return signs.reshape(shape), (float(exact.mean()) if exact.size else 0.0)
-
-    def _lanes(self, X, dt, per_lane: bool):
-        n = len(X[0])
-        L = _lane_L(X, self.through_differences)
-        if not per_lane:
-            L = np.full(n, L.max(initial=0.0))
-        _, Lexp = np.frexp(L)
-        with np.errstate(all="ignore"):
-            q = self.fn(*[tuple(a[:, j] for j in range(self.dim)) for a in X])
-            q = np.broadcast_to(np.asarray(q, dtype=dt), (n,))
-            K, p = self._coefficient(dt)
-            theta = _times_power_up(np.full(n, K), L, p)
-        # underflow: below 2^lo_exp a product may lose bits the bound does not count
-        # (the argument of predicates.tolerances.safe_scale_range, for degree p);
-        # overflow makes q or θ infinite or NaN (inf − inf), caught by isfinite
-        ft = np.finfo(dt)
-        lo_exp = math.ceil((20 + math.log2(float(ft.smallest_subnormal)) + ft.nmant + 1) / p)
-        safe = (Lexp - 1 >= lo_exp) & np.isfinite(q) & np.isfinite(theta)
-        decided = safe & (np.abs(q.astype(np.float64)) > theta)
-        signs = np.where(decided, np.sign(q), 0).astype(np.int8)
-        rest = np.flatnonzero(~decided)
-        for i in rest.tolist():  # the exact sign of the quantity from the same source
-            pts = [tuple(Fraction(float(a[i, j])) for j in range(self.dim)) for a in X]
-            v = self.fn(*pts)
-            signs[i] = (v > 0) - (v < 0)
-        return signs, ~decided
+            E = _error_expr(c, sign_bounds)
+            power = int(c.power)
+            if power != c.power or power < 0:
+                raise fperr.InvalidBound(f"power {c.power}")
+            k = sympy.Rational(sympy.expand(E.subs(fperr.L, 1).subs(fperr.eps,
+                                                                  sympy.Rational(1, 2**bits))))
+            K = float(round_fraction(Fraction(int(k.p), int(k.q)), 53, "up"))
+        except fperr.InvalidBound:
+            K, power = float("inf"), 0
+        out.append(CheckBound(c.rel, K, power, str(c)))
+    return tuple(out)
 
 
-class _NotADifference(Exception):
-    pass
+class FilteredPredicate:
+    """A :class:`predicates.core.Predicate` decided natively where its derived bounds
+    allow and exactly elsewhere (module docstring). Call it like the predicate, ``tol``
+    optional for sign-only predicates: ``f(A, B, C)`` → :class:`FilteredResult`.
+
+    ``mode``: ``"semi-static"`` (each lane's own L, default) or ``"static"`` (one L:
+    ``L`` if given, else the batch's largest). ``table``: the tolerance table the
+    predicate's tolerances come from (name → ToleranceSpec), None for Figure 1/5."""
+
+    BLOCK = 1 << 15  #: lanes per block (temporaries stay in cache)
+
+    def __init__(self, pred, mode: str = "semi-static", L=None, table: dict | None = None,
+                 running: bool = True):
+        if mode not in MODES:
+            raise ValueError(f"mode must be one of {', '.join(MODES)}, not {mode!r}")
+        if L is not None and not (np.isfinite(float(L)) and float(L) > 0):
+            raise ValueError(f"L must be a positive finite number, got {L!r}")
+        if mode == "semi-static" and L is not None:
+            raise ValueError("L is the static filter's scale: pass mode='static' with it")
+        self.pred, self.mode, self.L = pred, mode, None if L is None else float(L)
+        self.running = running
+        self.table = None if table is None else tuple(sorted(table.items()))
+        self.name = pred.name
+        functools.update_wrapper(self, pred.fn)
+
+    def __repr__(self):
+        return f"<filtered {self.mode} {self.pred!r}>"
+
+    def __call__(self, *args, tol: Tolerances | None = None) -> FilteredResult:
+        arrs, batch, dtype, tol = self._inputs(args, tol)
+        n = arrs[0].shape[0]
+        hit, fell = np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
+        bounds = check_bounds(self.pred, np.finfo(dtype).nmant + 1, self.table)
+        use = premise.coordinate_use(self.pred)
+        lane_L = self._lane_L(arrs, use, tol)
+        static_L = None
+        if self.mode == "static":
+            static_L = self.L if self.L is not None else (float(lane_L.max()) if n else 1.0)
+        for start in range(0, n, self.BLOCK):
+            stop = min(n, start + self.BLOCK)
+            blocks = [a[start:stop] for a in arrs]
+            Lb = lane_L[start:stop]
+            if static_L is None:
+                too_big, L_run = np.zeros(stop - start, dtype=bool), Lb
+            else:
+                too_big, L_run = Lb > static_L, static_L
+            h, undecided = self._native(blocks, tol, dtype, bounds, L_run)
+            undecided |= too_big
+            hit[start:stop] = h & ~undecided
+            fell[start:stop] = undecided
+        first = fell.copy()
+        lanes = np.flatnonzero(fell)
+        if lanes.size and self.running:  # second stage: a per-lane running error bound
+            sub = [a[lanes] for a in arrs]
+            h, still = self._native(sub, tol, dtype, bounds, None, running=True)
+            hit[lanes[~still]] = h[~still]
+            fell[lanes[~still]] = False
+            lanes = lanes[still]
+        if lanes.size:
+            hit[lanes] = self._exact_lanes(arrs, lanes, tol)
+        return FilteredResult(hit.reshape(batch), fell.reshape(batch), first.reshape(batch))
+
+    def exact(self, *args, tol: Tolerances | None = None) -> np.ndarray:
+        """The all-exact path (every lane in Fractions): the reference and baseline."""
+        arrs, batch, _, tol = self._inputs(args, tol)
+        lanes = np.arange(arrs[0].shape[0])
+        return self._exact_lanes(arrs, lanes, tol).reshape(batch)
+
+    # -- pieces ---------------------------------------------------------------------------
+    def _inputs(self, args, tol):
+        pred = self.pred
+        if len(args) != len(pred.points):
+            raise TypeError(f"{self.name} takes points {', '.join(pred.points)} "
+                            f"({len(pred.points)} arrays), got {len(args)}; tol= by keyword")
+        dtypes = {np.asarray(a).dtype for a in args}
+        if len(dtypes) != 1 or next(iter(dtypes)) not in (np.float64, np.float32):
+            raise TypeError(f"{self.name}: the points must all be float64 or all float32 "
+                            f"arrays (convert explicitly: rounding changes the geometry), got "
+                            f"{', '.join(sorted(str(d) for d in dtypes))}")
+        dtype = next(iter(dtypes))
+        ctx = fperr.NumpyContext(dtype)
+        arrs, batch = pred._batch_points(args, ctx)
+        for a, lbl in zip(arrs, pred.points):
+            if not np.isfinite(a).all():
+                raise ValueError(f"{self.name}: point {lbl} has non-finite coordinates")
+        if tol is not None and (not isinstance(tol, Tolerances) or tol.dim != pred.dim):
+            raise TypeError(f"{self.name}: tol must be {pred.dim}D Tolerances")
+        return arrs, batch, dtype, tol
+
+    def _lane_L(self, arrs, use, tol) -> np.ndarray:
+        """Each lane's L: an upper bound of the magnitudes rule K's premise needs."""
+        if use.absolute:
+            L = np.zeros(arrs[0].shape[0])
+            for a in arrs:
+                np.maximum(L, np.abs(a).max(axis=1).astype(np.float64), out=L)
+            L *= 2  # exact: a power-of-two scaling of a float64 (overflow → inf → exact path)
+        else:
+            L = premise.lane_extent(arrs, use)
+        if tol is not None:
+            np.maximum(L, float(tol.L), out=L)
+        return L
+
+    def _native(self, blocks, tol, dtype, bounds, L, running=False):
+        """(native answer, undecided lanes) of one block (``running``: of the lanes
+        ``blocks`` hold, with the running error bound)."""
+        k = len(self.pred.weight_names)
+        if running:
+            ctx = FilterContext(dtype, bounds, L, blocks[0].shape[0], k, running=True)
+            with np.errstate(all="ignore"):
+                hit, undecided = self._run(ctx, blocks, tol)
+            return hit & ~ctx.flagged, undecided | ctx.flagged
+        ctx = FilterContext(dtype, bounds, L, blocks[0].shape[0], k)
+        try:
+            with np.errstate(under="raise", over="raise", divide="ignore", invalid="ignore"):
+                return self._run(ctx, blocks, tol)
+        except FloatingPointError:  # rerun with per-lane underflow/overflow flags
+            ctx = FilterContext(dtype, bounds, L, blocks[0].shape[0], k, careful=True)
+            with np.errstate(all="ignore"):
+                hit, undecided = self._run(ctx, blocks, tol)
+            return hit, undecided | ctx.flagged
+
+    def _run(self, ctx, blocks, tol):
+        kind = RunningLanes if ctx.running else Lanes
+        coords = [tuple(kind(b[:, j], ctx) for j in range(self.pred.dim)) for b in blocks]
+        tol_values = _NoTolerances(self.pred) if tol is None else \
+            self.pred._tolerances_for(tol, fperr.NumpyContext(ctx.dtype))
+        hit, _ = self.pred.fn(ctx, *coords, tol_values)
+        return np.asarray(hit, dtype=bool) & ~ctx.undecided, ctx.undecided
+
+    def _exact_lanes(self, arrs, lanes, tol) -> np.ndarray:
+        """The exact answer on ``lanes`` (Fractions; an irrational sqrt is refused)."""
+        exact = fperr.ExactContext(sqrt_bits=None)
+        tol_values = _NoTolerances(self.pred) if tol is None else \
+            self.pred._tolerances_for(tol, exact)
+        cols = [a[lanes].tolist() for a in arrs]  # Python floats: exact for f32 and f64
+        out = np.zeros(lanes.size, dtype=bool)
+        k = len(self.pred.weight_names)
+        for idx in range(lanes.size):
+            run = exact.fresh(k)
+            pts = [tuple(Fraction(v) for v in c[idx]) for c in cols]
+            out[idx] = bool(self.pred.fn(run, *pts, tol_values)[0])
+        return out
 
 
-class _Probe:
-    """A coordinate (its axis) in the probe run of :attr:`SignPredicate.through_differences`:
-    only ``x_P − x_Q`` of one axis is allowed; its result takes any arithmetic."""
+class _NoTolerances:
+    """``tol`` of a call without tolerances: reading one is a clear error."""
 
-    def __init__(self, axis: int):
-        self.axis = axis
+    def __init__(self, pred):
+        self._pred = pred
 
-    def __sub__(self, other):
-        if isinstance(other, _Probe) and other.axis == self.axis:
-            return _Free()
-        raise _NotADifference
+    def __getattr__(self, name):
+        if name.startswith("__"):
+            raise AttributeError(name)
+        raise TypeError(f"{self._pred.name} reads the tolerance {name!r}: pass tol= "
+                        "(predicates.tolerances(...) or FPERR_TOLERANCES.tolerances(L))")
 
-    def _refuse(self, *_):
-        raise _NotADifference
-
-    __add__ = __radd__ = __rsub__ = __mul__ = __rmul__ = __truediv__ = __neg__ = _refuse
-    __rtruediv__ = __pow__ = __abs__ = __lt__ = __le__ = __gt__ = __ge__ = _refuse
+    def scaled(self, factor):
+        return self
 
 
-class _Free:
-    """A value derived from differences: any arithmetic, with anything but a probe."""
-
-    def _op(self, other=None):
-        if isinstance(other, _Probe):
-            raise _NotADifference
-        return _Free()
-
-    __add__ = __radd__ = __sub__ = __rsub__ = __mul__ = __rmul__ = _op
-    __truediv__ = __rtruediv__ = __pow__ = __neg__ = __abs__ = _op
-
-
-def _lane_L(X, centred: bool) -> np.ndarray:
-    """Per lane, an L with |coordinate − c| ≤ L/2 (rule K's premise): c = 0, or, for a
-    source that only uses differences, the centre of the lane's box (then L is the box's
-    largest extent). Rounded up (one ulp), in float64."""
-    if centred:
-        lo = np.minimum.reduce([a.astype(np.float64) for a in X])
-        hi = np.maximum.reduce([a.astype(np.float64) for a in X])
-        ext = (hi - lo).max(axis=1)  # fl(hi − lo) may round down by half an ulp
-        return np.nextafter(ext, np.inf)
-    mag = np.maximum.reduce([np.abs(a.astype(np.float64)) for a in X]).max(axis=1)
-    return np.nextafter(2.0 * mag, np.inf)
-
-
-def _times_power_up(K: np.ndarray, L: np.ndarray, p: int) -> np.ndarray:
-    """K·L^p with every product rounded up (round-to-nearest, then one ulp up: an upper
-    bound of the exact product of non-negative numbers)."""
-    out = np.asarray(K, dtype=np.float64)
-    for _ in range(p):
-        out = np.nextafter(out * L, np.inf)
-    return out
-
-
-def sign_predicate(dim: int, points: str):
-    """Decorator: ``@sign_predicate(dim=3, points="ABCD")`` on a function of the points
-    (tuples of coordinates) returning the quantity whose sign is the answer."""
-    if dim not in (2, 3):
-        raise ValueError(f"dim must be 2 or 3, got {dim!r}")
-
-    def wrap(fn):
-        return SignPredicate(fn, dim, points)
-
-    return wrap
+def filtered(pred, mode: str = "semi-static", L=None, table: dict | None = None,
+             running: bool = True) -> FilteredPredicate:
+    """``pred`` as a :class:`FilteredPredicate` (see the module docstring)."""
+    return FilteredPredicate(pred, mode=mode, L=L, table=table, running=running)
