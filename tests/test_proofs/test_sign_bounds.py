@@ -154,7 +154,7 @@ def _near_degenerate(name, rng, dtype):
         return [A, B, C, D], rnd
     # points on a circle/sphere of radius r ∈ [1/4, 3/8] centred in the box: rational
     # parametrisations (inverse stereographic projection), then rounded
-    r = Fraction(int(rng.integers(2**21, 3 * 2**21)), 2**23)
+    r = Fraction(int(rng.integers(2**21, 3 * 2**20)), 2**23)
     dim = 2 if name == "incircle" else 3
     centre = [Fraction(int(rng.integers(-2**29, 2**29)), 2**33) for _ in range(dim)]
     pts = []
