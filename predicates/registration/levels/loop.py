@@ -26,8 +26,10 @@ __all__ = ["Registration"]
 class Registration:
     """Both meshes in rank space and the pairs registered so far, level by level."""
 
-    def __init__(self, dim, P_sim, sim_cells, P_cut, cut_cells, tol, reach, chunk):
+    def __init__(self, dim, P_sim, sim_cells, P_cut, cut_cells, tol, reach, chunk,
+                 accelerate: bool = False):
         self.dim, self.tol, self.reach, self.chunk = dim, tol, reach, chunk
+        self.accelerate = accelerate  # the compiled chain (predicates.compiled)
         self.dtype = P_sim.dtype
         self.sim = Side(P_sim, sim_cells)
         self.cut = Side(P_cut, cut_cells)
@@ -147,18 +149,27 @@ class Registration:
                 s, c = s[~blocked], c[~blocked]
                 for lo in range(0, len(s), self.chunk):
                     ss, cc = s[lo: lo + self.chunk], c[lo: lo + self.chunk]
-                    hit, sw, cw = k.evaluate(self.sim.coords(i, ss),
-                                             self.cut.coords(j, cc), self.tol)
-                    s_all.append(ss[hit])
-                    c_all.append(cc[hit])
-                    sw_all.append(sw[hit])
-                    cw_all.append(cw[hit])
+                    ss, cc, sw, cw = self._evaluate(k, ss, cc)
+                    s_all.append(ss)
+                    c_all.append(cc)
+                    sw_all.append(sw)
+                    cw_all.append(cw)
         s = np.concatenate(s_all) if s_all else np.zeros(0, dtype=np.int64)
         c = np.concatenate(c_all) if c_all else np.zeros(0, dtype=np.int64)
         sw = np.concatenate(sw_all) if sw_all else np.zeros((0, i + 1), dtype=dt)
         cw = np.concatenate(cw_all) if cw_all else np.zeros((0, j + 1), dtype=dt)
         self._register(i, j, s, c)
         return self._output(kind, i, j, s, c, sw, cw, ncand, nsup)
+
+    def _evaluate(self, k, s, c):
+        """The predicate of kind ``k`` on the candidates (s, c): the registered ones and
+        their weights (numpy batch mode, or the same bits compiled)."""
+        if self.accelerate:
+            from predicates.compiled.chain import evaluate
+
+            return evaluate(k, self.sim, self.cut, s, c, self.tol)
+        hit, sw, cw = k.evaluate(self.sim.coords(k.i, s), self.cut.coords(k.j, c), self.tol)
+        return s[hit], c[hit], sw[hit], cw[hit]
 
     def _register(self, i, j, s, c):
         if self.empty:
