@@ -235,7 +235,7 @@ def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, 
     sim_box = work.boxes(sim.points, sim.cells)  # once: the check, refine and L use it
     for name, mesh, given, box in (("simulation", sim, sp, sim_box),
                                    ("cutting", cut, cp, None)):
-        if len(mesh.cells) and _one_point(mesh):
+        if len(mesh.cells) and _one_point(mesh, box):
             raise ValueError(_collapse_reason(name, given, mesh, dtype))
     clock("plan_boxes")
     refinement = None
@@ -269,9 +269,16 @@ class _Stages:
         self.timings[stage], self.t = t - self.t, t
 
 
-def _one_point(mesh) -> bool:
-    """Every vertex of the mesh's cells is the same point (in the working dtype)."""
-    P = mesh.points[np.unique(mesh.cells)]
+def _one_point(mesh, box=None) -> bool:
+    """Every vertex of the mesh's cells is the same point (in the working dtype): from
+    the cells' boxes ``box`` (lo, hi) when given (min and max are exact: every cell is
+    one point and all these points are equal), else from the vertices used."""
+    if box is not None:
+        lo, hi = box
+        return bool((lo == hi).all() and (lo == lo[0]).all())
+    used = np.zeros(len(mesh.points), dtype=bool)
+    used[mesh.cells.ravel()] = True
+    P = mesh.points[used]
     return bool((P == P[0]).all())
 
 

@@ -83,8 +83,10 @@ class FacePairs:
     {kind name: reach}; ``kinds``: the catalogue's kinds (each with ``name``, ``i``,
     ``j``) in the order they will be asked for."""
 
-    def __init__(self, sim, cut, T, C, reach: dict, kinds, chunk: int):
+    def __init__(self, sim, cut, T, C, reach: dict, kinds, chunk: int,
+                 accelerate: bool = False):
         self.sim, self.cut, self.reach, self.chunk = sim, cut, reach, chunk
+        self.accelerate = accelerate  # compiled box tests (predicates.compiled)
         self.top_s, self.top_c = sim.cx.top, cut.cx.top
         self._boxes = {}  # (side, level) -> (lo, hi) columns
         self._tables = {}  # (side, level) -> owned table
@@ -114,8 +116,18 @@ class FacePairs:
         cutting boxes ``j_box`` = (side level) ``g``."""
         lo_a, hi_a = self._box("sim", i)
         lo_b, hi_b = self._box("cut", j_box)
-        keep = pair_test(pad, lo_a, hi_a, lo_b, hi_b, f, g)
+        test = pair_test
+        if self.accelerate:
+            from predicates.compiled.boxtest import pair_test as test
+        keep = test(pad, lo_a, hi_a, lo_b, hi_b, f, g)
         return f[keep], g[keep]
+
+    def _owned_test(self, tab, side, A, B, pad, i, j_box):
+        """:func:`_owned` (of ``A``'s or ``B``'s rows, ``side``) and :meth:`_test`,
+        fused and compiled (:mod:`predicates.compiled.boxtest`): the same pairs."""
+        from predicates.compiled.boxtest import owned_pairs
+
+        return owned_pairs(tab, side, A, B, pad, self._box("sim", i), self._box("cut", j_box))
 
     def _first(self, i):
         """Stage 1 for simulation level i: (f, C), f an i-face owned by T, (T, C) a
@@ -126,9 +138,12 @@ class FacePairs:
         step = max(1, self.chunk // tab.shape[1])
         fs, cs = [], []
         for lo in range(0, len(self.T), step):
-            f, rows = _owned(tab, self.T[lo: lo + step])
-            f, C = self._test(self._level_reach[i], i, self.top_c, f,
-                              self.C[lo: lo + step].take(rows))
+            T, C = self.T[lo: lo + step], self.C[lo: lo + step]
+            if self.accelerate:  # the same pairs, in the same order, compiled
+                f, C = self._owned_test(tab, "a", T, C, self._level_reach[i], i, self.top_c)
+            else:
+                f, rows = _owned(tab, T)
+                f, C = self._test(self._level_reach[i], i, self.top_c, f, C.take(rows))
             fs.append(f)
             cs.append(C)
         if not fs:
@@ -152,9 +167,12 @@ class FacePairs:
             step = max(1, self.chunk // tab.shape[1])
         for lo in range(0, len(f_all), step):
             f, C = f_all[lo: lo + step], C_all[lo: lo + step]
-            if tab is not None:
-                C, rows = _owned(tab, C)
-                f = f.take(rows)
-            s, c = self._test(pad, i, j, f, C)
+            if self.accelerate and tab is not None:
+                s, c = self._owned_test(tab, "b", f, C, pad, i, j)
+            else:
+                if tab is not None:
+                    C, rows = _owned(tab, C)
+                    f = f.take(rows)
+                s, c = self._test(pad, i, j, f, C)
             if len(s):
                 yield s, c

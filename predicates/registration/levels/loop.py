@@ -62,7 +62,7 @@ class Registration:
         sim.build_unique(tops_s[keep_s])
         cut.build_unique(tops_c[keep_c])
         self.faces = FacePairs(sim, cut, T, C, self.reach, catalogue_kinds(self.dim),
-                               2 * self.chunk)
+                               2 * self.chunk, self.accelerate)
         self.empty = False
 
     def _candidates(self, kind, i, j):
