@@ -84,3 +84,38 @@ def owned_pairs(tab: np.ndarray, side: str, A: np.ndarray, B: np.ndarray, pad: f
     run = _owned_a if side == "a" else _owned_b
     k = run(tab, A, B, float(pad), *boxes_a, *boxes_b, out_a, out_b)
     return out_a[:k], out_b[:k]
+
+
+@njit(**JIT_OPTIONS)
+def _join(sa, ca, sb, q_cell, ma, mb, full, gbox_a, gbox_b, pad, lo_a, hi_a, lo_b, hi_b,
+          out_a, out_b):
+    count = 0
+    for k in range(sa.shape[0]):
+        for ea in range(sa[k], sa[k] + ca[k]):
+            for eb in range(sb[k], sb[k] + q_cell[k]):
+                if full >= 0 and (ma[ea] | mb[eb]) != full:
+                    continue
+                a, b = gbox_a[ea], gbox_b[eb]
+                if _near(pad, lo_a, hi_a, lo_b, hi_b, a, b):
+                    out_a[count] = a
+                    out_b[count] = b
+                    count += 1
+    return count
+
+
+def join(sa, ca, sb, q_cell, masks, gbox_a, gbox_b, pad: float, cols: tuple):
+    """:func:`predicates.registration.spatial.broadphase._join`'s pairs, compiled: for
+    every shared cell k, entries sa[k] … of side a against q_cell[k] entries from sb[k]
+    of side b, a before b, kept when their start masks make the cell the lower corner
+    of the overlap (``masks`` = (ma, mb, full) or None) and the boxes pass the test;
+    ``cols`` = (lo_a, hi_a, lo_b, hi_b) as (d, n) columns. Returns (ia, ib)."""
+    n = int((ca.astype(np.int64) * q_cell).sum())  # the proposals (integers: exact)
+    out_a, out_b = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
+    if masks is None:
+        empty = np.zeros(1, dtype=np.uint8)
+        ma, mb, full = empty, empty, -1
+    else:
+        ma, mb, full = masks
+    k = _join(sa, ca, sb, q_cell, ma, mb, int(full), gbox_a, gbox_b, float(pad), *cols,
+              out_a, out_b)
+    return out_a[:k], out_b[:k]

@@ -133,8 +133,15 @@ def load_module(text: str, stem: str):
         return mod
 
 
+_KERNELS: dict = {}
+
+
 def kernel(pred, dtype: str, n_first: int | None = None):
-    """``(chain, tolerance names)``: the compiled chain of ``pred`` for ``dtype``."""
+    """``(chain, tolerance names)``: the compiled chain of ``pred`` for ``dtype``
+    (traced and loaded once per process)."""
     n1 = len(pred.sim) if n_first is None else n_first
-    mod = load_module(source(pred, n1), f"{pred.dim}d_{pred.name}_{n1}")
-    return getattr(mod, f"chain_{dtype}"), mod.TOLERANCES
+    key = (pred, dtype, n1)
+    if key not in _KERNELS:
+        mod = load_module(source(pred, n1), f"{pred.dim}d_{pred.name}_{n1}")
+        _KERNELS[key] = getattr(mod, f"chain_{dtype}"), mod.TOLERANCES
+    return _KERNELS[key]

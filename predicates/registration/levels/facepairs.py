@@ -34,13 +34,14 @@ from predicates.registration.spatial.broadphase import box_pairs, boxes_of, pair
 __all__ = ["FacePairs", "cell_pairs", "owned_table"]
 
 
-def cell_pairs(P_sim, sim_cells, P_cut, cut_cells, pad: float, chunk: int):
+def cell_pairs(P_sim, sim_cells, P_cut, cut_cells, pad: float, chunk: int,
+               accelerate: bool = False):
     """The pairs of cells (rows of ``sim_cells`` × rows of ``cut_cells``, coordinates
     ``P_sim``, ``P_cut``) whose boxes are within ``pad``: (T, C, keep_s, keep_c), with
     ``keep_*`` the masks of the cells in some pair and T, C indices into the kept rows."""
     lo_s, hi_s = boxes_of(P_sim, sim_cells)
     lo_c, hi_c = boxes_of(P_cut, cut_cells)
-    parts = list(box_pairs(lo_s, hi_s, lo_c, hi_c, pad, chunk=chunk))
+    parts = list(box_pairs(lo_s, hi_s, lo_c, hi_c, pad, chunk=chunk, accelerate=accelerate))
     T = np.concatenate([p[0] for p in parts]) if parts else np.zeros(0, np.int64)
     C = np.concatenate([p[1] for p in parts]) if parts else np.zeros(0, np.int64)
     keep_s, keep_c = np.zeros(len(sim_cells), bool), np.zeros(len(cut_cells), bool)

@@ -56,7 +56,8 @@ class Registration:
             return
         # the pairs of distinct cells within σ+; complexes of the cells in some pair only
         tops_s, tops_c = sim.unique_cells(near_s), cut.unique_cells(near_c)
-        T, C, keep_s, keep_c = cell_pairs(sim.P, tops_s, cut.P, tops_c, pad, 2 * self.chunk)
+        T, C, keep_s, keep_c = cell_pairs(sim.P, tops_s, cut.P, tops_c, pad, 2 * self.chunk,
+                                          self.accelerate)
         if len(T) == 0:
             return
         sim.build_unique(tops_s[keep_s])

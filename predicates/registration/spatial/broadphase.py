@@ -180,16 +180,19 @@ def tighten_flags(lo_a, hi_a, lo_b, hi_b, pad: float, per_box: float = 4.0):
     return _any_in(occ_b, ia0, ia1, G), _any_in(occ_a, ib0, ib1, G)
 
 
-def box_pairs(lo_a, hi_a, lo_b, hi_b, pad: float, chunk: int = 1 << 22):
+def box_pairs(lo_a, hi_a, lo_b, hi_b, pad: float, chunk: int = 1 << 22,
+              accelerate: bool = False):
     """Yield (ia, ib) index arrays, together every pair of boxes a, b within ``pad``
-    (see module docstring), each pair exactly once. Boxes are (n, d) arrays."""
+    (see module docstring), each pair exactly once. Boxes are (n, d) arrays.
+    ``accelerate``: the cells' joins compiled (:mod:`predicates.compiled.boxtest`), the
+    same pairs in the same order."""
     lo_a, hi_a, lo_b, hi_b = (np.asarray(x, dtype=np.float64) for x in (lo_a, hi_a, lo_b, hi_b))
     if len(lo_a) == 0 or len(lo_b) == 0:
         return
     pad = float(pad)
     lo_bx, hi_bx, origin, G, h, ia0, ia1, ib0, ib1 = _grid(lo_a, hi_a, lo_b, hi_b, pad)
     cols = tuple(np.ascontiguousarray(x.T) for x in (lo_a, hi_a, lo_b, hi_b))
-    boxes_ = (lo_a, hi_a, lo_b, hi_b, lo_bx, hi_bx, pad, cols)
+    boxes_ = (lo_a, hi_a, lo_b, hi_b, lo_bx, hi_bx, pad, cols, accelerate)
     ids_a, ids_b = np.arange(len(lo_a)), np.arange(len(lo_b))
     if _dense(G + 1, len(lo_a) + len(lo_b)):
         # boxes sharing no grid cell with the other side: dropped before any expansion
@@ -334,6 +337,13 @@ def _join(sa, ca, sb, q_cell, masks, gbox_a, gbox_b, bx):
     overlap, i.e. on every axis one of the two boxes starts in the cell. The boxes of
     these entries are gathered once, in entry order, so the pair test reads them almost
     sequentially."""
+    if bx[8]:
+        from predicates.compiled.boxtest import join
+
+        ia, ib = join(sa, ca, sb, q_cell, masks, gbox_a, gbox_b, bx[6], bx[7])
+        if len(ia):
+            yield ia, ib
+        return
     a0, a1 = sa[0], sa[-1] + ca[-1]
     b0, b1 = sb[0], sb[-1] + q_cell[-1]  # runs ascend with the cells on both sides
     row_cell = np.repeat(np.arange(len(ca)), ca)
