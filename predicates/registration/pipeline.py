@@ -154,8 +154,8 @@ def intersect(sim: MeshLike | ArrayLike, cut: MeshLike | ArrayLike,
     # a partitioned run's plan is its serial part: per-cell work on a thread per worker
     plan = _plan(args, dtype, tolerance_scale, progress, chunk, refine_cut, timings,
                  sim_region, cut_region, tolerances,
-                 threads=1 if serial else plan_threads.threads_for(scheduler)
-                 )._replace(accelerate=accelerate)
+                 threads=1 if serial else plan_threads.threads_for(scheduler),
+                 accelerate=accelerate)
     timings["setup"] = time.perf_counter() - t0
     timings["cpu_setup"] = time.process_time() - c0
     check = partial(_check, plan.report, strict, memory_limit, plan.dim)
@@ -209,16 +209,17 @@ class Plan(NamedTuple):
 
 
 def _plan(args, dtype, tolerance_scale, progress, chunk, refine_cut, timings, sim_region,
-          cut_region, tolerances=None, threads: int = 1) -> Plan:
+          cut_region, tolerances=None, threads: int = 1, accelerate: bool = False) -> Plan:
     """Validation, refinement, L over the cells that can meet, exact scaling,
     tolerances, reach and the resolution report: the global part of the run.
     ``threads`` > 1: the per-cell work in chunks on a thread pool, identical values
-    (:mod:`~predicates.registration.plan.threads`)."""
+    (:mod:`~predicates.registration.plan.threads`); ``accelerate``: its passes compiled.
+    The plan records ``accelerate`` for the registration."""
     if threads <= 1:
-        return _plan_with(plan_threads.Work(), args, dtype, tolerance_scale, progress, chunk,
+        return _plan_with(plan_threads.Work(accelerate=accelerate), args, dtype, tolerance_scale, progress, chunk,
                           refine_cut, timings, sim_region, cut_region, tolerances)
     with ThreadPoolExecutor(threads, thread_name_prefix="fperr-plan") as pool:
-        return _plan_with(plan_threads.Work(pool, threads), args, dtype, tolerance_scale,
+        return _plan_with(plan_threads.Work(pool, threads, accelerate), args, dtype, tolerance_scale,
                           progress, chunk, refine_cut, timings, sim_region, cut_region,
                           tolerances)
 
@@ -255,7 +256,8 @@ def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, 
     clock("plan_report")
     ms, mc = sc_.masks
     return Plan(dim, dtype, sim, cut, sc_, P_sim, P_cut, sim.cells[ms], cut.cells[mc],
-                tol_run, ts, catalogue_kinds(dim), report, refinement, arrays)
+                tol_run, ts, catalogue_kinds(dim), report, refinement, arrays,
+                work.blocks.accelerate)
 
 
 class _Stages:

@@ -223,3 +223,43 @@ def test_box_pairs_compiled_join_identical(seed):
         ia, ib = (np.concatenate([p[k] for p in a]) for k in (0, 1))
         ja, jb = (np.concatenate([p[k] for p in b]) for k in (0, 1))
         assert np.array_equal(ia, ja) and np.array_equal(ib, jb) and len(ia) > 100
+
+
+def test_cell_passes_identical():
+    """The plan's compiled per-cell passes (Blocks(accelerate=True)) give the numpy
+    passes' values: boxes (signed zeros included), cell indices, coverage, look-ups,
+    near_flags and tighten_flags, serial and on a thread pool with tiny blocks."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from predicates.registration.spatial import boxgrid, gridsums
+    from predicates.registration.spatial.blocks import SERIAL, Blocks
+    from predicates.registration.spatial.boxes import boxes_of
+    from predicates.registration.spatial.broadphase import near_flags, tighten_flags
+
+    rng = np.random.default_rng(5)
+    for d in (2, 3):
+        P = rng.choice([-0.0, 0.0, 0.25, -0.5, 1.0], size=(400, d))
+        P[200:] = rng.random((200, d))
+        cells = rng.integers(0, 400, size=(3000, d + 1))
+        with ThreadPoolExecutor(2) as pool:
+            for fast in (Blocks(accelerate=True), Blocks(pool, 2, block=7, accelerate=True)):
+                lo, hi = boxes_of(P, cells)
+                lo2, hi2 = boxes_of(P, cells, fast)
+                assert lo.tobytes() == lo2.tobytes() and hi.tobytes() == hi2.tobytes()
+                G = np.array([7, 5, 3][:d], dtype=np.int64)
+                origin, h = np.full(d, -0.3), 0.17
+                i0 = boxgrid.cell_index(lo, origin, h, G)
+                i1 = boxgrid.cell_index(hi, origin, h, G)
+                assert np.array_equal(i0, boxgrid.cell_index(lo, origin, h, G, fast))
+                cov = gridsums.coverage(i0, i1, G)
+                assert np.array_equal(cov, gridsums.coverage(i0, i1, G, fast))
+                occ = gridsums.occupancy(i0[:50], i1[:50], G)
+                assert np.array_equal(gridsums.any_in(occ, i0, i1, G),
+                                      gridsums.any_in(occ, i0, i1, G, fast))
+                for pad in (0.0, 0.01):
+                    args = (lo[:1500], hi[:1500], lo[1500:], hi[1500:], pad)
+                    for f in (near_flags, ):
+                        a, b = f(*args, blocks=SERIAL), f(*args, blocks=fast)
+                        assert all(np.array_equal(x, y) for x, y in zip(a, b))
+                    a, b = tighten_flags(*args), tighten_flags(*args, blocks=fast)
+                    assert all(np.array_equal(x, y) for x, y in zip(a, b))

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from predicates.registration.spatial.blocks import Blocks
 from predicates.registration.spatial.broadphase import box_pairs, boxes_of, pair_test
 
 __all__ = ["FacePairs", "cell_pairs", "owned_table"]
@@ -39,8 +40,9 @@ def cell_pairs(P_sim, sim_cells, P_cut, cut_cells, pad: float, chunk: int,
     """The pairs of cells (rows of ``sim_cells`` × rows of ``cut_cells``, coordinates
     ``P_sim``, ``P_cut``) whose boxes are within ``pad``: (T, C, keep_s, keep_c), with
     ``keep_*`` the masks of the cells in some pair and T, C indices into the kept rows."""
-    lo_s, hi_s = boxes_of(P_sim, sim_cells)
-    lo_c, hi_c = boxes_of(P_cut, cut_cells)
+    blocks = Blocks(accelerate=accelerate)
+    lo_s, hi_s = boxes_of(P_sim, sim_cells, blocks)
+    lo_c, hi_c = boxes_of(P_cut, cut_cells, blocks)
     parts = list(box_pairs(lo_s, hi_s, lo_c, hi_c, pad, chunk=chunk, accelerate=accelerate))
     T = np.concatenate([p[0] for p in parts]) if parts else np.zeros(0, np.int64)
     C = np.concatenate([p[1] for p in parts]) if parts else np.zeros(0, np.int64)
@@ -69,9 +71,9 @@ def _owned(tab, cells):
     return A.ravel().take(flat), flat // A.shape[1]
 
 
-def _columns(points, rows):
+def _columns(points, rows, blocks: Blocks):
     """Boxes of the simplices ``points[rows]`` as (d, n) columns (lo, hi)."""
-    lo, hi = boxes_of(points, rows)
+    lo, hi = boxes_of(points, rows, blocks)
     return lo.T, hi.T  # boxes_of builds (d, n) arrays: their transposes, no copy
 
 
@@ -103,7 +105,7 @@ class FacePairs:
     def _box(self, side, k):
         if (side, k) not in self._boxes:
             s = self.sim if side == "sim" else self.cut
-            self._boxes[side, k] = _columns(s.P, s.cx.S[k])
+            self._boxes[side, k] = _columns(s.P, s.cx.S[k], Blocks(accelerate=self.accelerate))
         return self._boxes[side, k]
 
     def _table(self, side, k):

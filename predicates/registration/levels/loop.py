@@ -15,6 +15,7 @@ import time
 import numpy as np
 
 from predicates.catalogue import kinds as catalogue_kinds
+from predicates.registration.spatial.blocks import Blocks
 from predicates.registration.spatial.broadphase import boxes_of, tighten_flags
 from predicates.registration.levels.complex import Side, any_flagged
 from predicates.registration.levels.facepairs import FacePairs, cell_pairs
@@ -50,8 +51,9 @@ class Registration:
         if len(sim.cells) == 0 or len(cut.cells) == 0:
             return
         pad = max(self.reach.values())
-        near_s, near_c = tighten_flags(*boxes_of(sim.P, sim.cells),
-                                       *boxes_of(cut.P, cut.cells), pad)
+        blocks = Blocks(accelerate=self.accelerate)
+        near_s, near_c = tighten_flags(*boxes_of(sim.P, sim.cells, blocks),
+                                       *boxes_of(cut.P, cut.cells, blocks), pad, blocks=blocks)
         if not (near_s.any() and near_c.any()):
             return
         # the pairs of distinct cells within σ+; complexes of the cells in some pair only

@@ -22,8 +22,12 @@ def boxes_of(points: np.ndarray, rows: np.ndarray, blocks: Blocks = SERIAL):
     cols = np.ascontiguousarray(points.T, dtype=np.float64)
     rows = np.asarray(rows)
 
+    fill_rows = fill_boxes
+    if blocks.accelerate:  # the same boxes, compiled (GIL-free)
+        from predicates.compiled.cells import fill_boxes as fill_rows
+
     def fill(a: int, b: int) -> None:
-        fill_boxes(cols, np.ascontiguousarray(rows[a:b].T), lo[:, a:b], hi[:, a:b])
+        fill_rows(cols, np.ascontiguousarray(rows[a:b].T), lo[:, a:b], hi[:, a:b])
 
     blocks.rows(fill, n)
     return lo.T, hi.T
