@@ -23,15 +23,16 @@ __all__ = ["add_corners", "cell_index", "fill_boxes", "look_corners"]
 
 
 @njit(**JIT_OPTIONS)
-def fill_boxes(cols, R, lo, hi):
-    """As :func:`predicates.registration.spatial.boxes.fill_boxes`."""
-    for ax in range(cols.shape[0]):
-        c = cols[ax]
-        for m in range(R.shape[1]):
-            a = c[R[0, m]]
+def fill_boxes(cols, rows, lo, hi):
+    """As :func:`predicates.registration.spatial.boxes.fill_boxes`, but ``rows`` (m, k)
+    as given (no transposed copy); one pass over the rows, all axes per row."""
+    for m in range(rows.shape[0]):
+        for ax in range(cols.shape[0]):
+            c = cols[ax]
+            a = c[rows[m, 0]]
             b = a
-            for v in range(1, R.shape[0]):
-                x = c[R[v, m]]
+            for v in range(1, rows.shape[1]):
+                x = c[rows[m, v]]
                 if not (a < x) and a == a:  # np.minimum(a, x): a only if a < x or a NaN
                     a = x
                 if not (b > x) and b == b:

@@ -22,12 +22,14 @@ def boxes_of(points: np.ndarray, rows: np.ndarray, blocks: Blocks = SERIAL):
     cols = np.ascontiguousarray(points.T, dtype=np.float64)
     rows = np.asarray(rows)
 
-    fill_rows = fill_boxes
-    if blocks.accelerate:  # the same boxes, compiled (GIL-free)
-        from predicates.compiled.cells import fill_boxes as fill_rows
+    if blocks.accelerate:  # the same boxes, compiled (GIL-free), rows as they are
+        from predicates.compiled.cells import fill_boxes as kernel
+
+        blocks.rows(lambda a, b: kernel(cols, rows[a:b], lo[:, a:b], hi[:, a:b]), n)
+        return lo.T, hi.T
 
     def fill(a: int, b: int) -> None:
-        fill_rows(cols, np.ascontiguousarray(rows[a:b].T), lo[:, a:b], hi[:, a:b])
+        fill_boxes(cols, np.ascontiguousarray(rows[a:b].T), lo[:, a:b], hi[:, a:b])
 
     blocks.rows(fill, n)
     return lo.T, hi.T
