@@ -19,7 +19,7 @@ from numba import njit
 
 from .build import JIT_OPTIONS
 
-__all__ = ["add_corners", "cell_index", "fill_boxes", "look_corners"]
+__all__ = ["add_corners", "cell_index", "fill_boxes", "least_square_edge", "look_corners"]
 
 
 @njit(**JIT_OPTIONS)
@@ -87,3 +87,22 @@ def look_corners(S, i0, i1, stride, out):
             key, sign = _key(i0, i1, r, pick, stride)
             count += sign * np.int64(S[key])
         out[r] = count > 0
+
+
+@njit(**JIT_OPTIONS)
+def least_square_edge(cols, C, a, b):
+    """min over cells a … b − 1 (columns of ``C``, (k, m) vertex ids) and their vertex
+    pairs u < v of Σ_ax (x_u − x_v)², summed from axis 0 as
+    :func:`predicates.registration.plan.resolution.shortest_edge` sums (min: exact)."""
+    best = np.inf
+    for m in range(a, b):
+        for u in range(C.shape[0]):
+            for v in range(u + 1, C.shape[0]):
+                t = cols[0, C[u, m]] - cols[0, C[v, m]]
+                sq = t * t
+                for ax in range(1, cols.shape[0]):
+                    t = cols[ax, C[u, m]] - cols[ax, C[v, m]]
+                    sq = sq + t * t
+                if sq < best:
+                    best = sq
+    return best

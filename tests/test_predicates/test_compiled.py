@@ -263,3 +263,16 @@ def test_cell_passes_identical():
                         assert all(np.array_equal(x, y) for x, y in zip(a, b))
                     a, b = tighten_flags(*args), tighten_flags(*args, blocks=fast)
                     assert all(np.array_equal(x, y) for x, y in zip(a, b))
+
+
+@pytest.mark.parametrize("d", [2, 3])
+def test_shortest_edge_identical(d):
+    from predicates.registration.plan.resolution import shortest_edge
+    from predicates.registration.spatial.blocks import Blocks
+
+    rng = np.random.default_rng(d)
+    P = rng.random((500, d)) * 2.0 ** rng.integers(-30, 30)
+    cells = np.array([rng.choice(500, d + 1, replace=False) for _ in range(4000)])
+    mask = rng.random(4000) < 0.7
+    a = shortest_edge(P, cells, mask)
+    assert a == shortest_edge(P, cells, mask, Blocks(accelerate=True)) and a > 0

@@ -264,6 +264,10 @@ def shortest_edge(points: np.ndarray, cells: np.ndarray, mask,
     k, dim = cells.shape[1], points.shape[1]
 
     def span(a: int, b: int) -> float:
+        if blocks.accelerate:  # the same sums, compiled (GIL-free)
+            from predicates.compiled.cells import least_square_edge
+
+            return float(least_square_edge(cols, C, a, b))
         best = np.inf
         for lo, hi in blocks.each(a, b):
             # per axis 1D takes (no (n, k, d) gather); the squares summed axis by axis
