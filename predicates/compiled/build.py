@@ -2,10 +2,10 @@
 candidate chain: bit-identical to numpy").
 
 :func:`source` turns a traced predicate (:mod:`predicates.compiled.trace`) into a Python
-module: per working dtype, one loop over candidate pairs that gathers each pair's
-coordinates through the simplices' vertex tables, runs the predicate's statements one
-by one (a rejected lane ``continue``-s, as the numpy context masks it) and writes the
-accepted lanes' positions and weights. :func:`kernel` writes that module to a file
+module (:mod:`predicates.compiled.emit`): per working dtype, loops over candidate pairs
+that gather each pair's coordinates through the simplices' vertex tables, run the
+predicate's statements one by one (a rejected lane ``continue``-s, as the numpy context
+masks it) and write the accepted lanes' positions and weights. :func:`kernel` writes that module to a file
 named by the hash of its text, imports it and returns the numba-compiled function.
 
 Compilation: ``numba.njit(nogil=True, cache=True, error_model="numpy",
@@ -26,7 +26,8 @@ import tempfile
 import threading
 from pathlib import Path
 
-from .trace import Program, trace
+from .emit import NEAR, chain_lines, fused_lines
+from .trace import trace
 
 __all__ = ["JIT_OPTIONS", "cache_dir", "kernel", "source"]
 
@@ -44,49 +45,17 @@ from numba import njit
 '''
 
 
-def _gather(var: str, rows: str, points: str, first: int, count: int, dim: int) -> list[str]:
-    """Statements loading ``count`` points of the simplex ``var`` (rows of ``rows``)."""
-    out = []
-    for p in range(count):
-        out.append(f"v = {rows}[{var}, {p}]")
-        out += [f"x{(first + p) * dim + a} = {points}[v, {a}]" for a in range(dim)]
-    return out
-
-
-def _body(prog: Program, dtype: str) -> list[str]:
-    """The predicate's statements for one lane (``continue``: rejected)."""
-    out = []
-    for st in prog.lines:
-        if st[0] == "let":
-            out.append(f"{st[1]} = {st[2].replace('T(', f'np.{dtype}(')}")
-        else:
-            out.append(f"if {st[1]}:  # line {st[2]} of the algorithm: rejected")
-            out.append("    continue")
-    return out
-
-
 def source(pred, n_first: int | None = None) -> str:
-    """The module text of ``pred``'s candidate chain (module docstring). The first
-    ``n_first`` points (default: the simulation primitive's) come from the first
+    """The module text of ``pred``'s kernels (:mod:`predicates.compiled.emit`). The
+    first ``n_first`` points (default: the simulation primitive's) come from the first
     simplex table, the rest from the second."""
     prog = trace(pred)
     n1 = len(pred.sim) if n_first is None else n_first
-    n2, d = prog.n_points - n1, prog.dim
-    text = [_HEAD.format(dim=d, name=prog.name)]
+    opts = repr(JIT_OPTIONS)
+    text = [_HEAD.format(dim=prog.dim, name=prog.name), NEAR.format(opts=opts)]
     for dt in DTYPES:
-        lines = [f"@njit(**{JIT_OPTIONS!r})",
-                 f"def chain_{dt}(P1, R1, I1, P2, R2, I2, tol, pos, out):",
-                 f'    """{prog.name}: lanes I1[q] × I2[q]; accepted lanes to pos, out."""',
-                 "    count = 0",
-                 "    for q in range(I1.shape[0]):"]
-        body = (["r = I1[q]"] + _gather("r", "R1", "P1", 0, n1, d)
-                + ["r = I2[q]"] + _gather("r", "R2", "P2", n1, n2, d) + _body(prog, dt)
-                + ["pos[count] = q"]
-                + [f"out[count, {k}] = {w.ref}" for k, w in enumerate(prog.weights)]
-                + ["count += 1"])
-        lines += ["        " + b for b in body]
-        lines += ["    return count", "", ""]
-        text.append("\n".join(lines))
+        text.append("\n".join(chain_lines(prog, n1, dt, opts)))
+        text.append("\n".join(fused_lines(prog, n1, dt, opts)))
     text.append(f"TOLERANCES = {tuple(prog.tolerances)!r}\n")
     return "".join(text)
 
@@ -136,12 +105,12 @@ def load_module(text: str, stem: str):
 _KERNELS: dict = {}
 
 
-def kernel(pred, dtype: str, n_first: int | None = None):
-    """``(chain, tolerance names)``: the compiled chain of ``pred`` for ``dtype``
-    (traced and loaded once per process)."""
+def kernel(pred, dtype: str, n_first: int | None = None, which: str = "chain"):
+    """``(kernel, tolerance names)``: the compiled ``which`` ("chain" or "fused") of
+    ``pred`` for ``dtype`` (traced and loaded once per process)."""
     n1 = len(pred.sim) if n_first is None else n_first
-    key = (pred, dtype, n1)
+    key = (pred, dtype, n1, which)
     if key not in _KERNELS:
         mod = load_module(source(pred, n1), f"{pred.dim}d_{pred.name}_{n1}")
-        _KERNELS[key] = getattr(mod, f"chain_{dtype}"), mod.TOLERANCES
+        _KERNELS[key] = getattr(mod, f"{which}_{dtype}"), mod.TOLERANCES
     return _KERNELS[key]

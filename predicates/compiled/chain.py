@@ -8,13 +8,15 @@ registration (:mod:`predicates.registration.levels.loop`) calls one or the other
 """
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 
 from predicates.catalogue import _split_weights
 
 from .build import kernel
 
-__all__ = ["evaluate", "run_predicate"]
+__all__ = ["evaluate", "fused", "run_predicate"]
 
 _TOL_CACHE: dict = {}
 
@@ -64,3 +66,53 @@ def evaluate(kind, sim, cut, s: np.ndarray, c: np.ndarray, tol):
     w_first, w_second = _split_weights(kind.predicate, w, len(pos))
     sw, cw = (w_second, w_first) if kind.swapped else (w_first, w_second)
     return s.take(pos), c.take(pos), sw, cw
+
+
+_NO_TAB = np.full((1, 1), -1, dtype=np.int64)
+_NO_FLAGS = np.zeros(1, dtype=bool)
+
+
+def fused(kind, sim, cut, F, C, tab, pad: float, boxes: tuple, flags, tol):
+    """The fused per-kind chain (:func:`predicates.compiled.emit.fused_lines`) on one
+    block of stage-1 pairs (F[q], C[q]): ``tab`` the cutting cells' owned j-faces (None:
+    the cells themselves), ``boxes`` = (lo_a, hi_a, lo_b, hi_b) as (d, n) columns of the
+    sides' i- and j-simplices, ``flags`` = (flag_s, flag_c) of the suppression
+    pre-filter or None. Returns (candidates, (s, c, sim weights, cut weights) of the
+    registered pairs, (s, c) of the pairs to look up before evaluating them)."""
+    pred = kind.predicate
+    dtype = sim.P.dtype
+    n1 = len(pred.sim)
+    run, names = kernel(pred, dtype.name, n1, "fused")
+    tv = _tolerance_array(pred, names, tol, dtype)
+    a = (sim.P, sim.cx.S[kind.i])
+    b = (cut.P, cut.cx.S[kind.j])
+    (P1, R1), (P2, R2) = (b, a) if kind.swapped else (a, b)
+    n = len(F) * (1 if tab is None else tab.shape[1])
+    out_s, out_c, maybe_s, maybe_c = (_buffer(name, n, np.int64) for name in "scSC")
+    out_w = _buffer("w", n, dtype, len(pred.weight_names))
+    counts = np.zeros(3, dtype=np.int64)
+    fs, fc = (_NO_FLAGS, _NO_FLAGS) if flags is None else flags
+    run(F, C, _NO_TAB if tab is None else tab, tab is not None, float(pad), *boxes, fs, fc,
+        flags is not None, kind.swapped, P1, R1, P2, R2, tv, out_s, out_c, out_w, maybe_s,
+        maybe_c, counts)
+    ncand, nh, nm = (int(x) for x in counts)
+    w_first, w_second = _split_weights(pred, out_w[:nh].copy(), nh)
+    sw, cw = (w_second, w_first) if kind.swapped else (w_first, w_second)
+    return (ncand, (out_s[:nh].copy(), out_c[:nh].copy(), sw, cw),
+            (maybe_s[:nm].copy(), maybe_c[:nm].copy()))
+
+
+_LOCAL = threading.local()
+
+
+def _buffer(name: str, n: int, dtype, cols: int | None = None) -> np.ndarray:
+    """A reused output buffer of at least n rows, per thread (a fresh array of the
+    worst-case size per block costs more, in page faults and munmap, than the kernel);
+    the results are copied out of it."""
+    bufs = _LOCAL.__dict__.setdefault("buffers", {})
+    key = (name, np.dtype(dtype).str, cols)
+    b = bufs.get(key)
+    if b is None or len(b) < n:
+        b = np.empty((n,) if cols is None else (n, cols), dtype=dtype)
+        bufs[key] = b
+    return b[:n]

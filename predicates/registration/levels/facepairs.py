@@ -153,9 +153,11 @@ class FacePairs:
             return np.zeros(0, np.int64), np.zeros(0, np.int64)
         return np.concatenate(fs), np.concatenate(cs)
 
-    def candidates(self, kind: str, i: int, j: int):
-        """Yield (s, c) index arrays (into the complexes' i- and j-simplices): together
-        every pair whose boxes are within the kind's reach, each exactly once."""
+    def blocks(self, kind: str, i: int, j: int):
+        """Yield (f, C, tab, pad): blocks of the stage-1 pairs of level i (f an i-face,
+        C a cutting cell), the owned table of the cutting j-faces (None: the cells
+        themselves) and the kind's reach; :meth:`candidates` expands and tests them
+        (the compiled chain does it fused, predicates.compiled.chain.fused)."""
         if i not in self._stage1:
             self._stage1[i] = self._first(i)
         f_all, C_all = self._stage1[i]
@@ -169,7 +171,17 @@ class FacePairs:
             tab = self._table("cut", j)
             step = max(1, self.chunk // tab.shape[1])
         for lo in range(0, len(f_all), step):
-            f, C = f_all[lo: lo + step], C_all[lo: lo + step]
+            yield f_all[lo: lo + step], C_all[lo: lo + step], tab, pad
+
+    def boxes(self, i: int, j: int) -> tuple:
+        """(lo_a, hi_a, lo_b, hi_b): the boxes of the simulation i-simplices and the
+        cutting j-simplices as (d, n) columns."""
+        return self._box("sim", i) + self._box("cut", j)
+
+    def candidates(self, kind: str, i: int, j: int):
+        """Yield (s, c) index arrays (into the complexes' i- and j-simplices): together
+        every pair whose boxes are within the kind's reach, each exactly once."""
+        for f, C, tab, pad in self.blocks(kind, i, j):
             if self.accelerate and tab is not None:
                 s, c = self._owned_test(tab, "b", f, C, pad, i, j)
             else:

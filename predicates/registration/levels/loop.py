@@ -143,7 +143,9 @@ class Registration:
         kind, i, j, dt = k.name, k.i, k.j, self.dtype
         s_all, c_all, sw_all, cw_all = [], [], [], []
         ncand = nsup = 0
-        if not self.empty:
+        if not self.empty and self.accelerate:
+            ncand, nsup = self._fused(k, s_all, c_all, sw_all, cw_all)
+        elif not self.empty:
             suspects = self._suspects(i, j)
             for s, c in self._candidates(kind, i, j):
                 ncand += len(s)
@@ -163,6 +165,31 @@ class Registration:
         cw = np.concatenate(cw_all) if cw_all else np.zeros((0, j + 1), dtype=dt)
         self._register(i, j, s, c)
         return self._output(kind, i, j, s, c, sw, cw, ncand, nsup)
+
+    def _fused(self, k, *out) -> tuple[int, int]:
+        """Kind ``k`` by the compiled fused chain (predicates.compiled.chain.fused):
+        appends the registered pairs to the lists ``out`` (s, c, sim and cut weights);
+        the pairs the suppression pre-filter flags are looked up exactly here, the
+        others evaluated. Returns (candidates, suppressed), as the numpy path counts."""
+        from predicates.compiled.chain import fused
+
+        suspects = self._suspects(k.i, k.j)
+        flags = None if suspects is None else suspects[1:]
+        boxes = self.faces.boxes(k.i, k.j)
+        ncand = nsup = 0
+        for f, C, tab, pad in self.faces.blocks(k.name, k.i, k.j):
+            n, hits, (ms, mc) = fused(k, self.sim, self.cut, f, C, tab, pad, boxes, flags,
+                                      self.tol)
+            ncand += n
+            if len(ms):
+                blocked = self._blocked(k.i, k.j, ms, mc, suspects)
+                nsup += int(blocked.sum())
+                more = self._evaluate(k, ms[~blocked], mc[~blocked])
+                for lst, a in zip(out, more):
+                    lst.append(a)
+            for lst, a in zip(out, hits):
+                lst.append(a)
+        return ncand, nsup
 
     def _evaluate(self, k, s, c):
         """The predicate of kind ``k`` on the candidates (s, c): the registered ones and
