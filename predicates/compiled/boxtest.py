@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .buffers import buffer
 from .build import JIT_OPTIONS
 
 __all__ = ["owned_pairs", "pair_test"]
@@ -80,10 +81,10 @@ def owned_pairs(tab: np.ndarray, side: str, A: np.ndarray, B: np.ndarray, pad: f
     ``tab[A[q]]`` owns (≥ 0) and b = B[q]; "b": a = A[q] and b every face of
     ``tab[B[q]]``. ``boxes_*``: (lo, hi) as (d, n) columns. Returns (a, b)."""
     n = len(A) * tab.shape[1]
-    out_a, out_b = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
+    out_a, out_b = buffer("owned_a", n, np.int64), buffer("owned_b", n, np.int64)
     run = _owned_a if side == "a" else _owned_b
     k = run(tab, A, B, float(pad), *boxes_a, *boxes_b, out_a, out_b)
-    return out_a[:k], out_b[:k]
+    return out_a[:k].copy(), out_b[:k].copy()
 
 
 @njit(**JIT_OPTIONS)
@@ -110,7 +111,7 @@ def join(sa, ca, sb, q_cell, masks, gbox_a, gbox_b, pad: float, cols: tuple):
     of the overlap (``masks`` = (ma, mb, full) or None) and the boxes pass the test;
     ``cols`` = (lo_a, hi_a, lo_b, hi_b) as (d, n) columns. Returns (ia, ib)."""
     n = int((ca.astype(np.int64) * q_cell).sum())  # the proposals (integers: exact)
-    out_a, out_b = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
+    out_a, out_b = buffer("join_a", n, np.int64), buffer("join_b", n, np.int64)
     if masks is None:
         empty = np.zeros(1, dtype=np.uint8)
         ma, mb, full = empty, empty, -1
@@ -118,4 +119,4 @@ def join(sa, ca, sb, q_cell, masks, gbox_a, gbox_b, pad: float, cols: tuple):
         ma, mb, full = masks
     k = _join(sa, ca, sb, q_cell, ma, mb, int(full), gbox_a, gbox_b, float(pad), *cols,
               out_a, out_b)
-    return out_a[:k], out_b[:k]
+    return out_a[:k].copy(), out_b[:k].copy()

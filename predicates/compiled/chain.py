@@ -8,12 +8,11 @@ registration (:mod:`predicates.registration.levels.loop`) calls one or the other
 """
 from __future__ import annotations
 
-import threading
-
 import numpy as np
 
 from predicates.catalogue import _split_weights
 
+from .buffers import buffer as _buffer
 from .build import kernel
 
 __all__ = ["evaluate", "fused", "run_predicate"]
@@ -101,18 +100,3 @@ def fused(kind, sim, cut, F, C, tab, pad: float, boxes: tuple, flags, tol):
     return (ncand, (out_s[:nh].copy(), out_c[:nh].copy(), sw, cw),
             (maybe_s[:nm].copy(), maybe_c[:nm].copy()))
 
-
-_LOCAL = threading.local()
-
-
-def _buffer(name: str, n: int, dtype, cols: int | None = None) -> np.ndarray:
-    """A reused output buffer of at least n rows, per thread (a fresh array of the
-    worst-case size per block costs more, in page faults and munmap, than the kernel);
-    the results are copied out of it."""
-    bufs = _LOCAL.__dict__.setdefault("buffers", {})
-    key = (name, np.dtype(dtype).str, cols)
-    b = bufs.get(key)
-    if b is None or len(b) < n:
-        b = np.empty((n,) if cols is None else (n, cols), dtype=dtype)
-        bufs[key] = b
-    return b[:n]
