@@ -23,16 +23,16 @@ __all__ = ["add_corners", "cell_index", "fill_boxes", "least_square_edge", "look
 
 
 @njit(**JIT_OPTIONS)
-def fill_boxes(cols, rows, lo, hi):
-    """As :func:`predicates.registration.spatial.boxes.fill_boxes`, but ``rows`` (m, k)
-    as given (no transposed copy); one pass over the rows, all axes per row."""
+def fill_boxes(points, rows, lo, hi):
+    """As :func:`predicates.registration.spatial.boxes.fill_boxes`, from the points
+    (N, d) and ``rows`` (m, k) as given (no transposed or float64 copy: each coordinate
+    is converted on reading, exactly); one pass over the rows, all axes per row."""
     for m in range(rows.shape[0]):
-        for ax in range(cols.shape[0]):
-            c = cols[ax]
-            a = c[rows[m, 0]]
+        for ax in range(points.shape[1]):
+            a = np.float64(points[rows[m, 0], ax])
             b = a
             for v in range(1, rows.shape[1]):
-                x = c[rows[m, v]]
+                x = np.float64(points[rows[m, v], ax])
                 if not (a < x) and a == a:  # np.minimum(a, x): a only if a < x or a NaN
                     a = x
                 if not (b > x) and b == b:

@@ -243,9 +243,10 @@ def test_cell_passes_identical():
         cells = rng.integers(0, 400, size=(3000, d + 1))
         with ThreadPoolExecutor(2) as pool:
             for fast in (Blocks(accelerate=True), Blocks(pool, 2, block=7, accelerate=True)):
-                lo, hi = boxes_of(P, cells)
-                lo2, hi2 = boxes_of(P, cells, fast)
-                assert lo.tobytes() == lo2.tobytes() and hi.tobytes() == hi2.tobytes()
+                for pts in (P.astype(np.float32), P):
+                    lo, hi = boxes_of(pts, cells)
+                    lo2, hi2 = boxes_of(pts, cells, fast)
+                    assert lo.tobytes() == lo2.tobytes() and hi.tobytes() == hi2.tobytes()
                 G = np.array([7, 5, 3][:d], dtype=np.int64)
                 origin, h = np.full(d, -0.3), 0.17
                 i0 = boxgrid.cell_index(lo, origin, h, G)
