@@ -66,6 +66,7 @@ import numpy as np
 
 from fperr.warnings import ResolutionError, ResolutionWarning
 
+from predicates import compiled
 from predicates.catalogue import kinds as catalogue_kinds
 from predicates.registration.plan import threads as plan_threads
 from predicates.registration.plan import resolution
@@ -102,7 +103,8 @@ def intersect(sim: MeshLike | ArrayLike, cut: MeshLike | ArrayLike,
               sim_region: int | str | None = None, cut_region: int | str | None = None,
               progress: bool = False, chunk: int = CHUNK, memory_limit: int | None = None,
               partitions: int | str | None = None, scheduler: str | object | None = None,
-              timeout: float | None = None) -> IntersectionResult:
+              timeout: float | None = None, accelerate: bool | None = None
+              ) -> IntersectionResult:
     """Register the intersections of a simulation mesh with a cutting mesh.
 
     ``intersect(sim_mesh, cut_mesh)``: each a ``(points, cells)`` pair, a ``meshio.Mesh``,
@@ -136,13 +138,14 @@ def intersect(sim: MeshLike | ArrayLike, cut: MeshLike | ArrayLike,
     seconds a partitioned run on a dask.distributed scheduler waits for its tasks once
     submitted, then cancels them and raises
     :class:`~predicates.registration.partition.run.PartitionError` (as when a worker
-    dies under a task). Returns an :class:`~predicates.registration.IntersectionResult`.
+    dies under a task). ``accelerate``: the compiled candidate chain, same bits
+    (:mod:`predicates.compiled`; None: if installed and FPERR_ACCELERATE != 0). Returns an :class:`~predicates.registration.IntersectionResult`.
     """
     args = [sim, cut, cut_points, cut_cells]
     while len(args) > 2 and args[-1] is None:  # the two-mesh form, or a bad count
         args.pop()
     t0, c0 = time.perf_counter(), time.process_time()
-    timings = {}
+    timings, accelerate = {}, compiled.resolve(accelerate)
     serial = partitions is None and scheduler is None
     if timeout is not None:  # before any work (Dask is imported only for a partitioned run)
         from predicates.registration.partition.run import check_timeout
@@ -151,7 +154,8 @@ def intersect(sim: MeshLike | ArrayLike, cut: MeshLike | ArrayLike,
     # a partitioned run's plan is its serial part: per-cell work on a thread per worker
     plan = _plan(args, dtype, tolerance_scale, progress, chunk, refine_cut, timings,
                  sim_region, cut_region, tolerances,
-                 threads=1 if serial else plan_threads.threads_for(scheduler))
+                 threads=1 if serial else plan_threads.threads_for(scheduler),
+                 accelerate=accelerate)
     timings["setup"] = time.perf_counter() - t0
     timings["cpu_setup"] = time.process_time() - c0
     check = partial(_check, plan.report, strict, memory_limit, plan.dim)
@@ -166,6 +170,12 @@ def intersect(sim: MeshLike | ArrayLike, cut: MeshLike | ArrayLike,
         pairs = run_partitioned(plan, partitions, scheduler, chunk, timings, check, progress,
                                 timeout)
     timings["total"] = time.perf_counter() - t0
+    timings["accelerated"] = accelerate  # which ran: the compiled chain, or numpy
+    return _result(plan, pairs, timings)
+
+
+def _result(plan, pairs: dict, timings: dict) -> IntersectionResult:
+    """The result of a run: its plan, {kind: KindPairs} and timings."""
     sim, cut, sc_ = plan.sim, plan.cut, plan.scale
     return IntersectionResult(
         dim=plan.dim, dtype=plan.dtype, kinds=tuple(k.name for k in plan.kinds), pairs=pairs,
@@ -195,19 +205,21 @@ class Plan(NamedTuple):
     report: object  # resolution.Resolution
     refinement: object
     arrays: object  # inputs.Arrays: the meshes as arrays, with notes and plane
+    accelerate: bool = False  # the compiled candidate chain (predicates.compiled)
 
 
 def _plan(args, dtype, tolerance_scale, progress, chunk, refine_cut, timings, sim_region,
-          cut_region, tolerances=None, threads: int = 1) -> Plan:
+          cut_region, tolerances=None, threads: int = 1, accelerate: bool = False) -> Plan:
     """Validation, refinement, L over the cells that can meet, exact scaling,
     tolerances, reach and the resolution report: the global part of the run.
     ``threads`` > 1: the per-cell work in chunks on a thread pool, identical values
-    (:mod:`~predicates.registration.plan.threads`)."""
+    (:mod:`~predicates.registration.plan.threads`); ``accelerate``: its passes compiled.
+    The plan records ``accelerate`` for the registration."""
     if threads <= 1:
-        return _plan_with(plan_threads.Work(), args, dtype, tolerance_scale, progress, chunk,
+        return _plan_with(plan_threads.Work(accelerate=accelerate), args, dtype, tolerance_scale, progress, chunk,
                           refine_cut, timings, sim_region, cut_region, tolerances)
     with ThreadPoolExecutor(threads, thread_name_prefix="fperr-plan") as pool:
-        return _plan_with(plan_threads.Work(pool, threads), args, dtype, tolerance_scale,
+        return _plan_with(plan_threads.Work(pool, threads, accelerate), args, dtype, tolerance_scale,
                           progress, chunk, refine_cut, timings, sim_region, cut_region,
                           tolerances)
 
@@ -224,7 +236,7 @@ def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, 
     sim_box = work.boxes(sim.points, sim.cells)  # once: the check, refine and L use it
     for name, mesh, given, box in (("simulation", sim, sp, sim_box),
                                    ("cutting", cut, cp, None)):
-        if len(mesh.cells) and _one_point(mesh):
+        if len(mesh.cells) and _one_point(mesh, box):
             raise ValueError(_collapse_reason(name, given, mesh, dtype))
     clock("plan_boxes")
     refinement = None
@@ -244,7 +256,8 @@ def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, 
     clock("plan_report")
     ms, mc = sc_.masks
     return Plan(dim, dtype, sim, cut, sc_, P_sim, P_cut, sim.cells[ms], cut.cells[mc],
-                tol_run, ts, catalogue_kinds(dim), report, refinement, arrays)
+                tol_run, ts, catalogue_kinds(dim), report, refinement, arrays,
+                work.blocks.accelerate)
 
 
 class _Stages:
@@ -258,9 +271,16 @@ class _Stages:
         self.timings[stage], self.t = t - self.t, t
 
 
-def _one_point(mesh) -> bool:
-    """Every vertex of the mesh's cells is the same point (in the working dtype)."""
-    P = mesh.points[np.unique(mesh.cells)]
+def _one_point(mesh, box=None) -> bool:
+    """Every vertex of the mesh's cells is the same point (in the working dtype): from
+    the cells' boxes ``box`` (lo, hi) when given (min and max are exact: every cell is
+    one point and all these points are equal), else from the vertices used."""
+    if box is not None:
+        lo, hi = box
+        return bool((lo == hi).all() and (lo == lo[0]).all())
+    used = np.zeros(len(mesh.points), dtype=bool)
+    used[mesh.cells.ravel()] = True
+    P = mesh.points[used]
     return bool((P == P[0]).all())
 
 
@@ -292,7 +312,7 @@ def _register(plan: Plan, chunk: int, progress: bool, timings: dict) -> dict:
     pair within reach, docs/resolution.md): {kind: KindPairs}."""
     t = time.perf_counter()
     reg = Registration(plan.dim, plan.P_sim, plan.sim_cells, plan.P_cut, plan.cut_cells,
-                       plan.tol, plan.scale.reach, chunk)
+                       plan.tol, plan.scale.reach, chunk, accelerate=plan.accelerate)
     timings["ranks"] = time.perf_counter() - t
     return reg.run(progress, timings)
 

@@ -243,6 +243,8 @@ def _summary(args, res, written: list, split=None) -> int:
         print(json.dumps(d, indent=1))
         return 0
     print(res)
+    print("candidate chain: " + ("compiled (numba)" if res.timings.get("accelerated")
+                                 else "numpy"))
     if split is not None:
         print(split)
     for f, what in written:

@@ -29,18 +29,21 @@ from __future__ import annotations
 
 import numpy as np
 
+from predicates.registration.spatial.blocks import Blocks
 from predicates.registration.spatial.broadphase import box_pairs, boxes_of, pair_test
 
 __all__ = ["FacePairs", "cell_pairs", "owned_table"]
 
 
-def cell_pairs(P_sim, sim_cells, P_cut, cut_cells, pad: float, chunk: int):
+def cell_pairs(P_sim, sim_cells, P_cut, cut_cells, pad: float, chunk: int,
+               accelerate: bool = False):
     """The pairs of cells (rows of ``sim_cells`` × rows of ``cut_cells``, coordinates
     ``P_sim``, ``P_cut``) whose boxes are within ``pad``: (T, C, keep_s, keep_c), with
     ``keep_*`` the masks of the cells in some pair and T, C indices into the kept rows."""
-    lo_s, hi_s = boxes_of(P_sim, sim_cells)
-    lo_c, hi_c = boxes_of(P_cut, cut_cells)
-    parts = list(box_pairs(lo_s, hi_s, lo_c, hi_c, pad, chunk=chunk))
+    blocks = Blocks(accelerate=accelerate)
+    lo_s, hi_s = boxes_of(P_sim, sim_cells, blocks)
+    lo_c, hi_c = boxes_of(P_cut, cut_cells, blocks)
+    parts = list(box_pairs(lo_s, hi_s, lo_c, hi_c, pad, chunk=chunk, accelerate=accelerate))
     T = np.concatenate([p[0] for p in parts]) if parts else np.zeros(0, np.int64)
     C = np.concatenate([p[1] for p in parts]) if parts else np.zeros(0, np.int64)
     keep_s, keep_c = np.zeros(len(sim_cells), bool), np.zeros(len(cut_cells), bool)
@@ -68,9 +71,9 @@ def _owned(tab, cells):
     return A.ravel().take(flat), flat // A.shape[1]
 
 
-def _columns(points, rows):
+def _columns(points, rows, blocks: Blocks):
     """Boxes of the simplices ``points[rows]`` as (d, n) columns (lo, hi)."""
-    lo, hi = boxes_of(points, rows)
+    lo, hi = boxes_of(points, rows, blocks)
     return lo.T, hi.T  # boxes_of builds (d, n) arrays: their transposes, no copy
 
 
@@ -83,8 +86,10 @@ class FacePairs:
     {kind name: reach}; ``kinds``: the catalogue's kinds (each with ``name``, ``i``,
     ``j``) in the order they will be asked for."""
 
-    def __init__(self, sim, cut, T, C, reach: dict, kinds, chunk: int):
+    def __init__(self, sim, cut, T, C, reach: dict, kinds, chunk: int,
+                 accelerate: bool = False):
         self.sim, self.cut, self.reach, self.chunk = sim, cut, reach, chunk
+        self.accelerate = accelerate  # compiled box tests (predicates.compiled)
         self.top_s, self.top_c = sim.cx.top, cut.cx.top
         self._boxes = {}  # (side, level) -> (lo, hi) columns
         self._tables = {}  # (side, level) -> owned table
@@ -100,7 +105,7 @@ class FacePairs:
     def _box(self, side, k):
         if (side, k) not in self._boxes:
             s = self.sim if side == "sim" else self.cut
-            self._boxes[side, k] = _columns(s.P, s.cx.S[k])
+            self._boxes[side, k] = _columns(s.P, s.cx.S[k], Blocks(accelerate=self.accelerate))
         return self._boxes[side, k]
 
     def _table(self, side, k):
@@ -114,8 +119,18 @@ class FacePairs:
         cutting boxes ``j_box`` = (side level) ``g``."""
         lo_a, hi_a = self._box("sim", i)
         lo_b, hi_b = self._box("cut", j_box)
-        keep = pair_test(pad, lo_a, hi_a, lo_b, hi_b, f, g)
+        test = pair_test
+        if self.accelerate:
+            from predicates.compiled.boxtest import pair_test as test
+        keep = test(pad, lo_a, hi_a, lo_b, hi_b, f, g)
         return f[keep], g[keep]
+
+    def _owned_test(self, tab, side, A, B, pad, i, j_box):
+        """:func:`_owned` (of ``A``'s or ``B``'s rows, ``side``) and :meth:`_test`,
+        fused and compiled (:mod:`predicates.compiled.boxtest`): the same pairs."""
+        from predicates.compiled.boxtest import owned_pairs
+
+        return owned_pairs(tab, side, A, B, pad, self._box("sim", i), self._box("cut", j_box))
 
     def _first(self, i):
         """Stage 1 for simulation level i: (f, C), f an i-face owned by T, (T, C) a
@@ -126,18 +141,23 @@ class FacePairs:
         step = max(1, self.chunk // tab.shape[1])
         fs, cs = [], []
         for lo in range(0, len(self.T), step):
-            f, rows = _owned(tab, self.T[lo: lo + step])
-            f, C = self._test(self._level_reach[i], i, self.top_c, f,
-                              self.C[lo: lo + step].take(rows))
+            T, C = self.T[lo: lo + step], self.C[lo: lo + step]
+            if self.accelerate:  # the same pairs, in the same order, compiled
+                f, C = self._owned_test(tab, "a", T, C, self._level_reach[i], i, self.top_c)
+            else:
+                f, rows = _owned(tab, T)
+                f, C = self._test(self._level_reach[i], i, self.top_c, f, C.take(rows))
             fs.append(f)
             cs.append(C)
         if not fs:
             return np.zeros(0, np.int64), np.zeros(0, np.int64)
         return np.concatenate(fs), np.concatenate(cs)
 
-    def candidates(self, kind: str, i: int, j: int):
-        """Yield (s, c) index arrays (into the complexes' i- and j-simplices): together
-        every pair whose boxes are within the kind's reach, each exactly once."""
+    def blocks(self, kind: str, i: int, j: int):
+        """Yield (f, C, tab, pad): blocks of the stage-1 pairs of level i (f an i-face,
+        C a cutting cell), the owned table of the cutting j-faces (None: the cells
+        themselves) and the kind's reach; :meth:`candidates` expands and tests them
+        (the compiled chain does it fused, predicates.compiled.chain.fused)."""
         if i not in self._stage1:
             self._stage1[i] = self._first(i)
         f_all, C_all = self._stage1[i]
@@ -151,10 +171,23 @@ class FacePairs:
             tab = self._table("cut", j)
             step = max(1, self.chunk // tab.shape[1])
         for lo in range(0, len(f_all), step):
-            f, C = f_all[lo: lo + step], C_all[lo: lo + step]
-            if tab is not None:
-                C, rows = _owned(tab, C)
-                f = f.take(rows)
-            s, c = self._test(pad, i, j, f, C)
+            yield f_all[lo: lo + step], C_all[lo: lo + step], tab, pad
+
+    def boxes(self, i: int, j: int) -> tuple:
+        """(lo_a, hi_a, lo_b, hi_b): the boxes of the simulation i-simplices and the
+        cutting j-simplices as (d, n) columns."""
+        return self._box("sim", i) + self._box("cut", j)
+
+    def candidates(self, kind: str, i: int, j: int):
+        """Yield (s, c) index arrays (into the complexes' i- and j-simplices): together
+        every pair whose boxes are within the kind's reach, each exactly once."""
+        for f, C, tab, pad in self.blocks(kind, i, j):
+            if self.accelerate and tab is not None:
+                s, c = self._owned_test(tab, "b", f, C, pad, i, j)
+            else:
+                if tab is not None:
+                    C, rows = _owned(tab, C)
+                    f = f.take(rows)
+                s, c = self._test(pad, i, j, f, C)
             if len(s):
                 yield s, c

@@ -15,6 +15,7 @@ import time
 import numpy as np
 
 from predicates.catalogue import kinds as catalogue_kinds
+from predicates.registration.spatial.blocks import Blocks
 from predicates.registration.spatial.broadphase import boxes_of, tighten_flags
 from predicates.registration.levels.complex import Side, any_flagged
 from predicates.registration.levels.facepairs import FacePairs, cell_pairs
@@ -26,8 +27,10 @@ __all__ = ["Registration"]
 class Registration:
     """Both meshes in rank space and the pairs registered so far, level by level."""
 
-    def __init__(self, dim, P_sim, sim_cells, P_cut, cut_cells, tol, reach, chunk):
+    def __init__(self, dim, P_sim, sim_cells, P_cut, cut_cells, tol, reach, chunk,
+                 accelerate: bool = False):
         self.dim, self.tol, self.reach, self.chunk = dim, tol, reach, chunk
+        self.accelerate = accelerate  # the compiled chain (predicates.compiled)
         self.dtype = P_sim.dtype
         self.sim = Side(P_sim, sim_cells)
         self.cut = Side(P_cut, cut_cells)
@@ -48,19 +51,21 @@ class Registration:
         if len(sim.cells) == 0 or len(cut.cells) == 0:
             return
         pad = max(self.reach.values())
-        near_s, near_c = tighten_flags(*boxes_of(sim.P, sim.cells),
-                                       *boxes_of(cut.P, cut.cells), pad)
+        blocks = Blocks(accelerate=self.accelerate)
+        near_s, near_c = tighten_flags(*boxes_of(sim.P, sim.cells, blocks),
+                                       *boxes_of(cut.P, cut.cells, blocks), pad, blocks=blocks)
         if not (near_s.any() and near_c.any()):
             return
         # the pairs of distinct cells within σ+; complexes of the cells in some pair only
         tops_s, tops_c = sim.unique_cells(near_s), cut.unique_cells(near_c)
-        T, C, keep_s, keep_c = cell_pairs(sim.P, tops_s, cut.P, tops_c, pad, 2 * self.chunk)
+        T, C, keep_s, keep_c = cell_pairs(sim.P, tops_s, cut.P, tops_c, pad, 2 * self.chunk,
+                                          self.accelerate)
         if len(T) == 0:
             return
         sim.build_unique(tops_s[keep_s])
         cut.build_unique(tops_c[keep_c])
         self.faces = FacePairs(sim, cut, T, C, self.reach, catalogue_kinds(self.dim),
-                               2 * self.chunk)
+                               2 * self.chunk, self.accelerate)
         self.empty = False
 
     def _candidates(self, kind, i, j):
@@ -138,7 +143,9 @@ class Registration:
         kind, i, j, dt = k.name, k.i, k.j, self.dtype
         s_all, c_all, sw_all, cw_all = [], [], [], []
         ncand = nsup = 0
-        if not self.empty:
+        if not self.empty and self.accelerate:
+            ncand, nsup = self._fused(k, s_all, c_all, sw_all, cw_all)
+        elif not self.empty:
             suspects = self._suspects(i, j)
             for s, c in self._candidates(kind, i, j):
                 ncand += len(s)
@@ -147,18 +154,52 @@ class Registration:
                 s, c = s[~blocked], c[~blocked]
                 for lo in range(0, len(s), self.chunk):
                     ss, cc = s[lo: lo + self.chunk], c[lo: lo + self.chunk]
-                    hit, sw, cw = k.evaluate(self.sim.coords(i, ss),
-                                             self.cut.coords(j, cc), self.tol)
-                    s_all.append(ss[hit])
-                    c_all.append(cc[hit])
-                    sw_all.append(sw[hit])
-                    cw_all.append(cw[hit])
+                    ss, cc, sw, cw = self._evaluate(k, ss, cc)
+                    s_all.append(ss)
+                    c_all.append(cc)
+                    sw_all.append(sw)
+                    cw_all.append(cw)
         s = np.concatenate(s_all) if s_all else np.zeros(0, dtype=np.int64)
         c = np.concatenate(c_all) if c_all else np.zeros(0, dtype=np.int64)
         sw = np.concatenate(sw_all) if sw_all else np.zeros((0, i + 1), dtype=dt)
         cw = np.concatenate(cw_all) if cw_all else np.zeros((0, j + 1), dtype=dt)
         self._register(i, j, s, c)
         return self._output(kind, i, j, s, c, sw, cw, ncand, nsup)
+
+    def _fused(self, k, *out) -> tuple[int, int]:
+        """Kind ``k`` by the compiled fused chain (predicates.compiled.chain.fused):
+        appends the registered pairs to the lists ``out`` (s, c, sim and cut weights);
+        the pairs the suppression pre-filter flags are looked up exactly here, the
+        others evaluated. Returns (candidates, suppressed), as the numpy path counts."""
+        from predicates.compiled.chain import fused
+
+        suspects = self._suspects(k.i, k.j)
+        flags = None if suspects is None else suspects[1:]
+        boxes = self.faces.boxes(k.i, k.j)
+        ncand = nsup = 0
+        for f, C, tab, pad in self.faces.blocks(k.name, k.i, k.j):
+            n, hits, (ms, mc) = fused(k, self.sim, self.cut, f, C, tab, pad, boxes, flags,
+                                      self.tol)
+            ncand += n
+            if len(ms):
+                blocked = self._blocked(k.i, k.j, ms, mc, suspects)
+                nsup += int(blocked.sum())
+                more = self._evaluate(k, ms[~blocked], mc[~blocked])
+                for lst, a in zip(out, more):
+                    lst.append(a)
+            for lst, a in zip(out, hits):
+                lst.append(a)
+        return ncand, nsup
+
+    def _evaluate(self, k, s, c):
+        """The predicate of kind ``k`` on the candidates (s, c): the registered ones and
+        their weights (numpy batch mode, or the same bits compiled)."""
+        if self.accelerate:
+            from predicates.compiled.chain import evaluate
+
+            return evaluate(k, self.sim, self.cut, s, c, self.tol)
+        hit, sw, cw = k.evaluate(self.sim.coords(k.i, s), self.cut.coords(k.j, c), self.tol)
+        return s[hit], c[hit], sw[hit], cw[hit]
 
     def _register(self, i, j, s, c):
         if self.empty:

@@ -20,6 +20,7 @@ import time
 
 import numpy as np
 
+from predicates import compiled
 from predicates.registration.levels.loop import Registration
 from predicates.registration.partition.assign import Part, merge, owned, split
 
@@ -229,7 +230,8 @@ def count_partitions(partitions, client, n_cells: int) -> int:
     return int(max(1, min(partitions, n_cells)))
 
 
-def run_part(part: Part, dim: int, tol, reach: dict, chunk: int) -> tuple[dict, dict]:
+def run_part(part: Part, dim: int, tol, reach: dict, chunk: int,
+             accelerate: bool = False) -> tuple[dict, dict]:
     """One Dask task: the serial levels on the partition's slice; returns its owned
     pairs (global ids) and statistics (time, peak RSS of the worker process and its host
     and pid, bytes; for
@@ -239,7 +241,7 @@ def run_part(part: Part, dim: int, tol, reach: dict, chunk: int) -> tuple[dict, 
     t, cpu, t0 = time.perf_counter(), time.thread_time(), time.time()
     r0, p0 = resource.getrusage(resource.RUSAGE_THREAD), time.process_time()
     reg = Registration(dim, part.P_sim, part.sim_cells, part.P_cut, part.cut_cells, tol,
-                       reach, chunk)
+                       reach, chunk, accelerate=accelerate and compiled.available())
     pairs = owned(part, reg.run(False, {}))
     sent_back = sum(a.nbytes for p in pairs.values()
                     for a in (p.sim, p.cut, p.sim_weights, p.cut_weights))
@@ -304,7 +306,7 @@ def _tasks(dask, client, plan, k, scheduler, chunk, timings, bar, timeout=None) 
         p for p in split(plan.P_sim, plan.sim_cells, plan.P_cut, plan.cut_cells, k,
                          max(reach.values()))
         if len(p.cut_cells))  # no cutting cell within reach of its halo: nothing to own
-    args = (plan.dim, plan.tol, reach, chunk)
+    args = (plan.dim, plan.tol, reach, chunk, plan.accelerate)
     if client is not None:
         # each partition's task starts as soon as its slice is cut and sent: the split
         # of the next ones overlaps the workers' tasks ("partition": split and send)

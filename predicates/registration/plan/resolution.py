@@ -256,12 +256,18 @@ def shortest_edge(points: np.ndarray, cells: np.ndarray, mask,
     if not mask.any():
         return None
     C = np.ascontiguousarray(cells[mask].T)
-    top = float(np.abs(points[np.unique(C)]).max()) if C.size else 0.0
+    used = np.zeros(len(points), dtype=bool)  # the vertices of these cells (no sort)
+    used[C.ravel()] = True
+    top = float(np.abs(points[used]).max()) if C.size else 0.0
     shift = int(np.frexp(top)[1]) if top > 0 and np.isfinite(top) else 0
     cols = np.ldexp(np.ascontiguousarray(points.T, dtype=np.float64), -shift)
     k, dim = cells.shape[1], points.shape[1]
 
     def span(a: int, b: int) -> float:
+        if blocks.accelerate:  # the same sums, compiled (GIL-free)
+            from predicates.compiled.cells import least_square_edge
+
+            return float(least_square_edge(cols, C, a, b))
         best = np.inf
         for lo, hi in blocks.each(a, b):
             # per axis 1D takes (no (n, k, d) gather); the squares summed axis by axis

@@ -29,8 +29,10 @@ class Work:
     ``submit(f, *a)`` (a Future-like). ``Work()`` is the serial plan, single-threaded,
     calls in program order; ``Work(pool, threads)`` the threaded one (identical values)."""
 
-    def __init__(self, pool: Executor | None = None, threads: int = 1):
-        self.blocks = SERIAL if pool is None else Blocks(pool, threads)
+    def __init__(self, pool: Executor | None = None, threads: int = 1,
+                 accelerate: bool = False):
+        self.blocks = (SERIAL if pool is None and not accelerate
+                       else Blocks(pool, threads, accelerate=accelerate))
         self.boxes = partial(boxes_of, blocks=self.blocks)
         self.flags = partial(broadphase.near_flags, blocks=self.blocks)
 

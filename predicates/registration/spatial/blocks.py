@@ -30,10 +30,12 @@ class Blocks:
     GIL inside its loops, so the spans overlap)."""
 
     def __init__(self, pool: Executor | None = None, threads: int = 1,
-                 block: int | None = None):
+                 block: int | None = None, accelerate: bool = False):
         if block is not None and block < 1:
             raise ValueError(f"block must be at least 1 row, got {block}")
         self.pool = pool
+        #: the passes' compiled, GIL-free kernels (predicates.compiled.cells): same values
+        self.accelerate = accelerate
         self.threads = max(1, int(threads)) if pool is not None else 1
         self.block = block  # None: the module's BLOCK, read at each pass
 

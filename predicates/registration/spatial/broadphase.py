@@ -152,7 +152,8 @@ def near_flags(lo_a, hi_a, lo_b, hi_b, pad: float, *, sides: str = "ab",
     return near_a, near_b
 
 
-def tighten_flags(lo_a, hi_a, lo_b, hi_b, pad: float, per_box: float = 4.0):
+def tighten_flags(lo_a, hi_a, lo_b, hi_b, pad: float, per_box: float = 4.0,
+                  blocks: Blocks = SERIAL):
     """Like :func:`near_flags` (a superset of the boxes with a partner within ``pad``),
     on a grid sized by the boxes' *number* — about ``per_box`` cells per box over their
     bounding region — rather than by their extent: applied to the boxes near_flags kept,
@@ -174,29 +175,33 @@ def tighten_flags(lo_a, hi_a, lo_b, hi_b, pad: float, per_box: float = 4.0):
     G = (np.floor(ext / h).astype(np.int64) + 1).clip(1, (1 << _BITS) + 1)
     if not _dense(G + 1, 2 * n):
         return keep
-    ia0, ia1 = _cell_index(lo_a, origin, h, G), _cell_index(hi_a, origin, h, G)
-    ib0, ib1 = _cell_index(lo_bx, origin, h, G), _cell_index(hi_bx, origin, h, G)
-    occ_a, occ_b = _occupancy(ia0, ia1, G), _occupancy(ib0, ib1, G)
-    return _any_in(occ_b, ia0, ia1, G), _any_in(occ_a, ib0, ib1, G)
+    ia0, ia1 = (_cell_index(x, origin, h, G, blocks) for x in (lo_a, hi_a))
+    ib0, ib1 = (_cell_index(x, origin, h, G, blocks) for x in (lo_bx, hi_bx))
+    occ_a, occ_b = _occupancy(ia0, ia1, G, blocks), _occupancy(ib0, ib1, G, blocks)
+    return _any_in(occ_b, ia0, ia1, G, blocks), _any_in(occ_a, ib0, ib1, G, blocks)
 
 
-def box_pairs(lo_a, hi_a, lo_b, hi_b, pad: float, chunk: int = 1 << 22):
+def box_pairs(lo_a, hi_a, lo_b, hi_b, pad: float, chunk: int = 1 << 22,
+              accelerate: bool = False):
     """Yield (ia, ib) index arrays, together every pair of boxes a, b within ``pad``
-    (see module docstring), each pair exactly once. Boxes are (n, d) arrays."""
+    (see module docstring), each pair exactly once. Boxes are (n, d) arrays.
+    ``accelerate``: the cells' joins compiled (:mod:`predicates.compiled.boxtest`), the
+    same pairs in the same order."""
     lo_a, hi_a, lo_b, hi_b = (np.asarray(x, dtype=np.float64) for x in (lo_a, hi_a, lo_b, hi_b))
     if len(lo_a) == 0 or len(lo_b) == 0:
         return
     pad = float(pad)
-    lo_bx, hi_bx, origin, G, h, ia0, ia1, ib0, ib1 = _grid(lo_a, hi_a, lo_b, hi_b, pad)
+    blocks = Blocks(accelerate=accelerate) if accelerate else SERIAL
+    lo_bx, hi_bx, origin, G, h, ia0, ia1, ib0, ib1 = _grid(lo_a, hi_a, lo_b, hi_b, pad, blocks)
     cols = tuple(np.ascontiguousarray(x.T) for x in (lo_a, hi_a, lo_b, hi_b))
-    boxes_ = (lo_a, hi_a, lo_b, hi_b, lo_bx, hi_bx, pad, cols)
+    boxes_ = (lo_a, hi_a, lo_b, hi_b, lo_bx, hi_bx, pad, cols, accelerate)
     ids_a, ids_b = np.arange(len(lo_a)), np.arange(len(lo_b))
     if _dense(G + 1, len(lo_a) + len(lo_b)):
         # boxes sharing no grid cell with the other side: dropped before any expansion
         # into cells (summed-area tables, O(2^d) per box), e.g. the many simulation
         # cells far from a few cutting edges
-        ka = _any_in(_occupancy(ib0, ib1, G), ia0, ia1, G)
-        kb = _any_in(_occupancy(ia0, ia1, G), ib0, ib1, G)
+        ka = _any_in(_occupancy(ib0, ib1, G, blocks), ia0, ia1, G, blocks)
+        kb = _any_in(_occupancy(ia0, ia1, G, blocks), ib0, ib1, G, blocks)
         ids_a, ids_b = ids_a[ka], ids_b[kb]
         ia0, ia1, ib0, ib1 = ia0[ka], ia1[ka], ib0[kb], ib1[kb]
     yield from _level(boxes_, ids_a, ids_b, origin, G, h, (ia0, ia1, ib0, ib1), chunk, 0)
@@ -334,6 +339,13 @@ def _join(sa, ca, sb, q_cell, masks, gbox_a, gbox_b, bx):
     overlap, i.e. on every axis one of the two boxes starts in the cell. The boxes of
     these entries are gathered once, in entry order, so the pair test reads them almost
     sequentially."""
+    if bx[8]:
+        from predicates.compiled.boxtest import join
+
+        ia, ib = join(sa, ca, sb, q_cell, masks, gbox_a, gbox_b, bx[6], bx[7])
+        if len(ia):
+            yield ia, ib
+        return
     a0, a1 = sa[0], sa[-1] + ca[-1]
     b0, b1 = sb[0], sb[-1] + q_cell[-1]  # runs ascend with the cells on both sides
     row_cell = np.repeat(np.arange(len(ca)), ca)

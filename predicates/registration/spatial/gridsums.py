@@ -14,12 +14,17 @@ from predicates.registration.spatial.blocks import SERIAL, Blocks
 __all__ = ["any_in", "coverage", "occupancy"]
 
 
+def _stride(G):
+    """Strides of the linear keys on the (G + 1)-grid, axis 0 fastest."""
+    return np.cumprod(np.concatenate([[1], (G + 1)[:-1]])).astype(np.int64)
+
+
 def _corners(i0, i1, G):
     """(linear key on the (G + 1)-grid, sign) of the 2^d corners {i0, i1 + 1} of each
     box's cell range; sign (−1)^(number of i0 picks) (inclusion–exclusion). Keys are sums
     of per-axis terms (two candidates per axis, computed once)."""
     d = len(G)
-    stride = np.cumprod(np.concatenate([[1], (G + 1)[:-1]])).astype(np.int64)
+    stride = _stride(G)
     lo = [i0[:, ax].astype(np.int64) * stride[ax] for ax in range(d)]
     up = [(i1[:, ax].astype(np.int64) + 1) * stride[ax] for ax in range(d)]
     for pick in range(1 << d):
@@ -40,6 +45,11 @@ def coverage(i0, i1, G, blocks: Blocks = SERIAL):
     def span(a: int, b: int) -> np.ndarray:
         diff = np.zeros(size, dtype=np.int64)
         for lo, hi in blocks.each(a, b):
+            if blocks.accelerate:  # the same counts, compiled (GIL-free)
+                from predicates.compiled.cells import add_corners
+
+                add_corners(i0[lo:hi], i1[lo:hi], _stride(G), diff, flip)
+                continue
             for key, sign in _corners(i0[lo:hi], i1[lo:hi], G):
                 np.add.at(diff, key, -sign if flip else sign)
         return diff
@@ -71,6 +81,11 @@ def any_in(occ, i0, i1, G, blocks: Blocks = SERIAL):
     out = np.empty(len(i0), dtype=bool)
 
     def look(lo: int, hi: int) -> None:
+        if blocks.accelerate:  # the same flags, compiled (GIL-free)
+            from predicates.compiled.cells import look_corners
+
+            look_corners(S, i0[lo:hi], i1[lo:hi], _stride(G), out[lo:hi])
+            return
         count = np.zeros(hi - lo, dtype=S.dtype)
         for key, sign in _corners(i0[lo:hi], i1[lo:hi], G):
             if sign > 0:

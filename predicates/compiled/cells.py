@@ -1,0 +1,108 @@
+"""The plan's per-cell passes, compiled and GIL-free (``nogil=True``): a partitioned
+run's plan runs them on its thread pool block by block
+(:mod:`predicates.registration.spatial.blocks`) and the threads truly overlap.
+
+Each kernel computes exactly the values of the numpy pass it replaces:
+
+* :func:`fill_boxes` — min and max of the cell's vertices per axis, with numpy's
+  ``minimum``/``maximum`` choice among equal values (the second operand: ``-0.0`` vs
+  ``0.0`` comes out as numpy's) and NaN propagation;
+* :func:`cell_index` — ``clip(floor((x − origin) / h), 0, G − 1)``: one subtraction, one
+  division, floor; the same roundings as the numpy expression;
+* :func:`add_corners`, :func:`look_corners` — the summed-area tables' ±1 at the 2^d
+  corners of each box's cell range and the 2^d look-ups (integers: exact).
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .build import JIT_OPTIONS
+
+__all__ = ["add_corners", "cell_index", "fill_boxes", "least_square_edge", "look_corners"]
+
+
+@njit(**JIT_OPTIONS)
+def fill_boxes(points, rows, lo, hi):
+    """As :func:`predicates.registration.spatial.boxes.fill_boxes`, from the points
+    (N, d) and ``rows`` (m, k) as given (no transposed or float64 copy: each coordinate
+    is converted on reading, exactly); one pass over the rows, all axes per row."""
+    for m in range(rows.shape[0]):
+        for ax in range(points.shape[1]):
+            a = np.float64(points[rows[m, 0], ax])
+            b = a
+            for v in range(1, rows.shape[1]):
+                x = np.float64(points[rows[m, v], ax])
+                if not (a < x) and a == a:  # np.minimum(a, x): a only if a < x or a NaN
+                    a = x
+                if not (b > x) and b == b:
+                    b = x
+            lo[ax, m] = a
+            hi[ax, m] = b
+
+
+@njit(**JIT_OPTIONS)
+def cell_index(x, origin, h, G, out):
+    """As :func:`predicates.registration.spatial.boxgrid.cell_index` (rows of x)."""
+    for r in range(x.shape[0]):
+        for ax in range(x.shape[1]):
+            i = np.floor((x[r, ax] - origin[ax]) / h)
+            top = G[ax] - 1
+            if i < 0:
+                i = 0.0
+            if i > top:
+                i = float(top)
+            out[r, ax] = np.int32(i)
+
+
+@njit(**JIT_OPTIONS)
+def _key(i0, i1, r, pick, stride):
+    key = 0
+    ups = 0
+    for ax in range(i0.shape[1]):
+        if pick >> ax & 1:
+            key += (np.int64(i1[r, ax]) + 1) * stride[ax]
+            ups += 1
+        else:
+            key += np.int64(i0[r, ax]) * stride[ax]
+    sign = 1 if (i0.shape[1] - ups) % 2 == 0 else -1
+    return key, sign
+
+
+@njit(**JIT_OPTIONS)
+def add_corners(i0, i1, stride, diff, flip):
+    """``np.add.at(diff, key, ±sign)`` at every corner of every box (gridsums.coverage)."""
+    for r in range(i0.shape[0]):
+        for pick in range(1 << i0.shape[1]):
+            key, sign = _key(i0, i1, r, pick, stride)
+            diff[key] += -sign if flip else sign
+
+
+@njit(**JIT_OPTIONS)
+def look_corners(S, i0, i1, stride, out):
+    """Per box: Σ ±S[corner] > 0 (gridsums.any_in)."""
+    for r in range(i0.shape[0]):
+        count = 0
+        for pick in range(1 << i0.shape[1]):
+            key, sign = _key(i0, i1, r, pick, stride)
+            count += sign * np.int64(S[key])
+        out[r] = count > 0
+
+
+@njit(**JIT_OPTIONS)
+def least_square_edge(cols, C, a, b):
+    """min over cells a … b − 1 (columns of ``C``, (k, m) vertex ids) and their vertex
+    pairs u < v of Σ_ax (x_u − x_v)², summed from axis 0 as
+    :func:`predicates.registration.plan.resolution.shortest_edge` sums (min: exact)."""
+    best = np.inf
+    for m in range(a, b):
+        for u in range(C.shape[0]):
+            for v in range(u + 1, C.shape[0]):
+                t = cols[0, C[u, m]] - cols[0, C[v, m]]
+                sq = t * t
+                for ax in range(1, cols.shape[0]):
+                    t = cols[ax, C[u, m]] - cols[ax, C[v, m]]
+                    sq = sq + t * t
+                if sq < best:
+                    best = sq
+    return best

@@ -1,0 +1,102 @@
+"""The compiled candidate chain of one registration kind: gather → predicate → output,
+fused in one loop over the candidates (:mod:`predicates.compiled.build`), no temporaries
+the size of the batch besides the accepted lanes.
+
+:func:`evaluate` is :meth:`predicates.catalogue.Kind.evaluate` followed by the
+selection of the hits, with the same values bit for bit (docs/design.md): the
+registration (:mod:`predicates.registration.levels.loop`) calls one or the other.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from predicates.catalogue import _split_weights
+
+from .buffers import buffer as _buffer
+from .build import kernel
+
+__all__ = ["evaluate", "fused", "run_predicate"]
+
+_TOL_CACHE: dict = {}
+
+
+def _tolerance_array(pred, names, tol, dtype) -> np.ndarray:
+    """The tolerances ``names`` of ``tol`` as a ``dtype`` array, converted as the numpy
+    path converts them (:meth:`predicates.core.Predicate._tolerances_for`)."""
+    from fperr.contexts import NumpyContext
+
+    key = (id(tol), names, dtype.name)
+    hit = _TOL_CACHE.get(key)
+    if hit is not None and hit[0] is tol:
+        return hit[1]
+    run = NumpyContext(dtype).fresh(len(pred.weight_names), 1)
+    conv = pred._tolerances_for(tol, run)
+    arr = np.array([conv.values[n] for n in names], dtype=dtype)
+    if len(_TOL_CACHE) > 64:
+        _TOL_CACHE.clear()
+    _TOL_CACHE[key] = (tol, arr)
+    return arr
+
+
+def run_predicate(pred, first: tuple, second: tuple, tol, n_first: int | None = None):
+    """The predicate on the lanes ``first = (P, R, I)`` × ``second``: point p of the
+    first primitive of lane q is ``P[R[I[q], p]]``. Returns (positions of the hits,
+    their weights (hits, k)), as the numpy batch path's ``hit`` and ``weights[hit]``."""
+    P1, R1, I1 = first
+    P2, R2, I2 = second
+    dtype = P1.dtype
+    chain, names = kernel(pred, dtype.name, n_first)
+    tv = _tolerance_array(pred, names, tol, dtype)
+    n = len(I1)
+    pos = np.empty(n, dtype=np.int64)
+    out = np.empty((n, len(pred.weight_names)), dtype=dtype)
+    count = chain(P1, R1, I1, P2, R2, I2, tv, pos, out)
+    return pos[:count], out[:count]
+
+
+def evaluate(kind, sim, cut, s: np.ndarray, c: np.ndarray, tol):
+    """Kind ``kind`` on the candidates (s, c) (indices of the sides' i- and
+    j-simplices; ``sim``, ``cut``: :class:`~predicates.registration.levels.complex.Side`).
+    Returns (s, c, sim weights, cut weights) of the registered pairs."""
+    a = (sim.P, sim.cx.S[kind.i], s)
+    b = (cut.P, cut.cx.S[kind.j], c)
+    first, second = (b, a) if kind.swapped else (a, b)
+    pos, w = run_predicate(kind.predicate, first, second, tol)
+    w_first, w_second = _split_weights(kind.predicate, w, len(pos))
+    sw, cw = (w_second, w_first) if kind.swapped else (w_first, w_second)
+    return s.take(pos), c.take(pos), sw, cw
+
+
+_NO_TAB = np.full((1, 1), -1, dtype=np.int64)
+_NO_FLAGS = np.zeros(1, dtype=bool)
+
+
+def fused(kind, sim, cut, F, C, tab, pad: float, boxes: tuple, flags, tol):
+    """The fused per-kind chain (:func:`predicates.compiled.emit.fused_lines`) on one
+    block of stage-1 pairs (F[q], C[q]): ``tab`` the cutting cells' owned j-faces (None:
+    the cells themselves), ``boxes`` = (lo_a, hi_a, lo_b, hi_b) as (d, n) columns of the
+    sides' i- and j-simplices, ``flags`` = (flag_s, flag_c) of the suppression
+    pre-filter or None. Returns (candidates, (s, c, sim weights, cut weights) of the
+    registered pairs, (s, c) of the pairs to look up before evaluating them)."""
+    pred = kind.predicate
+    dtype = sim.P.dtype
+    n1 = len(pred.sim)
+    run, names = kernel(pred, dtype.name, n1, "fused")
+    tv = _tolerance_array(pred, names, tol, dtype)
+    a = (sim.P, sim.cx.S[kind.i])
+    b = (cut.P, cut.cx.S[kind.j])
+    (P1, R1), (P2, R2) = (b, a) if kind.swapped else (a, b)
+    n = len(F) * (1 if tab is None else tab.shape[1])
+    out_s, out_c, maybe_s, maybe_c = (_buffer(name, n, np.int64) for name in "scSC")
+    out_w = _buffer("w", n, dtype, len(pred.weight_names))
+    counts = np.zeros(3, dtype=np.int64)
+    fs, fc = (_NO_FLAGS, _NO_FLAGS) if flags is None else flags
+    run(F, C, _NO_TAB if tab is None else tab, tab is not None, float(pad), *boxes, fs, fc,
+        flags is not None, kind.swapped, P1, R1, P2, R2, tv, out_s, out_c, out_w, maybe_s,
+        maybe_c, counts)
+    ncand, nh, nm = (int(x) for x in counts)
+    w_first, w_second = _split_weights(pred, out_w[:nh].copy(), nh)
+    sw, cw = (w_second, w_first) if kind.swapped else (w_first, w_second)
+    return (ncand, (out_s[:nh].copy(), out_c[:nh].copy(), sw, cw),
+            (maybe_s[:nm].copy(), maybe_c[:nm].copy()))
+

@@ -1,0 +1,119 @@
+"""Python text of the compiled kernels (:mod:`predicates.compiled.build` compiles it),
+from a traced predicate (:mod:`predicates.compiled.trace`).
+
+Two kernels per predicate and dtype:
+
+* ``chain_<dtype>`` — given lanes (I1[q], I2[q]) of two simplex tables: gather, the
+  predicate's statements, the accepted lanes' positions and weights;
+* ``fused_<dtype>`` — the whole per-kind chain on a block of stage-1 pairs (face f,
+  cutting cell C) of :mod:`predicates.registration.levels.facepairs`: every face g
+  that C owns (or C itself), the exact box test of (f, g) at the kind's reach, the
+  suppression pre-filter (a pair whose two simplices both have a face in a registered
+  lower pair goes out to the exact numpy look-up, unevaluated), gather, predicate,
+  output — no array of candidates at all.
+
+The box test's text is emitted into the module (not imported), so the module's hash —
+its file name, and with it numba's on-disk cache — covers every line it runs.
+"""
+from __future__ import annotations
+
+from .trace import Program
+
+__all__ = ["chain_lines", "fused_lines", "NEAR"]
+
+#: the broad phase's box test (predicates.registration.spatial.broadphase.pair_test):
+#: F[lo_b − hi_a] ≤ pad and F[lo_a − hi_b] ≤ pad per axis, a NaN failing
+NEAR = '''@njit(**{opts})
+def _near(pad, lo_a, hi_a, lo_b, hi_b, a, b):
+    for ax in range(lo_a.shape[0]):
+        if not lo_b[ax, b] - hi_a[ax, a] <= pad:
+            return False
+        if not lo_a[ax, a] - hi_b[ax, b] <= pad:
+            return False
+    return True
+
+
+'''
+
+
+def gather(var: str, rows: str, points: str, first: int, count: int, dim: int) -> list[str]:
+    """Statements loading ``count`` points of the simplex ``var`` (rows of ``rows``)."""
+    out = []
+    for p in range(count):
+        out.append(f"v = {rows}[{var}, {p}]")
+        out += [f"x{(first + p) * dim + a} = {points}[v, {a}]" for a in range(dim)]
+    return out
+
+
+def body(prog: Program, dtype: str) -> list[str]:
+    """The predicate's statements for one lane (``continue``: rejected)."""
+    out = []
+    for st in prog.lines:
+        if st[0] == "let":
+            out.append(f"{st[1]} = {st[2].replace('T(', f'np.{dtype}(')}")
+        else:
+            out.append(f"if {st[1]}:  # line {st[2]} of the algorithm: rejected")
+            out.append("    continue")
+    return out
+
+
+def _lane(prog: Program, n1: int, dt: str, r1: str, r2: str) -> list[str]:
+    n2, d = prog.n_points - n1, prog.dim
+    return (gather(r1, "R1", "P1", 0, n1, d) + gather(r2, "R2", "P2", n1, n2, d)
+            + body(prog, dt))
+
+
+def _weights(prog: Program, out: str, row: str) -> list[str]:
+    return [f"{out}[{row}, {k}] = {w.ref}" for k, w in enumerate(prog.weights)]
+
+
+def chain_lines(prog: Program, n1: int, dt: str, opts: str) -> list[str]:
+    """``chain_<dt>(P1, R1, I1, P2, R2, I2, tol, pos, out) -> count``."""
+    lines = [f"@njit(**{opts})",
+             f"def chain_{dt}(P1, R1, I1, P2, R2, I2, tol, pos, out):",
+             f'    """{prog.name}: lanes I1[q] × I2[q]; accepted lanes to pos, out."""',
+             "    count = 0",
+             "    for q in range(I1.shape[0]):",
+             "        r1 = I1[q]",
+             "        r2 = I2[q]"]
+    body_ = _lane(prog, n1, dt, "r1", "r2") + ["pos[count] = q"]
+    body_ += _weights(prog, "out", "count") + ["count += 1"]
+    return lines + ["        " + b for b in body_] + ["    return count", "", ""]
+
+
+def fused_lines(prog: Program, n1: int, dt: str, opts: str) -> list[str]:
+    """``fused_<dt>(F, Cs, tab, has_tab, pad, boxes, flags, use_flags, swapped, P1, R1,
+    P2, R2, tol, out_s, out_c, out_w, maybe_s, maybe_c, counts)`` (module docstring):
+    counts = (candidates, hits, pairs left to the suppression look-up)."""
+    head = [f"@njit(**{opts})",
+            f"def fused_{dt}(F, Cs, tab, has_tab, pad, lo_a, hi_a, lo_b, hi_b, flag_s,",
+            "             flag_c, use_flags, swapped, P1, R1, P2, R2, tol, out_s, out_c,",
+            "             out_w, maybe_s, maybe_c, counts):",
+            f'    """{prog.name}: stage-1 pairs (F[q], Cs[q]) to registered pairs."""',
+            "    ncand = 0",
+            "    nh = 0",
+            "    nm = 0",
+            "    K = tab.shape[1] if has_tab else 1",
+            "    for q in range(F.shape[0]):",
+            "        f = F[q]",
+            "        for k in range(K):"]
+    inner = ["if has_tab:",
+             "    g = tab[Cs[q], k]",
+             "    if g < 0:",
+             "        continue",
+             "else:",
+             "    g = Cs[q]",
+             "if not _near(pad, lo_a, hi_a, lo_b, hi_b, f, g):",
+             "    continue",
+             "ncand += 1",
+             "if use_flags and flag_s[f] and flag_c[g]:  # maybe suppressed: look up",
+             "    maybe_s[nm] = f",
+             "    maybe_c[nm] = g",
+             "    nm += 1",
+             "    continue",
+             "r1 = g if swapped else f",
+             "r2 = f if swapped else g"]
+    inner += _lane(prog, n1, dt, "r1", "r2") + ["out_s[nh] = f", "out_c[nh] = g"]
+    inner += _weights(prog, "out_w", "nh") + ["nh += 1"]
+    tail = ["    counts[0] = ncand", "    counts[1] = nh", "    counts[2] = nm", "", ""]
+    return head + ["            " + b for b in inner] + tail

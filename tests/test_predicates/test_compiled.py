@@ -1,0 +1,279 @@
+"""The compiled candidate chain (predicates.compiled) is bit-identical to numpy batch mode.
+
+* lane by lane, every predicate, float64 and float32, on adversarial near-degenerate
+  configurations (tests/support/geometry_exact.construct: probes at the tolerances'
+  thresholds, collinear / coplanar / coincident points) drawn by hypothesis, with the
+  robust tolerances and with zero tolerances (the naive baseline's exact sign tests):
+  the same hits and bitwise-equal weights;
+* the generated code contains no fused multiply-add and no fast-math flag (LLVM IR and
+  machine code of both dtypes), so each operation rounds once, as numpy's ufuncs do;
+* a registration gives bitwise-identical results with and without the accelerator, and
+  ``res.timings["accelerated"]`` says which ran (``FPERR_ACCELERATE=0``, ``accelerate=``).
+"""
+from __future__ import annotations
+
+import re
+import warnings
+import zlib
+from fractions import Fraction
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+pytest.importorskip("numba")
+
+import fperr  # noqa: E402
+import predicates  # noqa: E402
+from geometry_exact import DataSource, RngSource, Units, construct, frac, place  # noqa: E402
+from predicates import compiled  # noqa: E402
+from predicates.compiled.build import JIT_OPTIONS, source  # noqa: E402
+from predicates.compiled.chain import run_predicate  # noqa: E402
+from predicates.registration import examples  # noqa: E402
+
+PREDICATES = [p for d in (2, 3) for p in predicates.ALL[d]]
+PRED_IDS = [f"{p.dim}d-{p.name}" for p in PREDICATES]
+DTYPES = (np.float64, np.float32)
+
+
+def _configs(pred, tol, src, n, bits, offset=0.0):
+    u, L = Units.of(tol), frac(tol.L)
+    out = []
+    while len(out) < n:
+        with np.errstate(all="ignore"):
+            cfg = place(construct(pred.name, src, u), Fraction(offset) * L, L, bits)
+        if cfg is not None:
+            out.append(cfg)
+    return out
+
+
+def _compare(pred, configs, tol, dtype, rng):
+    """numpy batch vs compiled chain on the same lanes (gathered through shuffled
+    vertex tables): identical hits, bitwise-identical weights. Returns the hits."""
+    arrs = [np.array([[float(c) for c in cfg[i]] for cfg in configs], dtype=dtype)
+            for i in range(len(configs[0]))]
+    hit, w = pred(*arrs, tol)
+    n, n1, d = len(configs), len(pred.sim), pred.dim
+    sides = []
+    for pts in (arrs[:n1], arrs[n1:]):  # each primitive's points in a shuffled table
+        k = len(pts)
+        perm = rng.permutation(n * k)
+        P = np.empty((n * k, d), dtype=dtype)
+        P[perm] = np.stack(pts, axis=1).reshape(n * k, d)
+        R = perm.reshape(n, k).astype(np.int32)
+        order = rng.permutation(n)
+        table = np.empty_like(R)
+        table[order] = R
+        sides.append((P, table, order.astype(np.int64)))
+    pos, wc = run_predicate(pred, *sides, tol)
+    assert np.array_equal(pos, np.flatnonzero(hit)), f"{pred.name}: hits differ"
+    assert wc.dtype == w.dtype
+    u = np.uint64 if dtype == np.float64 else np.uint32
+    assert np.array_equal(wc.view(u), w[hit].view(u)), f"{pred.name}: weights differ"
+    return int(hit.sum())
+
+
+@pytest.mark.parametrize("dtype", DTYPES, ids=["float64", "float32"])
+@pytest.mark.parametrize("pred", PREDICATES, ids=PRED_IDS)
+def test_lanes_identical_seeded(pred, dtype):
+    """A few hundred adversarial lanes per predicate and dtype, at several scales and
+    offsets, with the robust and the zero tolerances; the hits must include some."""
+    rng = np.random.default_rng(zlib.crc32(pred.name.encode()) + pred.dim)
+    bits = 53 if dtype == np.float64 else 24
+    hits = 0
+    for scale, offset in (((1.0, 1.0), 0.0), ((0.75, 0.0), -0.5), ((3.0, 0.25), 3.0)):
+        tol = predicates.tolerances(pred.dim, *scale, dtype=dtype)
+        configs = _configs(pred, tol, RngSource(rng), 120, bits, offset)
+        hits += _compare(pred, configs, tol, dtype, rng)
+        _compare(pred, configs, tol.scaled(dtype(0)), dtype, rng)
+    assert hits >= 5, "the comparison must include hits"
+
+
+@pytest.mark.parametrize("dtype", DTYPES, ids=["float64", "float32"])
+@pytest.mark.parametrize("pred", PREDICATES, ids=PRED_IDS)
+@settings(max_examples=max(10, settings.default.max_examples // 8), deadline=None,
+          suppress_health_check=list(HealthCheck))
+@given(data=st.data())
+def test_lanes_identical_hypothesis(pred, dtype, data):
+    """hypothesis draws the near-degenerate configurations (and shrinks a failure)."""
+    bits = 53 if dtype == np.float64 else 24
+    tol = predicates.tolerances(pred.dim, 1.0, data.draw(st.sampled_from([0.0, 0.5, 1.0])),
+                                dtype=dtype)
+    configs = _configs(pred, tol, DataSource(data), 12, bits)
+    rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 32 - 1)))
+    _compare(pred, configs, tol, dtype, rng)
+
+
+_FMA_ASM = re.compile(r"\bv?f(n)?m(add|sub)\d|\bvfmaddsub|\bvfmsubadd", re.I)
+_FMA_IR = re.compile(r"@llvm\.(fma|fmuladd)|\bf(add|sub|mul|div|neg|cmp)\s+(fast|contract|"
+                     r"reassoc|afn|arcp|nnan|ninf|nsz)\b")
+
+
+@pytest.mark.parametrize("pred", PREDICATES, ids=PRED_IDS)
+def test_no_fma_no_fast_math(pred):
+    """Each kernel, compiled here without the disk cache, for both dtypes: no fma or
+    fmuladd intrinsic and no fast-math flag in the LLVM IR, no FMA instruction in the
+    machine code (this CPU has FMA: the compiler would use it if allowed)."""
+    text = source(pred).replace(f"@njit(**{JIT_OPTIONS!r})",
+                                f"@njit(**{dict(JIT_OPTIONS, cache=False)!r})")
+    ns: dict = {}
+    exec(compile(text, f"<{pred.name}>", "exec"), ns)
+    d, n1 = pred.dim, len(pred.sim)
+    for dt in DTYPES:
+        fn = ns[f"chain_{np.dtype(dt).name}"]
+        assert fn.targetoptions.get("fastmath") in (False, None)
+        P = np.zeros((1, d), dt)
+        R1, R2 = np.zeros((1, n1), np.int64), np.zeros((1, len(pred.points) - n1), np.int64)
+        I = np.zeros(1, np.int64)
+        fn(P, R1, I, P, R2, I, np.zeros(8, dt), np.zeros(1, np.int64),
+           np.zeros((1, max(1, len(pred.weight_names))), dt))
+        for sig in fn.signatures:
+            ir, asm = fn.inspect_llvm(sig), fn.inspect_asm(sig)
+            assert not _FMA_IR.search(ir), f"{pred.name} {dt}: {_FMA_IR.search(ir)[0]}"
+            assert not _FMA_ASM.search(asm), f"{pred.name} {dt}: {_FMA_ASM.search(asm)[0]}"
+
+
+def _same(a, b):
+    assert a.kinds == b.kinds
+    for k in a.kinds:
+        pa, pb = a[k], b[k]
+        for x, y in ((pa.sim, pb.sim), (pa.cut, pb.cut), (pa.sim_weights, pb.sim_weights),
+                     (pa.cut_weights, pb.cut_weights)):
+            assert x.dtype == y.dtype and x.shape == y.shape
+            assert x.tobytes() == y.tobytes(), k
+        assert (pa.candidates, pa.suppressed) == (pb.candidates, pb.suppressed)
+
+
+@pytest.mark.parametrize("dtype", DTYPES, ids=["float64", "float32"])
+@pytest.mark.parametrize("case", ["cube-sphere", "square-circle"])
+def test_registration_identical(case, dtype):
+    sim, cut = ((examples.cube_grid(6), examples.icosphere(2)) if case == "cube-sphere"
+                else (examples.square_grid(24), examples.circle_polygon(200)))
+    with warnings.catch_warnings():  # float32: coarse-resolution warnings
+        warnings.simplefilter("ignore", fperr.ResolutionWarning)
+        a = predicates.intersect(*sim, *cut, dtype=dtype, accelerate=False)
+        b = predicates.intersect(*sim, *cut, dtype=dtype, accelerate=True)
+    assert a.timings["accelerated"] is False and b.timings["accelerated"] is True
+    assert a.total > 0
+    _same(a, b)
+
+
+def test_switch(monkeypatch):
+    monkeypatch.setenv("FPERR_ACCELERATE", "0")
+    assert compiled.resolve(None) is False
+    assert compiled.resolve(True) is True
+    monkeypatch.setenv("FPERR_ACCELERATE", "1")
+    assert compiled.resolve(None) is True and compiled.resolve(False) is False
+    with pytest.raises(TypeError):
+        compiled.resolve("yes")
+    monkeypatch.setattr(compiled, "available", lambda: False)
+    assert compiled.resolve(None) is False
+    with pytest.raises(ImportError, match="fast"):
+        compiled.resolve(True)
+
+
+def test_trace_refuses_if_on_a_number():
+    from predicates.core import predicate
+    from predicates.compiled.trace import trace
+
+    @predicate(dim=2, points="AB")
+    def branchy(ctx, A, B, tol):
+        if A[0] > B[0]:
+            return ctx.miss()
+        return ctx.hit(())
+
+    with pytest.raises(TypeError, match="ctx.reject"):
+        trace(branchy)
+
+
+def test_fma_check_detects_fma():
+    """The checks above would see an FMA: the same expression compiled with fast-math
+    contracts to one on this CPU (skipped where the CPU has none)."""
+    from numba import njit
+
+    def f(a, b, c):
+        return a * b + c
+
+    fast, strict = njit(fastmath=True)(f), njit(fastmath=False)(f)
+    fast(1.0, 2.0, 3.0), strict(1.0, 2.0, 3.0)
+    sig = fast.signatures[0]
+    assert not _FMA_ASM.search(strict.inspect_asm(sig))
+    assert _FMA_IR.search(fast.inspect_llvm(sig))
+    if "fma" not in open("/proc/cpuinfo").read().split():
+        pytest.skip("no FMA on this CPU")
+    assert _FMA_ASM.search(fast.inspect_asm(sig))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_box_pairs_compiled_join_identical(seed):
+    """The broad phase with compiled joins yields the same pairs in the same order,
+    crowded cells (refined grids) and multi-cell boxes included."""
+    from predicates.registration.spatial.broadphase import box_pairs
+
+    rng = np.random.default_rng(seed)
+    n, d = 3000, 2 + seed % 2
+    lo_a = rng.random((n, d)) * np.where(rng.random((n, 1)) < 0.3, 0.01, 1.0)
+    hi_a = lo_a + rng.random((n, d)) * 0.05
+    lo_b = rng.random((n // 2, d))
+    hi_b = lo_b + rng.random((n // 2, d)) * rng.choice([0.001, 0.2], size=(n // 2, 1))
+    for pad in (0.0, 1e-3):
+        a = list(box_pairs(lo_a, hi_a, lo_b, hi_b, pad, chunk=1 << 12))
+        b = list(box_pairs(lo_a, hi_a, lo_b, hi_b, pad, chunk=1 << 12, accelerate=True))
+        ia, ib = (np.concatenate([p[k] for p in a]) for k in (0, 1))
+        ja, jb = (np.concatenate([p[k] for p in b]) for k in (0, 1))
+        assert np.array_equal(ia, ja) and np.array_equal(ib, jb) and len(ia) > 100
+
+
+def test_cell_passes_identical():
+    """The plan's compiled per-cell passes (Blocks(accelerate=True)) give the numpy
+    passes' values: boxes (signed zeros included), cell indices, coverage, look-ups,
+    near_flags and tighten_flags, serial and on a thread pool with tiny blocks."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from predicates.registration.spatial import boxgrid, gridsums
+    from predicates.registration.spatial.blocks import SERIAL, Blocks
+    from predicates.registration.spatial.boxes import boxes_of
+    from predicates.registration.spatial.broadphase import near_flags, tighten_flags
+
+    rng = np.random.default_rng(5)
+    for d in (2, 3):
+        P = rng.choice([-0.0, 0.0, 0.25, -0.5, 1.0], size=(400, d))
+        P[200:] = rng.random((200, d))
+        cells = rng.integers(0, 400, size=(3000, d + 1))
+        with ThreadPoolExecutor(2) as pool:
+            for fast in (Blocks(accelerate=True), Blocks(pool, 2, block=7, accelerate=True)):
+                for pts in (P.astype(np.float32), P):
+                    lo, hi = boxes_of(pts, cells)
+                    lo2, hi2 = boxes_of(pts, cells, fast)
+                    assert lo.tobytes() == lo2.tobytes() and hi.tobytes() == hi2.tobytes()
+                G = np.array([7, 5, 3][:d], dtype=np.int64)
+                origin, h = np.full(d, -0.3), 0.17
+                i0 = boxgrid.cell_index(lo, origin, h, G)
+                i1 = boxgrid.cell_index(hi, origin, h, G)
+                assert np.array_equal(i0, boxgrid.cell_index(lo, origin, h, G, fast))
+                cov = gridsums.coverage(i0, i1, G)
+                assert np.array_equal(cov, gridsums.coverage(i0, i1, G, fast))
+                occ = gridsums.occupancy(i0[:50], i1[:50], G)
+                assert np.array_equal(gridsums.any_in(occ, i0, i1, G),
+                                      gridsums.any_in(occ, i0, i1, G, fast))
+                for pad in (0.0, 0.01):
+                    args = (lo[:1500], hi[:1500], lo[1500:], hi[1500:], pad)
+                    for f in (near_flags, ):
+                        a, b = f(*args, blocks=SERIAL), f(*args, blocks=fast)
+                        assert all(np.array_equal(x, y) for x, y in zip(a, b))
+                    a, b = tighten_flags(*args), tighten_flags(*args, blocks=fast)
+                    assert all(np.array_equal(x, y) for x, y in zip(a, b))
+
+
+@pytest.mark.parametrize("d", [2, 3])
+def test_shortest_edge_identical(d):
+    from predicates.registration.plan.resolution import shortest_edge
+    from predicates.registration.spatial.blocks import Blocks
+
+    rng = np.random.default_rng(d)
+    P = rng.random((500, d)) * 2.0 ** rng.integers(-30, 30)
+    cells = np.array([rng.choice(500, d + 1, replace=False) for _ in range(4000)])
+    mask = rng.random(4000) < 0.7
+    a = shortest_edge(P, cells, mask)
+    assert a == shortest_edge(P, cells, mask, Blocks(accelerate=True)) and a > 0
