@@ -99,12 +99,16 @@ def fragments(cells: np.ndarray, on_cut: np.ndarray, severed: np.ndarray):
     return cell_origin.astype(np.int64), frag_of, material
 
 
-def glue(cells: np.ndarray, frag_of: np.ndarray, n: int):
-    """Glue fragments of neighbouring cells across their shared face through shared
-    material vertices (Molino et al. 2004: copies sharing material on a common face share
-    that face's nodes). Returns (g1, g2): glued fragment pairs, and (s1, s2): identified
-    node slots (slot = fragment·(d+1) + corner), every vertex of the face for every glue.
-    Faces shared by more than two cells are glued pairwise along the sorted order."""
+def glue(cells: np.ndarray, frag_of: np.ndarray, n: int, first: np.ndarray,
+         covered=None):
+    """Glue fragments of neighbouring cells across their shared face (Molino et al. 2004:
+    copies sharing material on a common face share that face's nodes): through a
+    material (off-cut) vertex of the face in both, or — a face whose vertices are all on
+    the cut — when ``covered`` (faces (k, d) -> (k,) bool, :mod:`.cover`) says the
+    cutting surface does not cover it; such a cell has one fragment, ``first[c]``.
+    Returns (g1, g2): glued fragment pairs, and (s1, s2): identified node slots (slot =
+    fragment·(d+1) + corner), every vertex of the face for every glue. Faces shared by
+    more than two cells are glued pairwise along the sorted order."""
     C, m = cells.shape
     order = np.argsort(cells, axis=1, kind="stable")
     # face k of a cell omits corner k; L: its corners, by increasing vertex id
@@ -119,9 +123,15 @@ def glue(cells: np.ndarray, frag_of: np.ndarray, n: int):
     F2 = np.take_along_axis(frag_of[c2], L2, axis=1)
     p, j = np.nonzero(F1 >= 0)  # witnesses: a material vertex of the face in both cells
     g1, g2 = F1[p, j], F2[p, j]
+    q = np.flatnonzero((F1 < 0).all(axis=1))  # every vertex of the face on the cut
+    if len(q) and covered is not None:
+        q = q[~covered(np.take_along_axis(cells[c1[q]], L1[q], axis=1))]
+        p, g1, g2 = (np.concatenate([p, q]), np.concatenate([g1, first[c1[q]]]),
+                     np.concatenate([g2, first[c2[q]]]))
     nf = int(frag_of.max(initial=-1)) + 1
-    _, first = np.unique(g1 * max(nf, 1) + g2, return_index=True)
-    p, g1, g2 = p[first], g1[first], g2[first]
+    nf = max(nf, int(first.max(initial=-1)) + 1, 1)
+    _, keep = np.unique(g1 * nf + g2, return_index=True)
+    p, g1, g2 = p[keep], g1[keep], g2[keep]
     s1 = (g1[:, None] * m + L1[p]).ravel()
     s2 = (g2[:, None] * m + L2[p]).ravel()
     return (g1, g2), (s1, s2)
@@ -148,16 +158,16 @@ def components(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
             parent = nxt
 
 
-def cell_hits(cells: np.ndarray, hit_sim: np.ndarray, cell_origin: np.ndarray, n: int):
-    """CSR (offsets, index) of the intersection points lying on the closure of each new
-    cell: hit h belongs to new cell f when the simulation primitive of h (its vertex ids,
-    −1 padded in ``hit_sim``) is a face of f's original cell."""
-    C, m = cells.shape
+def cell_hits(cells: np.ndarray, hit_sim: np.ndarray, n: int):
+    """(hit, cell) pairs: hit h lies on the closure of cell c of ``cells`` when the
+    simulation primitive of h (its vertex ids, −1 padded in ``hit_sim``) is a face of c.
+    Returns (hits, cells) int64 arrays, one entry per pair."""
+    m = cells.shape[1]
     owner_hit, owner_cell = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
     size = (hit_sim >= 0).sum(axis=1)
     for s in range(1, m + 1):
         h = np.flatnonzero(size == s)
-        if h.size == 0:
+        if h.size == 0 or len(cells) == 0:
             continue
         combos = np.array(list(itertools.combinations(range(m), s)))
         sub = np.sort(cells[:, combos], axis=2).reshape(-1, s)
@@ -168,13 +178,4 @@ def cell_hits(cells: np.ndarray, hit_sim: np.ndarray, cell_origin: np.ndarray, n
         i, k = expand(lo, hi - lo)
         owner_hit.append(h[i])
         owner_cell.append(srt[k] // len(combos))
-    hh, cc = np.concatenate(owner_hit), np.concatenate(owner_cell)
-    # original cell -> its new cells (contiguous: new cells are ordered by origin)
-    nfrag = np.bincount(cell_origin, minlength=C)
-    start = np.cumsum(nfrag) - nfrag
-    i, f = expand(start[cc], nfrag[cc])
-    hh = hh[i]
-    srt = np.lexsort((hh, f))
-    offsets = np.zeros(len(cell_origin) + 1, dtype=np.int64)
-    np.cumsum(np.bincount(f, minlength=len(cell_origin)), out=offsets[1:])
-    return offsets, hh[srt]
+    return np.concatenate(owner_hit), np.concatenate(owner_cell)
