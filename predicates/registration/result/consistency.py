@@ -32,7 +32,15 @@ def rows_in(rows: np.ndarray, table: np.ndarray) -> np.ndarray:
             for c in range(w):
                 k = k * base + (a[:, c].astype(np.int64) + 1)
             return k
-        return np.isin(key(rows), key(table))
+        # only rows whose first id starts a row of the table are looked up, each by a
+        # binary search in the table's sorted keys: no sort of ``rows``
+        first = np.zeros(base, dtype=bool)
+        first[table[:, 0].astype(np.int64) + 1] = True
+        cand = np.flatnonzero(first[rows[:, 0].astype(np.int64) + 1])
+        kt, kr = np.unique(key(table)), key(rows[cand])
+        out = np.zeros(len(rows), dtype=bool)
+        out[cand] = kt[np.minimum(np.searchsorted(kt, kr), len(kt) - 1)] == kr
+        return out
     return np.isin(_void(rows), _void(table))
 
 
