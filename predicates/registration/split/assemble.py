@@ -60,10 +60,10 @@ def _zones(res, cells: np.ndarray, n: int, near_only: bool):
     if not near_only:
         everything = np.arange(len(cells))
         return used, everything, used.copy(), everything
-    near = np.flatnonzero(touched_vertices(res, n)[cells].any(axis=1))
+    near = np.flatnonzero(R.any_corner(touched_vertices(res, n), cells))
     ring_v = np.zeros(n, dtype=bool)
     ring_v[cells[near].ravel()] = True
-    return used, near, ring_v, np.flatnonzero(ring_v[cells].any(axis=1))
+    return used, near, ring_v, np.flatnonzero(R.any_corner(ring_v, cells))
 
 
 def _nodes(root, origin, ring_v, used):
