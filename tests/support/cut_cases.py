@@ -93,3 +93,50 @@ def gmsh_box_in_box(h: float, inner=(0.25, 0.75)):
                 keep[np.concatenate(tris)])
     finally:
         gmsh.finalize()
+
+
+def gmsh_box(h: float):
+    """The unit cube meshed by gmsh with tetrahedra of size ``h``: (points,
+    tetrahedra). Needs the gmsh module."""
+    import gmsh
+
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("box")
+        v = gmsh.model.occ.addBox(0, 0, 0, 1, 1, 1)
+        gmsh.model.occ.synchronize()
+        gmsh.option.setNumber("Mesh.MeshSizeMin", h)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", h)
+        gmsh.model.mesh.generate(3)
+        tags, coords, _ = gmsh.model.mesh.getNodes()
+        index = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
+        index[tags.astype(np.int64)] = np.arange(len(tags))
+        _, _, nodes = gmsh.model.mesh.getElements(3, v)
+        T = index[np.asarray(nodes[0], dtype=np.int64).reshape(-1, 4)]
+        P = coords.reshape(-1, 3).astype(np.float64)
+        used = np.unique(T)
+        keep = np.full(len(P), -1, dtype=np.int64)
+        keep[used] = np.arange(len(used))
+        return P[used], keep[T]
+    finally:
+        gmsh.finalize()
+
+
+def torus(m: int = 24, k: int = 12, R: float = 0.3, r: float = 0.12, center=(0.5, 0.5, 0.5)):
+    """A closed, outward-oriented triangulated torus (m segments around, k around the
+    tube), coordinates from predicates.portable.cos_sin (the same bits everywhere)."""
+    from predicates.portable import cos_sin
+
+    cu, su = cos_sin(2 * np.pi * np.arange(m) / m)
+    cv, sv = cos_sin(2 * np.pi * np.arange(k) / k)
+    i, j = (a.ravel() for a in np.meshgrid(np.arange(m), np.arange(k), indexing="ij"))
+    rad = R + r * cv[j]
+    P = np.stack([center[0] + rad * cu[i], center[1] + rad * su[i],
+                  center[2] + r * sv[j]], axis=1)
+    a = i * k + j
+    b = ((i + 1) % m) * k + j
+    c = ((i + 1) % m) * k + (j + 1) % k
+    d = i * k + (j + 1) % k
+    T = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
+    return P, T.astype(np.int64)

@@ -123,53 +123,95 @@ def polygon_area2(poly) -> Fraction:
     return dot(s, s)
 
 
+def _solve(planes):
+    """The point on three planes (n, c): n·x = c, exact (Cramer's rule)."""
+    (n1, c1), (n2, c2), (n3, c3) = planes
+    D = det3(n1, n2, n3)
+    if D == 0:
+        return None
+    c = (c1, c2, c3)
+    cols = list(zip(n1, n2, n3))  # cols[k]: the k-th coordinate of the three normals
+
+    def with_c(k):
+        m = [list(r) for r in cols]
+        m[k] = list(c)
+        return det3(*[tuple(m[j][i] for j in range(3)) for i in range(3)])
+    return tuple(with_c(k) / D for k in range(3))
+
+
 def clipped_tet(cell_pts, planes):
     """Volume and first moment (∫x dV) of the tetrahedron ``cell_pts`` ∩ the half-spaces
-    ``planes`` [(n, a): n·(x − a) ≥ 0], exact: the tetrahedron's faces are clipped, the
-    cut faces closed by the polygon of each plane, and the closed surface integrated
-    (divergence theorem: fan tetrahedra from the origin)."""
+    ``planes`` [(n, a): n·(x − a) ≥ 0], exact. Every new vertex is solved from three of
+    the original planes (no interpolation, so the fractions do not grow) and keeps the
+    set of planes it lies on; faces are clipped polygon by polygon, each cut closed by
+    the cap on its plane, and the closed surface integrated (divergence theorem: fan
+    tetrahedra from the origin)."""
     V = list(cell_pts)
-    faces = [[V[i] for i in f] for f in ((1, 2, 3), (0, 3, 2), (0, 1, 3), (0, 2, 1))]
-    if det3(sub(V[1], V[0]), sub(V[2], V[0]), sub(V[3], V[0])) < 0:
-        faces = [f[::-1] for f in faces]
+    faces_idx = ((1, 2, 3), (0, 3, 2), (0, 1, 3), (0, 2, 1))
+    flip = det3(sub(V[1], V[0]), sub(V[2], V[0]), sub(V[3], V[0])) < 0
+    P = []  # planes (n, c): n·x >= c inside
+    for f in faces_idx:
+        a, b, c = (V[i] for i in f)
+        n = cross(sub(b, a), sub(c, a))
+        n = n if flip else tuple(-x for x in n)  # inward
+        P.append((n, dot(n, a)))
+    X = list(V)  # vertex id -> exact point
+    on = [{k for k, f in enumerate(faces_idx) if i in f} for i in range(4)]
+    ids = {tuple((c.numerator, c.denominator) for c in x): i for i, x in enumerate(V)}
+    faces = [(k, list(f[::-1] if flip else f)) for k, f in enumerate(faces_idx)]
     for n, a in planes:
-        side = (lambda x, n=n, a=a: dot(n, sub(x, a)))
-        if all(side(p) >= 0 for f in faces for p in f):
+        h = len(P)
+        P.append((n, dot(n, a)))
+        alive = sorted({x for _, ring in faces for x in ring})
+        side = {x: dot(n, X[x]) - P[h][1] for x in alive}
+        if all(v >= 0 for v in side.values()):
             continue
-        faces = [g for g in (_clip(f, side) for f in faces) if len(g) >= 3]
-        ring = _cap(faces, side)
-        if ring:
-            faces.append(ring)
+        for x, v in side.items():
+            if v == 0:
+                on[x].add(h)
+        new_faces, cap = [], {}
+        for k, ring in faces:
+            out = []
+            for i, p in enumerate(ring):
+                q = ring[(i + 1) % len(ring)]
+                if side[p] >= 0:
+                    out.append(p)
+                if (side[p] > 0 > side[q]) or (side[p] < 0 < side[q]):
+                    e = min((on[p] & on[q]) - {k})
+                    pt = _solve([P[k], P[e], P[h]])
+                    key = tuple((c.numerator, c.denominator) for c in pt)  # cheap hash
+                    if key not in ids:
+                        ids[key] = len(X)
+                        X.append(pt)
+                        on.append(set())
+                    x = ids[key]
+                    on[x].update((k, e, h))
+                    side[x] = 0
+                    out.append(x)
+            if len(out) >= 3:
+                new_faces.append((k, out))
+                for i, p in enumerate(out):  # its edges on the new plane: the cap, reversed
+                    q = out[(i + 1) % len(out)]
+                    if side[p] == 0 and side[q] == 0:
+                        cap[q] = p
+        faces = new_faces
+        if cap:
+            start = next(iter(cap))
+            ring, p = [start], cap[start]
+            while p != start and len(ring) <= len(cap):
+                ring.append(p)
+                p = cap[p]
+            if len(ring) >= 3:
+                faces.append((h, ring))
+    faces = [(k, [X[x] for x in ring]) for k, ring in faces]
     vol, mom = Fraction(0), [Fraction(0)] * 3
-    for f in faces:
-        for i in range(1, len(f) - 1):
-            a, b, c = f[0], f[i], f[i + 1]
+    for _, pts in faces:
+        for i in range(1, len(pts) - 1):
+            a, b, c = pts[0], pts[i], pts[i + 1]
             v = det3(a, b, c) / 6
             vol += v
             mom = [m + v * (a[k] + b[k] + c[k]) / 4 for k, m in enumerate(mom)]
     return vol, mom
-
-
-def _cap(faces, side):
-    """The polygon closing the clipped faces on the plane side = 0: the boundary edges
-    lying in the plane, chained (each appears once, reversed)."""
-    nxt = {}
-    count = {}
-    for f in faces:
-        for i, p in enumerate(f):
-            q = f[(i + 1) % len(f)]
-            count[(p, q)] = count.get((p, q), 0) + 1
-    for (p, q) in count:
-        if (q, p) not in count and side(p) == 0 and side(q) == 0:
-            nxt[q] = p
-    if not nxt:
-        return None
-    start = next(iter(nxt))
-    ring, p = [start], nxt[start]
-    while p != start and len(ring) <= len(nxt):
-        ring.append(p)
-        p = nxt[p]
-    return ring if len(ring) >= 3 else None
 
 
 def mesh_volume(P, T) -> tuple:

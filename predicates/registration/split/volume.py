@@ -37,7 +37,7 @@ __all__ = ["FragmentVolumes", "fragment_volumes", "simplex_measure"]
 @dataclass
 class FragmentVolumes:
     """``volume`` (F,) and ``moment`` (F, d) (∫ x dV) of every new cell of the split;
-    ``cell_volume`` (C,) of the original cells; ``unresolved`` (k,) the original cells
+    ``cell_volume`` (C,) / ``cell_moment`` (C, d) of the original cells; ``unresolved`` (k,) the original cells
     reported (their fragments NaN); ``piece_volume`` (P,) / ``piece_moment`` (P, d):
     sums over the resolved fragments of each piece; ``unclaimed`` (C,): the volume of
     each cell that no fragment of it owns (material behind an edge crossed twice; NaN
@@ -46,6 +46,7 @@ class FragmentVolumes:
     volume: np.ndarray
     moment: np.ndarray
     cell_volume: np.ndarray
+    cell_moment: np.ndarray
     unresolved: np.ndarray
     piece_volume: np.ndarray
     piece_moment: np.ndarray
@@ -200,7 +201,10 @@ def fragment_volumes(res, sm, cs=None) -> FragmentVolumes:
     bad: set = set()
     T, on_cut = _Tables(cs, C), sm.on_cut
     fans, origin = [], []
-    todo = (nfrag > 1) | twice
+    # every cell whose faces carry registered points: with the points on the cutting
+    # side, a face is shared with the same (slightly bent) regions by both its cells
+    todo = (nfrag > 1) | twice | sm.severed.any(axis=1) | on_cut[cells].any(axis=1)
+    todo[cs.cell[~cs.on_face]] = True
     for c in np.flatnonzero(todo).tolist():
         corners = cells[c].tolist()
         frag = {v: start[c] + j for j in range(nfrag[c]) for k, v in enumerate(corners)
@@ -234,4 +238,4 @@ def fragment_volumes(res, sm, cs=None) -> FragmentVolumes:
     ok = ~gone
     pv = np.bincount(sm.piece[ok], vol[ok], sm.n_pieces)
     pm = np.stack([np.bincount(sm.piece[ok], mom[ok, k], sm.n_pieces) for k in range(d)], 1)
-    return FragmentVolumes(vol, mom, cv, unresolved, pv, pm, unclaimed)
+    return FragmentVolumes(vol, mom, cv, cm, unresolved, pv, pm, unclaimed)
