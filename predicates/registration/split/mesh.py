@@ -113,11 +113,15 @@ class SplitMesh:
         node_piece[self.cells.ravel()] = np.repeat(self.piece, self.dim + 1)
         return self.points.astype(np.float64) + self.explode_offsets(factor)[node_piece]
 
-    def to_meshio(self, explode: float = 0.0):
+    def to_meshio(self, explode: float = 0.0, volumes=None):
         """The split mesh as a ``meshio.Mesh`` for ParaView: cell data ``piece``,
         ``cell_origin``, ``material`` (bitmask, :meth:`material_bitmask`) and
-        ``material_count``; point data ``node_origin``. 2D points get z = 0; ``explode``
-        moves the pieces apart (:meth:`exploded_points`)."""
+        ``material_count``; point data ``node_origin``. With ``volumes`` (a
+        :class:`~predicates.registration.split.volume.FragmentVolumes`) also
+        ``volume`` (area in 2D), ``volume_fraction`` (of the original cell),
+        ``centroid`` (3 components) and ``unclaimed_fraction`` (the original cell's
+        material no fragment owns, docs/split.md); NaN for reported cells. 2D points get
+        z = 0; ``explode`` moves the pieces apart (:meth:`exploded_points`)."""
         import meshio
 
         X = self.exploded_points(explode) if explode else self.points.astype(np.float64)
@@ -127,6 +131,15 @@ class SplitMesh:
               "cell_origin": [self.cell_origin.astype(np.int64)],
               "material": [self.material_bitmask()],
               "material_count": [self.material.sum(axis=1).astype(np.int32)]}
+        if volumes is not None:
+            cv = volumes.cell_volume[self.cell_origin]
+            with np.errstate(invalid="ignore", divide="ignore"):
+                cen = volumes.moment / volumes.volume[:, None]
+            if self.dim == 2:
+                cen = np.column_stack([cen, np.zeros(len(cen))])
+            cd.update({"volume": [volumes.volume], "volume_fraction": [volumes.volume / cv],
+                       "centroid": [cen],
+                       "unclaimed_fraction": [volumes.unclaimed[self.cell_origin] / cv]})
         return meshio.Mesh(X, [(CELL_TYPE[self.dim], self.cells.astype(np.int64))],
                            cell_data=cd, point_data={"node_origin": self.node_origin})
 
