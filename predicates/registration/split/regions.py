@@ -115,13 +115,13 @@ def _sides(polys, owner):
 def _regions_3d(corners, frag, on_cut, T, polys, faces):
     """The regions of every face, each [owner or None, node cycle]."""
     out = []
+    edges = [(a, b, _prim(a, T) | _prim(b, T)) for P in polys for a, b in _pairs(P)]
     for face in faces:
         fverts = frozenset(corners[k] for k in face)
         cycle = []
         for i, k in enumerate(face):
             cycle += _path(corners[k], corners[face[(i + 1) % 3]], on_cut, T)
-        chords = [(a, b) for P in polys for a, b in _pairs(P)
-                  if _prim(a, T) | _prim(b, T) <= fverts]
+        chords = [(a, b) for a, b, pr in edges if pr <= fverts]
         out += [[_owner(r, frag), r] for r in _split(cycle, _polylines(cycle, chords))]
     return out
 

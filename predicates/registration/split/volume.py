@@ -141,12 +141,9 @@ def _on_cut_side(res, cs) -> np.ndarray:
     return acc
 
 
-def _outward(corners: np.ndarray, X: np.ndarray, d: int):
-    v, _ = simplex_measure(X[corners][None])
-    if d == 2:
-        return (0, 1, 2) if v[0] > 0 else (0, 2, 1)
-    faces = [(1, 2, 3), (0, 3, 2), (0, 1, 3), (0, 2, 1)]
-    return faces if v[0] > 0 else [f[::-1] for f in faces]
+_FACES = [(1, 2, 3), (0, 3, 2), (0, 1, 3), (0, 2, 1)]
+_OUTWARD = {(2, True): (0, 1, 2), (2, False): (0, 2, 1), (3, True): _FACES,
+            (3, False): [f[::-1] for f in _FACES]}
 
 
 def _fans(pieces, n: int, d: int):
@@ -211,7 +208,7 @@ def fragment_volumes(res, sm, cs=None) -> FragmentVolumes:
                 if sm.material[start[c] + j, k] and not on_cut[v]}
         try:
             pc = cell_pieces(corners, frag, on_cut, T, T.polygons(cs, c),
-                             _outward(cells[c], X, d))
+                             _OUTWARD[d, bool(sgn[c] > 0)])
         except Unresolved:
             bad.add(c)
             continue
