@@ -40,10 +40,10 @@ def check_cut_outputs(sim, cut, *, output=None, png=None, explode: float = 0.0,
 
 
 def cut_files(sim, cut, *, output=None, png=None, explode: float = 0.0, surface=None,
-              **options):
+              volumes: bool = True, **options):
     """``fperr cut``: register two mesh files, split the simulation mesh, write the split
-    mesh (``output``: .vtu, with the fragments' volumes and moments as cell data,
-    docs/split.md), the cut surface (``surface``: .vtu, the polygons of the
+    mesh (``output``: .vtu, with the fragments' volumes and moments as cell data unless
+    ``volumes`` is False, docs/split.md), the cut surface (``surface``: .vtu, the polygons of the
     cutting surface inside every cell) and a picture (``png``, the cut surface drawn
     in it). Every argument is checked before any work (an output naming an input is
     refused), inputs are read under guard, files are written atomically: a refused run
@@ -61,7 +61,7 @@ def cut_files(sim, cut, *, output=None, png=None, explode: float = 0.0, surface=
     res = intersect_files(sim, cut, **options)
     sm = res.split()
     cs = cut_surface(res) if (output or surface or png) else None
-    fv = fragment_volumes(res, sm, cs) if output is not None else None
+    fv = fragment_volumes(res, sm, cs) if output is not None and volumes else None
     if output is not None:
         write_meshio(output, sm.to_meshio(explode=explode, volumes=fv))
     if surface is not None:
