@@ -294,9 +294,11 @@ def _add_cut(sub) -> None:
             "(3D), any format meshio reads. Registers the intersections robustly, then\n"
             "splits every cell into its material fragments and glues them into pieces\n"
             "(rules: docs/split.md). -o writes the split mesh with cell data piece,\n"
-            "cell_origin, material (bitmask of material corners), material_count and point\n"
-            "data node_origin (.vtu: other formats drop cell or field data); --explode moves\n"
-            "the pieces apart in the written mesh and the picture; --png draws them.\n"
+            "cell_origin, material (bitmask of material corners), material_count, volume,\n"
+            "volume_fraction, centroid, unclaimed_fraction and point data node_origin\n"
+            "(.vtu: other formats drop cell or field data); --surface writes the cut\n"
+            "surface's polygons; --explode moves the pieces apart in the written mesh and\n"
+            "the picture; --png (--plot) draws them with the cut surface.\n"
             "The inputs and the registration's options are fperr intersect's (the same\n"
             "run); 'split' counts the cells cut into several fragments, fewer than the\n"
             "cells the cut meets (fperr intersect's 'cut': a cell touched at a vertex or\n"
@@ -312,7 +314,15 @@ def _add_cut(sub) -> None:
     p.add_argument("--explode", type=float, default=0.0, metavar="FACTOR",
                    help="move each piece by FACTOR x (its centroid - the mesh centroid), "
                         "in -o and --png (default 0; --png alone uses 0.3)")
-    p.add_argument("--png", metavar="FILE", help="draw the pieces (png, pdf or svg)")
+    p.add_argument("--png", "--plot", metavar="FILE", dest="png",
+                   help="draw the pieces and the cut surface (png, pdf or svg)")
+    p.add_argument("--no-volumes", action="store_true",
+                   help="leave the fragments' volumes out of -o (they cost a Python pass "
+                        "over the cells the cut crosses)")
+    p.add_argument("--surface", metavar="SURFACE.vtu",
+                   help="write the cut surface: per cell and cutting cell the polygon of "
+                        "the cut inside it (2D: segment), cell data cell, cut_cell, "
+                        "input_cut_cell (.vtu)")
     p.set_defaults(_run=_run_cut)
 
 
@@ -320,20 +330,30 @@ def _run_cut(args) -> int:
     from predicates.registration.split.files import check_cut_outputs, cut_files
 
     sim = args.sim[0] if len(args.sim) == 1 else args.sim
-    outputs = dict(output=args.output, png=args.png, explode=args.explode)
+    outputs = dict(output=args.output, png=args.png, explode=args.explode,
+                   surface=args.surface, volumes=not args.no_volumes)
 
     def work(**options):
         return cut_files(sim, args.cut, **outputs, **options)
 
-    status, out = _register(args, work, lambda: check_cut_outputs(sim, args.cut, **outputs))
+    checked = {k: v for k, v in outputs.items() if k != "volumes"}
+    status, out = _register(args, work, lambda: check_cut_outputs(sim, args.cut, **checked))
     if status is not None:
         return status
-    res, sm = out
+    import numpy as np
+
+    res, sm, cs, fv = out
     s = sm.summary()
+    vols = ""
+    if fv is not None:
+        vols = ("; piece volumes " + ", ".join(f"{v:.6g}" for v in fv.piece_volume)
+                + (f"; {len(fv.claim_report())} cells with material no fragment owns "
+                   f"(unclaimed {np.nansum(fv.unclaimed):.3g})" if len(fv.claim_report()) else ""))
     written = [(f, what) for f, what in (
         (args.output, f"{s['cells']} cells; {s['split_cells']} of the "
                       f"{len(res.intersected_cells())} cells the cut meets split into "
-                      f"several fragments; {sm.n_pieces} pieces"),
+                      f"several fragments; {sm.n_pieces} pieces{vols}"),
+        (args.surface, f"{len(cs) if cs is not None else 0} cut polygons"),
         (args.png, "plot")) if f]
     return _summary(args, res, written, split=sm)
 

@@ -12,6 +12,8 @@ import itertools
 
 import numpy as np
 
+from predicates.registration.result.pairs import any_corner
+
 __all__ = ["broken_edges", "broken_walks", "cell_faces", "location_counts", "rows_in"]
 
 
@@ -32,7 +34,28 @@ def rows_in(rows: np.ndarray, table: np.ndarray) -> np.ndarray:
             for c in range(w):
                 k = k * base + (a[:, c].astype(np.int64) + 1)
             return k
-        return np.isin(key(rows), key(table))
+        # only rows of either side whose first id starts a row of the other are kept;
+        # the smaller side is sorted, the other looked up by binary search
+        first_t = np.zeros(base, dtype=bool)
+        first_t[table[:, 0].astype(np.int64) + 1] = True
+        cand = np.flatnonzero(first_t[rows[:, 0].astype(np.int64) + 1])
+        first_r = np.zeros(base, dtype=bool)
+        first_r[rows[cand, 0].astype(np.int64) + 1] = True
+        table = table[first_r[table[:, 0].astype(np.int64) + 1]]
+        out = np.zeros(len(rows), dtype=bool)
+        if len(cand) == 0 or len(table) == 0:
+            return out
+        kr, kt = key(rows[cand]), key(table)
+        if len(kt) <= len(kr):
+            kt = np.unique(kt)
+            out[cand] = kt[np.minimum(np.searchsorted(kt, kr), len(kt) - 1)] == kr
+            return out
+        ukr, inv = np.unique(kr, return_inverse=True)
+        pos = np.minimum(np.searchsorted(ukr, kt), len(ukr) - 1)
+        found = np.zeros(len(ukr), dtype=bool)
+        found[pos[ukr[pos] == kt]] = True
+        out[cand] = found[inv.ravel()]
+        return out
     return np.isin(_void(rows), _void(table))
 
 
@@ -135,5 +158,9 @@ def broken_edges(res) -> np.ndarray:
     E, P = E[order], P[order]
     same = E[1:] == E[:-1]
     u, fits = _union(P[:-1][same], P[1:][same], width)
-    ok = fits & rows_in(u, cell_faces(res.sim_cells))
+    # only the cells with a vertex of some union can hold one: the cost follows the cut
+    on = np.zeros(len(res.sim_points) + 1, dtype=bool)
+    on[u[u >= 0]] = True
+    near = res.sim_cells[any_corner(on, res.sim_cells)]
+    ok = fits & rows_in(u, cell_faces(near))
     return edges[np.unique(E[:-1][same][~ok])]

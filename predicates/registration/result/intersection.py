@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from predicates.registration.result import consistency, export
-from predicates.registration.result.pairs import KIND_CODES, KindPairs
+from predicates.registration.result.pairs import KIND_CODES, KindPairs, any_corner
 
 __all__ = ["KIND_CODES", "IntersectionResult", "KindPairs"]
 
@@ -140,7 +140,17 @@ class IntersectionResult(Mapping):
     def cut_masks(self, kinds) -> dict:
         """{kind: (C,) bool} for every kind of ``kinds`` with pairs. Only the cells with a
         vertex on a registered primitive are examined (one gather over the cells), and
-        each face width is formed once for all kinds: the cost follows the cut."""
+        each face width is formed once for all kinds: the cost follows the cut. Kept
+        for the next call (``intersected_cells`` and ``sim_mesh`` both need it); a
+        result's pairs are not meant to change, but new arrays are noticed."""
+        key = tuple((x, id(self.pairs[x].sim), len(self.pairs[x].sim)) for x in kinds)
+        cache = self.__dict__.setdefault("_cut_masks", {})
+        if key not in cache:
+            cache.clear()
+            cache[key] = self._cut_masks_of(kinds)
+        return dict(cache[key])
+
+    def _cut_masks_of(self, kinds) -> dict:
         cells = self.sim_cells
         prims = {x: self.pairs[x].sim for x in kinds if len(self.pairs[x].sim)}
         if not prims:
@@ -148,15 +158,15 @@ class IntersectionResult(Mapping):
         on = np.zeros(len(self.sim_points), dtype=bool)
         for p in prims.values():
             on[p.ravel()] = True
-        near = np.flatnonzero(on[cells].any(axis=1))
-        sub, k = cells[near], cells.shape[1]
+        near = np.flatnonzero(any_corner(on, cells))
+        sub, k = np.sort(cells[near], axis=1), cells.shape[1]  # faces of sorted rows: sorted
         faces = {}
         out = {}
         for kind, p in prims.items():
             r = p.shape[1]
             if r not in faces:
                 combos = list(itertools.combinations(range(k), r))
-                faces[r] = np.sort(sub[:, combos], axis=2).reshape(-1, r)
+                faces[r] = sub[:, combos].reshape(-1, r)
             found = consistency.rows_in(faces[r], np.sort(p, axis=1))
             out[kind] = np.zeros(len(cells), dtype=bool)
             out[kind][near] = found.reshape(len(sub), -1).any(axis=1)

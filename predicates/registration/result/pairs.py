@@ -9,7 +9,7 @@ import numpy as np
 
 from predicates.portable import weighted_sum
 
-__all__ = ["KIND_CODES", "KindPairs", "cells_holding", "pad_rows"]
+__all__ = ["KIND_CODES", "KindPairs", "any_corner", "cells_holding", "pad_rows"]
 
 #: one code per kind name, the same in 2D and 3D (0: none), stored with its legend
 KIND_CODES = {"vertex_vertex": 1, "vertex_edge": 2, "edge_vertex": 3, "edge_edge": 4,
@@ -84,6 +84,18 @@ class KindPairs:
         return cells_holding(self._sim_cells, self.sim)
 
 
+def any_corner(mask: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """(C,) bool: cells (C, k) with a corner where ``mask`` (a bool per vertex) is set.
+    One gather; the k bools of a row read as one integer when k is 2 or 4."""
+    cells = np.asarray(cells)
+    if len(cells) == 0:
+        return np.zeros(0, dtype=bool)
+    g = np.ascontiguousarray(mask[cells])
+    if g.shape[1] in (2, 4):
+        return g.view(np.uint16 if g.shape[1] == 2 else np.uint32).ravel() != 0
+    return np.logical_or.reduce([g[:, j] for j in range(g.shape[1])])
+
+
 def cells_holding(cells: np.ndarray, rows: np.ndarray) -> np.ndarray:
     """(m,) int64: for each row of vertex ids (a face of some cell), the lowest-numbered
     cell of ``cells`` (C, k) having those vertices; −1 where no cell has them. Only the
@@ -94,10 +106,11 @@ def cells_holding(cells: np.ndarray, rows: np.ndarray) -> np.ndarray:
         return out
     on = np.zeros(int(max(cells.max(), rows.max())) + 1, dtype=bool)
     on[rows.ravel()] = True
-    near = np.flatnonzero(on[cells].any(axis=1))
+    near = np.flatnonzero(any_corner(on, cells))
     r, k = rows.shape[1], cells.shape[1]
     combos = list(itertools.combinations(range(k), r))
-    faces = np.sort(cells[near][:, combos], axis=2).reshape(-1, r).astype(np.int64)
+    # the faces of a sorted row are sorted
+    faces = np.sort(cells[near], axis=1)[:, combos].reshape(-1, r).astype(np.int64)
     owner = np.repeat(near, len(combos))
     void = np.dtype((np.void, 8 * r))  # a row as one comparable key, no overflow
     fk = np.ascontiguousarray(faces).view(void).ravel()

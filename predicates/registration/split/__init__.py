@@ -3,5 +3,6 @@ on the registered pairs, the split mesh, its pictures and ``fperr cut``'s files.
 on top of the result: it receives an :class:`~predicates.registration.IntersectionResult`
 (``res.split()`` is the shortcut) and is imported by nothing below it."""
 from predicates.registration.split.mesh import SplitMesh, split_mesh
+from predicates.registration.split.surface import CutSurface, cut_surface
 
-__all__ = ["SplitMesh", "split_mesh"]
+__all__ = ["CutSurface", "SplitMesh", "cut_surface", "split_mesh"]

@@ -8,48 +8,67 @@ import os
 
 import numpy as np
 
-__all__ = ["SPLIT_FORMATS", "check_cut_outputs", "cut_files"]
+__all__ = ["SPLIT_FORMATS", "SURFACE_FORMATS", "check_cut_outputs", "cut_files"]
 
 #: formats whose meshio writers keep cell data (checked: .msh, .off, .ply, .stl drop it)
 SPLIT_FORMATS = (".vtu",)  # meshio's legacy .vtk writer drops field data
+#: formats for the cut surface: polygons of any size with cell data (cell, cut cell)
+SURFACE_FORMATS = (".vtu",)  # check_output: results are .vtu
 
 
-def check_cut_outputs(sim, cut, *, output=None, png=None, explode: float = 0.0) -> None:
+def _check_format(path, allowed, what) -> None:
+    if path is None:
+        return
+    ext = os.path.splitext(os.fspath(path))[1].lower()
+    if ext not in allowed:
+        raise ValueError(f"{path}: '{ext or 'no extension'}' files cannot hold the "
+                         f"cell data ({what}); use {' or '.join(allowed)}")
+
+
+def check_cut_outputs(sim, cut, *, output=None, png=None, explode: float = 0.0,
+                      surface=None) -> None:
     """The checks of :func:`cut_files` that need no work: the outputs' formats and
     directories (never an input file) and ``explode``; ValueError naming the problem."""
     from predicates.registration.io.files import check_outputs, input_roles
 
-    if output is not None:
-        ext = os.path.splitext(os.fspath(output))[1].lower()
-        if ext not in SPLIT_FORMATS:
-            raise ValueError(f"{output}: '{ext or 'no extension'}' files cannot hold the "
-                             f"cell data (piece, cell_origin, material); use "
-                             f"{' or '.join(SPLIT_FORMATS)}")
+    _check_format(output, SPLIT_FORMATS, "piece, cell_origin, material, volume")
+    _check_format(surface, SURFACE_FORMATS, "cell, cut_cell, input_cut_cell")
     if not np.isfinite(explode) or explode < 0:
         raise ValueError(f"explode must be a finite number >= 0, got {explode}")
-    check_outputs(input_roles(sim, cut), {("-o", "mesh"): output, ("--png", "plot"): png})
+    check_outputs(input_roles(sim, cut), {("-o", "mesh"): output, ("--png", "plot"): png,
+                                          ("--surface", "mesh"): surface})
 
 
-def cut_files(sim, cut, *, output=None, png=None, explode: float = 0.0, **options):
+def cut_files(sim, cut, *, output=None, png=None, explode: float = 0.0, surface=None,
+              volumes: bool = True, **options):
     """``fperr cut``: register two mesh files, split the simulation mesh, write the split
-    mesh (``output``: .vtu, which keeps its cell data) and a picture (``png``). Every
-    argument is checked before any work (an output naming an input is refused), inputs
-    are read under guard, files are written atomically: a refused run writes nothing.
-    ``sim``: a file or the pieces of one mesh; ``options``: as in
+    mesh (``output``: .vtu, with the fragments' volumes and moments as cell data unless
+    ``volumes`` is False, docs/split.md), the cut surface (``surface``: .vtu, the polygons of the
+    cutting surface inside every cell) and a picture (``png``, the cut surface drawn
+    in it). Every argument is checked before any work (an output naming an input is
+    refused), inputs are read under guard, files are written atomically: a refused run
+    writes nothing. ``sim``: a file or the pieces of one mesh; ``options``: as in
     :func:`~predicates.registration.intersect_files` (dtype, progress, regions,
     refine_cut, strict, tolerances, partitions/scheduler/timeout), so that ``fperr cut``
     registers exactly as ``fperr intersect`` does. Returns (IntersectionResult,
-    SplitMesh)."""
+    SplitMesh, CutSurface or None, FragmentVolumes or None)."""
     from predicates.registration.io.write import write_atomic, write_meshio
     from predicates.registration.pipeline import intersect_files
+    from predicates.registration.split.surface import cut_surface
+    from predicates.registration.split.volume import fragment_volumes
 
-    check_cut_outputs(sim, cut, output=output, png=png, explode=explode)
+    check_cut_outputs(sim, cut, output=output, png=png, explode=explode, surface=surface)
     res = intersect_files(sim, cut, **options)
     sm = res.split()
+    cs = cut_surface(res) if (output or surface or png) else None
+    fv = fragment_volumes(res, sm, cs) if output is not None and volumes else None
     if output is not None:
-        write_meshio(output, sm.to_meshio(explode=explode))
+        write_meshio(output, sm.to_meshio(explode=explode, volumes=fv))
+    if surface is not None:
+        write_meshio(surface, cs.to_meshio(plane=res.plane or 0.0))
     if png is not None:
         from predicates.registration.split.plot import plot_split
 
-        write_atomic(png, lambda tmp: plot_split(sm, tmp, explode=explode or 0.3))
-    return res, sm
+        write_atomic(png, lambda tmp: plot_split(sm, tmp, explode=explode or 0.3,
+                                                 surface=cs))
+    return res, sm, cs, fv

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from predicates.registration.split import rules as R
+from predicates.registration.split.assemble import hits_csr, split_topology
 from predicates.portable import row_norms, weighted_sum
 
 __all__ = ["SplitMesh", "split_mesh"]
@@ -113,11 +113,15 @@ class SplitMesh:
         node_piece[self.cells.ravel()] = np.repeat(self.piece, self.dim + 1)
         return self.points.astype(np.float64) + self.explode_offsets(factor)[node_piece]
 
-    def to_meshio(self, explode: float = 0.0):
+    def to_meshio(self, explode: float = 0.0, volumes=None):
         """The split mesh as a ``meshio.Mesh`` for ParaView: cell data ``piece``,
         ``cell_origin``, ``material`` (bitmask, :meth:`material_bitmask`) and
-        ``material_count``; point data ``node_origin``. 2D points get z = 0; ``explode``
-        moves the pieces apart (:meth:`exploded_points`)."""
+        ``material_count``; point data ``node_origin``. With ``volumes`` (a
+        :class:`~predicates.registration.split.volume.FragmentVolumes`) also
+        ``volume`` (area in 2D), ``volume_fraction`` (of the original cell),
+        ``centroid`` (3 components) and ``unclaimed_fraction`` (the original cell's
+        material no fragment owns, docs/split.md); NaN for reported cells. 2D points get
+        z = 0; ``explode`` moves the pieces apart (:meth:`exploded_points`)."""
         import meshio
 
         X = self.exploded_points(explode) if explode else self.points.astype(np.float64)
@@ -127,6 +131,15 @@ class SplitMesh:
               "cell_origin": [self.cell_origin.astype(np.int64)],
               "material": [self.material_bitmask()],
               "material_count": [self.material.sum(axis=1).astype(np.int32)]}
+        if volumes is not None:
+            cv = volumes.cell_volume[self.cell_origin]
+            with np.errstate(invalid="ignore", divide="ignore"):
+                cen = volumes.moment / volumes.volume[:, None]
+            if self.dim == 2:
+                cen = np.column_stack([cen, np.zeros(len(cen))])
+            cd.update({"volume": [volumes.volume], "volume_fraction": [volumes.volume / cv],
+                       "centroid": [cen],
+                       "unclaimed_fraction": [volumes.unclaimed[self.cell_origin] / cv]})
         return meshio.Mesh(X, [(CELL_TYPE[self.dim], self.cells.astype(np.int64))],
                            cell_data=cd, point_data={"node_origin": self.node_origin})
 
@@ -175,13 +188,16 @@ def _hits(res, d: int):
     return np.concatenate(pts), np.concatenate(kind), np.concatenate(ids), np.concatenate(w)
 
 
-def split_mesh(res) -> SplitMesh:
+def split_mesh(res, near_only: bool = True) -> SplitMesh:
     """The virtual-node split of ``res``'s simulation mesh along its cutting mesh.
 
     ``res``: an :class:`~predicates.result.IntersectionResult` (only its public
-    attributes are read: ``dim``, ``sim_points``, ``sim_cells``, ``kinds`` and the
-    ``sim`` ids and ``sim_weights`` of every kind). Rules: module docstring and
-    docs/split.md. Fully vectorised; time O(C log C) for C cells (sorts only).
+    attributes are read: ``dim``, ``sim_points``, ``sim_cells``, ``kinds``, the cutting
+    cells and the ``sim`` / ``cut`` ids and ``sim_weights`` of every kind). Rules: module
+    docstring and docs/split.md. Vectorised, and only near the cut
+    (:mod:`~predicates.registration.split.assemble`): the sorts cost O(cells near the
+    cut); the rest of the mesh costs a few O(C) gathers. ``near_only=False`` runs the
+    rules on every cell (a check: the same result on a manifold mesh).
     """
     d = int(res.dim)
     if d not in (2, 3):
@@ -192,25 +208,12 @@ def split_mesh(res) -> SplitMesh:
     if cells.ndim != 2 or cells.shape[1] != d + 1:
         raise ValueError(f"split_mesh: {d}D simulation cells must have {d + 1} vertices, "
                          f"got shape {cells.shape}")
-    on_cut = R.on_cut_vertices(res, n)
-    severed = R.severed_edges(res, cells, n)
-    cell_origin, frag_of, material = R.fragments(cells, on_cut, severed)
-    F, m = len(cell_origin), d + 1
-    (g1, g2), (s1, s2) = R.glue(cells, frag_of, n)
-    _, piece = np.unique(R.components(F, g1, g2), return_inverse=True)
-    origin_of_slot = cells[cell_origin].ravel()
-    roots, node = np.unique(R.components(F * m, s1, s2), return_inverse=True)
-    # number the nodes by original vertex (then first slot): an uncut mesh keeps its ids
-    rank = np.empty(len(roots), dtype=np.int64)
-    rank[np.lexsort((roots, origin_of_slot[roots]))] = np.arange(len(roots))
-    node = rank[node.ravel()]
-    node_origin = np.zeros(len(roots), dtype=np.int64)
-    node_origin[node] = origin_of_slot
+    top = split_topology(res, cells, n, near_only)
     hp, hk, hs, hw = _hits(res, d)
-    offsets, index = R.cell_hits(cells, hs, cell_origin, n)
-    return SplitMesh(dim=d, kinds=tuple(res.kinds), points=P[node_origin],
-                     cells=node.reshape(F, m), cell_origin=cell_origin,
-                     node_origin=node_origin, material=material, piece=piece.ravel(),
-                     n_pieces=int(piece.max(initial=-1)) + 1, hit_points=hp, hit_kind=hk,
-                     hit_sim=hs, hit_weights=hw, hit_offsets=offsets, hit_index=index,
-                     on_cut=on_cut, severed=severed)
+    offsets, index = hits_csr(cells, top, hs, n)
+    return SplitMesh(dim=d, kinds=tuple(res.kinds), points=P[top.node_origin],
+                     cells=top.cells, cell_origin=top.cell_origin,
+                     node_origin=top.node_origin, material=top.material, piece=top.piece,
+                     n_pieces=top.n_pieces, hit_points=hp, hit_kind=hk, hit_sim=hs,
+                     hit_weights=hw, hit_offsets=offsets, hit_index=index,
+                     on_cut=top.on_cut, severed=top.severed)

@@ -5,8 +5,9 @@
 piece shares, by node ids), Lambert-shaded, coloured by piece, moved apart; ``clip``
 keeps only the cells whose original centroid lies on one side of an axis-aligned plane,
 to look inside (a cube cut by a sphere). Cells cut into fragments are drawn lighter. Every new cell is drawn whole, virtual corners
-included, as the virtual node algorithm simulates it: the cut surface is embedded in the
-cells (``SplitMesh.hit_points``), not meshed.
+included, as the virtual node algorithm simulates it; the cut surface embedded in them
+(:mod:`~predicates.registration.split.surface`: its polygons, 2D segments) is drawn
+over the pieces in dark red.
 """
 from __future__ import annotations
 
@@ -37,16 +38,40 @@ def _boundary_faces(cells: np.ndarray, frag: np.ndarray):
     return faces[once], np.tile(frag, 4)[once]
 
 
-def draw_pieces(ax, sm, explode: float = 0.3, clip=None, light=(-0.4, -0.8, 0.6)):
+def _surface_polygons(sm, surface, explode, clip):
+    """The cut polygons (2D: segments) as coordinate lists, each moved with the
+    highest-numbered piece among its cell's fragments (one side for the whole
+    surface when it bounds a piece: the inner one of nested pieces), clipped like the
+    cells."""
+    off = sm.explode_offsets(explode)
+    top = np.zeros(int(sm.cell_origin.max(initial=-1)) + 1, dtype=np.int64)
+    np.maximum.at(top, sm.cell_origin, sm.piece)  # the last piece among the cell's fragments
+    move = off[top[surface.cell]]
+    polys = []
+    for q in range(len(surface)):
+        P = surface.points[surface.polygon(q)].astype(np.float64)
+        if clip is not None:
+            axis, value, sign = clip
+            if sign * (P[:, axis].mean() - value) < 0:
+                continue
+        polys.append(P + move[q])
+    return polys
+
+
+def draw_pieces(ax, sm, explode: float = 0.3, clip=None, light=(-0.4, -0.8, 0.6),
+                surface=None):
     """Draw ``sm`` (a :class:`~predicates.registration.split.mesh.SplitMesh`) into a matplotlib axis (a 3D
     axis for 3D meshes). ``clip``: (axis, value, sign): keep cells with
-    sign·(centroid[axis] − value) ≥ 0."""
+    sign·(centroid[axis] − value) ≥ 0. ``surface``: the cut surface
+    (:class:`~predicates.registration.split.surface.CutSurface`), drawn over the
+    pieces (dark red; moved with the highest-numbered piece of its cell's fragments)."""
     from matplotlib.collections import PolyCollection
     from matplotlib.colors import to_rgb
 
     X = sm.exploded_points(explode)
     keep = _keep(sm, clip)
     cut = sm.cut_cells
+    polys = [] if surface is None else _surface_polygons(sm, surface, explode, clip)
     if sm.dim == 2:
         for p in range(sm.n_pieces):
             for frag, alpha in ((False, 0.9), (True, 0.35)):  # fragments: lighter
@@ -54,6 +79,10 @@ def draw_pieces(ax, sm, explode: float = 0.3, clip=None, light=(-0.4, -0.8, 0.6)
                 ax.add_collection(PolyCollection(
                     X[sel], facecolors=PIECE_COLOURS[p % len(PIECE_COLOURS)],
                     edgecolors="k", linewidths=0.3, alpha=alpha))
+        if polys:
+            from matplotlib.collections import LineCollection
+
+            ax.add_collection(LineCollection(polys, colors="darkred", linewidths=1.6))
         ax.set_aspect("equal")
         ax.autoscale_view()
         return
@@ -72,8 +101,18 @@ def draw_pieces(ax, sm, explode: float = 0.3, clip=None, light=(-0.4, -0.8, 0.6)
         shade = 0.45 + 0.55 * np.abs(n @ L)  # two-sided: face orientation is arbitrary
         rgb = np.clip(np.outer(shade, to_rgb(PIECE_COLOURS[p % len(PIECE_COLOURS)])), 0, 1)
         rgb[frag] = 0.45 * rgb[frag] + 0.55  # faces of fragments (cut cells): lighter
-        ax.add_collection3d(Poly3DCollection(F, facecolors=rgb, edgecolors=(0, 0, 0, 0.25),
-                                             linewidths=0.2))
+        rgba = np.column_stack([rgb, np.where(frag & bool(polys), 0.2, 1.0)])
+        ax.add_collection3d(Poly3DCollection(F, facecolors=rgba, edgecolors=(0, 0, 0, 0.25),
+                                             linewidths=0.2, zorder=1))
+    if polys:  # the cut surface, over the pieces (the fragments' faces see-through)
+        ax.computed_zorder = False
+        n = np.array([np.cross(p[1] - p[0], p[-1] - p[0]) for p in polys])
+        n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
+        shade = 0.35 + 0.65 * np.abs(n @ L)  # pixels, not results
+        rgba = np.column_stack([np.outer(shade, (0.8, 0.15, 0.1)), np.full(len(n), 0.95)])
+        ax.add_collection3d(Poly3DCollection(polys, facecolors=rgba,
+                                             edgecolors=(0.3, 0, 0, 0.3), linewidths=0.15,
+                                             zorder=2))
     lo, hi = X.min(axis=0), X.max(axis=0)
     c, r = (lo + hi) / 2, (hi - lo).max() / 2
     ax.set_xlim(c[0] - r, c[0] + r)
@@ -96,10 +135,12 @@ def _figure(dim, panels=1):
     return plt, fig, np.atleast_1d(axes)
 
 
-def plot_split(sm, path: str, explode: float = 0.3, clip=None, title: str | None = None):
-    """Write a picture of the split ``sm`` to ``path`` (png, pdf or svg)."""
+def plot_split(sm, path: str, explode: float = 0.3, clip=None, title: str | None = None,
+               surface=None):
+    """Write a picture of the split ``sm`` to ``path`` (png, pdf or svg); ``surface``:
+    the cut surface, drawn over the pieces."""
     plt, fig, (ax,) = _figure(sm.dim)
-    draw_pieces(ax, sm, explode, clip)
+    draw_pieces(ax, sm, explode, clip, surface=surface)
     ax.set_title(title or f"{sm.n_pieces} piece{'s' if sm.n_pieces != 1 else ''}, "
                           f"{len(sm.cells)} cells (explode {explode:g})")
     fig.tight_layout()

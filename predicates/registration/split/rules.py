@@ -17,27 +17,56 @@ import numpy as np
 
 from predicates.registration.spatial.boxgrid import expand
 
-__all__ = ["LOCAL_EDGES", "cell_hits", "components", "fragments", "glue", "on_cut_vertices",
-           "row_ids", "severed_edges"]
+__all__ = ["LOCAL_EDGES", "any_corner", "cell_hits", "components", "fragments", "glue", "on_cut_vertices",
+           "match_rows", "row_keys", "severed_edges"]
 
 #: The local edges (pairs of corner positions) of a triangle (2D) and a tetrahedron (3D).
 LOCAL_EDGES = {d: tuple(itertools.combinations(range(d + 1), 2)) for d in (2, 3)}
 
 
-def row_ids(blocks: list, n: int) -> list:
-    """Integer ids of the rows of several (k, w) int arrays of ids < ``n``: equal rows
-    get equal ids (across blocks). One sort: O(R log R)."""
-    rows = np.concatenate(blocks) if blocks else np.zeros((0, 1), dtype=np.int64)
+def row_keys(rows: np.ndarray, n: int) -> np.ndarray:
+    """One comparable key per row of ``rows`` (k, w) of ids in 0..n−1: equal rows get
+    equal keys. An exact int64 when n^w < 2^62, else the row's bytes (a void scalar:
+    sorts consistently, compares by equality)."""
+    rows = np.ascontiguousarray(rows, dtype=np.int64)
     w = rows.shape[1]
-    if float(max(n, 1)) ** w < 2.0 ** 62:  # an exact int64 key per row
+    if float(max(n, 1)) ** w < 2.0 ** 62:
         key = np.zeros(len(rows), dtype=np.int64)
         for c in range(w):
             key = key * max(n, 1) + rows[:, c]
-        _, inv = np.unique(key, return_inverse=True)
-    else:
-        _, inv = np.unique(rows, axis=0, return_inverse=True)
-    inv = inv.ravel()
-    return np.split(inv, np.cumsum([len(b) for b in blocks])[:-1])
+        return key
+    return rows.view(np.dtype((np.void, 8 * w))).ravel()
+
+
+def match_rows(rows: np.ndarray, table: np.ndarray, n: int):
+    """Every pair (i, j) with ``rows[i] == table[j]`` (ids in 0..n−1). Only the rows
+    whose first id starts some row of the table are searched (a look-up per row), each
+    by one binary search in the table's sorted distinct keys — no sort of ``rows``."""
+    if len(rows) == 0 or len(table) == 0:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    starts = np.zeros(n, dtype=bool)
+    starts[table[:, 0]] = True
+    cand = np.flatnonzero(starts[rows[:, 0]])
+    kr, kt = row_keys(rows[cand], n), row_keys(table, n)
+    order = np.argsort(kt, kind="stable")
+    ukey, first, count = np.unique(kt[order], return_index=True, return_counts=True)
+    at = np.minimum(np.searchsorted(ukey, kr), len(ukey) - 1)
+    hit = np.flatnonzero(ukey[at] == kr)
+    i, k = expand(first[at[hit]], count[at[hit]])
+    return cand[hit[i]], order[k]
+
+
+def any_corner(mask: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """(C,) bool: cells (C, k) with a corner where ``mask`` (a bool per vertex) is set:
+    one gather, the k bools of a row read as one integer when k is 2 or 4. (The result
+    layer has its own copy: the split sits above it and may not be imported by it.)"""
+    cells = np.asarray(cells)
+    if len(cells) == 0:
+        return np.zeros(0, dtype=bool)
+    g = np.ascontiguousarray(mask[cells])
+    if g.shape[1] in (2, 4):
+        return g.view(np.uint16 if g.shape[1] == 2 else np.uint32).ravel() != 0
+    return np.logical_or.reduce([g[:, j] for j in range(g.shape[1])])
 
 
 def on_cut_vertices(res, n: int) -> np.ndarray:
@@ -60,13 +89,10 @@ def severed_edges(res, cells: np.ndarray, n: int) -> np.ndarray:
     local = np.sort(cells[:, np.array(E)], axis=2).reshape(-1, 2)
     crossed = [np.sort(res[k].sim, axis=1) for k in res.kinds
                if res[k].sim.shape[1] == 2 and len(res[k])]
-    if not crossed:
-        return np.zeros((len(cells), len(E)), dtype=bool)
-    ids = row_ids([local, *crossed], n)
-    flag = np.zeros(int(max(i.max(initial=-1) for i in ids)) + 1, dtype=bool)
-    for i in ids[1:]:
-        flag[i] = True
-    return flag[ids[0]].reshape(len(cells), len(E))
+    flag = np.zeros(len(local), dtype=bool)
+    if crossed:
+        flag[match_rows(local, np.concatenate(crossed), n)[0]] = True
+    return flag.reshape(len(cells), len(E))
 
 
 def fragments(cells: np.ndarray, on_cut: np.ndarray, severed: np.ndarray):
@@ -99,18 +125,22 @@ def fragments(cells: np.ndarray, on_cut: np.ndarray, severed: np.ndarray):
     return cell_origin.astype(np.int64), frag_of, material
 
 
-def glue(cells: np.ndarray, frag_of: np.ndarray, n: int):
-    """Glue fragments of neighbouring cells across their shared face through shared
-    material vertices (Molino et al. 2004: copies sharing material on a common face share
-    that face's nodes). Returns (g1, g2): glued fragment pairs, and (s1, s2): identified
-    node slots (slot = fragment·(d+1) + corner), every vertex of the face for every glue.
-    Faces shared by more than two cells are glued pairwise along the sorted order."""
+def glue(cells: np.ndarray, frag_of: np.ndarray, n: int, first: np.ndarray,
+         covered=None):
+    """Glue fragments of neighbouring cells across their shared face (Molino et al. 2004:
+    copies sharing material on a common face share that face's nodes): through a
+    material (off-cut) vertex of the face in both, or — a face whose vertices are all on
+    the cut — when ``covered`` (faces (k, d) -> (k,) bool, :mod:`.cover`) says the
+    cutting surface does not cover it; such a cell has one fragment, ``first[c]``.
+    Returns (g1, g2): glued fragment pairs, and (s1, s2): identified node slots (slot =
+    fragment·(d+1) + corner), every vertex of the face for every glue. Faces shared by
+    more than two cells are glued pairwise along the sorted order."""
     C, m = cells.shape
     order = np.argsort(cells, axis=1, kind="stable")
     # face k of a cell omits corner k; L: its corners, by increasing vertex id
     L = np.concatenate([order[order != k].reshape(C, m - 1) for k in range(m)])
     occ_cell = np.tile(np.arange(C), m)
-    (fid,) = row_ids([np.take_along_axis(cells[occ_cell], L, axis=1)], n)
+    fid = row_keys(np.take_along_axis(cells[occ_cell], L, axis=1), n)
     srt = np.argsort(fid, kind="stable")
     same = np.flatnonzero(fid[srt[1:]] == fid[srt[:-1]])
     o1, o2 = srt[same], srt[same + 1]
@@ -119,9 +149,15 @@ def glue(cells: np.ndarray, frag_of: np.ndarray, n: int):
     F2 = np.take_along_axis(frag_of[c2], L2, axis=1)
     p, j = np.nonzero(F1 >= 0)  # witnesses: a material vertex of the face in both cells
     g1, g2 = F1[p, j], F2[p, j]
+    q = np.flatnonzero((F1 < 0).all(axis=1))  # every vertex of the face on the cut
+    if len(q) and covered is not None:
+        q = q[~covered(np.take_along_axis(cells[c1[q]], L1[q], axis=1))]
+        p, g1, g2 = (np.concatenate([p, q]), np.concatenate([g1, first[c1[q]]]),
+                     np.concatenate([g2, first[c2[q]]]))
     nf = int(frag_of.max(initial=-1)) + 1
-    _, first = np.unique(g1 * max(nf, 1) + g2, return_index=True)
-    p, g1, g2 = p[first], g1[first], g2[first]
+    nf = max(nf, int(first.max(initial=-1)) + 1, 1)
+    _, keep = np.unique(g1 * nf + g2, return_index=True)
+    p, g1, g2 = p[keep], g1[keep], g2[keep]
     s1 = (g1[:, None] * m + L1[p]).ravel()
     s2 = (g2[:, None] * m + L2[p]).ravel()
     return (g1, g2), (s1, s2)
@@ -130,9 +166,10 @@ def glue(cells: np.ndarray, frag_of: np.ndarray, n: int):
 def components(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Connected components of the graph on 0..n−1 with edges (a[i], b[i]): the smallest
     member of each node's component. Vectorised union-find: every round hooks each root
-    onto the smallest root it is joined to (``np.minimum.at``), then pointer jumping
+    onto a smaller root it is joined to (one fancy assignment), then pointer jumping
     compresses every path; a round that hooks nothing ends it. Parents only decrease,
-    so no cycle can form; each round removes at least one root."""
+    so no cycle can form; each round removes at least one root; the smallest member of
+    a component is never hooked, so it is the final root."""
     parent = np.arange(n, dtype=np.int64)
     a, b = np.asarray(a, dtype=np.int64), np.asarray(b, dtype=np.int64)
     while True:
@@ -140,7 +177,9 @@ def components(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         diff = pa != pb
         if not diff.any():
             return parent
-        np.minimum.at(parent, np.maximum(pa, pb)[diff], np.minimum(pa, pb)[diff])
+        # hook each larger root onto a smaller one it is joined to (any: the last write
+        # wins; parents still only decrease, and the smallest member stays a root)
+        parent[np.maximum(pa, pb)[diff]] = np.minimum(pa, pb)[diff]
         while True:
             nxt = parent[parent]
             if np.array_equal(nxt, parent):
@@ -148,33 +187,20 @@ def components(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
             parent = nxt
 
 
-def cell_hits(cells: np.ndarray, hit_sim: np.ndarray, cell_origin: np.ndarray, n: int):
-    """CSR (offsets, index) of the intersection points lying on the closure of each new
-    cell: hit h belongs to new cell f when the simulation primitive of h (its vertex ids,
-    −1 padded in ``hit_sim``) is a face of f's original cell."""
-    C, m = cells.shape
+def cell_hits(cells: np.ndarray, hit_sim: np.ndarray, n: int):
+    """(hit, cell) pairs: hit h lies on the closure of cell c of ``cells`` when the
+    simulation primitive of h (its vertex ids, −1 padded in ``hit_sim``) is a face of c.
+    Returns (hits, cells) int64 arrays, one entry per pair."""
+    m = cells.shape[1]
     owner_hit, owner_cell = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
     size = (hit_sim >= 0).sum(axis=1)
     for s in range(1, m + 1):
         h = np.flatnonzero(size == s)
-        if h.size == 0:
+        if h.size == 0 or len(cells) == 0:
             continue
         combos = np.array(list(itertools.combinations(range(m), s)))
         sub = np.sort(cells[:, combos], axis=2).reshape(-1, s)
-        sub_ids, hit_ids = row_ids([sub, np.sort(hit_sim[h, :s], axis=1)], n)
-        srt = np.argsort(sub_ids, kind="stable")
-        lo = np.searchsorted(sub_ids[srt], hit_ids, side="left")
-        hi = np.searchsorted(sub_ids[srt], hit_ids, side="right")
-        i, k = expand(lo, hi - lo)
-        owner_hit.append(h[i])
-        owner_cell.append(srt[k] // len(combos))
-    hh, cc = np.concatenate(owner_hit), np.concatenate(owner_cell)
-    # original cell -> its new cells (contiguous: new cells are ordered by origin)
-    nfrag = np.bincount(cell_origin, minlength=C)
-    start = np.cumsum(nfrag) - nfrag
-    i, f = expand(start[cc], nfrag[cc])
-    hh = hh[i]
-    srt = np.lexsort((hh, f))
-    offsets = np.zeros(len(cell_origin) + 1, dtype=np.int64)
-    np.cumsum(np.bincount(f, minlength=len(cell_origin)), out=offsets[1:])
-    return offsets, hh[srt]
+        i, j = match_rows(sub, np.sort(hit_sim[h, :s], axis=1), n)
+        owner_hit.append(h[j])
+        owner_cell.append(i // len(combos))
+    return np.concatenate(owner_hit), np.concatenate(owner_cell)
