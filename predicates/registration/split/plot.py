@@ -40,13 +40,16 @@ def _boundary_faces(cells: np.ndarray, frag: np.ndarray):
 
 def _surface_polygons(sm, surface, explode, clip):
     """The cut polygons (2D: segments) as coordinate lists, each moved with the
-    highest-numbered piece among its cell's fragments (one side for the whole
-    surface when it bounds a piece: the inner one of nested pieces), clipped like the
-    cells."""
+    highest-numbered piece among the fragments of the cells its cutting cell passes
+    through (one side for the whole surface when it bounds a piece: the inner one of
+    nested pieces; a cell the cut only grazes, whose fragments are all one piece, does
+    not pull its polygon over the other piece), clipped like the cells."""
     off = sm.explode_offsets(explode)
     top = np.zeros(int(sm.cell_origin.max(initial=-1)) + 1, dtype=np.int64)
     np.maximum.at(top, sm.cell_origin, sm.piece)  # the last piece among the cell's fragments
-    move = off[top[surface.cell]]
+    by_cut = np.zeros(int(surface.cut_cell.max(initial=-1)) + 1, dtype=np.int64)
+    np.maximum.at(by_cut, surface.cut_cell, top[surface.cell])
+    move = off[by_cut[surface.cut_cell]]
     polys = []
     for q in range(len(surface)):
         P = surface.points[surface.polygon(q)].astype(np.float64)
