@@ -18,6 +18,7 @@ from fperr.shadow import Shadow, ShadowContext
 from predicates.tolerances import tolerance_values
 
 from .inputs import Generator
+from .user import UserGenerator
 from .shadow_run import Outcome, evaluate
 from .worst_case import CI_BUDGET, Budget, WorstCaseSearch, records
 from .spec import (DEFAULT_SAMPLES, DEFAULT_SEARCH, FORMATS, SCALES, Config, PredicateSpec,
@@ -138,7 +139,8 @@ class Audit:
             for fmt in self.formats:
                 spec.bound_coefficients(fmt)
                 rng = random.Random(zlib.crc32(f"{self.seed}/{spec.key}/{fmt}".encode()))
-                gen = Generator(spec, fmt, rng, self.brackets)
+                gen = (Generator if spec.system is None else UserGenerator)(
+                    spec, fmt, rng, self.brackets)
                 for _ in range(self.samples):
                     self._eval(spec, fmt, gen.sample())
                 if self.zone_pairs:
@@ -234,18 +236,22 @@ class Audit:
 
     def audit_tolerances(self):
         """R[T] of every tolerance: the shared tolerance code run with shadow numbers."""
-        for dim in sorted({s.dim for s in self.specs}):
-            rb = tolerance_bounds(dim)
+        systems = {s.dim: s.system for s in self.specs}  # a user table: its declaration
+        for dim in sorted(systems):
+            system = systems[dim]
+            table = None if system is None else system.table()
+            rb = tolerance_bounds(dim, system)
             for fmt_name in self.formats:
                 fmt = FORMATS[fmt_name]
                 e = sympy.Rational(1, 2 ** fmt.bits)
                 for L_ab in SCALES:
-                    info = tolerance_info(dim, fmt_name, *L_ab)
+                    info = tolerance_info(dim, fmt_name, *L_ab, system=system)
                     ctx = ShadowContext(fmt)
                     L = info.L
                     with ctx.session():
                         vals = tolerance_values(
-                            dim, lambda p: Shadow(fmt.from_fraction(L ** p), L ** p, fmt), ctx)
+                            dim, lambda p: Shadow(fmt.from_fraction(L ** p), L ** p, fmt), ctx,
+                            table)
                     for name, s in vals.items():
                         same = fmt.to_fraction(s.w) == fmt.to_fraction(info.real.values[name])
                         R, text = rb[name]
