@@ -224,17 +224,19 @@ def user_spec(module: str, dim: int, name: str) -> PredicateSpec:
 
 def audit_module(decls, *, names=(), formats=("binary64", "binary32", "mp17"),
                  samples: int = DEFAULT_SAMPLES, search_steps: int = DEFAULT_SEARCH,
-                 seed: int = 0, progress=None, worst_budget=None, bound_fn=None) -> dict:
+                 seed: int = 0, progress=None, worst_budget=None, bound_fn=None,
+                 specs: list | None = None) -> dict:
     """The audit (:class:`proofs.audit.Audit`) of the predicates of ``decls`` (user
     declarations, :func:`proofs.user_predicates.load`) with their declared tables: its
     summary, with ``module`` (the declarations' names). ``bound_fn`` replaces
-    :func:`fperr.bounds` (tests plant a wrong bound with it)."""
+    :func:`fperr.bounds` (tests plant a wrong bound with it); ``specs``: the
+    :func:`user_specs` of the same selection, when already built."""
     from .search import Audit
 
     unknown = [f for f in formats if f not in FORMATS]
     if unknown:
         raise ValueError(f"unknown format {unknown[0]!r} (choose from {', '.join(FORMATS)})")
-    specs = user_specs(decls, names, bound_fn)
+    specs = specs if specs is not None else user_specs(decls, names, bound_fn)
     s = Audit(specs, formats, samples, search_steps, seed, progress=progress,
               worst_budget=worst_budget).run().summary()
     s["module"] = ", ".join(dict.fromkeys(d.name for d in decls))
