@@ -17,7 +17,7 @@ from fperr.shadow import Shadow, ShadowContext
 from predicates.catalogue import pair_predicate
 
 from .spec import FORMATS, Config, PredicateSpec, spec_for
-from .user import USER_SIGN_KINDS, user_sign_premise
+from .user import USER_SIGN_KINDS, toward_zero, user_sign_premise
 
 def run_shadow(spec: PredicateSpec, cfg: Config, pred=None, points=None) -> ShadowContext:
     """Run ``spec``'s predicate (or ``pred``) on ``cfg`` with shadow numbers."""
@@ -146,7 +146,8 @@ def evaluate(spec: PredicateSpec, cfg: Config, pred=None) -> Outcome:
         # sign tests: T- = T+ = 0, the working sign must be the exact sign (premise)
         e = compare(c.lhs.x, Fraction(0))
         exact = None if e is None else e in _SIGN_OK[c.rel]
-        stress = _sign_stress(c.lhs)
+        stress = (toward_zero(c.lhs) if cs.kind in USER_SIGN_KINDS else
+                  _sign_stress(c.lhs))
         if cs.kind == "sign-guarded":
             premise = not bool(ctx.checks[cs.guard].decision)
         elif cs.kind in USER_SIGN_KINDS:

@@ -29,6 +29,7 @@ point moved off it. A module without tolerances uses lengths between an ulp of L
 """
 from __future__ import annotations
 
+import math
 from fractions import Fraction
 
 import numpy as np
@@ -36,7 +37,7 @@ import numpy as np
 from fperr import ulp
 from fperr.intervals import lower_fraction
 
-from .inputs import SCENARIOS, Generator
+from .inputs import Generator
 from .spec import DEFAULT_SAMPLES, DEFAULT_SEARCH, FORMATS, Config, PredicateSpec
 
 __all__ = ["USER_SIGN_KINDS", "UserGenerator", "audit_module", "classify_signs",
@@ -85,6 +86,20 @@ def user_sign_premise(spec: PredicateSpec, cfg: Config, cs, c) -> bool:
     return True  # unprotected: nothing excuses a wrong sign
 
 
+def toward_zero(s) -> float:
+    """The stress of a user's sign test: the rounding error |F[x] − x| when it points
+    toward zero (or across it), over |x|; 0 when it points away. ≥ 1: a wrong sign
+    (the hill climbing of :meth:`proofs.audit.Audit.search` maximises it)."""
+    from fperr.intervals import compare, exact_sub, upper_fraction
+
+    delta = exact_sub(s.working_fraction, s.x)
+    sd, sx = compare(delta, Fraction(0)), compare(s.x, Fraction(0))
+    if not sd or sx is None or sd == sx:
+        return 0.0
+    mag = lower_fraction(s.x)
+    return float(upper_fraction(delta) / mag) if mag else math.inf
+
+
 def _protected_value(spec: PredicateSpec, cs, cfg: Config) -> Fraction:
     """The declared lower bound of ``cs`` at the format's ε and the configuration's L,
     rounded up (a Fraction)."""
@@ -113,7 +128,10 @@ class UserGenerator(Generator):
     lengths (or rounding-scale lengths), plus exactly degenerate and cocircular
     configurations perturbed by ulps or by tolerances (module docstring)."""
 
-    scenarios = SCENARIOS + (("degenerate", 5), ("cocircular", 3))
+    #: the paper's scenarios (its near incidences at fewer draws: their tolerances are
+    #: the paper's) and the degenerate ones, which decide most sign tests
+    scenarios = (("uniform", 1), ("boxes", 1), ("near", 3), ("flat", 2), ("short", 1),
+                 ("grid", 1), ("extreme", 1), ("degenerate", 10), ("cocircular", 3))
 
     def _tol(self, info, name):
         """A length: a declared tolerance's (as the paper's), else one between an ulp of
@@ -133,9 +151,12 @@ class UserGenerator(Generator):
         """Coincident, collinear or coplanar points with small-integer coordinates on a
         dyadic grid (exact), then a few ulps or 0.1–10 tolerances off."""
         rng, d = self.rng, self.d
+        k = rng.choice([1, 1, 2] if d == 3 else [0, 1, 1])  # dimension of the flat
+        if rng.random() < 0.5:  # rounding alone puts them ulps off: moved less often
+            pts = self._on_flat(info, k)
+            return self._off(pts, info) if rng.random() < 0.4 else self._floats(pts)
         h = Fraction(info.L) / 2
         step = h / 2 ** rng.randint(2, 6)
-        k = rng.choice([1, 1, 2] if d == 3 else [0, 1, 1])  # dimension of the flat
         base = [rng.randint(-4, 4) for _ in range(d)]
         dirs = [[rng.randint(-3, 3) for _ in range(d)] for _ in range(k)]
         pts = []
@@ -151,6 +172,24 @@ class UserGenerator(Generator):
             pts = [[a * s for a in p] for p in pts]
         return self._off(pts, info)
 
+    def _on_flat(self, info, k):
+        """k + 1 random points (full significands) and the others exactly on their
+        affine hull (random weights in [−1.5, 2.5]: extrapolation rounds worse), scaled
+        into the box by a power of two, in random order: rounding puts them ulps off."""
+        h = Fraction(info.L) / 2
+        base = [[Fraction(float(v)) for v in self.np_rng.uniform(-1.0, 1.0, self.d) * float(h)]
+                for _ in range(k + 1)]
+        pts = [list(p) for p in base]
+        while len(pts) < self._n():
+            t = [Fraction(self.rng.uniform(-1.5, 2.5)) for _ in range(k)]
+            pts.append([b0 + sum(tj * (bj[a] - b0) for tj, bj in zip(t, base[1:]))
+                        for a, b0 in enumerate(base[0])])
+        big = max(abs(a) for p in pts for a in p)
+        while big > h:
+            pts, big = [[a / 2 for a in p] for p in pts], big / 2
+        self.rng.shuffle(pts)
+        return pts
+
     def _off(self, pts, info):
         """Move a few coordinates by ±1..4 ulps, or one point by 0.1–10 tolerances."""
         rng = self.rng
@@ -164,6 +203,10 @@ class UserGenerator(Generator):
             p = rng.randrange(len(pts))
             off = self._unit() * self._k() * self._tol(info, "any")
             pts[p] = [a + Fraction(float(o)) for a, o in zip(pts[p], off)]
+        return self._floats(pts)
+
+    @staticmethod
+    def _floats(pts):
         return [np.array([float(a) for a in p]) for p in pts]
 
     def _cocircular(self, info):
@@ -192,6 +235,12 @@ class UserGenerator(Generator):
 # --------------------------------------------------------------------------------------
 # the audit of a module
 # --------------------------------------------------------------------------------------
+#: Pairs of samples on either side of each bracket check that the zone bisection lands
+#: between T− and T+ (the paper's audit: 2): a user's predicates are few and cheap, and a
+#: window too narrow for the rounding error shows only at inputs that land there.
+ZONE_PAIRS = 6
+
+
 def user_specs(decls, names=(), bound_fn=None) -> list[PredicateSpec]:
     """The audit specs of the predicates of ``decls`` (user declarations) whose names
     are in ``names`` (all when empty). ValueError naming an unknown name, or a
@@ -238,6 +287,6 @@ def audit_module(decls, *, names=(), formats=("binary64", "binary32", "mp17"),
         raise ValueError(f"unknown format {unknown[0]!r} (choose from {', '.join(FORMATS)})")
     specs = specs if specs is not None else user_specs(decls, names, bound_fn)
     s = Audit(specs, formats, samples, search_steps, seed, progress=progress,
-              worst_budget=worst_budget).run().summary()
+              zone_pairs=ZONE_PAIRS, worst_budget=worst_budget).run().summary()
     s["module"] = ", ".join(dict.fromkeys(d.name for d in decls))
     return s
