@@ -69,8 +69,8 @@ from __future__ import annotations
 
 from .inputs import Generator
 from .markdown import render_markdown
-from .search import Audit, Stat, audit, select_predicates
-from .user import audit_module, user_specs
+from .search import Audit, Stat, audit, audit_module, select_predicates
+from .user import user_specs
 from .worst_case import (CI_BUDGET, Budget, WorstCase, WorstCaseSearch, records,
                          thorough_budget, units_of)
 from .shadow_run import (Outcome, evaluate, lower_pairs, real_context,

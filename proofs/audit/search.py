@@ -18,7 +18,7 @@ from fperr.shadow import Shadow, ShadowContext
 from predicates.tolerances import tolerance_values
 
 from .inputs import Generator
-from .user import UserGenerator
+from .user import UserGenerator, user_specs
 from .shadow_run import Outcome, evaluate
 from .worst_case import CI_BUDGET, Budget, WorstCaseSearch, records
 from .spec import (DEFAULT_SAMPLES, DEFAULT_SEARCH, FORMATS, SCALES, Config, PredicateSpec,
@@ -352,3 +352,28 @@ def audit(*, dims=(2, 3), formats=("binary64", "binary32", "mp17"), names=(),
     preds = select_predicates(dims, names)
     return Audit(preds, formats, samples, search_steps, seed, progress=progress,
                  worst_budget=worst_budget).run().summary()
+
+
+#: Pairs of samples on either side of each bracket check that the zone bisection lands
+#: between T− and T+ (the paper's audit: 2): a user's predicates are few and cheap, and a
+#: window too narrow for the rounding error shows only at inputs that land there.
+ZONE_PAIRS = 6
+
+
+def audit_module(decls, *, names=(), formats=("binary64", "binary32", "mp17"),
+                 samples: int = DEFAULT_SAMPLES, search_steps: int = DEFAULT_SEARCH,
+                 seed: int = 0, progress=None, worst_budget=None, bound_fn=None,
+                 specs: list | None = None) -> dict:
+    """The audit (:class:`proofs.audit.Audit`) of the predicates of ``decls`` (user
+    declarations, :func:`proofs.user_predicates.load`) with their declared tables: its
+    summary, with ``module`` (the declarations' names). ``bound_fn`` replaces
+    :func:`fperr.bounds` (tests plant a wrong bound with it); ``specs``: the
+    :func:`user_specs` of the same selection, when already built."""
+    unknown = [f for f in formats if f not in FORMATS]
+    if unknown:
+        raise ValueError(f"unknown format {unknown[0]!r} (choose from {', '.join(FORMATS)})")
+    specs = specs if specs is not None else user_specs(decls, names, bound_fn)
+    s = Audit(specs, formats, samples, search_steps, seed, progress=progress,
+              zone_pairs=ZONE_PAIRS, worst_budget=worst_budget).run().summary()
+    s["module"] = ", ".join(dict.fromkeys(d.name for d in decls))
+    return s

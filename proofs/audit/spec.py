@@ -102,9 +102,6 @@ class PredicateSpec:
                 continue
             self.quantities[qname] = QuantitySpec(qname, int(b.power), b.text(), b.E, b.R)
         self.checks = self._classify(ins)
-        if system is not None:  # the declaration says what protects an unguarded sign test
-            from .user import classify_signs
-            classify_signs(self, ins)
         self.n_weights = len(pred.weight_names)
 
     @staticmethod

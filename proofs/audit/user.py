@@ -1,5 +1,6 @@
 """Users' own predicates in the shadow-execution audit (:mod:`proofs.audit`;
-docs/custom-predicates.md, "Auditing your predicates: fperr audit --predicates MODULE").
+docs/custom-predicates.md, "Auditing your predicates: measured error against the
+derived bounds").
 
 A module's ``@predicate`` functions are audited like the paper's, with the tolerance
 table its ``FPERR_TOLERANCES`` declares (:mod:`proofs.user_predicates`): the same source
@@ -38,9 +39,9 @@ from fperr import ulp
 from fperr.intervals import lower_fraction
 
 from .inputs import Generator
-from .spec import DEFAULT_SAMPLES, DEFAULT_SEARCH, FORMATS, Config, PredicateSpec
+from .spec import FORMATS, Config, PredicateSpec
 
-__all__ = ["USER_SIGN_KINDS", "UserGenerator", "audit_module", "classify_signs",
+__all__ = ["USER_SIGN_KINDS", "UserGenerator", "classify_signs",
            "user_sign_premise", "user_spec", "user_specs"]
 
 #: the check kinds of users' sign tests (the paper's are "sign-guarded", "sign-geometric")
@@ -233,14 +234,8 @@ class UserGenerator(Generator):
 
 
 # --------------------------------------------------------------------------------------
-# the audit of a module
+# the specs of a module's predicates
 # --------------------------------------------------------------------------------------
-#: Pairs of samples on either side of each bracket check that the zone bisection lands
-#: between T− and T+ (the paper's audit: 2): a user's predicates are few and cheap, and a
-#: window too narrow for the rounding error shows only at inputs that land there.
-ZONE_PAIRS = 6
-
-
 def user_specs(decls, names=(), bound_fn=None) -> list[PredicateSpec]:
     """The audit specs of the predicates of ``decls`` (user declarations) whose names
     are in ``names`` (all when empty). ValueError naming an unknown name, or a
@@ -256,7 +251,9 @@ def user_specs(decls, names=(), bound_fn=None) -> list[PredicateSpec]:
             if names and p.name not in names:
                 continue
             try:
-                out.append(PredicateSpec(p, bound_fn, system=d))
+                spec = PredicateSpec(p, bound_fn, system=d)
+                classify_signs(spec, p.instrumented(d.table()))  # cached run
+                out.append(spec)
             except (AttributeError, TypeError, ValueError, ArithmeticError) as e:
                 raise ValueError(f"{p.name}: its instrumented run failed: "
                                  f"{type(e).__name__}: {e}") from e
@@ -269,24 +266,3 @@ def user_spec(module: str, dim: int, name: str) -> PredicateSpec:
 
     decls = [d for d in load(module) if d.dim == dim]
     return user_specs(decls, (name,))[0]
-
-
-def audit_module(decls, *, names=(), formats=("binary64", "binary32", "mp17"),
-                 samples: int = DEFAULT_SAMPLES, search_steps: int = DEFAULT_SEARCH,
-                 seed: int = 0, progress=None, worst_budget=None, bound_fn=None,
-                 specs: list | None = None) -> dict:
-    """The audit (:class:`proofs.audit.Audit`) of the predicates of ``decls`` (user
-    declarations, :func:`proofs.user_predicates.load`) with their declared tables: its
-    summary, with ``module`` (the declarations' names). ``bound_fn`` replaces
-    :func:`fperr.bounds` (tests plant a wrong bound with it); ``specs``: the
-    :func:`user_specs` of the same selection, when already built."""
-    from .search import Audit
-
-    unknown = [f for f in formats if f not in FORMATS]
-    if unknown:
-        raise ValueError(f"unknown format {unknown[0]!r} (choose from {', '.join(FORMATS)})")
-    specs = specs if specs is not None else user_specs(decls, names, bound_fn)
-    s = Audit(specs, formats, samples, search_steps, seed, progress=progress,
-              zone_pairs=ZONE_PAIRS, worst_budget=worst_budget).run().summary()
-    s["module"] = ", ".join(dict.fromkeys(d.name for d in decls))
-    return s
