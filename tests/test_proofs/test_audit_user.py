@@ -197,3 +197,44 @@ def test_help_documents_the_grammar(tmp_path):
     for text in ("--predicates MODULE", "--only NAME[,NAME]", "former form", "FPERR_TOLERANCES",
                  "2 bad arguments or an unusable"):
         assert text in r.stdout, text
+
+
+# -- what protects a sign test: the declaration -------------------------------------------
+
+def _sign_module(**decl):
+    from predicates.core import predicate
+    from predicates.vector import cross2, sub
+    from proofs.user_predicates import PredicateTolerances
+
+    @predicate(dim=2, points="ABC")
+    def left(ctx, A, B, C, tol):
+        o = ctx.name("o", cross2(sub(B, A), sub(C, A)))
+        if ctx.reject(o <= 0, line=1):
+            return ctx.miss()
+        return ctx.hit(())
+
+    return PredicateTolerances(dim=2, predicates=[left], name="inline",
+                               tolerances={"kappa": ("10*eps*L^2", "21*eps*L^2",
+                                                     "32*eps*L^2")}, **decl)
+
+
+def test_protected_sign_test_counts_only_above_its_declared_bound():
+    """Declared |o| > κ− (10εL², above E[o] ≈ 8εL²): agreeing wherever it holds, the wrong
+    signs the degenerate inputs produce are all below it ("w/o premise")."""
+    s = A.audit_module([_sign_module(protected={"left": {"o": "kappa_lo"}})],
+                       formats=("binary64", "mp17"), worst_budget=None)
+    (row,) = s["checks"]
+    assert row["kind"] == "sign-protected" and s["violation_count"] == 0
+    assert sum(f["premise_failed"] for f in row["formats"].values()) > 0
+
+
+def test_unprotected_sign_test_must_be_right_everywhere():
+    """Nothing declared (fperr verify refuses it): every wrong sign is a violation, and
+    each is one by exact arithmetic."""
+    s = A.audit_module([_sign_module()], formats=("binary64", "mp17"), worst_budget=None)
+    assert s["checks"][0]["kind"] == "sign-unprotected"
+    bad = [v for v in s["violations"] if v["type"] == "sign"]
+    assert bad
+    for v in bad:
+        exact = _orient(*_points(v["config"]))
+        assert (v["F"] > 0) != (exact > 0), v
