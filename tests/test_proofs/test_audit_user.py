@@ -238,3 +238,18 @@ def test_unprotected_sign_test_must_be_right_everywhere():
     for v in bad:
         exact = _orient(*_points(v["config"]))
         assert (v["F"] > 0) != (exact > 0), v
+
+
+def test_only_selects_paper_predicates_as_the_former_form_did(tmp_path):
+    common = ("--samples", "3", "--search-steps", "0", "--dim", "2", "--dtype", "float64",
+              "--quiet", "--format", "json")
+    new = _cli("--only", "vertex_vertex", *common, cwd=tmp_path)
+    old = _cli("--predicates", "vertex_vertex", *common, cwd=tmp_path)
+    assert new.returncode == old.returncode == 0, new.stderr + old.stderr
+    a, b = json.loads(new.stdout), json.loads(old.stdout)
+    for s in (a, b):
+        s.pop("elapsed_s")
+        for w in s["worst_cases"]:
+            w.pop("seconds", None)
+    assert a == b and "module" not in a
+    assert [q["predicate"] for q in a["quantities"]] == ["2D vertex_vertex"]
