@@ -56,8 +56,12 @@ Runs
     ``fperr audit --thorough --format json -o audit.json``; its figures are in
     benchmarks/README.md. A larger sampling run (about 200 s of CPU):
     ``fperr audit --samples 1500 --search-steps 150 --seed 7``. ``--formats``, ``--dims`` and
-    ``--predicates`` restrict the audit; ``proofs.audit.replay(record)`` re-runs a
+    ``--only`` restrict the audit; ``proofs.audit.replay(record)`` re-runs a
     violation or worst case from the JSON report.
+Users' predicates
+    ``fperr audit --predicates MODULE`` audits the ``@predicate`` functions a module
+    declares in ``FPERR_TOLERANCES``, with its tolerance table and sign filters
+    (:mod:`proofs.audit.user`, :func:`audit_module`).
 
 Exit status 1 when any violation was found.
 """
@@ -65,7 +69,8 @@ from __future__ import annotations
 
 from .inputs import Generator
 from .markdown import render_markdown
-from .search import Audit, Stat, audit, select_predicates
+from .search import Audit, Stat, audit, audit_module, select_predicates
+from .user import user_specs
 from .worst_case import (CI_BUDGET, Budget, WorstCase, WorstCaseSearch, records,
                          thorough_budget, units_of)
 from .shadow_run import (Outcome, evaluate, lower_pairs, real_context,
@@ -79,4 +84,4 @@ __all__ = ["Audit", "Budget", "CI_BUDGET", "CheckSpec", "Config", "DEFAULT_SAMPL
            "Stat", "ToleranceInfo", "audit", "evaluate", "lower_pairs", "real_context",
            "records", "registered_sub_pairs", "render_markdown", "replay", "run_shadow",
            "select_predicates", "spec_for", "thorough_budget", "tolerance_info",
-           "units_of", "working_points", "WorstCase", "WorstCaseSearch"]
+           "units_of", "working_points", "WorstCase", "WorstCaseSearch", "audit_module", "user_specs"]

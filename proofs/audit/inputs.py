@@ -13,7 +13,6 @@ import numpy as np
 from fperr import round_fraction, ulp
 from predicates.portable import dirichlet_ones, dot, exp2, exp10, log, norm
 
-from ..tables import TABLES
 from .spec import FORMATS, NEAR_TOL, SCALES, Config, PredicateSpec, tolerance_info
 
 SCENARIOS = (("uniform", 1), ("boxes", 2), ("near", 5), ("flat", 2), ("short", 2),
@@ -22,6 +21,8 @@ SCENARIOS = (("uniform", 1), ("boxes", 2), ("near", 5), ("flat", 2), ("short", 2
 
 class Generator:
     """Random and adversarial configurations for one predicate in one format."""
+
+    scenarios = SCENARIOS
 
     def __init__(self, spec: PredicateSpec, fmt_name: str, rng: random.Random,
                  brackets: tuple = ()):
@@ -50,7 +51,7 @@ class Generator:
             name = self.rng.choice(sorted(info.floats))
         if name not in info.floats:
             name = "tau"
-        p = TABLES[self.d][name].p
+        p = info.powers[name]
         return info.floats[name] / float(info.L) ** (p - 1)
 
     def finish(self, pts, info, scenario) -> Config:
@@ -71,13 +72,14 @@ class Generator:
                     f = Fraction(0)
                 q.append(f)
             out.append(tuple(q))
-        return Config(self.d, self.fmt_name, info.L_ab, tuple(out), scenario, self.brackets)
+        return Config(self.d, self.fmt_name, info.L_ab, tuple(out), scenario, self.brackets,
+                      self.spec.system)
 
     # scenarios ----------------------------------------------------------------------
     def sample(self) -> Config:
         L_ab = self.rng.choice(SCALES)
-        info = tolerance_info(self.d, self.fmt_name, *L_ab, self.brackets)
-        names, weights = zip(*SCENARIOS)
+        info = tolerance_info(self.d, self.fmt_name, *L_ab, self.brackets, self.spec.system)
+        names, weights = zip(*self.scenarios)
         scen = self.rng.choices(names, weights)[0]
         pts = getattr(self, "_" + scen)(info)
         if self.rng.random() < 0.15:

@@ -18,6 +18,11 @@ def render_markdown(s: dict) -> str:
            f"{s['runs']} shadow runs ({s['samples_per_predicate_and_format']} samples per "
            f"predicate and format, {s['search_steps']} hill-climbing steps per seed, seed "
            f"{s['seed']}) in {s['elapsed_s']} s. Formats: {', '.join(fm)}.", ""]
+    if s.get("module"):  # fperr audit --predicates MODULE
+        out[-1:-1] = ["", f"Predicates of {s['module']}, with the tolerance table (and sign "
+                      "filters) it declares in FPERR_TOLERANCES. The stress of its sign "
+                      "tests is the rounding toward zero over |x| where the premise holds "
+                      "(≥ 1: a wrong sign)."]
     nv = s["violation_count"]
     out.append(f"**Violations: {nv}**" + ("" if nv else " (every measured error within its "
                                             "bound, every decision within its brackets)"))

@@ -18,6 +18,7 @@ from fperr.shadow import Shadow, ShadowContext
 from predicates.tolerances import tolerance_values
 
 from .inputs import Generator
+from .user import UserGenerator, user_specs
 from .shadow_run import Outcome, evaluate
 from .worst_case import CI_BUDGET, Budget, WorstCaseSearch, records
 from .spec import (DEFAULT_SAMPLES, DEFAULT_SEARCH, FORMATS, SCALES, Config, PredicateSpec,
@@ -138,7 +139,8 @@ class Audit:
             for fmt in self.formats:
                 spec.bound_coefficients(fmt)
                 rng = random.Random(zlib.crc32(f"{self.seed}/{spec.key}/{fmt}".encode()))
-                gen = Generator(spec, fmt, rng, self.brackets)
+                gen = (Generator if spec.system is None else UserGenerator)(
+                    spec, fmt, rng, self.brackets)
                 for _ in range(self.samples):
                     self._eval(spec, fmt, gen.sample())
                 if self.zone_pairs:
@@ -234,18 +236,22 @@ class Audit:
 
     def audit_tolerances(self):
         """R[T] of every tolerance: the shared tolerance code run with shadow numbers."""
-        for dim in sorted({s.dim for s in self.specs}):
-            rb = tolerance_bounds(dim)
+        systems = {s.dim: s.system for s in self.specs}  # a user table: its declaration
+        for dim in sorted(systems):
+            system = systems[dim]
+            table = None if system is None else system.table()
+            rb = tolerance_bounds(dim, system)
             for fmt_name in self.formats:
                 fmt = FORMATS[fmt_name]
                 e = sympy.Rational(1, 2 ** fmt.bits)
                 for L_ab in SCALES:
-                    info = tolerance_info(dim, fmt_name, *L_ab)
+                    info = tolerance_info(dim, fmt_name, *L_ab, system=system)
                     ctx = ShadowContext(fmt)
                     L = info.L
                     with ctx.session():
                         vals = tolerance_values(
-                            dim, lambda p: Shadow(fmt.from_fraction(L ** p), L ** p, fmt), ctx)
+                            dim, lambda p: Shadow(fmt.from_fraction(L ** p), L ** p, fmt), ctx,
+                            table)
                     for name, s in vals.items():
                         same = fmt.to_fraction(s.w) == fmt.to_fraction(info.real.values[name])
                         R, text = rb[name]
@@ -346,3 +352,28 @@ def audit(*, dims=(2, 3), formats=("binary64", "binary32", "mp17"), names=(),
     preds = select_predicates(dims, names)
     return Audit(preds, formats, samples, search_steps, seed, progress=progress,
                  worst_budget=worst_budget).run().summary()
+
+
+#: Pairs of samples on either side of each bracket check that the zone bisection lands
+#: between T− and T+ (the paper's audit: 2): a user's predicates are few and cheap, and a
+#: window too narrow for the rounding error shows only at inputs that land there.
+ZONE_PAIRS = 6
+
+
+def audit_module(decls, *, names=(), formats=("binary64", "binary32", "mp17"),
+                 samples: int = DEFAULT_SAMPLES, search_steps: int = DEFAULT_SEARCH,
+                 seed: int = 0, progress=None, worst_budget=None, bound_fn=None,
+                 specs: list | None = None) -> dict:
+    """The audit (:class:`proofs.audit.Audit`) of the predicates of ``decls`` (user
+    declarations, :func:`proofs.user_predicates.load`) with their declared tables: its
+    summary, with ``module`` (the declarations' names). ``bound_fn`` replaces
+    :func:`fperr.bounds` (tests plant a wrong bound with it); ``specs``: the
+    :func:`user_specs` of the same selection, when already built."""
+    unknown = [f for f in formats if f not in FORMATS]
+    if unknown:
+        raise ValueError(f"unknown format {unknown[0]!r} (choose from {', '.join(FORMATS)})")
+    specs = specs if specs is not None else user_specs(decls, names, bound_fn)
+    s = Audit(specs, formats, samples, search_steps, seed, progress=progress,
+              zone_pairs=ZONE_PAIRS, worst_budget=worst_budget).run().summary()
+    s["module"] = ", ".join(dict.fromkeys(d.name for d in decls))
+    return s

@@ -17,6 +17,7 @@ from fperr.shadow import Shadow, ShadowContext
 from predicates.catalogue import pair_predicate
 
 from .spec import FORMATS, Config, PredicateSpec, spec_for
+from .user import USER_SIGN_KINDS, toward_zero, user_sign_premise
 
 def run_shadow(spec: PredicateSpec, cfg: Config, pred=None, points=None) -> ShadowContext:
     """Run ``spec``'s predicate (or ``pred``) on ``cfg`` with shadow numbers."""
@@ -145,9 +146,12 @@ def evaluate(spec: PredicateSpec, cfg: Config, pred=None) -> Outcome:
         # sign tests: T- = T+ = 0, the working sign must be the exact sign (premise)
         e = compare(c.lhs.x, Fraction(0))
         exact = None if e is None else e in _SIGN_OK[c.rel]
-        stress = _sign_stress(c.lhs)
+        stress = (toward_zero(c.lhs) if cs.kind in USER_SIGN_KINDS else
+                  _sign_stress(c.lhs))
         if cs.kind == "sign-guarded":
             premise = not bool(ctx.checks[cs.guard].decision)
+        elif cs.kind in USER_SIGN_KINDS:
+            premise = user_sign_premise(spec, cfg, cs, c)
         elif exact is None or exact != d or stress >= PREMISE_STRESS:
             if sub_pairs is None:
                 sub_pairs = registered_sub_pairs(spec, cfg)
@@ -249,9 +253,14 @@ def replay(violation_or_worst: dict, predicate_key: str | None = None):
     key = predicate_key or violation_or_worst["predicate"]
     cfgd = violation_or_worst.get("config", violation_or_worst)
     dim = int(key[0])
-    pred = next(p for p in predicates.ALL[dim] if p.name == key.split()[1])
-    spec = spec_for(pred)
+    if "module" in cfgd:  # a user's predicate (fperr audit --predicates MODULE)
+        from .user import user_spec
+        spec = user_spec(cfgd["module"], dim, key.split()[1])
+    else:
+        spec = spec_for(next(p for p in predicates.ALL[dim] if p.name == key.split()[1]))
     cfg = Config.from_json(dim, cfgd)
+    cfg = Config(cfg.dim, cfg.fmt_name, cfg.L_ab, cfg.points, cfg.scenario, cfg.brackets,
+                 spec.system)
     spec.bound_coefficients(cfg.fmt_name)
     return spec, cfg, run_shadow(spec, cfg), evaluate(spec, cfg)
 

@@ -72,24 +72,27 @@ class CheckSpec:
     index: int
     line: int
     rel: str
-    kind: str          # "bracket" | "sign-guarded" | "sign-geometric"
+    kind: str          # "bracket" | "sign-guarded" | "sign-geometric"; user predicates:
+    #                    "sign-filter", "sign-protected", "sign-unprotected" (proofs.audit.user)
     quantity: str      # the quantity the check tests
     label: str
     guard: int | None = None
+    protect: object = None   # sign-filter: θ's label; sign-protected: the declared Bound
 
 
 class PredicateSpec:
     """A predicate with what the audit needs: bounds, check kinds, its two primitives."""
 
-    def __init__(self, pred, bound_fn=None, split=None):
+    def __init__(self, pred, bound_fn=None, split=None, system=None):
         self.pred = pred
+        self.system = system   # a user declaration (proofs.user_predicates), or None
         self.dim = pred.dim
         self.name = pred.name
         self.key = f"{pred.dim}D {pred.name}"
         self.split = split or ("".join(pred.sim), "".join(pred.cut))
         if "".join(self.split) != "".join(pred.points):
             raise ValueError(f"{self.key}: split {self.split} does not match points {pred.points}")
-        ins = pred.instrumented()
+        ins = pred.instrumented(None if system is None else system.table())
         bound_fn = bound_fn or fperr.bounds
         self.quantities: dict[str, QuantitySpec] = {}
         for qname, q in ins.quantities.items():
@@ -166,35 +169,49 @@ class ToleranceInfo:
     shadow: Tolerances        # the same values as bracketed Shadow numbers
     L: Fraction
     floats: dict              # float values for geometry generation
+    powers: dict = field(default_factory=dict)   # name -> p (T ∝ L^p)
+    thetas: dict = field(default_factory=dict)   # predicate -> {quantity: working θ}
 
 
 @lru_cache(maxsize=None)
 def tolerance_info(dim: int, fmt_name: str, L_a: float, L_b: float,
-                   brackets: tuple = ()) -> ToleranceInfo:
+                   brackets: tuple = (), system=None) -> ToleranceInfo:
     """Tolerances of a configuration. ``brackets``: ((name, lo, hi), ...) replaces the
-    coefficients of T−, T+ of Figure 1/5 (tests use it to plant a wrong bracket)."""
+    coefficients of T−, T+ of Figure 1/5 (tests use it to plant a wrong bracket).
+    ``system``: a user declaration (:class:`proofs.user_predicates.PredicateTolerances`):
+    its table, computed by its ``tolerances(L_a + L_b, dtype)`` (docs/custom-predicates.md),
+    and the working thresholds θ of its sign filters."""
     fmt = FORMATS[fmt_name]
-    real = predicates.tolerances(dim, L_a, L_b, dtype=fmt)
+    if system is None:
+        real, table, thetas = predicates.tolerances(dim, L_a, L_b, dtype=fmt), TABLES[dim], {}
+    else:
+        real, table = system.tolerances(L_a + L_b, dtype=fmt), system.table()
+        thetas = system.sign_thresholds(L_a + L_b, fmt) if system.declared.filtered else {}
     L = to_fraction(real.L)
     Ls = sympy.Rational(L.numerator, L.denominator)
     override = {name: (lo, hi) for name, lo, hi in brackets}
     vals = {}
-    for name, spec in TABLES[dim].items():
-        f = sympy.Integer(2) ** (-fmt.bits * spec.q) * Ls ** spec.p
+    for name, spec in table.items():
+        f = sympy.Integer(2) ** (-fmt.bits * sympy.sympify(spec.q)) * Ls ** spec.p
         lo, hi = override.get(name, (spec.lo, spec.hi))
-        vals[name] = Shadow.bracketed(real.values[name], _real(spec.mid * f),
+        vals[name] = Shadow.bracketed(real.values[name], _real(sympy.sympify(spec.mid) * f),
                                       _real(sympy.sympify(lo) * f),
                                       _real(sympy.sympify(hi) * f), fmt, label=name)
-    shadow = Tolerances(dim, real.L, real.eps, ShadowContext(fmt), vals)
+    shadow = Tolerances(dim, real.L, real.eps, ShadowContext(fmt), vals,
+                        None if system is None else table)
     floats = {k: float(v) for k, v in real.values.items()}
-    return ToleranceInfo(dim, fmt_name, (L_a, L_b), real, shadow, L, floats)
+    thetas = {p: {q: fmt.to_fraction(v) for q, v in qs.items()} for p, qs in thetas.items()}
+    return ToleranceInfo(dim, fmt_name, (L_a, L_b), real, shadow, L, floats,
+                         {k: int(v.p) for k, v in table.items()}, thetas)
 
 
 @lru_cache(maxsize=None)
-def tolerance_bounds(dim):
-    """name -> (R[T] as a sympy expression in eps, its text), from the instrumented run."""
+def tolerance_bounds(dim, system=None):
+    """name -> (R[T] as a sympy expression in eps, its text), from the instrumented run
+    (of ``system``'s table when given, a user declaration)."""
     out = {}
-    for name, t in tracked_tolerances(dim).values.items():
+    table = None if system is None else system.table()
+    for name, t in tracked_tolerances(dim, table).values.items():
         b = fperr.bounds(t)
         out[name] = (b.R, b.text())
     return out
@@ -213,14 +230,17 @@ class Config:
     points: tuple            # tuple of tuples of Fraction
     scenario: str = ""
     brackets: tuple = ()     # bracket overrides (tests only), see tolerance_info
+    system: object = None    # a user declaration whose table applies (None: the paper's)
 
     @property
     def info(self) -> ToleranceInfo:
-        return tolerance_info(self.dim, self.fmt_name, *self.L_ab, self.brackets)
+        return tolerance_info(self.dim, self.fmt_name, *self.L_ab, self.brackets,
+                              self.system)
 
     def with_points(self, pts, scenario=None) -> "Config":
         return Config(self.dim, self.fmt_name, self.L_ab, tuple(pts),
-                      self.scenario if scenario is None else scenario, self.brackets)
+                      self.scenario if scenario is None else scenario, self.brackets,
+                      self.system)
 
     def to_json(self):
         d = {"format": self.fmt_name, "L_a": self.L_ab[0], "L_b": self.L_ab[1],
@@ -228,6 +248,8 @@ class Config:
              "scenario": self.scenario}
         if self.brackets:
             d["brackets"] = [[n, str(lo), str(hi)] for n, lo, hi in self.brackets]
+        if self.system is not None:
+            d["module"] = self.system.name
         return d
 
     @staticmethod

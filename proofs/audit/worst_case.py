@@ -135,7 +135,7 @@ class WorstCaseSearch:
         self.spec, self.fmt_name, self.budget = spec, fmt_name, budget
         self.bits = FORMATS[fmt_name].bits
         self.rng = np.random.default_rng(seed)
-        self.inputs = StructuredInputs(spec.pred, fmt_name, self.bits, self.rng)
+        self.inputs = StructuredInputs(spec.pred, fmt_name, self.bits, self.rng, spec.system)
         self.seeds = seeds or {}
         self.found = {n: WorstCase() for n, q in spec.quantities.items() if q.E is not None}
         self.violations: list = []
@@ -180,7 +180,8 @@ class WorstCaseSearch:
         scale rounded up to 1/64 (so the tolerance L bounds every coordinate difference)."""
         pts = tuple(tuple(Fraction(float(c)) for c in p) for p in X)
         Lq = float(np.ceil(scale_units(X[None])[0] * 64) / 64) or 1.0
-        return Config(self.spec.dim, self.fmt_name, (Lq / 2, Lq / 2), pts, "worst-case")
+        return Config(self.spec.dim, self.fmt_name, (Lq / 2, Lq / 2), pts, "worst-case",
+                      system=self.spec.system)
 
     # the phases ---------------------------------------------------------------------------
     def run(self, names=None) -> "WorstCaseSearch":

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..tables import TABLES
 from .spec import tolerance_info
 
 __all__ = ["Lanes", "StructuredInputs", "round_bits", "scale_units"]
@@ -56,14 +55,15 @@ class Lanes:
 class StructuredInputs:
     """Random structured lanes and mutations for one predicate in one format."""
 
-    def __init__(self, pred, fmt_name: str, bits: int, rng: np.random.Generator):
+    def __init__(self, pred, fmt_name: str, bits: int, rng: np.random.Generator,
+                 system=None):
         self.pred, self.bits, self.rng = pred, bits, rng
         self.n, self.d = len(pred.points), pred.dim
         self.u = 2.0 ** -bits
         # last point on the hull of the others: only when that hull is lower-dimensional
         self.can_hull = 3 <= self.n <= self.d + 1
-        info = tolerance_info(self.d, fmt_name, 0.5, 0.5)   # L_a + L_b = 1
-        self.tol_ref = {k: (v, TABLES[self.d][k].p) for k, v in info.floats.items()}
+        info = tolerance_info(self.d, fmt_name, 0.5, 0.5, system=system)   # L_a + L_b = 1
+        self.tol_ref = {k: (v, info.powers[k]) for k, v in info.floats.items()}
 
     def tolerances(self, L: np.ndarray) -> dict:
         """Per-lane tolerances for scale L (T ∝ L^p; reachability only)."""

@@ -1,4 +1,5 @@
-"""``fperr tables``, ``fperr verify``, ``fperr audit`` and ``python -m proofs.report``:
+"""``fperr tables``, ``fperr verify`` and ``python -m proofs.report`` (``fperr audit``:
+:mod:`.audit_command`):
 the proofs' commands (options only; the work is :mod:`predicates.tables` and
 :mod:`proofs`, imported when run)."""
 from __future__ import annotations
@@ -7,8 +8,9 @@ import argparse
 import sys
 
 from .common import RAW as _RAW
-from .common import _at_least_0, _at_least_1, output_as
+from .common import output_as
 from .common import user_systems as _user_systems
+from .audit_command import _add_audit, _run_audit
 from .synthesize_command import _add_synthesize, _run_synthesize
 
 # -- tables ----------------------------------------------------------------------------
@@ -60,36 +62,8 @@ def _run_tables(args) -> int:
 REPORT_PATH = "docs/error-bounds.md"
 
 
-def _dims(text: str) -> tuple[int, ...]:
-    """argparse type of --dims: comma-separated dimensions, each 2 or 3."""
-    try:
-        dims = tuple(int(d) for d in text.split(",") if d.strip())
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a comma-separated list of 2 and 3")
-    bad = [d for d in dims if d not in (2, 3)]
-    if bad or not dims:
-        raise argparse.ArgumentTypeError(f"dimension {bad[0] if bad else text!r} is not "
-                                         "supported (choose from 2, 3)")
-    return dims
-
-
-def _formats(text: str) -> tuple[str, ...]:
-    """argparse type of --formats: comma-separated working formats of the audit."""
-    from proofs.audit import FORMATS
-    formats = tuple(f.strip() for f in text.split(",") if f.strip())
-    bad = [f for f in formats if f not in FORMATS]
-    if bad or not formats:
-        raise argparse.ArgumentTypeError(f"unknown format {bad[0] if bad else text!r} "
-                                         f"(choose from {', '.join(FORMATS)})")
-    return formats
-
-
 #: the report (Markdown) of fperr verify --report and python -m proofs.report
 _REPORT_FILE = output_as(".md", what="the report (Markdown)", stdout=True)
-
-#: audit --dtype names (the same as intersect's and demo's) -> the audit's formats
-AUDIT_DTYPES = {"float64": "binary64", "float32": "binary32", "mp17": "mp17"}
-
 
 def _add_verify(parser: argparse.ArgumentParser) -> None:
     """fperr verify: every tolerance constraint of the paper, decided for all ε ≤ 1e-5.
@@ -215,97 +189,6 @@ def _print_report(dim, rep, overrides, args, system=None) -> None:
     if nf:
         print(f"{dim}D FAILED: " + ", ".join(o.id for o in rep.failures))
     print()
-
-
-def _add_audit(parser: argparse.ArgumentParser) -> None:
-    """fperr audit: shadow execution, measured floating-point error against the derived
-bounds, in binary64, binary32 and mpmath at 17 bits (see proofs.audit).
-
-    fperr audit                                        # CI size, about 11 s of CPU
-    fperr audit --thorough --format json -o audit.json # the worst-case hunt, <= 15 min
-    fperr audit --samples 1500 --search-steps 150 --seed 7 --format json -o audit.json
-
-Exit status 1 when any violation was found, 2 for bad arguments.
-"""
-    parser.add_argument("--samples", type=_at_least_1,
-                        help="random/adversarial samples per predicate and format "
-                             "(default 100, the CI size)")
-    parser.add_argument("--search-steps", type=_at_least_0,
-                        help="hill-climbing steps per seed (2 seeds per quantity and check; "
-                             "default 10; 0 disables the search)")
-    parser.add_argument("--format", choices=("md", "json"), default="md",
-                        help="report format (default md)")
-    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    parser.add_argument("--dtype", choices=tuple(AUDIT_DTYPES), action="append",
-                        help="working precision to audit, repeatable (default all three: "
-                             "float64, float32 and mp17, mpmath at 17 bits)")
-    parser.add_argument("--dim", type=int, choices=(2, 3), action="append",
-                        help="dimension to audit, repeatable (default both)")
-    # the former names, still accepted and checked (not shown: one name per option)
-    parser.add_argument("--formats", type=_formats, help=argparse.SUPPRESS)
-    parser.add_argument("--dims", type=_dims, help=argparse.SUPPRESS)
-    parser.add_argument("--predicates", default="",
-                        help="comma-separated predicate names to audit (default all)")
-    parser.add_argument("-o", "--output", metavar="FILE.md|FILE.json",
-                        type=output_as(".md", ".json", what="the audit report"),
-                        help="also write the report to this file, in the format its "
-                             "extension says (.md Markdown, .json JSON; --format is "
-                             "stdout's)")
-    parser.add_argument("--quiet", action="store_true", help="no progress lines")
-    parser.add_argument("--thorough", action="store_true",
-                        help="hunt the worst case of every quantity: a wall-clock budget "
-                             "per quantity and format (--budget), at most about 15 "
-                             "minutes for all")
-    parser.add_argument("--budget", type=_positive_seconds,
-                        help="seconds of wall clock per quantity and format of --thorough "
-                             "(default 6)")
-
-
-def _positive_seconds(text: str) -> float:
-    """argparse type of audit --budget: a positive number of seconds."""
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds")
-    if not (v > 0 and v < float("inf")):
-        raise argparse.ArgumentTypeError(f"the budget must be a positive number of seconds, "
-                                         f"got {text!r}")
-    return v
-
-
-def _run_audit(args: argparse.Namespace) -> int:
-    import json
-
-    from proofs.audit import CI_BUDGET, audit, render_markdown, select_predicates
-    from proofs.audit import thorough_budget
-    if args.budget is not None and not args.thorough:
-        args._parser.error("argument --budget: only with --thorough")
-    names = tuple(p.strip() for p in args.predicates.split(",") if p.strip())
-    args.dims = sorted(set(args.dim or args.dims or [2, 3]))
-    args.formats = ([AUDIT_DTYPES[d] for d in dict.fromkeys(args.dtype)] if args.dtype else
-                    args.formats or ["binary64", "binary32", "mp17"])
-    try:
-        select_predicates(args.dims, names)  # bad names fail before any work
-    except ValueError as e:
-        args._parser.error(f"argument --predicates: {e}")
-
-    def progress(spec, fmt):
-        if not args.quiet:
-            print(f"  audited {spec.key} in {fmt}", file=sys.stderr)
-
-    sizes = {k: v for k, v in (("samples", args.samples), ("search_steps", args.search_steps))
-             if v is not None}  # None: the library's default
-    worst = thorough_budget(args.budget or 6.0) if args.thorough else CI_BUDGET
-    s = audit(dims=args.dims, formats=args.formats, names=names, seed=args.seed,
-              progress=progress, worst_budget=worst, **sizes)
-    def text(fmt):
-        return json.dumps(s, indent=1) if fmt == "json" else render_markdown(s)
-
-    print(text(args.format))
-    if args.output:  # the format its extension says (checked when parsed)
-        with open(args.output, "w", encoding="utf-8") as fh:
-            fh.write(text("json" if args.output.lower().endswith(".json") else "md"))
-    return 1 if s["violation_count"] else 0
 
 
 def report_main(argv: list[str] | None = None) -> int:
