@@ -34,7 +34,8 @@ import numpy as np
 
 from predicates.registration.split import rules as R
 from predicates.registration.split.tetra_faces import (OUTWARD, Points, cell_boundary,
-                                                       positive, ring_pieces)
+                                                       on_cut_points, positive,
+                                                       ring_pieces)
 
 __all__ = ["ConformingMesh", "NotConforming", "conforming_mesh"]
 
@@ -49,8 +50,11 @@ class ConformingMesh:
     ``point_kind`` (N,) 0 simulation vertex, 1 registered point, 2 interior point;
     ``point_hit`` (N,) the registered point (index into the cut surface's points) or −1.
     ``cells`` (T, d+1), positively oriented; per simplex ``cell_origin`` (original
-    cell), ``fragment`` (new cell of the split: its material corners are the split's),
-    ``piece``, ``side`` (+1 in front of the cut, −1 behind, 0 not on it, 2 both).
+    cell), ``fragment`` (the new cell of the split whose material corners the simplex's
+    region holds, −1 for material the split gives no fragment: between two crossings of
+    an edge), ``piece`` (the simplices connected through faces that are not cut),
+    ``split_piece`` (the split's piece of ``fragment``), ``side`` (+1 in front of the
+    cut, −1 behind, 0 not on it, 2 both).
     ``cut_faces`` (K, d) oriented like their cutting cell, ``cut_cell`` /
     ``input_cut_cell`` (K,) the cutting cell they lie on (registered / as given),
     ``cut_sides`` (K, 2) the simplex behind and in front."""
@@ -69,6 +73,7 @@ class ConformingMesh:
     cut_cell: np.ndarray
     input_cut_cell: np.ndarray
     cut_sides: np.ndarray
+    split_piece: np.ndarray
 
     def volumes(self) -> np.ndarray:
         """(T,) the simplices' volumes (areas), elementwise (no BLAS)."""
@@ -131,23 +136,32 @@ def _outward(corners: np.ndarray, X: np.ndarray, d: int):
 
 
 def _pieces(c, ctx):
-    """[(fragment, node cycle)] of cell c (part 1's, or its whole boundary)."""
-    from predicates.registration.split.regions import _regions_3d, cell_pieces
+    """[(local region, node cycle)] of cell c (:mod:`~.cell_regions`), its outward
+    faces, and {local region: its fragment of the split, −1 when none}."""
+    from predicates.registration.split.cell_regions import cell_regions
+    from predicates.registration.split.regions import _regions_3d
 
     sm, T, cells, d = ctx["sm"], ctx["T"], ctx["cells"], ctx["d"]
     corners = cells[c].tolist()
     nf, s = int(ctx["nfrag"][c]), int(ctx["start"][c])
-    polys = T.polygons(ctx["cs"], c)
+    polys = [[("h", h) for h in P] for P in T.polygons(ctx["cs"], c)]
     out = _outward(cells[c], ctx["X"], d)
+    if d == 2:
+        faces = [r for _, r in ring_pieces(corners, 0, sm.on_cut, T, out)]
+    else:
+        faces = [r for _, r in _regions_3d(corners, {v: 0 for v in corners}, sm.on_cut, T,
+                                           polys, out)]
+    pieces = cell_regions(faces, polys, d)
+    frag_of = {v: s + j for j in range(nf) for k, v in enumerate(corners)
+               if sm.material[s + j, k] and not sm.on_cut[v]}
+    owner = {}
+    for r, cyc in pieces:
+        for nd in cyc:
+            if nd[0] == "v" and nd[1] in frag_of:
+                owner[r] = min(owner.get(r, frag_of[nd[1]]), frag_of[nd[1]])
     if nf == 1:
-        if d == 2:
-            return ring_pieces(corners, s, sm.on_cut, T, out), out
-        regs = _regions_3d(corners, {v: s for v in corners}, sm.on_cut, T,
-                           [[("h", h) for h in P] for P in polys], out)
-        return [(s, r) for _, r in regs], out
-    frag = {v: s + j for j in range(nf) for k, v in enumerate(corners)
-            if sm.material[s + j, k] and not sm.on_cut[v]}
-    return cell_pieces(corners, frag, sm.on_cut, T, polys, out), out
+        owner = {r: s for r, _ in pieces}
+    return pieces, out, {r: owner.get(r, -1) for r, _ in pieces}
 
 
 def _closed(tris) -> bool:
@@ -242,33 +256,35 @@ def _fallback(tris, Y, d: int):
 
 
 def _collect(res, sm, cs, ctx):
-    """Boundaries of the touched cells' fragments; (frag_tris, cut records, faces,
-    problems)."""
+    """Boundaries of the regions of the touched cells: ({region: outward simplices},
+    cut records, {(cell, face): triangles}, region → (cell, fragment), problems)."""
     from predicates.registration.split.polytri import NoEar
     from predicates.registration.split.regions import Unresolved
-    from predicates.registration.split.tetra_faces import cell_boundary
 
     T, n = ctx["T"], ctx["n"]
     cut_cells = np.asarray(res.cut_cells, dtype=np.int64)
-    frag_tris, cuts, faces, problems = {}, [], {}, []
+    tris_of, cuts, faces, where, problems = {}, [], {}, [], []
     for c in np.flatnonzero(ctx["touched"]).tolist():
         corners = ctx["cells"][c].tolist()
         q = T.poly_order[T.poly_bounds[c]:T.poly_bounds[c + 1]].tolist()
         polys = list(zip(q, T.polygons(cs, c)))
         try:
-            pieces, out = _pieces(c, ctx)
+            pieces, out, owner = _pieces(c, ctx)
+            base = len(where)
+            pieces = [(base + r, cyc) for r, cyc in pieces]
             cb = cell_boundary(corners, pieces, polys, T, cs, cut_cells, n, out)
         except (Unresolved, NoEar, StopIteration, KeyError) as e:
             problems.append((c, f"{type(e).__name__}: {e}"))
             continue
+        where += [(c, owner[r]) for r in range(len(owner))]
         for f, tris in cb.tris.items():
             if not tris or not _closed(tris):
-                problems.append((c, f"fragment {f}: boundary not closed"))
-            frag_tris[f] = tris
+                problems.append((c, f"region {f - base}: boundary not closed"))
+            tris_of[f] = tris
         cuts += cb.cut
         for k, v in cb.faces.items():
             faces[c, k] = v
-    return frag_tris, cuts, faces, problems
+    return tris_of, cuts, faces, where, problems
 
 
 def conforming_mesh(res, sm, cs=None) -> ConformingMesh:
@@ -287,16 +303,16 @@ def conforming_mesh(res, sm, cs=None) -> ConformingMesh:
     ctx = {"sm": sm, "cs": cs, "T": _Tables(cs, C), "cells": cells, "X": X, "d": d,
            "n": n, "nfrag": nfrag, "start": np.cumsum(nfrag) - nfrag,
            "touched": _touched(cs, cells, n) | (nfrag > 1)}
-    frag_tris, cuts, faces, problems = _collect(res, sm, cs, ctx)
+    frag_tris, cuts, faces, where, problems = _collect(res, sm, cs, ctx)
     if problems:
         raise NotConforming(_report(problems))
-    Y = Points(np.concatenate([X, cs.points]))
+    Y = Points(np.concatenate([X, on_cut_points(res, cs)]))
     filled, bad = _fill(frag_tris, Y, d)
     if bad:
-        where = sorted({int(sm.cell_origin[f]) for f in bad})
+        cells_bad = sorted({where[f][0] for f in bad})
         raise NotConforming(_report([(c, "no apex fills it with positive simplices")
-                                     for c in where]))
-    return assemble(res, sm, cs, ctx, filled, Y.array, cuts, faces)
+                                     for c in cells_bad]))
+    return assemble(res, sm, cs, ctx, filled, Y.array, cuts, faces, where)
 
 
 def _report(problems) -> str:

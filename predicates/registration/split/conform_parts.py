@@ -109,39 +109,63 @@ def _cut_records(cuts, table, S):
     return faces, qs, sides
 
 
-def assemble(res, sm, cs, ctx, filled: dict, Y: np.ndarray, cuts: list, faces: dict):
-    """The :class:`~predicates.registration.split.conform.ConformingMesh`."""
+def _pieces(S: np.ndarray, cut_keys) -> tuple:
+    """Pieces: the simplices connected through faces that are not cut faces, numbered
+    by their first simplex. Returns (piece per simplex, count)."""
+    from predicates.registration.split.rules import components
+
+    d = S.shape[1] - 1
+    F = np.sort(_oriented_faces(S).reshape(-1, d), axis=1)
+    cut = np.array(sorted(set(cut_keys)), dtype=np.int64).reshape(-1, d)
+    _, inv = np.unique(np.concatenate([cut, F]), axis=0, return_inverse=True)
+    inv = inv.ravel()
+    fid = inv[len(cut):]
+    o = np.argsort(fid, kind="stable")
+    same = np.flatnonzero(fid[o][1:] == fid[o][:-1])
+    a, b = o[same] // (d + 1), o[same + 1] // (d + 1)
+    keep = ~np.isin(fid[o][same], inv[:len(cut)])
+    lab = components(len(S), a[keep], b[keep])
+    _, piece = np.unique(lab, return_inverse=True)
+    return piece.ravel(), int(piece.max(initial=-1)) + 1
+
+
+def assemble(res, sm, cs, ctx, filled: dict, Y: np.ndarray, cuts: list, faces: dict,
+             where: list):
+    """The :class:`~predicates.registration.split.conform.ConformingMesh`: ``filled``
+    {region: simplices}, ``where`` [(cell, fragment or −1)] per region."""
     from predicates.registration.split.conform import ConformingMesh
 
     d, n = ctx["d"], ctx["n"]
     S0, keep, f0 = _kept(ctx, sm)
-    fr = sorted(filled)
-    S1 = np.array([s for f in fr for s in filled[f]], dtype=np.int64).reshape(-1, d + 1)
-    f1 = np.repeat(np.array(fr, dtype=np.int64), [len(filled[f]) for f in fr])
+    regs = sorted(filled)
+    S1 = np.array([s for r in regs for s in filled[r]], dtype=np.int64).reshape(-1, d + 1)
+    r1 = np.repeat(np.array(regs, dtype=np.int64), [len(filled[r]) for r in regs])
+    W = np.array(where, dtype=np.int64).reshape(-1, 2)
     S = np.concatenate([S0, S1])
-    frag = np.concatenate([f0, f1]).astype(np.int64)
-    cuts = [c for c in cuts if c[0] is not None and c[1] is not None]
+    origin = np.concatenate([keep, W[r1, 0]]).astype(np.int64)
+    frag = np.concatenate([f0, W[r1, 1]]).astype(np.int64)
+    region = np.concatenate([len(W) + np.arange(len(keep)), r1])
     cuts += _on_face_cuts(res, cs, ctx, faces)
-    table = face_table(S, [tuple(sorted(c[2])) for c in cuts])
-    cf, qs, cut_sides = _cut_records(cuts, table, S)
-    side = np.zeros(len(sm.cells), dtype=np.int64)
+    keys = [tuple(sorted(c[2])) for c in cuts]
+    cf, qs, cut_sides = _cut_records(cuts, face_table(S, keys), S)
+    piece, n_pieces = _pieces(S, keys)
+    side = np.zeros(len(W) + len(keep), dtype=np.int64)
     for b, f in cut_sides:
-        for t, s in ((b, -1), (f, 1)):
+        for t, sgn in ((b, -1), (f, 1)):
             if t >= 0:
-                g = frag[t]
-                side[g] = s if side[g] in (0, s) else 2
+                g = region[t]
+                side[g] = sgn if side[g] in (0, sgn) else 2
     used = np.unique(np.concatenate([S.ravel(), np.array(cf, dtype=np.int64).ravel()]))
     new = np.full(len(Y), -1, dtype=np.int64)
     new[used] = np.arange(len(used))
     nh = len(cs.points)
     kind = np.where(used < n, 0, np.where(used < n + nh, 1, 2)).astype(np.int8)
-    hit = np.where(kind == 1, used - n, -1)
     qs = np.array(qs, dtype=np.int64)
     return ConformingMesh(
-        dim=d, points=Y[used], point_kind=kind, point_hit=hit, cells=new[S],
-        cell_origin=sm.cell_origin[frag], fragment=frag, piece=sm.piece[frag],
-        side=side[frag], n_pieces=sm.n_pieces,
-        cut_faces=new[np.array(cf, dtype=np.int64).reshape(-1, d)],
+        dim=d, points=Y[used], point_kind=kind, point_hit=np.where(kind == 1, used - n, -1),
+        cells=new[S], cell_origin=origin, fragment=frag, piece=piece, side=side[region],
+        n_pieces=n_pieces, cut_faces=new[np.array(cf, dtype=np.int64).reshape(-1, d)],
         cut_cell=cs.cut_cell[qs] if len(qs) else np.zeros(0, np.int64),
         input_cut_cell=cs.input_cut_cell[qs] if len(qs) else np.zeros(0, np.int64),
-        cut_sides=np.array(cut_sides, dtype=np.int64).reshape(-1, 2))
+        cut_sides=np.array(cut_sides, dtype=np.int64).reshape(-1, 2),
+        split_piece=np.where(frag >= 0, sm.piece[np.maximum(frag, 0)], -1))

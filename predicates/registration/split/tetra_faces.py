@@ -66,6 +66,21 @@ class Points:
         return self.buf[:self.n]
 
 
+def on_cut_points(res, cs) -> np.ndarray:
+    """The registered points as Σ wᵢ·yᵢ on their cutting primitives (fixed order, no
+    BLAS): the cut faces then tile every cutting triangle up to rounding, so each piece
+    is the polyhedron the cut bounds. A point the registration merged (a degenerate
+    pair, within the paper's tolerances σ, τ, δ of its simulation primitive) stays on
+    the cut, off its simulation primitive by at most that tolerance; orientations are
+    checked on these coordinates all the same."""
+    Q = np.asarray(res.cut_points, dtype=np.float64)
+    ids = np.where(cs.cut >= 0, cs.cut, 0)
+    acc = cs.cut_weights[:, 0, None] * Q[ids[:, 0]]
+    for j in range(1, ids.shape[1]):
+        acc = acc + cs.cut_weights[:, j, None] * Q[ids[:, j]]
+    return acc
+
+
 def gid(node, T, n: int) -> int:
     """The global point id of a node of :mod:`~predicates.registration.split.regions`."""
     if node[0] == "v":
