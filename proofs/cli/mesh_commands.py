@@ -311,6 +311,10 @@ def _add_cut(sub) -> None:
                    help="move each piece by FACTOR x (its centroid - the mesh centroid), "
                         "in -o and --png (default 0; --png alone uses 0.3)")
     p.add_argument("--png", metavar="FILE", help="draw the pieces (png, pdf or svg)")
+    p.add_argument("--conforming", action="store_true",
+                   help="write each piece as tetrahedra (2D: triangles) conforming to the "
+                        "cut, cell data piece, cell_origin, fragment, side (docs/split.md); "
+                        "exit 1 if some cell cannot be filled")
     p.set_defaults(_run=_run_cut)
 
 
@@ -321,17 +325,23 @@ def _run_cut(args) -> int:
     outputs = dict(output=args.output, png=args.png, explode=args.explode)
 
     def work(**options):
-        return cut_files(sim, args.cut, **outputs, **options)
+        return cut_files(sim, args.cut, **outputs, conforming=args.conforming, **options)
 
     status, out = _register(args, work, lambda: check_cut_outputs(sim, args.cut, **outputs))
     if status is not None:
         return status
-    res, sm = out
+    res, sm, cm = out
     s = sm.summary()
+    what = (f"{s['cells']} cells; {s['split_cells']} of the "
+            f"{len(res.intersected_cells())} cells the cut meets split into "
+            f"several fragments; {sm.n_pieces} pieces")
+    if cm is not None:
+        c = cm.summary()
+        what = (f"conforming: {c['simplices']} simplices, {c['points']} points "
+                f"({c['interior_points']} interior), {c['cut_faces']} cut faces, "
+                f"{cm.n_pieces} pieces")
     written = [(f, what) for f, what in (
-        (args.output, f"{s['cells']} cells; {s['split_cells']} of the "
-                      f"{len(res.intersected_cells())} cells the cut meets split into "
-                      f"several fragments; {sm.n_pieces} pieces"),
+        (args.output, what),
         (args.png, "plot")) if f]
     return _summary(args, res, written, split=sm)
 

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fperr.warnings import ResolutionError
 from predicates.registration.split import rules as R
 from predicates.registration.split.tetra_faces import (OUTWARD, Points, cell_boundary,
                                                        on_cut_points, positive,
@@ -40,8 +41,9 @@ from predicates.registration.split.tetra_faces import (OUTWARD, Points, cell_bou
 __all__ = ["ConformingMesh", "NotConforming", "conforming_mesh"]
 
 
-class NotConforming(ValueError):
-    """Some cells could not be tetrahedralized conformingly (the report names them)."""
+class NotConforming(ResolutionError):
+    """Some cells could not be tetrahedralized conformingly (the report names them): a
+    refused run (``fperr cut --conforming`` exits 1), not bad input."""
 
 
 @dataclass
@@ -312,7 +314,7 @@ def conforming_mesh(res, sm, cs=None) -> ConformingMesh:
         cells_bad = sorted({where[f][0] for f in bad})
         raise NotConforming(_report([(c, "no apex fills it with positive simplices")
                                      for c in cells_bad]))
-    return assemble(res, sm, cs, ctx, filled, Y.array, cuts, faces, where)
+    return ConformingMesh(**assemble(res, sm, cs, ctx, filled, Y.array, cuts, faces, where))
 
 
 def _report(problems) -> str:

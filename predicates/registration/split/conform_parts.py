@@ -131,10 +131,8 @@ def _pieces(S: np.ndarray, cut_keys) -> tuple:
 
 def assemble(res, sm, cs, ctx, filled: dict, Y: np.ndarray, cuts: list, faces: dict,
              where: list):
-    """The :class:`~predicates.registration.split.conform.ConformingMesh`: ``filled``
-    {region: simplices}, ``where`` [(cell, fragment or −1)] per region."""
-    from predicates.registration.split.conform import ConformingMesh
-
+    """The fields of the :class:`~predicates.registration.split.conform.ConformingMesh`:
+    ``filled`` {region: simplices}, ``where`` [(cell, fragment or −1)] per region."""
     d, n = ctx["d"], ctx["n"]
     S0, keep, f0 = _kept(ctx, sm)
     regs = sorted(filled)
@@ -161,7 +159,7 @@ def assemble(res, sm, cs, ctx, filled: dict, Y: np.ndarray, cuts: list, faces: d
     nh = len(cs.points)
     kind = np.where(used < n, 0, np.where(used < n + nh, 1, 2)).astype(np.int8)
     qs = np.array(qs, dtype=np.int64)
-    return ConformingMesh(
+    return dict(
         dim=d, points=Y[used], point_kind=kind, point_hit=np.where(kind == 1, used - n, -1),
         cells=new[S], cell_origin=origin, fragment=frag, piece=piece, side=side[region],
         n_pieces=n_pieces, cut_faces=new[np.array(cf, dtype=np.int64).reshape(-1, d)],

@@ -30,7 +30,8 @@ def check_cut_outputs(sim, cut, *, output=None, png=None, explode: float = 0.0) 
     check_outputs(input_roles(sim, cut), {("-o", "mesh"): output, ("--png", "plot"): png})
 
 
-def cut_files(sim, cut, *, output=None, png=None, explode: float = 0.0, **options):
+def cut_files(sim, cut, *, output=None, png=None, explode: float = 0.0,
+              conforming: bool = False, **options):
     """``fperr cut``: register two mesh files, split the simulation mesh, write the split
     mesh (``output``: .vtu, which keeps its cell data) and a picture (``png``). Every
     argument is checked before any work (an output naming an input is refused), inputs
@@ -38,18 +39,26 @@ def cut_files(sim, cut, *, output=None, png=None, explode: float = 0.0, **option
     ``sim``: a file or the pieces of one mesh; ``options``: as in
     :func:`~predicates.registration.intersect_files` (dtype, progress, regions,
     refine_cut, strict, tolerances, partitions/scheduler/timeout), so that ``fperr cut``
-    registers exactly as ``fperr intersect`` does. Returns (IntersectionResult,
-    SplitMesh)."""
+    registers exactly as ``fperr intersect`` does. ``conforming``: write (and draw) the
+    conforming tetrahedra of the pieces instead (docs/split.md, "The conforming
+    tetrahedralization"; a refusal raises
+    :class:`~predicates.registration.split.conform.NotConforming`, nothing written).
+    Returns (IntersectionResult, SplitMesh, ConformingMesh or None)."""
     from predicates.registration.io.write import write_atomic, write_meshio
     from predicates.registration.pipeline import intersect_files
 
     check_cut_outputs(sim, cut, output=output, png=png, explode=explode)
     res = intersect_files(sim, cut, **options)
     sm = res.split()
+    cm = sm.tetrahedralize() if conforming else None
     if output is not None:
-        write_meshio(output, sm.to_meshio(explode=explode))
-    if png is not None:
+        write_meshio(output, (cm or sm).to_meshio(explode=explode))
+    if png is not None and cm is not None:
+        from predicates.registration.pictures.conforming import plot_conforming
+
+        write_atomic(png, lambda tmp: plot_conforming(cm, tmp, explode=explode or 0.3))
+    elif png is not None:
         from predicates.registration.split.plot import plot_split
 
         write_atomic(png, lambda tmp: plot_split(sm, tmp, explode=explode or 0.3))
-    return res, sm
+    return res, sm, cm
