@@ -93,13 +93,25 @@ class ConformingMesh:
         u, inv = np.unique(key.ravel(), return_inverse=True)
         return self.points[u // self.n_pieces], inv.reshape(self.cells.shape)
 
+    def opened(self):
+        """(points, cells): the cut opened — a point gets one node per set of simplices
+        around it joined through faces that are not cut faces, so the two sides of a
+        crack separate while the material around its front stays connected
+        (:func:`~.conform_parts.open_nodes`)."""
+        from predicates.registration.split.conform_parts import open_nodes
+
+        node = open_nodes(self.cells, self.cut_faces)
+        pt = np.zeros(int(node.max(initial=-1)) + 1, dtype=np.int64)
+        pt[node.ravel()] = self.cells.ravel()
+        return self.points[pt], node
+
     def to_meshio(self, explode: float = 0.0):
-        """The simplices as a ``meshio.Mesh`` (pieces separated, moved apart by
+        """The simplices as a ``meshio.Mesh`` (the cut opened, :meth:`opened`; moved apart by
         ``explode`` × (piece centroid − mesh centroid)), cell data ``piece``,
         ``cell_origin``, ``fragment``, ``side``; 2D points at z = 0."""
         import meshio
 
-        X, cells = self.separated()
+        X, cells = self.opened()
         if explode:
             cen = np.stack([np.bincount(self.piece, self.points[self.cells][:, :, k].mean(1),
                                         self.n_pieces) for k in range(self.dim)], 1)

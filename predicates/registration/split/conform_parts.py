@@ -167,3 +167,33 @@ def assemble(res, sm, cs, ctx, filled: dict, Y: np.ndarray, cuts: list, faces: d
         input_cut_cell=cs.input_cut_cell[qs] if len(qs) else np.zeros(0, np.int64),
         cut_sides=np.array(cut_sides, dtype=np.int64).reshape(-1, 2),
         split_piece=np.where(frag >= 0, sm.piece[np.maximum(frag, 0)], -1))
+
+
+def open_nodes(S: np.ndarray, cut_faces: np.ndarray) -> np.ndarray:
+    """(T, d+1) node ids of the simplices S with the cut opened: the (simplex, corner)
+    slots of one point joined across every shared face that is not a cut face (the
+    virtual node algorithm's node rule, Molino et al., on the conforming simplices).
+    Around the front of a crack ending inside the mesh the simplices stay joined (one
+    node), elsewhere along the crack each side gets its own. Nodes numbered by their
+    first slot."""
+    from predicates.registration.split.rules import components
+
+    T, k = S.shape
+    d = k - 1
+    pos = np.array(OUTWARD if d == 3 else ((0, 1), (1, 2), (2, 0)), dtype=np.int64)
+    F = S[:, pos].reshape(-1, d)
+    slot = (np.arange(T)[:, None, None] * k + pos[None]).reshape(-1, d)
+    o = np.argsort(F, axis=1)
+    F = np.take_along_axis(F, o, axis=1)
+    slot = np.take_along_axis(slot, o, axis=1)
+    cut = np.sort(np.asarray(cut_faces, dtype=np.int64).reshape(-1, d), axis=1)
+    _, inv = np.unique(np.concatenate([cut, F]), axis=0, return_inverse=True)
+    inv = inv.ravel()
+    fid = inv[len(cut):]
+    r = np.argsort(fid, kind="stable")
+    same = np.flatnonzero(fid[r][1:] == fid[r][:-1])
+    same = same[~np.isin(fid[r][same], inv[:len(cut)])]
+    a, b = slot[r[same]], slot[r[same + 1]]
+    lab = components(T * k, a.ravel(), b.ravel())
+    _, node = np.unique(lab, return_inverse=True)
+    return node.reshape(T, k)

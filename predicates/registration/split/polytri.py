@@ -15,7 +15,8 @@ rows, decided exactly (:func:`det_sign`).
 The rule (ear clipping, deterministic): the polygon is put counter-clockwise in the frame
 (corners in increasing global id) and rotated to start at its smallest id; the first
 vertex, in that order, that is a strictly convex ear (positive determinant) with no other
-vertex of the polygon in its closed triangle is cut off; repeat. The result depends only
+vertex of the polygon in its closed triangle is cut off — an ear that is nearly straight
+(:func:`_flat`) only when no other is left; repeat. The result depends only
 on the cyclic sequence of ids and their weights, so the two cells sharing a face (and the
 two fragments sharing a cut polygon) get the same triangles.
 """
@@ -59,21 +60,46 @@ def _inside(p, a, b, c) -> bool:
     return det_sign(a, b, p) >= 0 and det_sign(b, c, p) >= 0 and det_sign(c, a, p) >= 0
 
 
+def _near(p, a, b, c) -> bool:
+    """p in the closed triangle abc or within the flatness margin of it."""
+    return all(det_sign(x, y, p) >= 0 or _flat(x, y, p) for x, y in ((a, b), (b, c), (c, a)))
+
+
+def _flat(a, b, c) -> bool:
+    """An ear nearly straight in the frame (|det| ≤ 1e-9 of its weights' scale): points
+    a registration placed on one line up to its tolerances, which in 3D would make a
+    sliver of either orientation; taken only when no other ear is left."""
+    m0 = b[1] * c[2] - b[2] * c[1]
+    m1 = b[0] * c[2] - b[2] * c[0]
+    m2 = b[0] * c[1] - b[1] * c[0]
+    return abs(a[0] * m0 - a[1] * m1 + a[2] * m2) <= 1e-9
+
+
+def _ear(ring: list, w: dict, flat_ok: bool):
+    """The first ear of the ring: strictly convex with no other vertex in it; unless
+    ``flat_ok``, also not flat and with no vertex near it (points on one registered line
+    are taken as on it)."""
+    n = len(ring)
+    inside = _inside if flat_ok else _near
+    for i in range(n):
+        a, b, c = ring[i - 1], ring[i], ring[(i + 1) % n]
+        if det_sign(w[a], w[b], w[c]) <= 0 or (not flat_ok and _flat(w[a], w[b], w[c])):
+            continue
+        if any(inside(w[p], w[a], w[b], w[c]) for p in ring if p not in (a, b, c)):
+            continue
+        return i
+    return None
+
+
 def _ears(ids: list, w: dict) -> list:
     out, ring = [], list(ids)
     while len(ring) > 3:
-        n = len(ring)
-        for i in range(n):
-            a, b, c = ring[i - 1], ring[i], ring[(i + 1) % n]
-            if det_sign(w[a], w[b], w[c]) <= 0:
-                continue
-            if any(_inside(w[p], w[a], w[b], w[c]) for p in ring if p not in (a, b, c)):
-                continue
-            out.append((a, b, c))
-            del ring[i]
-            break
-        else:
+        i = _ear(ring, w, False)
+        i = _ear(ring, w, True) if i is None else i
+        if i is None:
             raise NoEar(f"no ear in the polygon {ring}")
+        out.append((ring[i - 1], ring[i], ring[(i + 1) % len(ring)]))
+        del ring[i]
     if det_sign(*(w[p] for p in ring)) <= 0:
         raise NoEar(f"a degenerate last triangle {ring}")
     out.append(tuple(ring))
