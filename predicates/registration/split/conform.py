@@ -153,7 +153,7 @@ def _pieces(c, ctx):
     """[(local region, node cycle)] of cell c (:mod:`~.cell_regions`), its outward
     faces, and {local region: its fragment of the split, −1 when none}."""
     from predicates.registration.split.cell_regions import cell_regions
-    from predicates.registration.split.regions import _regions_3d
+    from predicates.registration.split.slits import face_regions
 
     sm, T, cells, d = ctx["sm"], ctx["T"], ctx["cells"], ctx["d"]
     corners = cells[c].tolist()
@@ -163,8 +163,7 @@ def _pieces(c, ctx):
     if d == 2:
         faces = [r for _, r in ring_pieces(corners, 0, sm.on_cut, T, out)]
     else:
-        faces = [r for _, r in _regions_3d(corners, {v: 0 for v in corners}, sm.on_cut, T,
-                                           polys, out)]
+        faces = face_regions(corners, sm.on_cut, T, polys, out)
     pieces = cell_regions(faces, polys, d)
     frag_of = {v: s + j for j in range(nf) for k, v in enumerate(corners)
                if sm.material[s + j, k] and not sm.on_cut[v]}
@@ -179,22 +178,22 @@ def _pieces(c, ctx):
 
 
 def _closed(tris) -> bool:
-    """Every edge of the oriented boundary once in each direction."""
+    """Every edge of the oriented boundary used as often in each direction (a slit, the
+    two sides of a crack inside one region, uses its edges twice each way); 2D: every
+    point entered as often as left."""
     d = len(tris[0])
-    edges = {}
+    count: dict = {}
     for t in tris:
-        for i in range(d):
+        for i in range(d if d == 3 else 1):
             e = (t[i], t[(i + 1) % d]) if d == 3 else (t[0], t[1])
-            edges[e] = edges.get(e, 0) + 1
-            if d == 2:
-                break
+            count[e] = count.get(e, 0) + 1
     if d == 2:
-        ends = {}
-        for a, b in edges:
-            ends[a] = ends.get(a, 0) + 1
-            ends[b] = ends.get(b, 0) - 1
-        return all(v == 1 for v in edges.values()) and not any(ends.values())
-    return all(v == 1 and edges.get((b, a)) == 1 for (a, b), v in edges.items())
+        bal: dict = {}
+        for (a, b), k in count.items():
+            bal[a] = bal.get(a, 0) + k
+            bal[b] = bal.get(b, 0) - k
+        return not any(bal.values())
+    return all(count.get((b, a), 0) == k for (a, b), k in count.items())
 
 
 def _cone(tris, apex: int, d: int):
