@@ -323,6 +323,10 @@ def _add_cut(sub) -> None:
                    help="write the cut surface: per cell and cutting cell the polygon of "
                         "the cut inside it (2D: segment), cell data cell, cut_cell, "
                         "input_cut_cell (.vtu)")
+    p.add_argument("--conforming", action="store_true",
+                   help="write each piece as tetrahedra (2D: triangles) conforming to the "
+                        "cut, cell data piece, cell_origin, fragment, side (docs/split.md); "
+                        "exit 1 if some cell cannot be filled")
     p.set_defaults(_run=_run_cut)
 
 
@@ -334,7 +338,7 @@ def _run_cut(args) -> int:
                    surface=args.surface, volumes=not args.no_volumes)
 
     def work(**options):
-        return cut_files(sim, args.cut, **outputs, **options)
+        return cut_files(sim, args.cut, **outputs, conforming=args.conforming, **options)
 
     checked = {k: v for k, v in outputs.items() if k != "volumes"}
     status, out = _register(args, work, lambda: check_cut_outputs(sim, args.cut, **checked))
@@ -342,17 +346,23 @@ def _run_cut(args) -> int:
         return status
     import numpy as np
 
-    res, sm, cs, fv = out
+    res, sm, cs, fv, cm = out
     s = sm.summary()
     vols = ""
     if fv is not None:
         vols = ("; piece volumes " + ", ".join(f"{v:.6g}" for v in fv.piece_volume)
                 + (f"; {len(fv.claim_report())} cells with material no fragment owns "
                    f"(unclaimed {np.nansum(fv.unclaimed):.3g})" if len(fv.claim_report()) else ""))
+    what = (f"{s['cells']} cells; {s['split_cells']} of the "
+            f"{len(res.intersected_cells())} cells the cut meets split into "
+            f"several fragments; {sm.n_pieces} pieces{vols}")
+    if cm is not None:
+        c = cm.summary()
+        what = (f"conforming: {c['simplices']} simplices, {c['points']} points "
+                f"({c['interior_points']} interior), {c['cut_faces']} cut faces, "
+                f"{cm.n_pieces} pieces")
     written = [(f, what) for f, what in (
-        (args.output, f"{s['cells']} cells; {s['split_cells']} of the "
-                      f"{len(res.intersected_cells())} cells the cut meets split into "
-                      f"several fragments; {sm.n_pieces} pieces{vols}"),
+        (args.output, what),
         (args.surface, f"{len(cs) if cs is not None else 0} cut polygons"),
         (args.png, "plot")) if f]
     return _summary(args, res, written, split=sm)

@@ -41,7 +41,7 @@ __all__ = ["DEGENERATE_MAX_N", "FILES", "ROTATIONS", "degenerate_cases", "demo",
 DEGENERATE_MAX_N = 10
 #: the files the demo writes
 FILES = ("demo_2d.png", "demo_degenerate_2d.png", "demo_3d.png", "demo_split_3d.png",
-         "demo_2d.vtu",
+         "demo_conforming_3d.png", "demo_2d.vtu",
          "demo_3d.vtu", "demo_2d_sim.vtu", "demo_2d_cut.vtu", "demo_3d_sim.vtu",
          "demo_3d_cut.vtu")
 
@@ -103,7 +103,7 @@ def demo(out: str | os.PathLike, *, n: int = 16, dtype: str = "float64",
     from tqdm import tqdm
 
     cases = degenerate_cases(min(int(n), DEGENERATE_MAX_N))
-    bar = tqdm(total=4 + sum(len(v) for _, v, _ in cases), disable=not progress,
+    bar = tqdm(total=5 + sum(len(v) for _, v, _ in cases), disable=not progress,
                desc="fperr demo", unit="step", leave=False, mininterval=0.5)
     with bar:
         _demo_2d(out, int(n), dtype, bar)
@@ -173,6 +173,11 @@ def _split_picture(out, bar):
     bar.write(f"== split: cube cut by a sphere -> {s_sphere.n_pieces} pieces; by the plane "
               f"z = 1/2 through grid vertices -> {s_plane.n_pieces} pieces ==\n",
               file=sys.stdout)
+    from predicates.registration.pictures.conforming import sphere_out_of_cube
+
+    cm = sphere_out_of_cube(os.path.join(out, "demo_conforming_3d.png"), n=8)
+    bar.write(f"== conforming: {len(cm.cells)} positive tetrahedra, "
+              f"{len(cm.cut_faces)} cut faces, {cm.n_pieces} pieces ==\n", file=sys.stdout)
     bar.update()
 
 

@@ -40,7 +40,7 @@ def check_cut_outputs(sim, cut, *, output=None, png=None, explode: float = 0.0,
 
 
 def cut_files(sim, cut, *, output=None, png=None, explode: float = 0.0, surface=None,
-              volumes: bool = True, **options):
+              volumes: bool = True, conforming: bool = False, **options):
     """``fperr cut``: register two mesh files, split the simulation mesh, write the split
     mesh (``output``: .vtu, with the fragments' volumes and moments as cell data unless
     ``volumes`` is False, docs/split.md), the cut surface (``surface``: .vtu, the polygons of the
@@ -50,8 +50,12 @@ def cut_files(sim, cut, *, output=None, png=None, explode: float = 0.0, surface=
     writes nothing. ``sim``: a file or the pieces of one mesh; ``options``: as in
     :func:`~predicates.registration.intersect_files` (dtype, progress, regions,
     refine_cut, strict, tolerances, partitions/scheduler/timeout), so that ``fperr cut``
-    registers exactly as ``fperr intersect`` does. Returns (IntersectionResult,
-    SplitMesh, CutSurface or None, FragmentVolumes or None)."""
+    registers exactly as ``fperr intersect`` does. ``conforming``: write (and draw) the
+    conforming tetrahedra of the pieces instead of the split (docs/split.md, "The
+    conforming tetrahedralization"; a refusal raises
+    :class:`~predicates.registration.split.conform.NotConforming`, nothing written).
+    Returns (IntersectionResult, SplitMesh, CutSurface or None, FragmentVolumes or None,
+    ConformingMesh or None)."""
     from predicates.registration.io.write import write_atomic, write_meshio
     from predicates.registration.pipeline import intersect_files
     from predicates.registration.split.surface import cut_surface
@@ -60,15 +64,22 @@ def cut_files(sim, cut, *, output=None, png=None, explode: float = 0.0, surface=
     check_cut_outputs(sim, cut, output=output, png=png, explode=explode, surface=surface)
     res = intersect_files(sim, cut, **options)
     sm = res.split()
+    cm = sm.tetrahedralize() if conforming else None
     cs = cut_surface(res) if (output or surface or png) else None
-    fv = fragment_volumes(res, sm, cs) if output is not None and volumes else None
+    fv = (fragment_volumes(res, sm, cs)
+          if output is not None and volumes and cm is None else None)
     if output is not None:
-        write_meshio(output, sm.to_meshio(explode=explode, volumes=fv))
+        write_meshio(output, cm.to_meshio(explode=explode) if cm is not None
+                     else sm.to_meshio(explode=explode, volumes=fv))
     if surface is not None:
         write_meshio(surface, cs.to_meshio(plane=res.plane or 0.0))
-    if png is not None:
+    if png is not None and cm is not None:
+        from predicates.registration.pictures.conforming import plot_conforming
+
+        write_atomic(png, lambda tmp: plot_conforming(cm, tmp, explode=explode or 0.3))
+    elif png is not None:
         from predicates.registration.split.plot import plot_split
 
         write_atomic(png, lambda tmp: plot_split(sm, tmp, explode=explode or 0.3,
                                                  surface=cs))
-    return res, sm, cs, fv
+    return res, sm, cs, fv, cm

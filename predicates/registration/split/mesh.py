@@ -72,6 +72,17 @@ class SplitMesh:
     hit_index: np.ndarray
     on_cut: np.ndarray
     severed: np.ndarray
+    source: object = None  # the IntersectionResult split (for tetrahedralize)
+
+    def tetrahedralize(self):
+        """Every piece as simplices conforming to the cut (2D: triangles): a
+        :class:`~predicates.registration.split.conform.ConformingMesh` (docs/split.md,
+        "The conforming tetrahedralization")."""
+        from predicates.registration.split.conform import conforming_mesh
+
+        return conforming_mesh(self.source, self)
+
+    triangulate = tetrahedralize
 
     def hits_of(self, cell: int) -> np.ndarray:
         """Indices (into ``hit_points``) of the intersection points on new cell ``cell``."""
@@ -216,4 +227,4 @@ def split_mesh(res, near_only: bool = True) -> SplitMesh:
                      node_origin=top.node_origin, material=top.material, piece=top.piece,
                      n_pieces=top.n_pieces, hit_points=hp, hit_kind=hk, hit_sim=hs,
                      hit_weights=hw, hit_offsets=offsets, hit_index=index,
-                     on_cut=top.on_cut, severed=top.severed)
+                     on_cut=top.on_cut, severed=top.severed, source=res)

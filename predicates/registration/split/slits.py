@@ -1,0 +1,81 @@
+"""The regions of a cell's faces with crack fronts (docs/split.md, "The conforming
+tetrahedralization"): part 1's face regions (:mod:`~predicates.registration.split.
+regions`) split a face by chord chains running from its boundary to its boundary; where
+the cut ends inside the face (a crack front crossing it) a chain ends at a point inside
+the face. Such a dangling chain is kept as a *slit* of the region it starts in: the
+region's cycle runs along the chain to its end and back (… b, p₁, …, p_k, …, p₁, b …),
+so the cut polygons on the crack meet the face along edges of the face's triangles while
+the material around the front stays one region."""
+from __future__ import annotations
+
+from predicates.registration.split.regions import Unresolved, _path, _split
+
+__all__ = ["face_regions"]
+
+
+def _chains(cycle, chords):
+    """Full chains (boundary to boundary) and dangling ones (boundary to inside)."""
+    bset = set(cycle)
+    nxt = {a: b for a, b in zip(cycle, cycle[1:] + cycle[:1])}
+    adj: dict = {}
+    for a, b in chords:
+        if nxt.get(a) == b or nxt.get(b) == a:
+            continue
+        adj.setdefault(a, set()).add(b)
+        adj.setdefault(b, set()).add(a)
+    used, full, dangling = set(), [], []
+    for p in cycle:
+        for nb in sorted(adj.get(p, ()), key=repr):
+            if frozenset((p, nb)) in used:
+                continue
+            used.add(frozenset((p, nb)))
+            line, cur = [p], nb
+            while cur not in bset:
+                line.append(cur)
+                rest = [x for x in adj[cur] if frozenset((cur, x)) not in used]
+                if len(rest) > 1:
+                    raise Unresolved("a chord chain branches inside a face")
+                if not rest:
+                    break
+                used.add(frozenset((cur, rest[0])))
+                cur = rest[0]
+            else:
+                full.append(line + [cur])
+                continue
+            dangling.append(line)
+    if sum(len(v) for v in adj.values()) != 2 * len(used):
+        raise Unresolved("a closed chord chain inside a face")
+    return full, dangling
+
+
+def _insert(regions, line):
+    b = line[0]
+    holders = [r for r in regions if b in r]
+    if len(holders) != 1 or holders[0].count(b) != 1:
+        raise Unresolved("a crack front chain from a point shared by several regions")
+    r = holders[0]
+    i = r.index(b)
+    r[i + 1:i + 1] = line[1:] + line[-2::-1]
+
+
+def face_regions(corners, on_cut, T, polys, faces) -> list:
+    """The node cycles of the regions of every face (outward), slits included."""
+    out = []
+    for face in faces:
+        fverts = frozenset(corners[k] for k in face)
+        cycle = []
+        for i, k in enumerate(face):
+            cycle += _path(corners[k], corners[face[(i + 1) % 3]], on_cut, T)
+        chords = []
+        for P in polys:
+            for a, b in zip(P, P[1:] + P[:1]):
+                pa = T.prim[a[1]] if a[0] == "h" else {a[1]}
+                pb = T.prim[b[1]] if b[0] == "h" else {b[1]}
+                if pa | pb <= fverts:
+                    chords.append((a, b))
+        full, dangling = _chains(cycle, chords)
+        regions = _split(cycle, full)
+        for line in dangling:
+            _insert(regions, line)
+        out += regions
+    return out

@@ -1,0 +1,154 @@
+"""The conforming tetrahedralization (triangulation) of the split
+(predicates.registration.split.conform, docs/split.md) against exact ground truth: every
+simplex positive in exact arithmetic on its stored coordinates, faces shared by two
+simplices of one piece, cut faces by one simplex on each side with the same nodes, closed
+piece boundaries, and piece volumes equal to the exact polyhedral volumes."""
+from __future__ import annotations
+
+from fractions import Fraction
+
+import numpy as np
+import pytest
+
+import predicates
+from conform_check import (below_surface_volume, boundary_locator, closed_surface_volume,
+                           exact_mesh_volume, incidence, orientation_signs,
+                           piece_boundaries, polygon_area)
+from predicates.portable import cos_sin, rotate, rotation
+from predicates.registration.examples import (circle_polygon, cube_grid, grid_plane,
+                                              icosphere, square_grid)
+from predicates.registration.split.surface import cut_surface
+
+
+def tiny_rotation(ulps: int = 2):
+    """The rotation by ``ulps`` ulp of 1 radians about (1, 2, 0)/√5 (IEEE operations)."""
+    k = np.array([1.0, 2.0, 0.0]) / np.sqrt(5.0)
+    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    (c,), (s,) = cos_sin(np.array([ulps * np.finfo(np.float64).eps]))
+    return np.eye(3) + s * K + (1 - c) * rotate(K, K.T)
+
+
+def _about_centre(P, R):
+    return rotate(P - 0.5, R) + 0.5
+
+
+def _sphere():
+    P, T = icosphere(2)
+    return _about_centre(P, rotation(3, 3)), T
+
+
+def _vertex_at(P, x) -> int:
+    return int(np.flatnonzero(np.all(P == np.asarray(x), axis=1))[0])
+
+
+def _piece_of_vertex(cm, v) -> int:
+    return int(cm.piece[np.flatnonzero((cm.cells == v).any(axis=1))[0]])
+
+
+def check(res, cm, want: dict, exact_vs=None):
+    """All the invariants; ``want``: {piece: exact volume}."""
+    cs = cut_surface(res)
+    sign = orientation_signs(cm.points, cm.cells)
+    assert (sign <= 0).sum() == 0, f"{(sign == 0).sum()} zero, {(sign < 0).sum()} negative"
+    loc = boundary_locator(res, cs)
+    inc = incidence(cm, lambda p: loc(cm, p))
+    assert inc["bad_interior"] == inc["cut_unpaired"] == inc["over"] == inc["stray"] == 0, inc
+    assert np.all(cm.cut_sides >= 0)
+    pb = piece_boundaries(cm)
+    assert pb == {"open": 0, "nonmanifold": 0}, pb
+    vol = cm.piece_volumes()
+    for p, v in want.items():
+        assert abs(vol[p] - float(v)) <= 1e-12 * float(v), (p, vol[p], float(v))
+    return inc
+
+
+CASES3 = {
+    "plane": lambda n: grid_plane(n),
+    "plane_2ulp": lambda n: (_about_centre(grid_plane(n)[0], tiny_rotation()),
+                             grid_plane(n)[1]),
+}
+
+
+@pytest.mark.parametrize("n", [8, 16])
+@pytest.mark.parametrize("name", sorted(CASES3))
+def test_kuhn_grid_cut_by_a_plane(name, n):
+    P, C = cube_grid(n)
+    Q, K = CASES3[name](n)
+    res = predicates.intersect(P, C, Q, K)
+    cm = res.split().tetrahedralize()
+    assert cm.n_pieces == 2
+    below = below_surface_volume(Q, K)
+    bottom = _piece_of_vertex(cm, 0)
+    inc = check(res, cm, {bottom: below, 1 - bottom: 1 - below})
+    assert inc["cut_faces"] == 2 * n * n  # the plane's triangles, on grid faces
+    assert set(np.unique(cm.side).tolist()) <= {-1, 0, 1}
+
+
+def test_kuhn_grid_cut_by_a_sphere():
+    P, C = cube_grid(8)
+    Q, K = _sphere()
+    res = predicates.intersect(P, C, Q, K)
+    sm = res.split()
+    cm = sm.tetrahedralize()
+    inside = closed_surface_volume(Q, K)
+    centre = _piece_of_vertex(cm, _vertex_at(P, (0.5, 0.5, 0.5)))
+    check(res, cm, {centre: inside, 1 - centre: 1 - inside})
+    # the cut faces tile the sphere: their area is the sphere's, and each lies on the
+    # cutting cell it is tagged with (its registered points' cutting primitives)
+    cs = cut_surface(res)
+    for f, t in zip(cm.cut_faces.tolist(), cm.cut_cell.tolist()):
+        tri = set(res.cut_cells[t].tolist())
+        for p in f:
+            if cm.point_kind[p] == 1:
+                assert set(cs.cut[cm.point_hit[p]][cs.cut[cm.point_hit[p]] >= 0].tolist()) <= tri
+    X = cm.points[cm.cut_faces]
+    area = 0.5 * np.sqrt((np.cross(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]) ** 2).sum(1)).sum()
+    full = 0.5 * np.sqrt((np.cross(Q[K[:, 1]] - Q[K[:, 0]], Q[K[:, 2]] - Q[K[:, 0]]) ** 2)
+                         .sum(1)).sum()
+    assert abs(area - full) <= 1e-12 * full
+    # the simplices of each new cell of the split fill its fragment: material side
+    assert np.array_equal(np.unique(cm.fragment), np.arange(len(sm.cells)))
+
+
+def test_gmsh_box_cut_by_a_sphere():
+    pytest.importorskip("gmsh")
+    from cut_cases import gmsh_box_in_box
+
+    P, C, _, _ = gmsh_box_in_box(0.1)
+    Q, K = _sphere()
+    res = predicates.intersect(P, C, Q, K)
+    cm = res.split().tetrahedralize()
+    assert cm.n_pieces == 2
+    inside, total = closed_surface_volume(Q, K), exact_mesh_volume(P, C)
+    centre = int(np.argmin(np.abs(cm.piece_volumes() - float(inside))))
+    check(res, cm, {centre: inside, 1 - centre: total - inside})
+
+
+def test_a_crack_inside_the_cube_stays_one_piece():
+    """The offset plane ends inside the cube: one piece, its cut faces still paired."""
+    P, C = cube_grid(8)
+    res = predicates.intersect(P, C, *grid_plane(8, offset=True))
+    cm = res.split().tetrahedralize()
+    assert cm.n_pieces == 1
+    check(res, cm, {0: Fraction(1)})
+
+
+def test_square_grid_cut_by_a_circle():
+    P, C = square_grid(8)
+    Q, E = circle_polygon(29, radius=0.33)
+    Q = _about_centre(Q, rotation(2, 5))
+    res = predicates.intersect(P, C, Q, E)
+    cm = res.split().triangulate()
+    assert cm.n_pieces == 2
+    inside = polygon_area(Q)
+    centre = _piece_of_vertex(cm, _vertex_at(P, (0.5, 0.5)))
+    check(res, cm, {centre: inside, 1 - centre: 1 - inside})
+    assert len(cm.cut_faces) >= len(E)
+
+
+def test_uncut_mesh_comes_back_unchanged():
+    P, C = cube_grid(3)
+    res = predicates.intersect(P, C, *icosphere(1, center=(5.0, 5.0, 5.0)))
+    cm = res.split().tetrahedralize()
+    assert len(cm.cells) == len(C) and np.array_equal(cm.points, P)
+    assert np.all(orientation_signs(cm.points, cm.cells) > 0)
