@@ -218,10 +218,14 @@ def ring_pieces(corners, frag: int, on_cut, T, ring):
 
 def positive(cells: np.ndarray, X: np.ndarray) -> np.ndarray:
     """(C,) int8: the exact orientation sign of every simplex on its float coordinates
-    (``predicates.classic.orient3d`` / ``orient2d``: filtered, exact fallback)."""
-    from predicates.classic import orient2d, orient3d
+    (``predicates.classic``'s filtered orient3d / orient2d: exact on every lane).
+    Positive means ((B − A) × (C − A))·(D − A) > 0 (2D: (B − A) × (C − A) > 0); Shewchuk's
+    orient3d has the opposite sign, orient2d the same."""
+    from predicates.classic import FILTERED, sign
 
     if len(cells) == 0:
         return np.zeros(0, dtype=np.int8)
     P = [X[cells[:, k]] for k in range(cells.shape[1])]
-    return (orient3d(*P) if X.shape[1] == 3 else orient2d(*P)).astype(np.int8)
+    if X.shape[1] == 3:
+        return (-sign(FILTERED["orient3d"], *P)).astype(np.int8)
+    return sign(FILTERED["orient2d"], *P).astype(np.int8)
