@@ -77,6 +77,8 @@ from predicates.registration.plan.resolution import (
     Resolution, consistent_scale, estimate_cell_pairs, memory_error, near_cells,
     shortest_edge, t_plus)
 from predicates.registration.result.intersection import IntersectionResult
+from predicates.registration.spatial.boxes import boxes_of
+from predicates.registration.spatial.boxgrid import colmax, colmin
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike, DTypeLike
@@ -224,7 +226,7 @@ def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, 
     sim_box = work.boxes(sim.points, sim.cells)  # once: the check, refine and L use it
     for name, mesh, given, box in (("simulation", sim, sp, sim_box),
                                    ("cutting", cut, cp, None)):
-        if len(mesh.cells) and _one_point(mesh):
+        if len(mesh.cells) and _one_point(mesh, box):
             raise ValueError(_collapse_reason(name, given, mesh, dtype))
     clock("plan_boxes")
     refinement = None
@@ -258,10 +260,12 @@ class _Stages:
         self.timings[stage], self.t = t - self.t, t
 
 
-def _one_point(mesh) -> bool:
-    """Every vertex of the mesh's cells is the same point (in the working dtype)."""
-    P = mesh.points[np.unique(mesh.cells)]
-    return bool((P == P[0]).all())
+def _one_point(mesh, box=None) -> bool:
+    """Every vertex of the mesh's cells is the same point (in the working dtype): the
+    cells' boxes (``box``, or computed) span one point — their hull is the hull of the
+    vertices the cells use; exact (min and max), no sort of the cells' ids."""
+    lo, hi = boxes_of(mesh.points, mesh.cells) if box is None else box
+    return bool(np.array_equal(colmin(lo), colmax(hi)))
 
 
 def _collapse_reason(name: str, given, mesh, dtype) -> str:

@@ -20,7 +20,8 @@ __all__ = ["Arrays", "MeshInput", "from_meshio", "max_box_edge", "mesh_arrays",
 
 @dataclass
 class MeshInput:
-    """A validated mesh: points (N, dim) in the working dtype, cells (M, k) int64."""
+    """A validated mesh: points (N, dim) in the working dtype, cells (M, k) of an
+    integer dtype (the input's: never copied to int64)."""
 
     points: np.ndarray
     cells: np.ndarray
@@ -66,6 +67,9 @@ def _points(arr, used, role, dtype):
 
 
 def _cells(cells, role, width, n_points, what, blocks: Blocks = SERIAL):
+    """The cells as given when they are an integer array (no copy, the dtype kept; int64
+    for an empty or non-array input), checked block by block: negative, out-of-range
+    and repeated vertex ids are refused at their first cell, in that order."""
     name = f"{role} cells"
     try:
         arr = np.asarray(cells)
@@ -77,23 +81,21 @@ def _cells(cells, role, width, n_points, what, blocks: Blocks = SERIAL):
         raise TypeError(f"{name} must be integer vertex indices, got dtype {arr.dtype}")
     if arr.ndim != 2 or arr.shape[1] != width:
         raise ValueError(f"{name} must have shape (M, {width}) ({what}), got {arr.shape}")
-    if arr.dtype.kind == "u" and arr.size and arr.max() >= n_points:  # before int64 casts
-        i = int(np.argwhere(arr >= n_points)[0, 0])
-        raise ValueError(f"{name}: vertex index out of range in cell {i}: "
-                         f"{arr[i].tolist()} (the mesh has {n_points} points)")
-    out = np.empty(arr.shape, dtype=np.int64)
+    signed = arr.dtype.kind == "i"
+    # the bound in the cells' own type (a bound beyond it: no id can reach it)
+    top = n_points if n_points <= np.iinfo(arr.dtype).max else None
 
     def span(a: int, b: int) -> list:
         """First negative, out-of-range and repeating cell of the span (None: none)."""
         first = [None, None, None]
         for lo, hi in blocks.each(a, b):
-            blk = out[lo:hi]
-            blk[...] = arr[lo:hi]
-            cols = [np.ascontiguousarray(blk[:, c]) for c in range(width)]
+            cols = [np.ascontiguousarray(arr[lo:hi, c]) for c in range(width)]
             bad = [np.zeros(hi - lo, dtype=bool) for _ in range(3)]
             for c in range(width):  # column by column: no reductions along short rows
-                bad[0] |= cols[c] < 0
-                bad[1] |= cols[c] >= n_points
+                if signed:
+                    bad[0] |= cols[c] < 0
+                if top is not None:
+                    bad[1] |= cols[c] >= top
                 for d in range(c + 1, width):  # column pairs: ~6x faster than a row sort
                     bad[2] |= cols[c] == cols[d]
             for t in range(3):
@@ -111,7 +113,7 @@ def _cells(cells, role, width, n_points, what, blocks: Blocks = SERIAL):
         if hits:
             i = min(hits)
             raise ValueError(msg.format(i=i, row=arr[i].tolist()))
-    return out
+    return arr
 
 
 def validate_mesh(points, cells, role, dim, dtype, allow_empty, blocks: Blocks = SERIAL):
@@ -127,7 +129,8 @@ def validate_mesh(points, cells, role, dim, dtype, allow_empty, blocks: Blocks =
     if len(c) == 0 and not allow_empty:
         raise ValueError(f"the {role} mesh is empty (0 cells)")
     used = np.zeros(len(arr), dtype=bool)
-    used[c.ravel()] = True
+    for col in range(c.shape[1]):  # column by column: no copy of the cells
+        used[c[:, col]] = True
     pts, rounded = _points(arr, used, role, dtype)
     return MeshInput(pts, c, role, rounded)
 

@@ -256,7 +256,10 @@ def shortest_edge(points: np.ndarray, cells: np.ndarray, mask,
     if not mask.any():
         return None
     C = np.ascontiguousarray(cells[mask].T)
-    top = float(np.abs(points[np.unique(C)]).max()) if C.size else 0.0
+    used = np.zeros(len(points), dtype=bool)  # the vertices of the selected cells
+    for row in C:  # (a mask, not np.unique: its hash or sort costs seconds at 10^7)
+        used[row] = True
+    top = float(np.abs(points[used]).max()) if C.size else 0.0
     shift = int(np.frexp(top)[1]) if top > 0 and np.isfinite(top) else 0
     cols = np.ldexp(np.ascontiguousarray(points.T, dtype=np.float64), -shift)
     k, dim = cells.shape[1], points.shape[1]
