@@ -69,6 +69,7 @@ from fperr.warnings import ResolutionError, ResolutionWarning
 from predicates.catalogue import kinds as catalogue_kinds
 from predicates.registration.plan import threads as plan_threads
 from predicates.registration.plan import resolution
+from predicates.registration.plan.cellboxes import CellBoxes
 from predicates.registration.plan.inputs import (
     mesh_arrays, scale_points, validate_options, validate_pair)
 from predicates.registration.levels.loop import Registration
@@ -223,15 +224,18 @@ def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, 
     clock = _Stages(timings)
     dim, sim, cut = validate_pair(sp, sc, cp, cc, dtype, work.blocks)
     clock("plan_validate")
-    sim_box = work.boxes(sim.points, sim.cells)  # once: the check, refine and L use it
-    for name, mesh, given, box in (("simulation", sim, sp, sim_box),
-                                   ("cutting", cut, cp, None)):
-        if len(mesh.cells) and _one_point(mesh, box):
+    # the simulation boxes are never stored: computed block by block where needed
+    # (reductions, flags), those of the cells that can meet gathered once (cellboxes.py)
+    sim_box = CellBoxes(sim.points, sim.cells, work.blocks)
+    S = sim_box.summary()
+    for name, mesh, given, hull in (("simulation", sim, sp, (S.lo_min, S.hi_max)),
+                                    ("cutting", cut, cp, None)):
+        if len(mesh.cells) and _one_point(mesh, hull):
             raise ValueError(_collapse_reason(name, given, mesh, dtype))
     clock("plan_boxes")
     refinement = None
     if refine_cut and len(cut.cells):
-        refinement = refine(cut.points, cut.cells, *sim_box)
+        refinement = refine(cut.points, cut.cells, sim_box.lo, sim_box.hi)
         cut.points, cut.cells = refinement.points, refinement.cells
         clock("refine")
     cut_box = work.boxes(cut.points, cut.cells)
@@ -260,12 +264,14 @@ class _Stages:
         self.timings[stage], self.t = t - self.t, t
 
 
-def _one_point(mesh, box=None) -> bool:
+def _one_point(mesh, hull=None) -> bool:
     """Every vertex of the mesh's cells is the same point (in the working dtype): the
-    cells' boxes (``box``, or computed) span one point — their hull is the hull of the
-    vertices the cells use; exact (min and max), no sort of the cells' ids."""
-    lo, hi = boxes_of(mesh.points, mesh.cells) if box is None else box
-    return bool(np.array_equal(colmin(lo), colmax(hi)))
+    hull of the cells' boxes (``hull`` = (lo_min, hi_max), or computed) is one point —
+    it is the hull of the vertices the cells use; exact, no sort of the cells' ids."""
+    if hull is None:
+        lo, hi = boxes_of(mesh.points, mesh.cells)
+        hull = colmin(lo), colmax(hi)
+    return bool(np.array_equal(*hull))
 
 
 def _collapse_reason(name: str, given, mesh, dtype) -> str:

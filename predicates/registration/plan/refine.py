@@ -237,8 +237,8 @@ class _SimScale:
             if g0 >= mag * 2.0 ** -50 and np.isfinite(blo).all() and np.isfinite(bhi).all():
                 ids = points_near(self.lo, self.hi, (blo, bhi))
                 lo, hi = self.lo[ids], self.hi[ids]
-            else:
-                lo, hi = self.lo, self.hi
+            else:  # every cell (np.asarray: the plan's boxes may be computed on demand)
+                lo, hi = np.asarray(self.lo), np.asarray(self.hi)
             self._bin_set = lo, hi, box_extent(lo, hi), 0.5 * (lo + hi)
         return self._bin_set
 
