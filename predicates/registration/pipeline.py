@@ -235,7 +235,8 @@ def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, 
     clock("plan_boxes")
     refinement = None
     if refine_cut and len(cut.cells):
-        refinement = refine(cut.points, cut.cells, sim_box.lo, sim_box.hi)
+        refinement = refine(cut.points, cut.cells, sim_box.lo, sim_box.hi,
+                            sim_stats=S.scan_stats())
         cut.points, cut.cells = refinement.points, refinement.cells
         clock("refine")
     cut_box = work.boxes(cut.points, cut.cells)

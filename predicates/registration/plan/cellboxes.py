@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from predicates.registration.plan.refine_scan import stats_from
 from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.boxes import box_extent, boxes_of, fill_boxes
 from predicates.registration.spatial.exactsum import ExactSum
@@ -38,6 +39,8 @@ class BoxSummary:
     hi_max: np.ndarray
     ext_max: float
     sums: list
+    ext_min: float = np.inf
+    hist: np.ndarray | None = None  # biased exponents of the extents (None: not finite)
 
     def merge(self, other: "BoxSummary") -> "BoxSummary":
         if other.n == 0:
@@ -46,9 +49,20 @@ class BoxSummary:
             return other
         for a, b in zip(self.sums, other.sums):
             a.merge(b)
+        hist = None if self.hist is None or other.hist is None else self.hist + other.hist
         return BoxSummary(self.n + other.n, np.minimum(self.lo_min, other.lo_min),
                           np.maximum(self.hi_max, other.hi_max),
-                          max(self.ext_max, other.ext_max), self.sums)
+                          max(self.ext_max, other.ext_max), self.sums,
+                          min(self.ext_min, other.ext_min), hist)
+
+    def scan_stats(self):
+        """The refinement scan's statistics of these boxes
+        (:func:`~.refine_scan.stats_from`), or None when an extent is not finite (the
+        scan then reads the boxes and refuses them itself)."""
+        if self.hist is None or not np.isfinite(self.ext_max):
+            return None
+        mag = max(0.0, float(np.max(-self.lo_min)), float(np.max(self.hi_max)))
+        return stats_from(self.n, float(self.ext_min), float(self.ext_max), mag, self.hist)
 
     def mean_extent(self) -> float:
         """The larger per-axis mean extent, exactly rounded (as
@@ -63,9 +77,14 @@ def summarize(lo: np.ndarray, hi: np.ndarray) -> BoxSummary:
         return BoxSummary(0, np.full(d, np.inf), np.full(d, -np.inf), 0.0,
                           [ExactSum() for _ in range(d)])
     sums = [ExactSum().add(hi[:, ax] - lo[:, ax]) for ax in range(d)]
+    e = box_extent(lo, hi)
+    e += 0.0  # -0.0 to +0.0, as the refinement's scan counts exponents
+    e_min, e_max = float(e.min()), float(e.max())
+    hist = np.bincount(e.view(np.int64) >> 52, minlength=2048) \
+        if np.isfinite(e_max) and e_min >= 0 else None
     return BoxSummary(len(lo), np.array([lo[:, ax].min() for ax in range(d)]),
-                      np.array([hi[:, ax].max() for ax in range(d)]),
-                      float(box_extent(lo, hi).max()), sums)
+                      np.array([hi[:, ax].max() for ax in range(d)]), e_max, sums, e_min,
+                      hist)
 
 
 class CellBoxes:

@@ -15,7 +15,7 @@ from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.broadphase import boxes_of
 
 __all__ = ["Arrays", "MeshInput", "from_meshio", "max_box_edge", "mesh_arrays",
-           "scale_points", "validate_mesh", "validate_options", "validate_pair"]
+           "scale_points", "times_pow2", "validate_mesh", "validate_options", "validate_pair"]
 
 
 @dataclass
@@ -268,8 +268,8 @@ def max_box_edge(points: np.ndarray, cells: np.ndarray) -> float:
 def scale_points(points: np.ndarray, e: int, role: str) -> np.ndarray:
     """``points``·2^-e, refused unless exact (no overflow, no bit lost to underflow)."""
     with np.errstate(all="ignore"):
-        out = np.ldexp(points, -e)
-        back = np.ldexp(out, e)
+        out = times_pow2(points, -e)
+        back = times_pow2(out, e)
     limit = np.finfo(points.dtype).max / 16
     if not (np.isfinite(out).all() and np.all(np.abs(out) <= limit)):
         raise ValueError(f"the {role} coordinates are too large relative to the cells' size "
@@ -280,3 +280,13 @@ def scale_points(points: np.ndarray, e: int, role: str) -> np.ndarray:
                          f"unit-size cells): some are so small relative to the cells that "
                          f"they underflow {points.dtype.name}; round them to zero first")
     return out
+
+
+def times_pow2(x: np.ndarray, k: int) -> np.ndarray:
+    """``np.ldexp(x, k)`` (x·2^k correctly rounded, in x's dtype), as a multiplication
+    by the power of two when 2^k is a normal number of that dtype — the same values
+    (one correctly rounded operation either way), several times faster than ldexp."""
+    fi = np.finfo(x.dtype)
+    if fi.minexp < k < fi.maxexp:
+        return x * x.dtype.type(2.0 ** k)
+    return np.ldexp(x, k)

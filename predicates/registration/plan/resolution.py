@@ -29,6 +29,7 @@ import numpy as np
 from predicates.catalogue import kinds as catalogue_kinds
 from predicates.tolerances import tolerances as compute_tolerances
 from predicates.registration.plan.cellboxes import CellBoxes
+from predicates.registration.plan.inputs import times_pow2
 from predicates.registration.plan.lean import near_all
 from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.boxes import box_extent, boxes_of
@@ -297,7 +298,7 @@ def shortest_edge(points: np.ndarray, cells: np.ndarray, mask,
         used[row] = True
     top = float(np.abs(points[used]).max()) if C.size else 0.0
     shift = int(np.frexp(top)[1]) if top > 0 and np.isfinite(top) else 0
-    cols = np.ldexp(np.ascontiguousarray(points.T, dtype=np.float64), -shift)
+    cols = times_pow2(np.ascontiguousarray(points.T, dtype=np.float64), -shift)
     k, dim = cells.shape[1], points.shape[1]
 
     def span(a: int, b: int) -> float:

@@ -26,6 +26,8 @@ _BINS = 2048  # biased binary64 exponents
 _SPLIT = 134217729.0  # 2^27 + 1: Veltkamp's constant for a 26-bit high part
 _BIG = 2.0 ** 995  # from here x·_SPLIT could overflow: summed from the bits
 _FLUSH = 1 << 25  # values per binade the float accumulators hold exactly
+_SPREAD = 9  # binades a block may span for two plain float sums (:meth:`_narrow`)
+_TINY = 2.0 ** -1000  # the narrow path's values are normal, and so are their parts
 
 
 class ExactSum:
@@ -65,6 +67,8 @@ class ExactSum:
             self._bits(x[tiny])
             x = x[~tiny]
             bits = x.view(np.int64)
+        if self._narrow(x):
+            return
         if self.pending + len(x) > _FLUSH:
             self._flush()
         expo = bits >> 52
@@ -74,6 +78,29 @@ class ExactSum:
         self.acc[0] += np.bincount(expo, weights=hi, minlength=_BINS)
         self.acc[1] += np.bincount(expo, weights=lo, minlength=_BINS)
         self.pending += len(x)
+
+    def _narrow(self, x: np.ndarray) -> bool:
+        """Sum a block (≤ 2^16 finite normal values or zeros, below _BIG) whose
+        non-zero values span at most :data:`_SPREAD` + 1 binades with two plain float
+        sums, if so: every high part is then a multiple of 2^(e−25) (e: the least
+        exponent) and the sum of 2^16 of them below 2^(e+_SPREAD+18), every low part a
+        multiple of 2^(e−52) with a sum below 2^(e+_SPREAD−9) in magnitude — at most
+        53 significant bits, so every partial sum is exact whatever the summation
+        order, and the float sums are the exact ones. False: not summed."""
+        if len(x) == 0:
+            return True
+        pos = x[x > 0]
+        if len(pos) == 0:
+            return True
+        e_lo, e_hi = np.frexp(np.array([pos.min(), pos.max()]))[1]
+        if pos.min() < _TINY or e_hi - e_lo > _SPREAD:
+            return False
+        c = x * _SPLIT
+        hi = c - (c - x)
+        for v in (float(hi.sum()), float((x - hi).sum())):
+            num, den = v.as_integer_ratio()
+            self.units += num * ((1 << 1074) // den)
+        return True
 
     def _bits(self, x: np.ndarray) -> None:
         """Add finite values exactly, one by one (few: subnormals, huge values)."""
