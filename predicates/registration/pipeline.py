@@ -84,7 +84,8 @@ from predicates.registration.spatial.boxgrid import colmax, colmin
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike, DTypeLike
 
-__all__ = ["CHUNK", "MeshLike", "PLAN_STAGES", "intersect", "intersect_files"]
+__all__ = ["CHUNK", "MeshLike", "PLAN_STAGES", "PlanMemoryError", "intersect",
+           "intersect_files"]
 
 #: Pairs per predicate batch (bounds the gathered coordinates and temporaries).
 CHUNK = 1 << 17
@@ -152,9 +153,12 @@ def intersect(sim: MeshLike | ArrayLike, cut: MeshLike | ArrayLike,
 
         timeout = check_timeout(timeout, not serial, scheduler)
     # a partitioned run's plan is its serial part: per-cell work on a thread per worker
-    plan = _plan(args, dtype, tolerance_scale, progress, chunk, refine_cut, timings,
-                 sim_region, cut_region, tolerances,
-                 threads=1 if serial else plan_threads.threads_for(scheduler))
+    try:
+        plan = _plan(args, dtype, tolerance_scale, progress, chunk, refine_cut, timings,
+                     sim_region, cut_region, tolerances,
+                     threads=1 if serial else plan_threads.threads_for(scheduler))
+    except MemoryError as e:  # a refusal that says what was too large, not a bare one
+        raise PlanMemoryError(_too_large(args, timings, serial, e)) from e
     timings["setup"] = time.perf_counter() - t0
     timings["cpu_setup"] = time.process_time() - c0
     check = partial(_check, plan.report, strict, memory_limit, plan.dim)
@@ -177,6 +181,23 @@ def intersect(sim: MeshLike | ArrayLike, cut: MeshLike | ArrayLike,
         cut_cells=cut.cells, rounded_inputs=sim.rounded or cut.rounded, timings=timings,
         resolution=plan.report, refinement=plan.refinement, notes=plan.arrays.notes,
         plane=plan.arrays.plane)
+
+
+class PlanMemoryError(MemoryError):
+    """The plan (validation, boxes, L, refinement, report) ran out of memory: the
+    message names the stage, the mesh's size and what to do (docs/partitioned.md)."""
+
+
+def _too_large(args, timings: dict, serial: bool, err: MemoryError) -> str:
+    """The message of :class:`PlanMemoryError`: the stage reached, the meshes' bytes."""
+    stage = next((s for s in PLAN_STAGES if s not in timings), "plan_report")
+    size = sum(getattr(a, "nbytes", 0) for a in args if a is not None)
+    what = "" if serial else " (in a partitioned run the plan runs on the client)"
+    return (f"not enough memory for the plan ({stage.replace('plan_', '')}) of meshes "
+            f"of {size / 2**20:.0f} MiB{what}: besides the meshes themselves it needs "
+            f"about as many bytes again as the simulation mesh (W4: 1.04x, "
+            f"docs/partitioned.md); free memory or run on a machine with more "
+            f"({type(err).__name__}: {err or 'no detail'})")
 
 
 class Plan(NamedTuple):

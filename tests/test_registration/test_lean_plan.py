@@ -100,3 +100,19 @@ def test_refine_scan_from_the_summary_is_the_scan(longest):
     assert (got.n, got.ext_min, got.ext_max, got.fine, got.mag) == \
         (ref.n, ref.ext_min, ref.ext_max, ref.fine, ref.mag)
     assert np.array_equal(got.near, ref.near)
+
+
+def test_out_of_memory_in_the_plan_is_a_clear_refusal(monkeypatch):
+    import predicates
+    from predicates.registration import pipeline
+    from predicates.registration.examples import example
+
+    def boom(*a, **k):
+        raise MemoryError()
+
+    monkeypatch.setattr(pipeline, "consistent_scale", boom)
+    ex = example("sphere", 4, subdivisions=1)
+    with pytest.raises(pipeline.PlanMemoryError, match=r"plan \(scale\) of meshes of"):
+        predicates.intersect(*ex["sim"], *ex["cut"])
+    with pytest.raises(MemoryError):  # still a MemoryError for callers that catch it
+        predicates.intersect(*ex["sim"], *ex["cut"])
