@@ -145,20 +145,16 @@ def intersect(sim: MeshLike | ArrayLike, cut: MeshLike | ArrayLike,
     args = [sim, cut, cut_points, cut_cells]
     while len(args) > 2 and args[-1] is None:  # the two-mesh form, or a bad count
         args.pop()
-    t0, c0 = time.perf_counter(), time.process_time()
-    timings = {}
+    t0, c0, timings = time.perf_counter(), time.process_time(), {}
     serial = partitions is None and scheduler is None
     if timeout is not None:  # before any work (Dask is imported only for a partitioned run)
         from predicates.registration.partition.run import check_timeout
 
         timeout = check_timeout(timeout, not serial, scheduler)
-    # a partitioned run's plan is its serial part: per-cell work on a thread per worker
-    try:
-        plan = _plan(args, dtype, tolerance_scale, progress, chunk, refine_cut, timings,
-                     sim_region, cut_region, tolerances,
-                     threads=1 if serial else plan_threads.threads_for(scheduler))
-    except MemoryError as e:  # a refusal that says what was too large, not a bare one
-        raise PlanMemoryError(_too_large(args, timings, serial, e)) from e
+    plan = _plan(  # partitioned: threads per worker, the workers' cells on the workers
+        args, dtype, tolerance_scale, progress, chunk, refine_cut, timings, sim_region,
+        cut_region, tolerances, threads=1 if serial else plan_threads.threads_for(scheduler),
+        scheduler=None if serial else (scheduler or "threads"))
     timings["setup"] = time.perf_counter() - t0
     timings["cpu_setup"] = time.process_time() - c0
     check = partial(_check, plan.report, strict, memory_limit, plan.dim)
@@ -222,32 +218,42 @@ class Plan(NamedTuple):
 
 
 def _plan(args, dtype, tolerance_scale, progress, chunk, refine_cut, timings, sim_region,
-          cut_region, tolerances=None, threads: int = 1) -> Plan:
+          cut_region, tolerances=None, threads: int = 1, scheduler=None) -> Plan:
     """Validation, refinement, L over the cells that can meet, exact scaling,
     tolerances, reach and the resolution report: the global part of the run.
     ``threads`` > 1: the per-cell work in chunks on a thread pool, identical values
     (:mod:`~predicates.registration.plan.threads`)."""
-    if threads <= 1:
-        return _plan_with(plan_threads.Work(), args, dtype, tolerance_scale, progress, chunk,
-                          refine_cut, timings, sim_region, cut_region, tolerances)
-    with ThreadPoolExecutor(threads, thread_name_prefix="fperr-plan") as pool:
-        return _plan_with(plan_threads.Work(pool, threads), args, dtype, tolerance_scale,
-                          progress, chunk, refine_cut, timings, sim_region, cut_region,
-                          tolerances)
+    try:
+        if threads <= 1:
+            return _plan_with(plan_threads.Work(), args, dtype, tolerance_scale, progress,
+                              chunk, refine_cut, timings, sim_region, cut_region, tolerances,
+                              scheduler)
+        with ThreadPoolExecutor(threads, thread_name_prefix="fperr-plan") as pool:
+            return _plan_with(plan_threads.Work(pool, threads), args, dtype, tolerance_scale,
+                              progress, chunk, refine_cut, timings, sim_region, cut_region,
+                              tolerances, scheduler)
+    except MemoryError as e:  # a refusal that says what was too large, not a bare one
+        raise PlanMemoryError(_too_large(args, timings, scheduler is None, e)) from e
 
 
 def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, timings,
-               sim_region, cut_region, tolerances) -> Plan:
-    """:func:`_plan` with ``work`` (a :class:`~predicates.registration.plan.threads.Work`)."""
+               sim_region, cut_region, tolerances, scheduler=None) -> Plan:
+    """:func:`_plan` with ``work`` (a :class:`~predicates.registration.plan.threads.Work`);
+    ``scheduler``: a partitioned run's, whose workers run the per-cell passes when the
+    simulation cells are a dask array (:mod:`~predicates.registration.partition.remote`)."""
     dtype, ts = validate_options(dtype, tolerance_scale, progress, chunk)
     arrays = mesh_arrays(args, sim_region, cut_region)
     sp, sc, cp, cc = arrays
     clock = _Stages(timings)
-    dim, sim, cut = validate_pair(sp, sc, cp, cc, dtype, work.blocks)
+    if scheduler is not None and _remote(sc, scheduler):
+        dim, sim, cut, sim_box = _validate_remote(sp, sc, cp, cc, dtype, scheduler, work)
+        timings["plan_remote"] = sim_box.stats
+    else:
+        dim, sim, cut = validate_pair(sp, sc, cp, cc, dtype, work.blocks)
+        # the simulation boxes are never stored: computed block by block where needed
+        # (reductions, flags), those of the cells that can meet gathered once
+        sim_box = CellBoxes(sim.points, sim.cells, work.blocks)
     clock("plan_validate")
-    # the simulation boxes are never stored: computed block by block where needed
-    # (reductions, flags), those of the cells that can meet gathered once (cellboxes.py)
-    sim_box = CellBoxes(sim.points, sim.cells, work.blocks)
     S = sim_box.summary()
     for name, mesh, given, hull in (("simulation", sim, sp, (S.lo_min, S.hi_max)),
                                     ("cutting", cut, cp, None)):
@@ -271,8 +277,28 @@ def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, 
     report = _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts, work)
     clock("plan_report")
     ms, mc = sc_.masks
-    return Plan(dim, dtype, sim, cut, sc_, P_sim, P_cut, sim.cells[ms], cut.cells[mc],
-                tol_run, ts, catalogue_kinds(dim), report, refinement, arrays)
+    return Plan(dim, dtype, sim, cut, sc_, P_sim, P_cut, sim_box.cells_of(ms),
+                cut.cells[mc], tol_run, ts, catalogue_kinds(dim), report, refinement, arrays)
+
+
+def _remote(cells, scheduler) -> bool:
+    """Do the simulation cells stay on the workers (a dask array, a scheduler whose
+    workers can hold them)?"""
+    from predicates.registration.partition.remote import is_remote
+
+    return is_remote(cells, scheduler)
+
+
+def _validate_remote(sp, sc, cp, cc, dtype, scheduler, work):
+    """validate_pair with the simulation cells on the workers: (dim, sim, cut, the
+    simulation's RemoteCells)."""
+    from predicates.registration.partition.remote import validate_remote
+    from predicates.registration.plan.inputs import _array, validate_mesh
+
+    dim = _array(sp, "simulation").shape[1]
+    sim, remote = validate_remote(sp, sc, dim, dtype, scheduler, work.blocks)
+    cut = validate_mesh(cp, cc, "cutting", dim, dtype, allow_empty=True, blocks=work.blocks)
+    return dim, sim, cut, remote
 
 
 class _Stages:
@@ -300,7 +326,7 @@ def _collapse_reason(name: str, given, mesh, dtype) -> str:
     """Why every vertex of a mesh is one point, and what to do: the input's vertices are
     one point, or they differ by less than the working format's spacing at their
     magnitude (a large offset), or they underflow in float32."""
-    used = np.unique(mesh.cells)
+    used = np.unique(np.asarray(mesh.cells))
     G = np.asarray(given, dtype=np.float64)[used] if np.asarray(given).dtype.kind == "f" \
         else np.asarray(given)[used].astype(np.float64)
     mag = float(np.abs(G).max())
@@ -343,7 +369,8 @@ def _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts,
     if len(sc_.history) == 1:
         ms, mc = near_cells(sim_box, cut_box, sc_.pad, sc_.masks, work.flags)
     h_cut = work.submit(shortest_edge, cut.points, cut.cells, mc)
-    h_sim = shortest_edge(sim.points, sim.cells, ms, work.blocks)
+    run = sim_box.cells_of(ms)  # the same cells in the same order as sim.cells[ms]
+    h_sim = shortest_edge(sim.points, run, np.ones(len(run), dtype=bool), work.blocks)
     ref = None if refinement is None else (refinement.input_cells, len(refinement.cells),
                                            refinement.rounds)
     return Resolution(dim, dtype.name, t_plus(dim, sc_), h_sim, h_cut.result(), sc_.L_a,

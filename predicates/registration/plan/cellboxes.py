@@ -138,6 +138,17 @@ class CellBoxes:
         self._kept = (ids, lo, hi)
         return lo, hi
 
+    def cells_of(self, sel) -> np.ndarray:
+        """The cells (vertex ids) of the rows ``sel`` (a mask or ascending ids)."""
+        return self.cells[sel]
+
+    def flag_pass(self, origin, h, G, table):
+        """:func:`~.lean.flag_pass` over these cells (the first round of the cells that
+        can meet)."""
+        from predicates.registration.plan.lean import flag_pass
+
+        return flag_pass(self, origin, h, G, table)
+
     def summary(self) -> BoxSummary:
         """The boxes' :class:`BoxSummary`, one pass in blocks (spans on the pool)."""
         if self._summary is None:

@@ -15,7 +15,7 @@ from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.broadphase import boxes_of
 
 __all__ = ["Arrays", "MeshInput", "from_meshio", "max_box_edge", "mesh_arrays",
-           "scale_points", "times_pow2", "validate_mesh", "validate_options", "validate_pair"]
+           "scale_points", "times_pow2", "cell_error", "first_bad", "validate_mesh", "validate_options", "validate_pair"]
 
 
 @dataclass
@@ -81,12 +81,22 @@ def _cells(cells, role, width, n_points, what, blocks: Blocks = SERIAL):
         raise TypeError(f"{name} must be integer vertex indices, got dtype {arr.dtype}")
     if arr.ndim != 2 or arr.shape[1] != width:
         raise ValueError(f"{name} must have shape (M, {width}) ({what}), got {arr.shape}")
+    found = first_bad(arr, width, n_points, blocks)
+    for t in range(3):  # the checks in this order, each at its first cell
+        if found[t] is not None:
+            raise cell_error(role, t, found[t], arr[found[t]].tolist(), n_points)
+    return arr
+
+
+def first_bad(arr: np.ndarray, width: int, n_points: int,
+              blocks: Blocks = SERIAL) -> list:
+    """The first negative, out-of-range and repeating cell of the integer (M, width)
+    array ``arr`` (row indices, None where there is none), block by block."""
     signed = arr.dtype.kind == "i"
     # the bound in the cells' own type (a bound beyond it: no id can reach it)
     top = n_points if n_points <= np.iinfo(arr.dtype).max else None
 
     def span(a: int, b: int) -> list:
-        """First negative, out-of-range and repeating cell of the span (None: none)."""
         first = [None, None, None]
         for lo, hi in blocks.each(a, b):
             cols = [np.ascontiguousarray(arr[lo:hi, c]) for c in range(width)]
@@ -104,16 +114,17 @@ def _cells(cells, role, width, n_points, what, blocks: Blocks = SERIAL):
         return first
 
     found = blocks.map(span, len(arr)) if arr.size else []
-    msgs = (f"{name}: negative vertex index in cell {{i}}: {{row}}",
-            f"{name}: vertex index out of range in cell {{i}}: {{row}} (the mesh has "
-            f"{n_points} points)",
-            f"{name}: cell {{i}} repeats a vertex: {{row}}")
-    for t, msg in enumerate(msgs):  # the checks in this order, each at its first cell
-        hits = [f[t] for f in found if f[t] is not None]
-        if hits:
-            i = min(hits)
-            raise ValueError(msg.format(i=i, row=arr[i].tolist()))
-    return arr
+    return [min((f[t] for f in found if f[t] is not None), default=None) for t in range(3)]
+
+
+def cell_error(role: str, t: int, i: int, row: list, n_points: int) -> ValueError:
+    """The error of check ``t`` of :func:`first_bad` (0 negative, 1 out of range,
+    2 repeated vertex) at cell ``i`` (its vertex ids ``row``)."""
+    name = f"{role} cells"
+    return ValueError((f"{name}: negative vertex index in cell {i}: {row}",
+                       f"{name}: vertex index out of range in cell {i}: {row} (the mesh "
+                       f"has {n_points} points)",
+                       f"{name}: cell {i} repeats a vertex: {row}")[t])
 
 
 def validate_mesh(points, cells, role, dim, dtype, allow_empty, blocks: Blocks = SERIAL):

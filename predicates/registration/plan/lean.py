@@ -10,8 +10,8 @@ an enlarged cutting box (a summed-area table), and a cutting cell when its range
 cell covered by a flagged simulation cell. Here the hull and the mean extent come from
 the boxes' summary (exact reductions: the same numbers), and one pass per cell size
 computes, block by block, the cells' ranges, their covered count (the budget test), the
-simulation flags against the cutting occupancy, the flagged cells' coverage (a
-difference array: integer sums, the same counts) and their largest box edge — the
+simulation flags against the cutting occupancy, the flagged cells' ranges (whose
+coverage has the same integer counts) and their largest box edge — the
 flags of the cell size the budget test keeps are the final ones. A grid too sparse for
 the summed-area tables falls back to ``near_flags`` on the materialised boxes.
 """
@@ -25,14 +25,16 @@ from predicates.registration.spatial.boxgrid import (
 from predicates.registration.spatial.broadphase import _dense, near_flags
 from predicates.registration.spatial.gridsums import _corners, any_in, occupancy
 
-__all__ = ["near_all"]
+__all__ = ["flag_pass", "near_all"]
 
 
 def near_all(boxes, lo_b: np.ndarray, hi_b: np.ndarray, pad: float, flags=near_flags):
     """(near_a, near_b, ext_a): ``near_flags(all boxes of boxes, lo_b, hi_b, pad)`` and
     the largest box edge of the flagged cells (not rounded; 0.0 if none). ``boxes``: a
-    :class:`~.cellboxes.CellBoxes`; ``flags``: near_flags or an identical one (the
-    fallback on a sparse grid)."""
+    :class:`~.cellboxes.CellBoxes` or anything with its ``summary``, ``rows``, ``d``
+    and ``flag_pass`` (:func:`flag_pass` over its cells: the plan's passes on the
+    workers' cells, :mod:`predicates.registration.partition.remote`); ``flags``:
+    near_flags or an identical one (the fallback on a sparse grid)."""
     na, nb = len(boxes), len(lo_b)
     lo_b, hi_b = np.asarray(lo_b, dtype=np.float64), np.asarray(hi_b, dtype=np.float64)
     if na == 0 or nb == 0:
@@ -55,7 +57,8 @@ def near_all(boxes, lo_b: np.ndarray, hi_b: np.ndarray, pad: float, flags=near_f
         G = (np.floor((top - origin) / h).astype(np.int64) + 1).clip(1, (1 << BITS) + 1)
         ib0, ib1 = cell_index(lo_bx, origin, h, G), cell_index(hi_bx, origin, h, G)
         dense = _dense(G + 1, na + nb)
-        covered, got = _pass(boxes, origin, h, G, ib0, ib1, dense)
+        table = _table(occupancy(ib0, ib1, G)) if dense else None
+        covered, got = boxes.flag_pass(origin, h, G, table)
         if covered + ncells(ib0, ib1).sum() <= budget or np.all(G == 1):
             break
         h *= 2
@@ -64,47 +67,42 @@ def near_all(boxes, lo_b: np.ndarray, hi_b: np.ndarray, pad: float, flags=near_f
         near_a, near_b = flags(lo, hi, lo_b, hi_b, pad)
         ext = float(box_extent(lo[near_a], hi[near_a]).max()) if near_a.any() else 0.0
         return near_a, near_b, ext
-    near_a, cover, ext = got
-    cover = cover.reshape(tuple((G + 1)[::-1]))
-    for ax in range(cover.ndim):
-        np.cumsum(cover, axis=ax, out=cover)
-    return near_a, any_in(cover > 0, ib0, ib1, G), ext
+    near_a, i0f, i1f, ext = got
+    # the flagged cells' coverage: the same integer counts as near_flags's occupancy
+    return near_a, any_in(occupancy(i0f, i1f, G), ib0, ib1, G), ext
 
 
-def _pass(boxes, origin, h, G, ib0, ib1, dense: bool):
+def flag_pass(boxes, origin, h, G, table):
     """One pass over the cells' blocks at cell size h: (cells covered, (flags, the
-    flagged cells' coverage difference array, their largest box edge) or None when the
-    grid is sparse — then only the count)."""
-    S = _table(occupancy(ib0, ib1, G)) if dense else None
-    size = int(np.prod(G + 1)) if dense else 0
-    flip = len(G) % 2
-    near = np.zeros(len(boxes), dtype=bool) if dense else None
+    flagged cells' cell ranges i0, i1, their largest box edge)); the second item is
+    None when ``table`` (the cutting occupancy's summed-area table) is None — a sparse
+    grid: only the count. ``boxes``: a :class:`~.cellboxes.CellBoxes`."""
+    d = len(G)
+    near = np.zeros(len(boxes), dtype=bool) if table is not None else None
 
     def span(a: int, b: int):
-        count, ext = 0, 0.0
-        diff = np.zeros(size, dtype=np.int64) if dense else None
+        count, ext, r0, r1 = 0, 0.0, [], []
         for s, t in boxes.blocks.each(a, b):
             lo, hi = boxes.block(s, t)
             i0, i1 = cell_index(lo, origin, h, G), cell_index(hi, origin, h, G)
             count += int(ncells(i0, i1).sum())
-            if not dense:
+            if table is None:
                 continue
-            f = _look(S, i0, i1, G)
+            f = _look(table, i0, i1, G)
             near[s:t] = f
             if f.any():
-                for key, sign in _corners(i0[f], i1[f], G):
-                    np.add.at(diff, key, -sign if flip else sign)
+                r0.append(i0[f])
+                r1.append(i1[f])
                 ext = max(ext, float(box_extent(lo[f], hi[f]).max()))
-        return count, diff, ext
+        return count, r0, r1, ext
 
     parts = boxes.blocks.map(span, len(boxes))
     count = sum(p[0] for p in parts)
-    if not dense:
+    if table is None:
         return count, None
-    diff = parts[0][1]
-    for p in parts[1:]:
-        diff += p[1]
-    return count, (near, diff, max(p[2] for p in parts))
+    r0 = [x for p in parts for x in p[1]] or [np.zeros((0, d), dtype=np.int32)]
+    r1 = [x for p in parts for x in p[2]] or [np.zeros((0, d), dtype=np.int32)]
+    return count, (near, np.concatenate(r0), np.concatenate(r1), max(p[3] for p in parts))
 
 
 def _table(occ: np.ndarray) -> np.ndarray:

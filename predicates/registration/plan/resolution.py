@@ -28,7 +28,6 @@ import numpy as np
 
 from predicates.catalogue import kinds as catalogue_kinds
 from predicates.tolerances import tolerances as compute_tolerances
-from predicates.registration.plan.cellboxes import CellBoxes
 from predicates.registration.plan.inputs import times_pow2
 from predicates.registration.plan.lean import near_all
 from predicates.registration.spatial.blocks import SERIAL, Blocks
@@ -124,7 +123,7 @@ def _near(sim_box, cut_box, pad, masks, flags):
     (not rounded; 0.0 if none)."""
     ms, mc = masks
     out_s, out_c = np.zeros_like(ms), np.zeros_like(mc)
-    lean = isinstance(sim_box, CellBoxes)
+    lean = hasattr(sim_box, "flag_pass")  # a CellBoxes (or its remote form)
     if ms.all() and mc.all() and len(ms) and len(mc):  # round 1: no copies of the boxes
         if lean:
             return near_all(sim_box, *cut_box, pad, flags)
@@ -165,7 +164,7 @@ def consistent_scale(dim: int, sim_box, cut_box, dtype, max_rounds: int = MAX_RO
     the pad no longer shrinks. ``sim_box``: (lo, hi) per cell, or a
     :class:`~.cellboxes.CellBoxes` (boxes computed block by block; the same values);
     ``cut_box``: (lo, hi); ``flags``: as in :func:`near_cells`."""
-    lean = isinstance(sim_box, CellBoxes)
+    lean = hasattr(sim_box, "flag_pass")
     masks = (np.ones(len(sim_box) if lean else len(sim_box[0]), bool),
              np.ones(len(cut_box[0]), bool))
     ext_c = box_extent(*cut_box)  # once, not per round
