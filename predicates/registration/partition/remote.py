@@ -64,6 +64,20 @@ def _flags(chunk, points, origin, h, G, table):
     return count, (ids, i0, i1, ext, chunk[ids])
 
 
+def _near_scan(chunk, points, grid, centres: bool):
+    """A chunk's refinement scan against ``grid`` (local ids): the near cells and the
+    wide ones (:func:`~predicates.registration.plan.refine_scan.near_pieces`), or the
+    cells whose centres may lie in its boxes (``centres``)."""
+    from predicates.registration.plan import refine_scan
+
+    cb = CellBoxes(points, np.asarray(chunk))
+    if centres:
+        return refine_scan.centre_ids(grid, cb.lo, cb.hi)
+    pieces, big = refine_scan.near_pieces(grid, cb.lo, cb.hi)
+    cat = [np.concatenate(x) if x else np.zeros(0, dtype=np.int64) for x in (pieces, big)]
+    return cat
+
+
 class RemoteCells(CellBoxes):
     """A :class:`~predicates.registration.plan.cellboxes.CellBoxes` whose cells stay on
     the workers: ``summary`` and ``flag_pass`` are tasks per chunk; rows outside the
@@ -142,6 +156,17 @@ class RemoteCells(CellBoxes):
         i0 = np.concatenate([g[1][1] for g in got])
         i1 = np.concatenate([g[1][2] for g in got])
         return count, (near, i0, i1, max(g[1][3] for g in got))
+
+    def near_pieces(self, grid):
+        """The refinement's near scan (its ``near_pieces``) per chunk on the workers."""
+        got = self._map(_near_scan, self._share(grid), False)
+        return ([o + g[0] for o, g in zip(self.offsets, got)],
+                [o + g[1] for o, g in zip(self.offsets, got) if len(g[1])])
+
+    def centre_ids(self, grid) -> np.ndarray:
+        """The refinement's centre scan (its ``centre_ids``) per chunk on the workers."""
+        got = self._map(_near_scan, self._share(grid), True)
+        return np.concatenate([o + g for o, g in zip(self.offsets, got)])
 
     def _fetch(self, ids: np.ndarray) -> np.ndarray:
         """The vertex ids of the rows ``ids`` (ascending) from the workers."""

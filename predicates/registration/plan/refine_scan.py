@@ -29,7 +29,8 @@ from predicates.registration.spatial.boxes import box_extent
 from predicates.registration.spatial.broadphase import near_flags
 from predicates.registration.spatial.gridsums import occupancy
 
-__all__ = ["BLOCK", "CAP", "CellScan", "ReachGrid", "points_near", "scan_cells", "stats_from"]
+__all__ = ["BLOCK", "CAP", "CellScan", "ReachGrid", "centre_ids", "near_pieces", "points_near",
+           "scan_cells", "stats_from"]
 
 CAP = 8  # distances counted up to this many grid cells (cells wider: tested directly)
 _MAX_GRID = 1 << 22  # grid cells at most (the distance table: one byte each)
@@ -138,18 +139,27 @@ def scan_cells(lo: np.ndarray, hi: np.ndarray, reach, longest: float = math.inf,
     if not (math.isfinite(stats.emax) and stats.emin >= 0):
         raise ValueError("refine: the simulation cells' boxes must be finite with "
                          "sim_lo <= sim_hi; validate the simulation mesh's coordinates")
-    n = len(lo)
     pieces, big = [], []
     if reach is not None and stats.emin < longest:
-        grid = ReachGrid(*reach, _budget(n), _cell_size(lo, hi))
-        buf = [np.empty(BLOCK) for _ in range(lo.shape[1] + 2)]
-        ib, key = np.empty(BLOCK, dtype=np.int64), np.empty(BLOCK, dtype=np.int64)
-        for s0 in range(0, n, BLOCK):
-            s1 = min(n, s0 + BLOCK)
-            blo, bhi = lo[s0:s1], hi[s0:s1]
-            e = box_extent(blo, bhi, buf[-1][:s1 - s0], buf[-2][:s1 - s0])
-            _near_block(grid, lo, hi, s0, s1, e, buf, ib, key, pieces, big)
+        grid = ReachGrid(*reach, _budget(len(lo)), _cell_size(lo, hi))
+        # cells held elsewhere (the workers: partition/remote.py) scan there, same grid
+        remote = getattr(getattr(lo, "owner", None), "near_pieces", None)
+        pieces, big = remote(grid) if remote is not None else near_pieces(grid, lo, hi)
     return _finish(lo, hi, reach, stats, pieces, big)
+
+
+def near_pieces(grid: "ReachGrid", lo, hi):
+    """(pieces, big): ids of the cells that may meet ``grid``'s reach boxes and of those
+    too wide for its capped distances (:func:`_near_block`), over every block."""
+    n = len(lo)
+    pieces, big = [], []
+    buf = [np.empty(BLOCK) for _ in range(lo.shape[1] + 2)]
+    ib, key = np.empty(BLOCK, dtype=np.int64), np.empty(BLOCK, dtype=np.int64)
+    for s0 in range(0, n, BLOCK):
+        s1 = min(n, s0 + BLOCK)
+        e = box_extent(lo[s0:s1], hi[s0:s1], buf[-1][:s1 - s0], buf[-2][:s1 - s0])
+        _near_block(grid, lo, hi, s0, s1, e, buf, ib, key, pieces, big)
+    return pieces, big
 
 
 def _finish(lo, hi, reach, st, pieces, big) -> CellScan:
@@ -217,6 +227,12 @@ def points_near(lo: np.ndarray, hi: np.ndarray, boxes) -> np.ndarray:
     """Ascending ids of the cells whose box centre 0.5·(lo + hi) may lie in one of
     ``boxes`` = (blo, bhi) (a superset; each box's centre tested with one look-up)."""
     grid = ReachGrid(*boxes, _budget(len(lo)))
+    remote = getattr(getattr(lo, "owner", None), "centre_ids", None)
+    return remote(grid) if remote is not None else centre_ids(grid, lo, hi)
+
+
+def centre_ids(grid: "ReachGrid", lo, hi) -> np.ndarray:
+    """Ascending ids of the cells whose box centre is in a grid cell at distance 0."""
     d = lo.shape[1]
     buf = [np.empty(BLOCK) for _ in range(d)]
     ib, key = np.empty(BLOCK, dtype=np.int64), np.empty(BLOCK, dtype=np.int64)
