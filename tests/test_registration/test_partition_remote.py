@@ -110,9 +110,17 @@ CLIENT = textwrap.dedent("""
 
     n, address, headroom = int(sys.argv[1]), sys.argv[2], int(sys.argv[3])
 
-    def cells_chunk(n, a, b):  # runs on a worker: the client never builds the cells
-        from predicates.registration.examples import cube_grid
-        return cube_grid(n)[1][a:b]
+    def cells_chunk(n, a, b):  # rows [a, b) of cube_grid(n)[1], built on a worker
+        from predicates.registration.examples import _KUHN
+        r = np.arange(a, b, dtype=np.int64)
+        path, q = r // n ** 3, r % n ** 3
+        k, j, i = q // (n * n), (q // n) % n, q % n
+        out = np.empty((len(r), 4), dtype=np.int64)
+        for p, steps in enumerate(_KUHN):
+            sel = path == p
+            for v, (di, dj, dk) in enumerate(steps):
+                out[sel, v] = (i[sel] + di) + (n + 1) * ((j[sel] + dj) + (n + 1) * (k[sel] + dk))
+        return out
 
     def status(field):
         for line in open("/proc/self/status"):
@@ -123,7 +131,7 @@ CLIENT = textwrap.dedent("""
     Z, Y, X = np.meshgrid(x, x, x, indexing="ij")
     points = np.stack([X.ravel(), Y.ravel(), Z.ravel()], axis=1)
     del X, Y, Z
-    cp, cc = icosphere(3)
+    cp, cc = icosphere(7)
     m = 6 * n ** 3
     cuts = np.linspace(0, m, 5).astype(int)
     cells = da.concatenate([da.from_delayed(dask.delayed(cells_chunk)(n, a, b),
@@ -153,19 +161,21 @@ CLIENT = textwrap.dedent("""
 def test_a_client_that_cannot_hold_the_mesh_gets_the_serial_result(tmp_path):
     """The client's address space is limited to less than the simulation mesh's bytes
     (RLIMIT_AS, set after its imports and connection); the workers, started outside it,
-    build the cells' chunks themselves. The run completes with the serial result."""
+    build the cells' chunks themselves. The run completes with the serial result. (The
+    cutting mesh is finer than the simulation cells: a coarse one's refinement gathers
+    the boxes of the cells near it on the client, docs/partitioned.md section 6.)"""
     distributed = pytest.importorskip("distributed")
     from predicates.registration.examples import cube_grid, icosphere
 
-    n = 100  # 6 M tetrahedra: 192 MB of cells, 24 MB of points
+    n = 140  # 16.5 M tetrahedra: 527 MB of cells, 66 MB of points
     sp, sc = cube_grid(n)
-    cp, cc = icosphere(3)
+    cp, cc = icosphere(7)
     ref = predicates.intersect(sp, sc, cp, cc)
     mesh = sp.nbytes + sc.nbytes
     del sp, sc
     script = tmp_path / "client.py"
     script.write_text(CLIENT)
-    headroom = int(mesh * 0.7)
+    headroom = int(mesh * 0.9)
     env = dict(os.environ, MALLOC_ARENA_MAX="1", OMP_NUM_THREADS="1")
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                   dashboard_address=None, memory_limit=0) as cluster:

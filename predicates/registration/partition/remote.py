@@ -96,7 +96,7 @@ class RemoteCells(CellBoxes):
         self.offsets = np.concatenate([[0], np.cumsum(cells.chunks[0])]).astype(np.int64)
         self.points, self.blocks = points, blocks
         self.n, self.d = int(cells.shape[0]), points.shape[1]
-        self.cols = np.ascontiguousarray(points.T, dtype=np.float64)
+        self.cols = None  # boxes here come from boxes_of on the kept or fetched rows
         self._pts = self._share(points)
         self._summary, self._kept, self._kept_cells = None, None, None
         import threading
@@ -218,8 +218,8 @@ def validate_remote(points, cells, dim: int, dtype, scheduler, blocks: Blocks = 
                          f"simulation mesh), got {cells.shape}")
     if cells.shape[0] == 0:
         raise ValueError("the simulation mesh is empty (0 cells)")
-    with np.errstate(all="ignore"):
-        work = arr.astype(dtype)  # unused rows are never read by a box
+    with np.errstate(all="ignore"):  # unused rows are never read by a box
+        work = arr.astype(dtype, copy=False)
     remote = RemoteCells(work, cells, scheduler, blocks)
     bad, used = remote.check(len(arr))
     for t in range(3):
@@ -227,6 +227,5 @@ def validate_remote(points, cells, dim: int, dtype, scheduler, blocks: Blocks = 
             row = remote._fetch(np.array([bad[t]]))[0].tolist()
             raise cell_error("simulation", t, bad[t], row, len(arr))
     pts, rounded = _points(arr, used, "simulation", dtype)
-    remote.points = pts
-    remote.cols = np.ascontiguousarray(pts.T, dtype=np.float64)
+    remote.points = pts  # the same boxes as from ``work`` (the used rows are equal)
     return MeshInput(pts, cells, "simulation", rounded), remote

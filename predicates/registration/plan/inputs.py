@@ -51,8 +51,8 @@ def _points(arr, used, role, dtype):
     if sel.dtype.kind == "f" and not np.isfinite(sel).all():
         bad = int(np.flatnonzero(used)[np.argwhere(~np.isfinite(sel))[0, 0]])
         raise ValueError(f"{name} contain NaN or infinity (point {bad}: {arr[bad]})")
-    with np.errstate(all="ignore"):
-        out = arr.astype(dtype)
+    with np.errstate(all="ignore"):  # no copy when every point is used and in dtype
+        out = arr.astype(dtype, copy=not every)
     if not every:
         out[~used] = 0
     if arr.dtype == out.dtype:  # a copy of finite values: finite, nothing rounded
@@ -280,13 +280,16 @@ def scale_points(points: np.ndarray, e: int, role: str) -> np.ndarray:
     """``points``·2^-e, refused unless exact (no overflow, no bit lost to underflow)."""
     with np.errstate(all="ignore"):
         out = times_pow2(points, -e)
-        back = times_pow2(out, e)
     limit = np.finfo(points.dtype).max / 16
     if not (np.isfinite(out).all() and np.all(np.abs(out) <= limit)):
         raise ValueError(f"the {role} coordinates are too large relative to the cells' size "
                          f"(scaling the cells to unit size by 2^{-e} overflows "
                          f"{points.dtype.name}): translate the meshes closer to the origin")
-    if not np.array_equal(back, points):
+    step = 1 << 16  # scaled back block by block: no second array of the points
+    with np.errstate(all="ignore"):
+        exact = all(np.array_equal(times_pow2(out[a:a + step], e), points[a:a + step])
+                    for a in range(0, len(points), step))
+    if not exact:
         raise ValueError(f"the {role} coordinates cannot be scaled exactly by 2^{-e} (to "
                          f"unit-size cells): some are so small relative to the cells that "
                          f"they underflow {points.dtype.name}; round them to zero first")

@@ -295,9 +295,14 @@ def shortest_edge(points: np.ndarray, cells: np.ndarray, mask,
     used = np.zeros(len(points), dtype=bool)  # the vertices of the selected cells
     for row in C:  # (a mask, not np.unique: its hash or sort costs seconds at 10^7)
         used[row] = True
-    top = float(np.abs(points[used]).max()) if C.size else 0.0
+    ids = np.flatnonzero(used)  # only these points: renumbered, the same coordinates
+    local = np.zeros(len(points), dtype=np.int64)
+    local[ids] = np.arange(len(ids))
+    C = local[C]
+    P = points[ids]
+    top = float(np.abs(P).max()) if C.size else 0.0
     shift = int(np.frexp(top)[1]) if top > 0 and np.isfinite(top) else 0
-    cols = times_pow2(np.ascontiguousarray(points.T, dtype=np.float64), -shift)
+    cols = times_pow2(np.ascontiguousarray(P.T, dtype=np.float64), -shift)
     k, dim = cells.shape[1], points.shape[1]
 
     def span(a: int, b: int) -> float:
