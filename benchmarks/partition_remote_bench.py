@@ -106,6 +106,8 @@ def child(mode: str, n: int, sub: int, workers: int, k: int, reps: int) -> dict:
                                                      "bytes_out", "peak_rss_mib", "pid")}
                             for p in res.timings["partitions"]]
             out["plan_remote"] = res.timings.get("plan_remote")
+    out["timings"] = {key: round(v, 3) for key, v in res.timings.items()
+                      if isinstance(v, float)}  # the last run's stages (wall, CPU)
     out["client_peak_mib"] = status("VmHWM")
     out["digest"] = digest(res)
     return out
