@@ -70,6 +70,7 @@ from predicates import compiled
 from predicates.catalogue import kinds as catalogue_kinds
 from predicates.registration.plan import threads as plan_threads
 from predicates.registration.plan import resolution
+from predicates.registration.plan.cellboxes import CellBoxes
 from predicates.registration.plan.inputs import (
     mesh_arrays, scale_points, validate_options, validate_pair)
 from predicates.registration.levels.loop import Registration
@@ -78,11 +79,14 @@ from predicates.registration.plan.resolution import (
     Resolution, consistent_scale, estimate_cell_pairs, memory_error, near_cells,
     shortest_edge, t_plus)
 from predicates.registration.result.intersection import IntersectionResult
+from predicates.registration.spatial.boxes import boxes_of
+from predicates.registration.spatial.boxgrid import colmax, colmin
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike, DTypeLike
 
-__all__ = ["CHUNK", "MeshLike", "PLAN_STAGES", "intersect", "intersect_files"]
+__all__ = ["CHUNK", "MeshLike", "PLAN_STAGES", "PlanMemoryError", "intersect",
+           "intersect_files"]
 
 #: Pairs per predicate batch (bounds the gathered coordinates and temporaries).
 CHUNK = 1 << 17
@@ -151,11 +155,10 @@ def intersect(sim: MeshLike | ArrayLike, cut: MeshLike | ArrayLike,
         from predicates.registration.partition.run import check_timeout
 
         timeout = check_timeout(timeout, not serial, scheduler)
-    # a partitioned run's plan is its serial part: per-cell work on a thread per worker
-    plan = _plan(args, dtype, tolerance_scale, progress, chunk, refine_cut, timings,
-                 sim_region, cut_region, tolerances,
-                 threads=1 if serial else plan_threads.threads_for(scheduler),
-                 accelerate=accelerate)
+    plan = _plan(  # partitioned: threads per worker, the workers' cells on the workers
+        args, dtype, tolerance_scale, progress, chunk, refine_cut, timings, sim_region,
+        cut_region, tolerances, threads=1 if serial else plan_threads.threads_for(scheduler),
+        scheduler=None if serial else (scheduler or "threads"), accelerate=accelerate)
     timings["setup"] = time.perf_counter() - t0
     timings["cpu_setup"] = time.process_time() - c0
     check = partial(_check, plan.report, strict, memory_limit, plan.dim)
@@ -186,6 +189,23 @@ def _result(plan, pairs: dict, timings: dict) -> IntersectionResult:
         plane=plan.arrays.plane)
 
 
+class PlanMemoryError(MemoryError):
+    """The plan (validation, boxes, L, refinement, report) ran out of memory: the
+    message names the stage, the mesh's size and what to do (docs/partitioned.md)."""
+
+
+def _too_large(args, timings: dict, serial: bool, err: MemoryError) -> str:
+    """The message of :class:`PlanMemoryError`: the stage reached, the meshes' bytes."""
+    stage = next((s for s in PLAN_STAGES if s not in timings), "plan_report")
+    size = sum(getattr(a, "nbytes", 0) for a in args if a is not None)
+    what = "" if serial else " (in a partitioned run the plan runs on the client)"
+    return (f"not enough memory for the plan ({stage.replace('plan_', '')}) of meshes "
+            f"of {size / 2**20:.0f} MiB{what}: besides the meshes themselves it needs "
+            f"about as many bytes again as the simulation mesh (W4: 1.04x, "
+            f"docs/partitioned.md); free memory or run on a machine with more "
+            f"({type(err).__name__}: {err or 'no detail'})")
+
+
 class Plan(NamedTuple):
     """Everything global a registration decides before the levels: a partitioned run
     computes it once and every partition uses it unchanged (docs/partitioned.md)."""
@@ -209,39 +229,54 @@ class Plan(NamedTuple):
 
 
 def _plan(args, dtype, tolerance_scale, progress, chunk, refine_cut, timings, sim_region,
-          cut_region, tolerances=None, threads: int = 1, accelerate: bool = False) -> Plan:
+          cut_region, tolerances=None, threads: int = 1, scheduler=None,
+          accelerate: bool = False) -> Plan:
     """Validation, refinement, L over the cells that can meet, exact scaling,
     tolerances, reach and the resolution report: the global part of the run.
     ``threads`` > 1: the per-cell work in chunks on a thread pool, identical values
-    (:mod:`~predicates.registration.plan.threads`); ``accelerate``: its passes compiled.
-    The plan records ``accelerate`` for the registration."""
-    if threads <= 1:
-        return _plan_with(plan_threads.Work(accelerate=accelerate), args, dtype, tolerance_scale, progress, chunk,
-                          refine_cut, timings, sim_region, cut_region, tolerances)
-    with ThreadPoolExecutor(threads, thread_name_prefix="fperr-plan") as pool:
-        return _plan_with(plan_threads.Work(pool, threads, accelerate), args, dtype, tolerance_scale,
-                          progress, chunk, refine_cut, timings, sim_region, cut_region,
-                          tolerances)
+    (:mod:`~predicates.registration.plan.threads`); ``accelerate``: its passes compiled
+    (recorded in the plan for the registration)."""
+    try:
+        if threads <= 1:
+            return _plan_with(plan_threads.Work(accelerate=accelerate), args, dtype,
+                              tolerance_scale, progress, chunk, refine_cut, timings,
+                              sim_region, cut_region, tolerances, scheduler)
+        with ThreadPoolExecutor(threads, thread_name_prefix="fperr-plan") as pool:
+            return _plan_with(plan_threads.Work(pool, threads, accelerate), args, dtype,
+                              tolerance_scale, progress, chunk, refine_cut, timings,
+                              sim_region, cut_region, tolerances, scheduler)
+    except MemoryError as e:  # a refusal that says what was too large, not a bare one
+        raise PlanMemoryError(_too_large(args, timings, scheduler is None, e)) from e
 
 
 def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, timings,
-               sim_region, cut_region, tolerances) -> Plan:
-    """:func:`_plan` with ``work`` (a :class:`~predicates.registration.plan.threads.Work`)."""
+               sim_region, cut_region, tolerances, scheduler=None) -> Plan:
+    """:func:`_plan` with ``work`` (a :class:`~predicates.registration.plan.threads.Work`);
+    ``scheduler``: a partitioned run's, whose workers run the per-cell passes when the
+    simulation cells are a dask array (:mod:`~predicates.registration.partition.remote`)."""
     dtype, ts = validate_options(dtype, tolerance_scale, progress, chunk)
     arrays = mesh_arrays(args, sim_region, cut_region)
     sp, sc, cp, cc = arrays
     clock = _Stages(timings)
-    dim, sim, cut = validate_pair(sp, sc, cp, cc, dtype, work.blocks)
+    if scheduler is not None and _remote(sc, scheduler):
+        dim, sim, cut, sim_box = _validate_remote(sp, sc, cp, cc, dtype, scheduler, work)
+        timings["plan_remote"] = sim_box.stats
+    else:
+        dim, sim, cut = validate_pair(sp, sc, cp, cc, dtype, work.blocks)
+        # the simulation boxes are never stored: computed block by block where needed
+        # (reductions, flags), those of the cells that can meet gathered once
+        sim_box = CellBoxes(sim.points, sim.cells, work.blocks)
     clock("plan_validate")
-    sim_box = work.boxes(sim.points, sim.cells)  # once: the check, refine and L use it
-    for name, mesh, given, box in (("simulation", sim, sp, sim_box),
-                                   ("cutting", cut, cp, None)):
-        if len(mesh.cells) and _one_point(mesh, box):
+    S = sim_box.summary()
+    for name, mesh, given, hull in (("simulation", sim, sp, (S.lo_min, S.hi_max)),
+                                    ("cutting", cut, cp, None)):
+        if len(mesh.cells) and _one_point(mesh, hull):
             raise ValueError(_collapse_reason(name, given, mesh, dtype))
     clock("plan_boxes")
     refinement = None
     if refine_cut and len(cut.cells):
-        refinement = refine(cut.points, cut.cells, *sim_box)
+        refinement = refine(cut.points, cut.cells, sim_box.lo, sim_box.hi,
+                            sim_stats=S.scan_stats())
         cut.points, cut.cells = refinement.points, refinement.cells
         clock("refine")
     cut_box = work.boxes(cut.points, cut.cells)
@@ -255,9 +290,29 @@ def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, 
     report = _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts, work)
     clock("plan_report")
     ms, mc = sc_.masks
-    return Plan(dim, dtype, sim, cut, sc_, P_sim, P_cut, sim.cells[ms], cut.cells[mc],
-                tol_run, ts, catalogue_kinds(dim), report, refinement, arrays,
+    return Plan(dim, dtype, sim, cut, sc_, P_sim, P_cut, sim_box.cells_of(ms),
+                cut.cells[mc], tol_run, ts, catalogue_kinds(dim), report, refinement, arrays,
                 work.blocks.accelerate)
+
+
+def _remote(cells, scheduler) -> bool:
+    """Do the simulation cells stay on the workers (a dask array, a scheduler whose
+    workers can hold them)?"""
+    from predicates.registration.partition.remote import is_remote
+
+    return is_remote(cells, scheduler)
+
+
+def _validate_remote(sp, sc, cp, cc, dtype, scheduler, work):
+    """validate_pair with the simulation cells on the workers: (dim, sim, cut, the
+    simulation's RemoteCells)."""
+    from predicates.registration.partition.remote import validate_remote
+    from predicates.registration.plan.inputs import _array, validate_mesh
+
+    dim = _array(sp, "simulation").shape[1]
+    sim, remote = validate_remote(sp, sc, dim, dtype, scheduler, work.blocks)
+    cut = validate_mesh(cp, cc, "cutting", dim, dtype, allow_empty=True, blocks=work.blocks)
+    return dim, sim, cut, remote
 
 
 class _Stages:
@@ -271,24 +326,21 @@ class _Stages:
         self.timings[stage], self.t = t - self.t, t
 
 
-def _one_point(mesh, box=None) -> bool:
-    """Every vertex of the mesh's cells is the same point (in the working dtype): from
-    the cells' boxes ``box`` (lo, hi) when given (min and max are exact: every cell is
-    one point and all these points are equal), else from the vertices used."""
-    if box is not None:
-        lo, hi = box
-        return bool((lo == hi).all() and (lo == lo[0]).all())
-    used = np.zeros(len(mesh.points), dtype=bool)
-    used[mesh.cells.ravel()] = True
-    P = mesh.points[used]
-    return bool((P == P[0]).all())
+def _one_point(mesh, hull=None) -> bool:
+    """Every vertex of the mesh's cells is the same point (in the working dtype): the
+    hull of the cells' boxes (``hull`` = (lo_min, hi_max), or computed) is one point —
+    it is the hull of the vertices the cells use; exact, no sort of the cells' ids."""
+    if hull is None:
+        lo, hi = boxes_of(mesh.points, mesh.cells)
+        hull = colmin(lo), colmax(hi)
+    return bool(np.array_equal(*hull))
 
 
 def _collapse_reason(name: str, given, mesh, dtype) -> str:
     """Why every vertex of a mesh is one point, and what to do: the input's vertices are
     one point, or they differ by less than the working format's spacing at their
     magnitude (a large offset), or they underflow in float32."""
-    used = np.unique(mesh.cells)
+    used = np.unique(np.asarray(mesh.cells))
     G = np.asarray(given, dtype=np.float64)[used] if np.asarray(given).dtype.kind == "f" \
         else np.asarray(given)[used].astype(np.float64)
     mag = float(np.abs(G).max())
@@ -331,7 +383,8 @@ def _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts,
     if len(sc_.history) == 1:
         ms, mc = near_cells(sim_box, cut_box, sc_.pad, sc_.masks, work.flags)
     h_cut = work.submit(shortest_edge, cut.points, cut.cells, mc)
-    h_sim = shortest_edge(sim.points, sim.cells, ms, work.blocks)
+    run = sim_box.cells_of(ms)  # the same cells in the same order as sim.cells[ms]
+    h_sim = shortest_edge(sim.points, run, np.ones(len(run), dtype=bool), work.blocks)
     ref = None if refinement is None else (refinement.input_cells, len(refinement.cells),
                                            refinement.rounds)
     return Resolution(dim, dtype.name, t_plus(dim, sc_), h_sim, h_cut.result(), sc_.L_a,

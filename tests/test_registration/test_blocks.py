@@ -76,7 +76,9 @@ def test_validation_reports_the_first_bad_cell_whatever_the_blocks(seed, fault):
     assert f"{words} {i}" in ref and ref.split(": ", 2)[-1].startswith(str(C[i].tolist())), ref
 
 
-def test_validation_output_is_int64_whatever_the_blocks(small_spans):
+def test_validation_keeps_the_cells_whatever_the_blocks(small_spans):
+    """Validated cells are the input array itself (integer dtype kept, no int64 copy:
+    a mesh's cells are most of its bytes), checked block by block."""
     rng = np.random.default_rng(3)
     P = rng.random((50, 3))
     C = np.array([rng.permutation(50)[:4] for _ in range(23)], dtype=np.int32)
@@ -84,8 +86,19 @@ def test_validation_output_is_int64_whatever_the_blocks(small_spans):
     with ThreadPoolExecutor(2) as pool:
         for bl in _variants(pool):
             _, got, _ = validate_pair(P, C, P, C[:, :3], np.float64, bl)
-            assert got.cells.dtype == np.int64 and np.array_equal(got.cells, C)
+            assert got.cells is C and got.cells.dtype == np.int32
             assert np.array_equal(got.cells, ref.cells)
+    for dt in (np.uint8, np.int16, np.uint32, np.int64):
+        _, got, _ = validate_pair(P, C.astype(dt), P, C[:, :3], np.float64, WHOLE)
+        assert got.cells.dtype == dt and np.array_equal(got.cells, C)
+    small = C.astype(np.uint8)  # 50 points: every uint8 id ≥ 50 is out of range
+    small[4, 2] = 200
+    with pytest.raises(ValueError, match="out of range in cell 4"):
+        validate_pair(P, small, P, C[:, :3], np.float64, B.Blocks(block=3))
+    neg = C.astype(np.int8)
+    neg[9, 0] = -1
+    with pytest.raises(ValueError, match="negative vertex index in cell 9"):
+        validate_pair(P, neg, P, C[:, :3], np.float64, B.Blocks(block=3))
     big = C.astype(np.uint64)
     big[7, 1] = 2**63 + 5  # wraps negative as int64: still "out of range", cell 7
     with pytest.raises(ValueError, match="out of range in cell 7"):

@@ -23,6 +23,7 @@ import numpy as np
 from predicates import compiled
 from predicates.registration.levels.loop import Registration
 from predicates.registration.partition.assign import Part, merge, owned, split
+from predicates.registration.partition.memory import peak_rss_mib, rss_mib
 
 __all__ = ["DaskMissingError", "LOCAL_SCHEDULERS", "PartitionError", "check_timeout",
            "client_for", "run_part", "run_partitioned"]
@@ -233,13 +234,15 @@ def count_partitions(partitions, client, n_cells: int) -> int:
 def run_part(part: Part, dim: int, tol, reach: dict, chunk: int,
              accelerate: bool = False) -> tuple[dict, dict]:
     """One Dask task: the serial levels on the partition's slice; returns its owned
-    pairs (global ids) and statistics (time, peak RSS of the worker process and its host
-    and pid, bytes; for
+    pairs (global ids) and statistics (time, the peak RSS of the worker process's own
+    address space, ``VmHWM`` read when the task ends (:mod:`.memory`), its RSS when the
+    task began, its host and pid, bytes; for
     the timeline and the worker's overheads: wall-clock start and end ``t_begin``,
     ``t_end``, the process's CPU ``proc_cpu`` and the thread's voluntary and involuntary
     context switches, minor and major page faults ``ctx``)."""
     t, cpu, t0 = time.perf_counter(), time.thread_time(), time.time()
     r0, p0 = resource.getrusage(resource.RUSAGE_THREAD), time.process_time()
+    rss0 = rss_mib()
     reg = Registration(dim, part.P_sim, part.sim_cells, part.P_cut, part.cut_cells, tol,
                        reach, chunk, accelerate=accelerate and compiled.available())
     pairs = owned(part, reg.run(False, {}))
@@ -252,7 +255,10 @@ def run_part(part: Part, dim: int, tol, reach: dict, chunk: int,
              "pid": os.getpid(), "host": socket.gethostname(), "t_begin": t0,
              "t_end": time.time(),
              "proc_cpu": time.process_time() - p0, "ctx": _thread_counts(r0),
-             "peak_rss_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
+             "rss_begin_mib": rss0}
+    # the worker's own high-water mark, read now (not ru_maxrss: the client's survives
+    # fork + exec); under "threads"/"synchronous" the process is the client's
+    stats["peak_rss_mib"], stats["peak_rss_source"] = peak_rss_mib()
     return pairs, stats
 
 

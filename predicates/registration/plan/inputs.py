@@ -15,12 +15,13 @@ from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.broadphase import boxes_of
 
 __all__ = ["Arrays", "MeshInput", "from_meshio", "max_box_edge", "mesh_arrays",
-           "scale_points", "validate_mesh", "validate_options", "validate_pair"]
+           "scale_points", "times_pow2", "cell_error", "first_bad", "validate_mesh", "validate_options", "validate_pair"]
 
 
 @dataclass
 class MeshInput:
-    """A validated mesh: points (N, dim) in the working dtype, cells (M, k) int64."""
+    """A validated mesh: points (N, dim) in the working dtype, cells (M, k) of an
+    integer dtype (the input's: never copied to int64)."""
 
     points: np.ndarray
     cells: np.ndarray
@@ -50,8 +51,8 @@ def _points(arr, used, role, dtype):
     if sel.dtype.kind == "f" and not np.isfinite(sel).all():
         bad = int(np.flatnonzero(used)[np.argwhere(~np.isfinite(sel))[0, 0]])
         raise ValueError(f"{name} contain NaN or infinity (point {bad}: {arr[bad]})")
-    with np.errstate(all="ignore"):
-        out = arr.astype(dtype)
+    with np.errstate(all="ignore"):  # no copy when every point is used and in dtype
+        out = arr.astype(dtype, copy=not every)
     if not every:
         out[~used] = 0
     if arr.dtype == out.dtype:  # a copy of finite values: finite, nothing rounded
@@ -66,6 +67,9 @@ def _points(arr, used, role, dtype):
 
 
 def _cells(cells, role, width, n_points, what, blocks: Blocks = SERIAL):
+    """The cells as given when they are an integer array (no copy, the dtype kept; int64
+    for an empty or non-array input), checked block by block: negative, out-of-range
+    and repeated vertex ids are refused at their first cell, in that order."""
     name = f"{role} cells"
     try:
         arr = np.asarray(cells)
@@ -77,23 +81,31 @@ def _cells(cells, role, width, n_points, what, blocks: Blocks = SERIAL):
         raise TypeError(f"{name} must be integer vertex indices, got dtype {arr.dtype}")
     if arr.ndim != 2 or arr.shape[1] != width:
         raise ValueError(f"{name} must have shape (M, {width}) ({what}), got {arr.shape}")
-    if arr.dtype.kind == "u" and arr.size and arr.max() >= n_points:  # before int64 casts
-        i = int(np.argwhere(arr >= n_points)[0, 0])
-        raise ValueError(f"{name}: vertex index out of range in cell {i}: "
-                         f"{arr[i].tolist()} (the mesh has {n_points} points)")
-    out = np.empty(arr.shape, dtype=np.int64)
+    found = first_bad(arr, width, n_points, blocks)
+    for t in range(3):  # the checks in this order, each at its first cell
+        if found[t] is not None:
+            raise cell_error(role, t, found[t], arr[found[t]].tolist(), n_points)
+    return arr
+
+
+def first_bad(arr: np.ndarray, width: int, n_points: int,
+              blocks: Blocks = SERIAL) -> list:
+    """The first negative, out-of-range and repeating cell of the integer (M, width)
+    array ``arr`` (row indices, None where there is none), block by block."""
+    signed = arr.dtype.kind == "i"
+    # the bound in the cells' own type (a bound beyond it: no id can reach it)
+    top = n_points if n_points <= np.iinfo(arr.dtype).max else None
 
     def span(a: int, b: int) -> list:
-        """First negative, out-of-range and repeating cell of the span (None: none)."""
         first = [None, None, None]
         for lo, hi in blocks.each(a, b):
-            blk = out[lo:hi]
-            blk[...] = arr[lo:hi]
-            cols = [np.ascontiguousarray(blk[:, c]) for c in range(width)]
+            cols = [np.ascontiguousarray(arr[lo:hi, c]) for c in range(width)]
             bad = [np.zeros(hi - lo, dtype=bool) for _ in range(3)]
             for c in range(width):  # column by column: no reductions along short rows
-                bad[0] |= cols[c] < 0
-                bad[1] |= cols[c] >= n_points
+                if signed:
+                    bad[0] |= cols[c] < 0
+                if top is not None:
+                    bad[1] |= cols[c] >= top
                 for d in range(c + 1, width):  # column pairs: ~6x faster than a row sort
                     bad[2] |= cols[c] == cols[d]
             for t in range(3):
@@ -102,16 +114,17 @@ def _cells(cells, role, width, n_points, what, blocks: Blocks = SERIAL):
         return first
 
     found = blocks.map(span, len(arr)) if arr.size else []
-    msgs = (f"{name}: negative vertex index in cell {{i}}: {{row}}",
-            f"{name}: vertex index out of range in cell {{i}}: {{row}} (the mesh has "
-            f"{n_points} points)",
-            f"{name}: cell {{i}} repeats a vertex: {{row}}")
-    for t, msg in enumerate(msgs):  # the checks in this order, each at its first cell
-        hits = [f[t] for f in found if f[t] is not None]
-        if hits:
-            i = min(hits)
-            raise ValueError(msg.format(i=i, row=arr[i].tolist()))
-    return out
+    return [min((f[t] for f in found if f[t] is not None), default=None) for t in range(3)]
+
+
+def cell_error(role: str, t: int, i: int, row: list, n_points: int) -> ValueError:
+    """The error of check ``t`` of :func:`first_bad` (0 negative, 1 out of range,
+    2 repeated vertex) at cell ``i`` (its vertex ids ``row``)."""
+    name = f"{role} cells"
+    return ValueError((f"{name}: negative vertex index in cell {i}: {row}",
+                       f"{name}: vertex index out of range in cell {i}: {row} (the mesh "
+                       f"has {n_points} points)",
+                       f"{name}: cell {i} repeats a vertex: {row}")[t])
 
 
 def validate_mesh(points, cells, role, dim, dtype, allow_empty, blocks: Blocks = SERIAL):
@@ -127,7 +140,8 @@ def validate_mesh(points, cells, role, dim, dtype, allow_empty, blocks: Blocks =
     if len(c) == 0 and not allow_empty:
         raise ValueError(f"the {role} mesh is empty (0 cells)")
     used = np.zeros(len(arr), dtype=bool)
-    used[c.ravel()] = True
+    for col in range(c.shape[1]):  # column by column: no copy of the cells
+        used[c[:, col]] = True
     pts, rounded = _points(arr, used, role, dtype)
     return MeshInput(pts, c, role, rounded)
 
@@ -265,15 +279,28 @@ def max_box_edge(points: np.ndarray, cells: np.ndarray) -> float:
 def scale_points(points: np.ndarray, e: int, role: str) -> np.ndarray:
     """``points``·2^-e, refused unless exact (no overflow, no bit lost to underflow)."""
     with np.errstate(all="ignore"):
-        out = np.ldexp(points, -e)
-        back = np.ldexp(out, e)
+        out = times_pow2(points, -e)
     limit = np.finfo(points.dtype).max / 16
     if not (np.isfinite(out).all() and np.all(np.abs(out) <= limit)):
         raise ValueError(f"the {role} coordinates are too large relative to the cells' size "
                          f"(scaling the cells to unit size by 2^{-e} overflows "
                          f"{points.dtype.name}): translate the meshes closer to the origin")
-    if not np.array_equal(back, points):
+    step = 1 << 16  # scaled back block by block: no second array of the points
+    with np.errstate(all="ignore"):
+        exact = all(np.array_equal(times_pow2(out[a:a + step], e), points[a:a + step])
+                    for a in range(0, len(points), step))
+    if not exact:
         raise ValueError(f"the {role} coordinates cannot be scaled exactly by 2^{-e} (to "
                          f"unit-size cells): some are so small relative to the cells that "
                          f"they underflow {points.dtype.name}; round them to zero first")
     return out
+
+
+def times_pow2(x: np.ndarray, k: int) -> np.ndarray:
+    """``np.ldexp(x, k)`` (x·2^k correctly rounded, in x's dtype), as a multiplication
+    by the power of two when 2^k is a normal number of that dtype — the same values
+    (one correctly rounded operation either way), several times faster than ldexp."""
+    fi = np.finfo(x.dtype)
+    if fi.minexp < k < fi.maxexp:
+        return x * x.dtype.type(2.0 ** k)
+    return np.ldexp(x, k)

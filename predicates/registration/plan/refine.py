@@ -107,16 +107,17 @@ class Refinement:
 
 
 def refine(points: np.ndarray, cells: np.ndarray, sim_lo: np.ndarray, sim_hi: np.ndarray,
-           max_cells: int = MAX_CELLS) -> Refinement:
+           max_cells: int = MAX_CELLS, sim_stats=None) -> Refinement:
     """Refine the cutting mesh (``points`` in the working dtype, ``cells`` (M, k)) where
     its edges are longer than the simulation cells they meet (boxes ``sim_lo``,
-    ``sim_hi`` in binary64). See the module docstring."""
+    ``sim_hi`` in binary64; ``sim_stats``: their box-edge statistics if known,
+    :func:`~.refine_scan.stats_from`). See the module docstring."""
     k = cells.shape[1]
     P = points.copy()
     C = cells.astype(np.int64, copy=True)
     origin = np.arange(len(C), dtype=np.int64)
     B = np.broadcast_to(np.eye(k), (len(C), k, k)).copy()
-    sim = _SimScale(sim_lo, sim_hi, *_reach(P, C)) if len(C) else None
+    sim = _SimScale(sim_lo, sim_hi, *_reach(P, C), sim_stats) if len(C) else None
     known = np.zeros(0, dtype=np.int64)  # keys of edges already tested (unmarked)
     rounds = 0
     while len(C):
@@ -174,11 +175,12 @@ class _SimScale:
     box edges ``cut_ext``); the cells' index and the bins hold only cells that can
     matter, so the marks are those of all cells (:meth:`_binned`)."""
 
-    def __init__(self, lo, hi, reach, cut_ext):
+    def __init__(self, lo, hi, reach, cut_ext, stats=None):
         self.lo, self.hi = lo, hi
         self.reach, self.cut_ext = reach, cut_ext
         # no query is longer than the longest input cutting cell's box edge
-        self.scan = scan_cells(lo, hi, reach, float(cut_ext.max()) if len(cut_ext) else 0.0)
+        self.scan = scan_cells(lo, hi, reach, float(cut_ext.max()) if len(cut_ext) else 0.0,
+                               stats)
         self.n, self.fine = self.scan.n, self.scan.fine
         self._cells = None  # (lo, hi, ext) of the cells near the reach boxes
         self._bin_set = None  # (lo, hi, ext, mid) of the cells the bins are built from
@@ -237,8 +239,8 @@ class _SimScale:
             if g0 >= mag * 2.0 ** -50 and np.isfinite(blo).all() and np.isfinite(bhi).all():
                 ids = points_near(self.lo, self.hi, (blo, bhi))
                 lo, hi = self.lo[ids], self.hi[ids]
-            else:
-                lo, hi = self.lo, self.hi
+            else:  # every cell (np.asarray: the plan's boxes may be computed on demand)
+                lo, hi = np.asarray(self.lo), np.asarray(self.hi)
             self._bin_set = lo, hi, box_extent(lo, hi), 0.5 * (lo + hi)
         return self._bin_set
 

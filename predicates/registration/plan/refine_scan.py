@@ -29,7 +29,8 @@ from predicates.registration.spatial.boxes import box_extent
 from predicates.registration.spatial.broadphase import near_flags
 from predicates.registration.spatial.gridsums import occupancy
 
-__all__ = ["BLOCK", "CAP", "CellScan", "ReachGrid", "points_near", "scan_cells"]
+__all__ = ["BLOCK", "CAP", "CellScan", "ReachGrid", "centre_ids", "near_pieces", "points_near",
+           "scan_cells", "stats_from"]
 
 CAP = 8  # distances counted up to this many grid cells (cells wider: tested directly)
 _MAX_GRID = 1 << 22  # grid cells at most (the distance table: one byte each)
@@ -118,7 +119,63 @@ class CellScan:
     near: np.ndarray
 
 
-def scan_cells(lo: np.ndarray, hi: np.ndarray, reach, longest: float = math.inf) -> CellScan:
+def stats_from(n: int, emin: float, emax: float, mag: float, hist: np.ndarray) -> "_Stats":
+    """The statistics :func:`scan_cells` gathers, given (e.g. from the plan's summary of
+    the same boxes, :mod:`.cellboxes`): the box edges' min, max and biased-exponent
+    histogram (of ``box_extent + 0.0``), the largest |coordinate|, the count."""
+    st = _Stats()
+    st.n, st.emin, st.emax, st.mag, st.hist = n, emin, emax, mag, hist
+    return st
+
+
+def scan_cells(lo: np.ndarray, hi: np.ndarray, reach, longest: float = math.inf,
+               stats=None) -> CellScan:
+    """:func:`_scan`; ``stats`` (:func:`stats_from`, of these boxes): no statistics pass,
+    and no pass at all when no cell's box edge is below ``longest`` (the same result:
+    the near set, gathered from every block either way, does not depend on where the
+    pass starts)."""
+    if stats is None or stats.n == 0:
+        return _scan(lo, hi, reach, longest)
+    if not (math.isfinite(stats.emax) and stats.emin >= 0):
+        raise ValueError("refine: the simulation cells' boxes must be finite with "
+                         "sim_lo <= sim_hi; validate the simulation mesh's coordinates")
+    pieces, big = [], []
+    if reach is not None and stats.emin < longest:
+        grid = ReachGrid(*reach, _budget(len(lo)), _cell_size(lo, hi))
+        # cells held elsewhere (the workers: partition/remote.py) scan there, same grid
+        remote = getattr(getattr(lo, "owner", None), "near_pieces", None)
+        pieces, big = remote(grid) if remote is not None else near_pieces(grid, lo, hi)
+    return _finish(lo, hi, reach, stats, pieces, big)
+
+
+def near_pieces(grid: "ReachGrid", lo, hi):
+    """(pieces, big): ids of the cells that may meet ``grid``'s reach boxes and of those
+    too wide for its capped distances (:func:`_near_block`), over every block."""
+    n = len(lo)
+    pieces, big = [], []
+    buf = [np.empty(BLOCK) for _ in range(lo.shape[1] + 2)]
+    ib, key = np.empty(BLOCK, dtype=np.int64), np.empty(BLOCK, dtype=np.int64)
+    for s0 in range(0, n, BLOCK):
+        s1 = min(n, s0 + BLOCK)
+        e = box_extent(lo[s0:s1], hi[s0:s1], buf[-1][:s1 - s0], buf[-2][:s1 - s0])
+        _near_block(grid, lo, hi, s0, s1, e, buf, ib, key, pieces, big)
+    return pieces, big
+
+
+def _finish(lo, hi, reach, st, pieces, big) -> CellScan:
+    """The :class:`CellScan` from the statistics and the near pieces of a scan."""
+    near = np.sort(np.concatenate(pieces)) if pieces else np.zeros(0, dtype=np.int64)
+    if big:
+        big = np.concatenate(big)
+        near = np.union1d(near, big[near_flags(lo[big], hi[big], *reach, 0.0, sides="a")[0]])
+    fine = st.median_binade()
+    if fine is None:  # the two middle box edges straddle binades: the exact median
+        fine = float(np.median(box_extent(np.asarray(lo), np.asarray(hi))))
+    return CellScan(len(lo), st.emin, st.emax, fine, st.mag,
+                    near.astype(np.int64, copy=False))
+
+
+def _scan(lo: np.ndarray, hi: np.ndarray, reach, longest: float = math.inf) -> CellScan:
     """The pass (module docstring): statistics of all cells' boxes ``lo``, ``hi`` (n, d)
     and the cells that may meet the boxes ``reach`` = (rlo, rhi) (or None: no cell).
     ``longest``: the largest box edge any query can have; the near set is only needed
@@ -148,15 +205,7 @@ def scan_cells(lo: np.ndarray, hi: np.ndarray, reach, longest: float = math.inf)
         s1 = min(start, s0 + BLOCK)
         e = box_extent(lo[s0:s1], hi[s0:s1], buf[-1][:s1 - s0], buf[-2][:s1 - s0])
         _near_block(grid, lo, hi, s0, s1, e, buf, ib, key, pieces, big)
-    # ascending (blocks read again come after the pass's)
-    near = np.sort(np.concatenate(pieces)) if pieces else np.zeros(0, dtype=np.int64)
-    if big:
-        big = np.concatenate(big)
-        near = np.union1d(near, big[near_flags(lo[big], hi[big], *reach, 0.0, sides="a")[0]])
-    fine = st.median_binade()
-    if fine is None:  # the two middle box edges straddle binades: the exact median
-        fine = float(np.median(box_extent(lo, hi)))
-    return CellScan(n, st.emin, st.emax, fine, st.mag, near.astype(np.int64, copy=False))
+    return _finish(lo, hi, reach, st, pieces, big)  # near: sorted there
 
 
 def _near_block(grid, lo, hi, s0, s1, e, buf, ib, key, pieces, big) -> None:
@@ -178,6 +227,12 @@ def points_near(lo: np.ndarray, hi: np.ndarray, boxes) -> np.ndarray:
     """Ascending ids of the cells whose box centre 0.5·(lo + hi) may lie in one of
     ``boxes`` = (blo, bhi) (a superset; each box's centre tested with one look-up)."""
     grid = ReachGrid(*boxes, _budget(len(lo)))
+    remote = getattr(getattr(lo, "owner", None), "centre_ids", None)
+    return remote(grid) if remote is not None else centre_ids(grid, lo, hi)
+
+
+def centre_ids(grid: "ReachGrid", lo, hi) -> np.ndarray:
+    """Ascending ids of the cells whose box centre is in a grid cell at distance 0."""
     d = lo.shape[1]
     buf = [np.empty(BLOCK) for _ in range(d)]
     ib, key = np.empty(BLOCK, dtype=np.int64), np.empty(BLOCK, dtype=np.int64)

@@ -28,6 +28,8 @@ import numpy as np
 
 from predicates.catalogue import kinds as catalogue_kinds
 from predicates.tolerances import tolerances as compute_tolerances
+from predicates.registration.plan.inputs import times_pow2
+from predicates.registration.plan.lean import near_all
 from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.boxes import box_extent, boxes_of
 from predicates.registration.spatial.boxgrid import colmax, colmin, rowwise
@@ -110,18 +112,45 @@ def _widen(tol, name: str) -> float:
 def near_cells(sim_box, cut_box, pad, masks, flags=near_flags):
     """Masks of the cells (among ``masks``) sharing a broad-phase grid cell with a cell
     of the other mesh enlarged by ``pad``: a superset of the cells within ``pad``.
-    ``flags``: near_flags or an identical one (the threaded plan's)."""
+    ``sim_box``: (lo, hi) arrays or a :class:`~.cellboxes.CellBoxes` (the boxes
+    computed block by block, :mod:`.lean`: the same flags); ``flags``: near_flags or an
+    identical one (the threaded plan's)."""
+    return _near(sim_box, cut_box, pad, masks, flags)[:2]
+
+
+def _near(sim_box, cut_box, pad, masks, flags):
+    """:func:`near_cells` and the largest box edge of the flagged simulation cells
+    (not rounded; 0.0 if none)."""
     ms, mc = masks
     out_s, out_c = np.zeros_like(ms), np.zeros_like(mc)
+    lean = hasattr(sim_box, "flag_pass")  # a CellBoxes (or its remote form)
     if ms.all() and mc.all() and len(ms) and len(mc):  # round 1: no copies of the boxes
-        return flags(*sim_box, *cut_box, pad)
+        if lean:
+            return near_all(sim_box, *cut_box, pad, flags)
+        ns, nc = flags(*sim_box, *cut_box, pad)
+        return ns, nc, _edge_max(sim_box, ns)
     if ms.any() and mc.any():
-        # near_flags does not depend on the cells' order (its grid size is a mean
-        # summed in sorted order), so neither does L
-        ns, nc = flags(*_rows(sim_box, ms), *_rows(cut_box, mc), pad)
+        # near_flags does not depend on the cells' order (its grid size is an exactly
+        # rounded mean), so neither does L
+        rows = sim_box.rows(ms) if lean else _rows(sim_box, ms)
+        ns, nc = flags(*rows, *_rows(cut_box, mc), pad)
         out_s[np.flatnonzero(ms)[ns]] = True
         out_c[np.flatnonzero(mc)[nc]] = True
-    return out_s, out_c
+        return out_s, out_c, _edge_max(rows, ns)
+    return out_s, out_c, 0.0
+
+
+def _edge_max(box, mask) -> float:
+    """Largest box edge of the boxes ``box`` selected by ``mask`` (0.0 if none)."""
+    if not mask.any():
+        return 0.0
+    lo, hi = _rows(box, mask)
+    return float(box_extent(lo, hi).max())
+
+
+def _up(d: float) -> float:
+    """A largest box edge rounded up one ulp (an upper bound; 0 stays 0)."""
+    return float(np.nextafter(d, np.inf)) if d > 0 else 0.0
 
 
 def _rows(box, mask):
@@ -132,22 +161,29 @@ def _rows(box, mask):
 def consistent_scale(dim: int, sim_box, cut_box, dtype, max_rounds: int = MAX_ROUNDS,
                      table=None, flags=near_flags) -> Scale:
     """L from the cells that can meet (module docstring): broad phase -> L -> σ+ until
-    the pad no longer shrinks. ``sim_box``, ``cut_box``: (lo, hi) per cell; ``flags``:
-    as in :func:`near_cells`."""
-    masks = (np.ones(len(sim_box[0]), bool), np.ones(len(cut_box[0]), bool))
-    ext_s, ext_c = box_extent(*sim_box), box_extent(*cut_box)  # once, not per round
-    L_a, L_b = _max_edge(ext_s, masks[0]), _max_edge(ext_c, masks[1])
+    the pad no longer shrinks. ``sim_box``: (lo, hi) per cell, or a
+    :class:`~.cellboxes.CellBoxes` (boxes computed block by block; the same values);
+    ``cut_box``: (lo, hi); ``flags``: as in :func:`near_cells`."""
+    lean = hasattr(sim_box, "flag_pass")
+    masks = (np.ones(len(sim_box) if lean else len(sim_box[0]), bool),
+             np.ones(len(cut_box[0]), bool))
+    ext_c = box_extent(*cut_box)  # once, not per round
+    if lean:
+        L_a = _up(sim_box.summary().ext_max) if len(sim_box) else 0.0
+    else:
+        L_a = _max_edge(box_extent(*sim_box), masks[0])
+    L_b = _max_edge(ext_c, masks[1])
     cur = scale_for(dim, L_a, L_b, dtype, table)
     cur.masks, history = masks, [L_a + L_b]
     for _ in range(max_rounds):
-        nxt_masks = near_cells(sim_box, cut_box, cur.pad, cur.masks, flags)
-        La, Lb = _max_edge(ext_s, nxt_masks[0]), _max_edge(ext_c, nxt_masks[1])
+        *nxt_masks, ext_s = _near(sim_box, cut_box, cur.pad, cur.masks, flags)
+        La, Lb = _up(ext_s), _max_edge(ext_c, nxt_masks[1])
         if La + Lb == 0:  # nothing can meet: keep the last sound scale
             break
         nxt = scale_for(dim, La, Lb, dtype, table)
         if not nxt.pad <= cur.pad:  # L_k bounds pairs within cur.pad only
             break
-        nxt.masks = nxt_masks
+        nxt.masks = tuple(nxt_masks)
         history.append(La + Lb)
         shrunk = nxt.pad < cur.pad
         cur = nxt
@@ -256,11 +292,17 @@ def shortest_edge(points: np.ndarray, cells: np.ndarray, mask,
     if not mask.any():
         return None
     C = np.ascontiguousarray(cells[mask].T)
-    used = np.zeros(len(points), dtype=bool)  # the vertices of these cells (no sort)
-    used[C.ravel()] = True
-    top = float(np.abs(points[used]).max()) if C.size else 0.0
+    used = np.zeros(len(points), dtype=bool)  # the vertices of the selected cells
+    for row in C:  # (a mask, not np.unique: its hash or sort costs seconds at 10^7)
+        used[row] = True
+    ids = np.flatnonzero(used)  # only these points: renumbered, the same coordinates
+    local = np.zeros(len(points), dtype=np.int64)
+    local[ids] = np.arange(len(ids))
+    C = local[C]
+    P = points[ids]
+    top = float(np.abs(P).max()) if C.size else 0.0
     shift = int(np.frexp(top)[1]) if top > 0 and np.isfinite(top) else 0
-    cols = np.ldexp(np.ascontiguousarray(points.T, dtype=np.float64), -shift)
+    cols = times_pow2(np.ascontiguousarray(P.T, dtype=np.float64), -shift)
     k, dim = cells.shape[1], points.shape[1]
 
     def span(a: int, b: int) -> float:

@@ -1,6 +1,6 @@
 """The broad phase's top grid (section 1 of the paper, :mod:`.broadphase`): its cell size
-(the larger mean box extent, summed in sorted order so that it does not depend on the
-order of the boxes), origin, number of cells per axis (doubled cell size while the boxes
+(the larger mean box extent, an exactly rounded mean so that it does not depend on the
+order of the boxes or on how they are split), origin, number of cells per axis (doubled cell size while the boxes
 would cover too many cells), and every box's inclusive range of cells. The passes over
 the many boxes (the simulation cells) run in blocks (:mod:`.blocks`): the same values
 for any block size and on a thread pool."""
@@ -9,9 +9,10 @@ from __future__ import annotations
 import numpy as np
 
 from predicates.registration.spatial.blocks import SERIAL, Blocks
+from predicates.registration.spatial.exactsum import ExactSum
 
-__all__ = ["BITS", "cell_index", "colmax", "colmin", "covered", "enlarge", "expand", "fit",
-           "grid", "mean_extent", "ncells", "rowwise"]
+__all__ = ["BITS", "cell_index", "colmax", "colmin", "covered", "enlarge", "expand",
+           "extent_sums", "fit", "grid", "mean_extent", "ncells", "rowwise"]
 
 BITS = 20  # at most 2^20 + 1 cells per axis: linear keys fit in int64
 
@@ -83,16 +84,32 @@ def rowwise(ufunc, x):
 
 def mean_extent(lo, hi, cap=np.inf, blocks: Blocks = SERIAL):
     """The largest per-axis mean box extent (extents capped at ``cap``): a cell size.
-    The extents are summed in sorted order, so the grid, and with it every flag and
-    pair, does not depend on the order of the boxes (e.g. of the cells in the file).
-    The axes' sorts run concurrently on a pool."""
+    Each mean is the exact sum of the extents rounded once (:mod:`.exactsum`), so the
+    grid, and with it every flag and pair, depends neither on the order of the boxes
+    (e.g. of the cells in the file) nor on how they are split (blocks, threads,
+    partitions: the sums of the parts combine exactly)."""
     if len(lo) == 0:
         return 0.0
+    return max(s.mean() for s in extent_sums(lo, hi, cap, blocks))
 
-    def axis(ax: int) -> float:
-        return float(np.sort(np.minimum(hi[:, ax] - lo[:, ax], cap)).mean())
 
-    return max(f.result() for f in [blocks.submit(axis, ax) for ax in range(lo.shape[1])])
+def extent_sums(lo, hi, cap=np.inf, blocks: Blocks = SERIAL) -> list:
+    """Per axis, the :class:`~.exactsum.ExactSum` of the boxes' extents capped at
+    ``cap``, block by block (the spans' sums merged: exact)."""
+    d = lo.shape[1]
+
+    def span(a: int, b: int) -> list:
+        sums = [ExactSum() for _ in range(d)]
+        for s, t in blocks.each(a, b):
+            for ax in range(d):
+                sums[ax].add(np.minimum(hi[s:t, ax] - lo[s:t, ax], cap))
+        return sums
+
+    parts = blocks.map(span, len(lo))
+    for p in parts[1:]:
+        for ax in range(d):
+            parts[0][ax].merge(p[ax])
+    return parts[0]
 
 
 def fit(lo_a, hi_a, lo_bx, hi_bx, origin, top, h, budget, blocks: Blocks = SERIAL):

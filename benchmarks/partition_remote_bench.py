@@ -1,0 +1,157 @@
+"""The plan where the cells are (docs/partitioned.md, section 6): W4 (n = 120: 10.4 M
+tetrahedra × 327,680 triangles) serial, partitioned with the mesh on the client, and
+partitioned with the simulation cells on the workers (a dask array whose chunks the
+workers build themselves: the client never holds them).
+
+    python benchmarks/partition_remote_bench.py [--n 120] [--subdivisions 7]
+        [--workers 2] [--partitions 2] [--reps 2] [--rounds 1] [--json OUT]
+
+Each mode runs in its own child process; the modes alternate for ``--rounds``. Per mode:
+best wall time of ``--reps`` runs (the first partitioned run on a fresh cluster pays the
+workers' imports: reported apart), the plan ("setup"), the client's peak RSS (VmHWM of
+its own process, the mesh included when it holds it), each worker's peak (VmHWM read in
+its tasks), bytes sent to and returned from each partition, and the SHA-256 of every
+pair and weight array (must equal the serial run's).
+"""
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+
+def digest(res) -> str:
+    h = hashlib.sha256()
+    for k in res.kinds:
+        p = res[k]
+        for a in (p.sim, p.cut, p.sim_weights, p.cut_weights):
+            h.update(np.ascontiguousarray(a).tobytes())
+    return h.hexdigest()
+
+
+def cube_cells(n: int, a: int, b: int) -> np.ndarray:
+    """Rows [a, b) of ``examples.cube_grid(n)[1]``, built alone (on a worker)."""
+    from predicates.registration.examples import _KUHN
+
+    r = np.arange(a, b, dtype=np.int64)
+    path, q = r // n ** 3, r % n ** 3
+    k, j, i = q // (n * n), (q // n) % n, q % n
+    m = n + 1
+    out = np.empty((len(r), 4), dtype=np.int64)
+    for p, steps in enumerate(_KUHN):
+        sel = path == p
+        for v, (di, dj, dk) in enumerate(steps):
+            out[sel, v] = (i[sel] + di) + m * ((j[sel] + dj) + m * (k[sel] + dk))
+    return out
+
+
+def status(field: str) -> float:
+    """/proc/self/status ``field`` in MiB."""
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith(field + ":"):
+                return int(line.split()[1]) / 1024
+    return float("nan")
+
+
+def child(mode: str, n: int, sub: int, workers: int, k: int, reps: int) -> dict:
+    import predicates
+    from predicates.registration.examples import cube_grid, grid_coordinates, icosphere
+    from predicates.registration.partition.run import client_for
+
+    cp, cc = icosphere(sub)
+    m = 6 * n ** 3
+    out = {"mode": mode, "runs": [], "setup": []}
+    if mode == "remote":  # the points only: the cells are built on the workers
+        x = grid_coordinates(n)
+        Z, Y, X = np.meshgrid(x, x, x, indexing="ij")
+        sp = np.stack([X.ravel(), Y.ravel(), Z.ravel()], axis=1)
+        del X, Y, Z
+        sc = None
+    else:
+        sp, sc = cube_grid(n)
+    out["mesh_mib"] = (sp.nbytes + m * 32) / 2**20
+    if mode == "serial":
+        for _ in range(reps):
+            t = time.perf_counter()
+            res = predicates.intersect(sp, sc, cp, cc, memory_limit=16 << 30)
+            out["runs"].append(time.perf_counter() - t)
+            out["setup"].append(res.timings["setup"])
+    else:
+        with client_for(workers) as client:
+            if mode == "remote":
+                import dask
+                import dask.array as da
+
+                cuts = np.linspace(0, m, k + 1).astype(int)
+                sc = client.persist(da.concatenate([
+                    da.from_delayed(dask.delayed(cube_cells)(n, a, b), shape=(b - a, 4),
+                                    dtype=np.int64) for a, b in zip(cuts[:-1], cuts[1:])]))
+            for _ in range(reps):
+                t = time.perf_counter()
+                res = predicates.intersect(sp, sc, cp, cc, partitions=k, scheduler=client,
+                                           memory_limit=16 << 30)
+                out["runs"].append(time.perf_counter() - t)
+                out["setup"].append(res.timings["setup"])
+            out["parts"] = [{key: p[key] for key in ("sim_cells", "cut_cells", "bytes_in",
+                                                     "bytes_out", "peak_rss_mib", "pid")}
+                            for p in res.timings["partitions"]]
+            out["plan_remote"] = res.timings.get("plan_remote")
+    out["timings"] = {key: round(v, 3) for key, v in res.timings.items()
+                      if isinstance(v, float)}  # the last run's stages (wall, CPU)
+    out["client_peak_mib"] = status("VmHWM")
+    out["digest"] = digest(res)
+    return out
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--n", type=int, default=120)
+    ap.add_argument("--subdivisions", type=int, default=7)
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--partitions", type=int, default=2)
+    ap.add_argument("--reps", type=int, default=2)
+    ap.add_argument("--rounds", type=int, default=1)
+    ap.add_argument("--modes", default="serial,dask,remote")
+    ap.add_argument("--json")
+    ap.add_argument("--child")
+    a = ap.parse_args(argv)
+    if a.child:
+        print(json.dumps(child(a.child, a.n, a.subdivisions, a.workers, a.partitions,
+                               a.reps)))
+        return
+    got = {}
+    for _ in range(a.rounds):
+        for mode in a.modes.split(","):
+            cmd = [sys.executable, __file__, "--child", mode, "--n", str(a.n),
+                   "--subdivisions", str(a.subdivisions), "--workers", str(a.workers),
+                   "--partitions", str(a.partitions), "--reps", str(a.reps)]
+            with open("/proc/loadavg") as f:
+                load = float(f.read().split()[0])
+            r = subprocess.run(cmd, capture_output=True, text=True)
+            if r.returncode:
+                raise SystemExit(f"{mode} failed:\n{r.stderr[-3000:]}")
+            rec = json.loads(r.stdout.strip().splitlines()[-1])
+            rec["load"] = load
+            got.setdefault(mode, []).append(rec)
+            print(json.dumps({key: rec[key] for key in rec if key != "parts"}), flush=True)
+            for p in rec.get("parts", []):
+                print("   ", p, flush=True)
+    digests = {r["digest"] for recs in got.values() for r in recs}
+    print("identical results:", len(digests) == 1)
+    if a.json:
+        Path(a.json).write_text(json.dumps(got, indent=1))
+
+
+if __name__ == "__main__":
+    main()

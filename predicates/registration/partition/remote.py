@@ -1,0 +1,231 @@
+"""The plan's per-cell passes on the workers, on the cells they hold (docs/partitioned.md,
+section 6): a simulation mesh whose cells are a ``dask.array`` (chunks of rows) in a
+partitioned run never materialises on the client.
+
+The plan needs every simulation cell only for reductions and flags (section 2, "the
+lean plan"): validation (the first bad cell of each check, the vertices used), the
+boxes' :class:`~predicates.registration.plan.cellboxes.BoxSummary` (hull, largest and
+smallest edge, exact sums of the extents, the edges' exponent histogram) and the first
+round of the cells that can meet (:func:`~predicates.registration.plan.lean.flag_pass`).
+Each is a task per chunk on the workers; the client combines the chunks' results —
+exact reductions (min, max, integer sums, exact sums), so the plan is the serial one
+bit for bit whatever the chunking — and keeps only the cells that can meet (their
+vertex ids and boxes: what the later rounds, the report and the split use). The client
+holds the points, one byte per cell (the masks) and those cells.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from predicates.registration.plan.cellboxes import CellBoxes, _Side
+from predicates.registration.plan.inputs import (
+    MeshInput, _array, _points, cell_error, first_bad)
+from predicates.registration.spatial.blocks import SERIAL, Blocks
+from predicates.registration.spatial.boxes import boxes_of
+
+__all__ = ["RemoteCells", "is_remote", "validate_remote"]
+
+_LOCAL = ("threads", "processes", "synchronous", "sync", "single-threaded")
+
+
+def is_remote(cells, scheduler) -> bool:
+    """Are ``cells`` a dask array the plan can leave on the workers of ``scheduler``
+    (a ``dask.distributed.Client`` or a local Dask scheduler's name)?"""
+    if not (hasattr(cells, "to_delayed") and hasattr(cells, "chunks")
+            and getattr(cells, "ndim", 0) == 2):
+        return False
+    if isinstance(scheduler, str):
+        return scheduler in _LOCAL
+    return "Client" in type(scheduler).__name__ and hasattr(scheduler, "scatter")
+
+
+def _check(chunk, points, n_points: int):
+    """A chunk's validation and summary: (first bad rows per check, the vertices it
+    uses as packed bits, its BoxSummary — None when a check failed)."""
+    chunk = np.asarray(chunk)
+    bad = first_bad(chunk, chunk.shape[1], n_points)
+    used = np.zeros(n_points, dtype=bool)
+    if any(b is not None for b in bad):
+        return bad, np.packbits(used), None
+    for col in range(chunk.shape[1]):
+        used[chunk[:, col]] = True
+    return bad, np.packbits(used), CellBoxes(points, chunk).summary()
+
+
+def _flags(chunk, points, origin, h, G, table):
+    """A chunk's first-round flags (:func:`~predicates.registration.plan.lean.flag_pass`)
+    as (count, flagged rows, their ranges i0, i1, largest edge, their vertex ids)."""
+    chunk = np.asarray(chunk)
+    count, got = CellBoxes(points, chunk).flag_pass(origin, h, G, table)
+    if got is None:
+        return count, None
+    near, i0, i1, ext = got
+    ids = np.flatnonzero(near)
+    return count, (ids, i0, i1, ext, chunk[ids])
+
+
+def _near_scan(chunk, points, grid, centres: bool):
+    """A chunk's refinement scan against ``grid`` (local ids): the near cells and the
+    wide ones (:func:`~predicates.registration.plan.refine_scan.near_pieces`), or the
+    cells whose centres may lie in its boxes (``centres``)."""
+    from predicates.registration.plan import refine_scan
+
+    cb = CellBoxes(points, np.asarray(chunk))
+    if centres:
+        return refine_scan.centre_ids(grid, cb.lo, cb.hi)
+    pieces, big = refine_scan.near_pieces(grid, cb.lo, cb.hi)
+    cat = [np.concatenate(x) if x else np.zeros(0, dtype=np.int64) for x in (pieces, big)]
+    return cat
+
+
+class RemoteCells(CellBoxes):
+    """A :class:`~predicates.registration.plan.cellboxes.CellBoxes` whose cells stay on
+    the workers: ``summary`` and ``flag_pass`` are tasks per chunk; rows outside the
+    kept cells (rare: a coarse cutting mesh's refinement) are fetched."""
+
+    def __init__(self, points: np.ndarray, cells, scheduler, blocks: Blocks = SERIAL):
+        import dask
+
+        self.dask, self.scheduler = dask, scheduler
+        self.client = None if isinstance(scheduler, str) else scheduler
+        cells = cells.rechunk({1: -1})
+        if self.client is not None:
+            cells = self.client.persist(cells)  # computed once, kept on the workers
+        self.cells_da = cells
+        self.parts = list(cells.to_delayed().ravel())
+        self.offsets = np.concatenate([[0], np.cumsum(cells.chunks[0])]).astype(np.int64)
+        self.points, self.blocks = points, blocks
+        self.n, self.d = int(cells.shape[0]), points.shape[1]
+        self.cols = None  # boxes here come from boxes_of on the kept or fetched rows
+        self._pts = self._share(points)
+        self._summary, self._kept, self._kept_cells = None, None, None
+        import threading
+
+        self._local = threading.local()
+        self.lo, self.hi = _Side(self, 0), _Side(self, 1)
+        self.stats = {"tasks": 0, "bytes_back": 0}
+
+    def _share(self, x):
+        """``x`` for the tasks: on a distributed Client scattered once to every worker."""
+        if self.client is None:
+            return x
+        return self.client.scatter(x, broadcast=True, hash=False)
+
+    def _map(self, f, *args) -> list:
+        """``f(chunk, points, *args)`` per chunk, on the workers; the results in order."""
+        d = self.dask.delayed
+        tasks = [d(f, pure=False)(p, self._pts, *args) for p in self.parts]
+        out = self.dask.compute(*tasks, scheduler=self.scheduler)
+        self.stats["tasks"] += len(tasks)
+        return list(out)
+
+    def check(self, n_points: int):
+        """Validation and summary: (first bad cell per check (global rows, None where
+        none), the vertices used (bool))."""
+        got = self._map(_check, n_points)
+        bad = [min((int(o) + b[t] for o, (b, _, _) in zip(self.offsets, got)
+                    if b[t] is not None), default=None) for t in range(3)]
+        used = np.zeros(n_points, dtype=bool)
+        for _, u, _ in got:
+            used |= np.unpackbits(u, count=n_points).astype(bool)
+        if all(b is None for b in bad):
+            out = got[0][2]
+            for _, _, s in got[1:]:
+                out = out.merge(s)
+            self._summary = out
+        return bad, used
+
+    def summary(self):
+        return self._summary
+
+    def flag_pass(self, origin, h, G, table):
+        """:func:`~predicates.registration.plan.lean.flag_pass` per chunk on the workers;
+        the flagged cells (vertex ids, boxes) are kept here."""
+        got = self._map(_flags, origin, h, G, None if table is None else self._share(table))
+        count = sum(g[0] for g in got)
+        if table is None:
+            return count, None
+        near = np.zeros(self.n, dtype=bool)
+        ids = np.concatenate([o + g[1][0] for o, g in zip(self.offsets, got)])
+        near[ids] = True
+        cells = np.concatenate([g[1][4] for g in got])
+        self.stats["bytes_back"] += sum(sum(a.nbytes for a in g[1][:3] + g[1][4:])
+                                        for g in got)
+        lo, hi = boxes_of(self.points, cells)
+        self._kept, self._kept_cells = (ids, lo, hi), cells
+        i0 = np.concatenate([g[1][1] for g in got])
+        i1 = np.concatenate([g[1][2] for g in got])
+        return count, (near, i0, i1, max(g[1][3] for g in got))
+
+    def near_pieces(self, grid):
+        """The refinement's near scan (its ``near_pieces``) per chunk on the workers."""
+        got = self._map(_near_scan, self._share(grid), False)
+        return ([o + g[0] for o, g in zip(self.offsets, got)],
+                [o + g[1] for o, g in zip(self.offsets, got) if len(g[1])])
+
+    def centre_ids(self, grid) -> np.ndarray:
+        """The refinement's centre scan (its ``centre_ids``) per chunk on the workers."""
+        got = self._map(_near_scan, self._share(grid), True)
+        return np.concatenate([o + g for o, g in zip(self.offsets, got)])
+
+    def _fetch(self, ids: np.ndarray) -> np.ndarray:
+        """The vertex ids of the rows ``ids`` (ascending) from the workers."""
+        if len(ids) == 0:
+            return np.zeros((0, self.cells_da.shape[1]), dtype=self.cells_da.dtype)
+        return np.asarray(self.cells_da[ids].compute(scheduler=self.scheduler))
+
+    def cells_of(self, sel) -> np.ndarray:
+        ids = np.flatnonzero(sel) if np.asarray(sel).dtype == bool else np.asarray(sel)
+        if self._kept is not None:
+            kept = self._kept[0]
+            pos = np.searchsorted(kept, ids)
+            if len(ids) == 0 or (pos.max() < len(kept) and np.array_equal(kept[pos], ids)):
+                return self._kept_cells[pos]
+        return self._fetch(ids)
+
+    def rows(self, sel):
+        ids = np.flatnonzero(sel) if np.asarray(sel).dtype == bool else np.asarray(sel)
+        if self._kept is not None:
+            kept, lo, hi = self._kept
+            pos = np.searchsorted(kept, ids)
+            if len(ids) == 0 or (pos.max() < len(kept) and np.array_equal(kept[pos], ids)):
+                return lo[pos], hi[pos]
+        cells = self._fetch(ids)
+        lo, hi = boxes_of(self.points, cells)
+        self._kept, self._kept_cells = (ids, lo, hi), cells
+        return lo, hi
+
+    def block(self, a: int, b: int):
+        last = getattr(self._local, "last", None)
+        if last is not None and last[0] == a and last[1] == b:
+            return last[2], last[3]
+        lo, hi = boxes_of(self.points, self._fetch(np.arange(a, b)))
+        self._local.last = (a, b, lo, hi)
+        return lo, hi
+
+
+def validate_remote(points, cells, dim: int, dtype, scheduler, blocks: Blocks = SERIAL):
+    """The simulation mesh validated with its cells on the workers: (MeshInput whose
+    ``cells`` is the dask array, its :class:`RemoteCells`); the same checks, order and
+    messages as :func:`~predicates.registration.plan.inputs.validate_mesh`."""
+    arr = _array(points, "simulation")
+    name, k = "simulation cells", dim + 1
+    what = {2: "triangles", 3: "tetrahedra"}[dim]
+    if cells.dtype.kind not in "iu":
+        raise TypeError(f"{name} must be integer vertex indices, got dtype {cells.dtype}")
+    if cells.shape[1] != k:
+        raise ValueError(f"{name} must have shape (M, {k}) ({what} of a {dim}D "
+                         f"simulation mesh), got {cells.shape}")
+    if cells.shape[0] == 0:
+        raise ValueError("the simulation mesh is empty (0 cells)")
+    with np.errstate(all="ignore"):  # unused rows are never read by a box
+        work = arr.astype(dtype, copy=False)
+    remote = RemoteCells(work, cells, scheduler, blocks)
+    bad, used = remote.check(len(arr))
+    for t in range(3):
+        if bad[t] is not None:
+            row = remote._fetch(np.array([bad[t]]))[0].tolist()
+            raise cell_error("simulation", t, bad[t], row, len(arr))
+    pts, rounded = _points(arr, used, "simulation", dtype)
+    remote.points = pts  # the same boxes as from ``work`` (the used rows are equal)
+    return MeshInput(pts, cells, "simulation", rounded), remote

@@ -1,0 +1,218 @@
+"""The simulation cells' boxes without storing them (docs/partitioned.md, section 2,
+"the lean plan"): the plan needs every cell's box only for reductions (the hull, the
+largest box edge, the exact sums of the extents for the broad-phase grid's cell size)
+and for per-cell flags, so :class:`CellBoxes` recomputes the boxes block by block from
+the points and cells (:func:`~predicates.registration.spatial.boxes.fill_boxes`: exact,
+min and max round nothing) instead of holding two (n, d) binary64 arrays — 48 bytes per
+tetrahedron, more than the cells themselves. Boxes of a subset of the cells (the cells
+that can meet, a few per cent of a large mesh) are gathered once and kept.
+
+``CellBoxes.lo`` / ``.hi`` behave as the (n, d) arrays where the refinement reads them
+(row slices, index arrays, masks, ``[:, axis]``, ``len``, ``shape``; anything else
+materialises the array), so every consumer sees the same numbers as before.
+"""
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass
+
+import numpy as np
+
+from predicates.registration.plan.refine_scan import stats_from
+from predicates.registration.spatial.blocks import SERIAL, Blocks
+from predicates.registration.spatial.boxes import box_extent, boxes_of, fill_boxes
+from predicates.registration.spatial.exactsum import ExactSum
+
+__all__ = ["BoxSummary", "CellBoxes"]
+
+
+@dataclass
+class BoxSummary:
+    """Reductions of the boxes of n cells, each exact (min, max, exact sums), so those
+    of parts combine into those of the whole in any order (:meth:`merge`): the hull
+    ``lo_min``, ``hi_max`` (d,), the largest box edge ``ext_max`` (not rounded up) and
+    per axis the :class:`~predicates.registration.spatial.exactsum.ExactSum` of the
+    extents ``sums``."""
+
+    n: int
+    lo_min: np.ndarray
+    hi_max: np.ndarray
+    ext_max: float
+    sums: list
+    ext_min: float = np.inf
+    hist: np.ndarray | None = None  # biased exponents of the extents (None: not finite)
+
+    def merge(self, other: "BoxSummary") -> "BoxSummary":
+        if other.n == 0:
+            return self
+        if self.n == 0:
+            return other
+        for a, b in zip(self.sums, other.sums):
+            a.merge(b)
+        hist = None if self.hist is None or other.hist is None else self.hist + other.hist
+        return BoxSummary(self.n + other.n, np.minimum(self.lo_min, other.lo_min),
+                          np.maximum(self.hi_max, other.hi_max),
+                          max(self.ext_max, other.ext_max), self.sums,
+                          min(self.ext_min, other.ext_min), hist)
+
+    def scan_stats(self):
+        """The refinement scan's statistics of these boxes
+        (:func:`~.refine_scan.stats_from`), or None when an extent is not finite (the
+        scan then reads the boxes and refuses them itself)."""
+        if self.hist is None or not np.isfinite(self.ext_max):
+            return None
+        mag = max(0.0, float(np.max(-self.lo_min)), float(np.max(self.hi_max)))
+        return stats_from(self.n, float(self.ext_min), float(self.ext_max), mag, self.hist)
+
+    def mean_extent(self) -> float:
+        """The larger per-axis mean extent, exactly rounded (as
+        :func:`~predicates.registration.spatial.boxgrid.mean_extent`)."""
+        return max(s.mean() for s in self.sums) if self.n else 0.0
+
+
+def summarize(lo: np.ndarray, hi: np.ndarray) -> BoxSummary:
+    """:class:`BoxSummary` of the boxes ``lo``, ``hi`` (n, d)."""
+    d = lo.shape[1]
+    if len(lo) == 0:
+        return BoxSummary(0, np.full(d, np.inf), np.full(d, -np.inf), 0.0,
+                          [ExactSum() for _ in range(d)])
+    sums = [ExactSum().add(hi[:, ax] - lo[:, ax]) for ax in range(d)]
+    e = box_extent(lo, hi)
+    e += 0.0  # -0.0 to +0.0, as the refinement's scan counts exponents
+    e_min, e_max = float(e.min()), float(e.max())
+    hist = np.bincount(e.view(np.int64) >> 52, minlength=2048) \
+        if np.isfinite(e_max) and e_min >= 0 else None
+    return BoxSummary(len(lo), np.array([lo[:, ax].min() for ax in range(d)]),
+                      np.array([hi[:, ax].max() for ax in range(d)]), e_max, sums, e_min,
+                      hist)
+
+
+class CellBoxes:
+    """The boxes of ``cells`` over ``points``, computed when asked: :meth:`block` (rows
+    [a, b)), :meth:`rows` (a mask or ids; the last subset is kept), :meth:`summary`
+    (one pass, cached); ``lo``, ``hi``: array-like views (module docstring)."""
+
+    def __init__(self, points: np.ndarray, cells: np.ndarray, blocks: Blocks = SERIAL):
+        self.points, self.cells, self.blocks = points, cells, blocks
+        self.n, self.d = len(cells), points.shape[1]
+        self.cols = np.ascontiguousarray(points.T, dtype=np.float64)
+        self._summary = None
+        self._kept = None  # (ids, lo, hi) of the last subset gathered
+        self._local = threading.local()  # the last block computed, per thread
+        self.lo, self.hi = _Side(self, 0), _Side(self, 1)
+
+    def __len__(self) -> int:
+        return self.n
+
+    def __getitem__(self, side: int):
+        """``boxes[0]``, ``boxes[1]``: lo and hi, as a (lo, hi) pair is indexed."""
+        return (self.lo, self.hi)[side]
+
+    def __iter__(self):
+        return iter((self.lo, self.hi))
+
+    def block(self, a: int, b: int):
+        """(lo, hi) (b − a, d) of rows [a, b) (the last block is reused)."""
+        last = getattr(self._local, "last", None)
+        if last is not None and last[0] == a and last[1] == b:
+            return last[2], last[3]
+        lo, hi = np.empty((self.d, b - a)), np.empty((self.d, b - a))
+        fill_boxes(self.cols, np.ascontiguousarray(self.cells[a:b].T), lo, hi)
+        self._local.last = (a, b, lo.T, hi.T)
+        return lo.T, hi.T
+
+    def rows(self, sel):
+        """(lo, hi) of the rows ``sel`` (a boolean mask of n or ascending ids), in
+        ascending order; from the kept subset when it holds them, else gathered (and
+        kept)."""
+        ids = np.flatnonzero(sel) if np.asarray(sel).dtype == bool else np.asarray(sel)
+        if self._kept is not None:
+            kept, lo, hi = self._kept
+            pos = np.searchsorted(kept, ids)
+            if len(ids) == 0 or (pos.max() < len(kept) and np.array_equal(kept[pos], ids)):
+                return lo[pos], hi[pos]
+        if len(ids) == self.n:
+            lo, hi = boxes_of(self.points, self.cells, self.blocks)
+        else:
+            lo, hi = boxes_of(self.points, self.cells[ids], self.blocks)
+        self._kept = (ids, lo, hi)
+        return lo, hi
+
+    def cells_of(self, sel) -> np.ndarray:
+        """The cells (vertex ids) of the rows ``sel`` (a mask or ascending ids)."""
+        return self.cells[sel]
+
+    def flag_pass(self, origin, h, G, table):
+        """:func:`~.lean.flag_pass` over these cells (the first round of the cells that
+        can meet)."""
+        from predicates.registration.plan.lean import flag_pass
+
+        return flag_pass(self, origin, h, G, table)
+
+    def summary(self) -> BoxSummary:
+        """The boxes' :class:`BoxSummary`, one pass in blocks (spans on the pool)."""
+        if self._summary is None:
+            def span(a: int, b: int) -> BoxSummary:
+                out = summarize(*self.block(a, a))  # empty
+                for s, t in self.blocks.each(a, b):
+                    out = out.merge(summarize(*self.block(s, t)))
+                return out
+
+            parts = self.blocks.map(span, self.n) if self.n else [summarize(
+                np.zeros((0, self.d)), np.zeros((0, self.d)))]
+            out = parts[0]
+            for p in parts[1:]:
+                out = out.merge(p)
+            self._summary = out
+        return self._summary
+
+    def column(self, side: int, ax: int) -> np.ndarray:
+        """Axis ``ax`` of lo (side 0) or hi (side 1) for every cell (n floats)."""
+        out = np.empty(self.n)
+
+        def fill(a: int, b: int) -> None:
+            out[a:b] = self.block(a, b)[side][:, ax]
+
+        self.blocks.rows(fill, self.n)
+        return out
+
+    def array(self, side: int) -> np.ndarray:
+        """lo (side 0) or hi (side 1) of every cell, materialised."""
+        return self.rows(np.arange(self.n))[side]
+
+
+class _Side:
+    """``CellBoxes.lo`` or ``.hi`` as an (n, d) array-like (module docstring)."""
+
+    def __init__(self, owner: CellBoxes, side: int):
+        self.owner, self.side = owner, side
+        self.shape = (owner.n, owner.d)
+        self.dtype = np.dtype(np.float64)
+        self.ndim = 2
+
+    def __len__(self) -> int:
+        return self.owner.n
+
+    def __getitem__(self, key):
+        o = self.owner
+        if isinstance(key, slice) and key.step in (None, 1):
+            a, b, _ = key.indices(o.n)
+            return o.block(a, max(a, b))[self.side]
+        if isinstance(key, tuple) and len(key) == 2 and key[0] == slice(None) \
+                and isinstance(key[1], (int, np.integer)):
+            return o.column(self.side, int(key[1]))
+        if isinstance(key, tuple) and len(key) == 2 and isinstance(key[0], slice):
+            return self[key[0]][:, key[1]]
+        if isinstance(key, np.ndarray) and key.ndim == 1 and \
+                (key.dtype == bool or key.dtype.kind in "iu"):
+            if key.dtype == bool or len(key) < 2 or bool(np.all(key[1:] > key[:-1])):
+                return o.rows(key)[self.side]
+            order = np.argsort(key, kind="stable")
+            out = np.empty((len(key), o.d))
+            out[order] = o.rows(key[order])[self.side]
+            return out
+        return o.array(self.side)[key]
+
+    def __array__(self, dtype=None, copy=None):
+        a = self.owner.array(self.side)
+        return a if dtype is None else a.astype(dtype)

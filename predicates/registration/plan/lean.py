@@ -1,0 +1,127 @@
+"""The first round of the cells that can meet over every simulation cell, without the
+cells' boxes in memory (docs/partitioned.md, section 2, "the lean plan"): the same flags
+as :func:`~predicates.registration.spatial.broadphase.near_flags` on all boxes, from
+one pass that recomputes each block's boxes (:class:`~.cellboxes.CellBoxes`).
+
+``near_flags`` builds the broad phase's grid (:func:`~predicates.registration.spatial.
+boxgrid.grid`: hull, mean extent, doubled cell size while the boxes cover more than the
+budget), then on a dense grid flags a cell when its cell range holds a cell covered by
+an enlarged cutting box (a summed-area table), and a cutting cell when its range holds a
+cell covered by a flagged simulation cell. Here the hull and the mean extent come from
+the boxes' summary (exact reductions: the same numbers), and one pass per cell size
+computes, block by block, the cells' ranges, their covered count (the budget test), the
+simulation flags against the cutting occupancy, the flagged cells' ranges (whose
+coverage has the same integer counts) and their largest box edge — the
+flags of the cell size the budget test keeps are the final ones. A grid too sparse for
+the summed-area tables falls back to ``near_flags`` on the materialised boxes.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from predicates.registration.spatial.boxes import box_extent
+from predicates.registration.spatial.boxgrid import (
+    BITS, cell_index, colmax, colmin, enlarge, mean_extent, ncells)
+from predicates.registration.spatial.broadphase import _dense, near_flags
+from predicates.registration.spatial.gridsums import _corners, any_in, occupancy
+
+__all__ = ["flag_pass", "near_all"]
+
+
+def near_all(boxes, lo_b: np.ndarray, hi_b: np.ndarray, pad: float, flags=near_flags):
+    """(near_a, near_b, ext_a): ``near_flags(all boxes of boxes, lo_b, hi_b, pad)`` and
+    the largest box edge of the flagged cells (not rounded; 0.0 if none). ``boxes``: a
+    :class:`~.cellboxes.CellBoxes` or anything with its ``summary``, ``rows``, ``d``
+    and ``flag_pass`` (:func:`flag_pass` over its cells: the plan's passes on the
+    workers' cells, :mod:`predicates.registration.partition.remote`); ``flags``:
+    near_flags or an identical one (the fallback on a sparse grid)."""
+    na, nb = len(boxes), len(lo_b)
+    lo_b, hi_b = np.asarray(lo_b, dtype=np.float64), np.asarray(hi_b, dtype=np.float64)
+    if na == 0 or nb == 0:
+        return np.zeros(na, dtype=bool), np.zeros(nb, dtype=bool), 0.0
+    S = boxes.summary()
+    lo_bx, hi_bx = enlarge(lo_b, hi_b, pad)
+    origin = np.minimum(S.lo_min, colmin(lo_bx))
+    top = np.maximum(S.hi_max, colmax(hi_bx))
+    with np.errstate(over="ignore"):
+        span = float((top - origin).max())
+    if not np.isfinite(span):
+        raise ValueError("coordinates too large for the broad phase (their range "
+                         "overflows the floating-point format)")
+    h = max(S.mean_extent(), mean_extent(lo_bx, hi_bx))
+    if h <= 0:
+        h = span / max(1.0, (na + nb) ** (1 / boxes.d))
+    h = max(h, span * 2.0 ** -BITS, np.finfo(np.float64).tiny)
+    budget = 16 * (na + nb) + (1 << 20)
+    while True:
+        G = (np.floor((top - origin) / h).astype(np.int64) + 1).clip(1, (1 << BITS) + 1)
+        ib0, ib1 = cell_index(lo_bx, origin, h, G), cell_index(hi_bx, origin, h, G)
+        dense = _dense(G + 1, na + nb)
+        table = _table(occupancy(ib0, ib1, G)) if dense else None
+        covered, got = boxes.flag_pass(origin, h, G, table)
+        if covered + ncells(ib0, ib1).sum() <= budget or np.all(G == 1):
+            break
+        h *= 2
+    if not dense:  # as near_flags on a sparse grid (the same grid: it recomputes it)
+        lo, hi = boxes.rows(np.ones(na, dtype=bool))
+        near_a, near_b = flags(lo, hi, lo_b, hi_b, pad)
+        ext = float(box_extent(lo[near_a], hi[near_a]).max()) if near_a.any() else 0.0
+        return near_a, near_b, ext
+    near_a, i0f, i1f, ext = got
+    # the flagged cells' coverage: the same integer counts as near_flags's occupancy
+    return near_a, any_in(occupancy(i0f, i1f, G), ib0, ib1, G), ext
+
+
+def flag_pass(boxes, origin, h, G, table):
+    """One pass over the cells' blocks at cell size h: (cells covered, (flags, the
+    flagged cells' cell ranges i0, i1, their largest box edge)); the second item is
+    None when ``table`` (the cutting occupancy's summed-area table) is None — a sparse
+    grid: only the count. ``boxes``: a :class:`~.cellboxes.CellBoxes`."""
+    d = len(G)
+    near = np.zeros(len(boxes), dtype=bool) if table is not None else None
+
+    def span(a: int, b: int):
+        count, ext, r0, r1 = 0, 0.0, [], []
+        for s, t in boxes.blocks.each(a, b):
+            lo, hi = boxes.block(s, t)
+            i0, i1 = cell_index(lo, origin, h, G), cell_index(hi, origin, h, G)
+            count += int(ncells(i0, i1).sum())
+            if table is None:
+                continue
+            f = _look(table, i0, i1, G)
+            near[s:t] = f
+            if f.any():
+                r0.append(i0[f])
+                r1.append(i1[f])
+                ext = max(ext, float(box_extent(lo[f], hi[f]).max()))
+        return count, r0, r1, ext
+
+    parts = boxes.blocks.map(span, len(boxes))
+    count = sum(p[0] for p in parts)
+    if table is None:
+        return count, None
+    r0 = [x for p in parts for x in p[1]] or [np.zeros((0, d), dtype=np.int32)]
+    r1 = [x for p in parts for x in p[2]] or [np.zeros((0, d), dtype=np.int32)]
+    return count, (near, np.concatenate(r0), np.concatenate(r1), max(p[3] for p in parts))
+
+
+def _table(occ: np.ndarray) -> np.ndarray:
+    """The summed-area table of ``occ`` over the (G + 1)-grid, raveled (as
+    :func:`~predicates.registration.spatial.gridsums.any_in` builds it)."""
+    S = np.zeros(occ.shape, dtype=np.int32 if occ.size < 2 ** 31 else np.int64)
+    S[tuple(slice(1, None) for _ in range(occ.ndim))] = \
+        occ[tuple(slice(None, -1) for _ in range(occ.ndim))]
+    for ax in range(S.ndim):
+        np.cumsum(S, axis=ax, out=S)
+    return S.ravel()
+
+
+def _look(S: np.ndarray, i0, i1, G) -> np.ndarray:
+    """Per box: does its cell range hold an occupied cell (2^d look-ups in ``S``)."""
+    count = np.zeros(len(i0), dtype=S.dtype)
+    for key, sign in _corners(i0, i1, G):
+        if sign > 0:
+            count += S.take(key)
+        else:
+            count -= S.take(key)
+    return count > 0

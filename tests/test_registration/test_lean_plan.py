@@ -1,0 +1,118 @@
+"""The lean plan (predicates.registration.plan.cellboxes, .lean; docs/partitioned.md,
+section 2): the simulation boxes computed block by block give the numbers the stored
+boxes gave — the flags of near_flags, L over the cells that can meet, the refinement's
+scan — for any blocking, and the run's peak memory stays below the boxes' bytes."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from predicates.registration.plan import refine_scan
+from predicates.registration.plan.cellboxes import CellBoxes
+from predicates.registration.plan.lean import near_all
+from predicates.registration.plan.resolution import consistent_scale
+from predicates.registration.spatial import blocks as B
+from predicates.registration.spatial.boxes import box_extent, boxes_of
+from predicates.registration.spatial.broadphase import near_flags
+
+
+def _mesh(seed: int, n: int, dim: int = 3, spread: float = 1.0):
+    rng = np.random.default_rng(seed)
+    P = rng.random((max(n, dim + 1) * 2, dim))
+    P *= 2.0 ** (spread * rng.standard_normal((len(P), 1)))
+    C = np.array([rng.choice(len(P), dim + 1, replace=False) for _ in range(n)])
+    return P, C
+
+
+def _cut(seed: int, m: int, dim: int = 3, size: float = 0.05):
+    rng = np.random.default_rng(seed + 1)
+    lo = rng.random((m, dim))
+    return lo, lo + size * rng.random((m, dim))
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(1, 300), st.sampled_from([2, 3]),
+       st.sampled_from([0.0, 1e-3, 0.05, 0.3]), st.sampled_from([1, 7, 64, None]))
+def test_near_all_is_near_flags(seed, n, dim, pad, block):
+    P, C = _mesh(seed, n, dim, spread=0.0 if seed % 2 else 2.0)
+    lo_b, hi_b = _cut(seed, 1 + seed % 40, dim)
+    lo, hi = boxes_of(P, C)
+    ref_a, ref_b = near_flags(lo, hi, lo_b, hi_b, pad)
+    boxes = CellBoxes(P, C, B.Blocks(block=block))
+    got_a, got_b, ext = near_all(boxes, lo_b, hi_b, pad)
+    assert np.array_equal(got_a, ref_a) and np.array_equal(got_b, ref_b)
+    assert ext == (float(box_extent(lo[ref_a], hi[ref_a]).max()) if ref_a.any() else 0.0)
+
+
+def test_near_all_sparse_grid_falls_back_to_the_same_flags(monkeypatch):
+    from predicates.registration.plan import lean
+
+    P, C = _mesh(3, 200)
+    lo_b, hi_b = _cut(3, 30)
+    monkeypatch.setattr(lean, "_dense", lambda G, n: False)
+    got = near_all(CellBoxes(P, C), lo_b, hi_b, 0.01)
+    ref = near_flags(*boxes_of(P, C), lo_b, hi_b, 0.01)
+    assert np.array_equal(got[0], ref[0]) and np.array_equal(got[1], ref[1])
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_consistent_scale_lean_equals_stored_boxes(seed):
+    P, C = _mesh(seed, 400, spread=1.0)
+    cut = _cut(seed, 25, size=0.02)
+    for block in (5, None):
+        ref = consistent_scale(3, boxes_of(P, C), cut, np.float64)
+        got = consistent_scale(3, CellBoxes(P, C, B.Blocks(block=block)), cut, np.float64)
+        assert (got.L_a, got.L_b, got.e, got.pad, got.history) == \
+            (ref.L_a, ref.L_b, ref.e, ref.pad, ref.history)
+        assert all(np.array_equal(a, b) for a, b in zip(got.masks, ref.masks))
+
+
+def test_cellboxes_behave_as_the_arrays():
+    P, C = _mesh(11, 1000)
+    lo, hi = boxes_of(P, C)
+    cb = CellBoxes(P, C, B.Blocks(block=64))
+    rng = np.random.default_rng(0)
+    ids = rng.choice(1000, 50)  # unsorted, with repeats
+    mask = rng.random(1000) < 0.3
+    for side, ref in ((cb.lo, lo), (cb.hi, hi)):
+        assert side.shape == ref.shape and len(side) == len(ref)
+        assert np.array_equal(side[10:400], ref[10:400])
+        assert np.array_equal(side[ids], ref[ids]) and np.array_equal(side[mask], ref[mask])
+        assert np.array_equal(side[np.sort(ids)], ref[np.sort(ids)])
+        assert np.array_equal(side[:, 2], ref[:, 2]) and np.array_equal(side[5:9, 1], ref[5:9, 1])
+        assert np.array_equal(np.asarray(side), ref)
+    lo_c, hi_c = cb
+    assert lo_c is cb.lo and cb[1] is cb.hi
+    S = cb.summary()
+    assert S.ext_max == box_extent(lo, hi).max() and S.ext_min == box_extent(lo, hi).min()
+    assert np.array_equal(S.lo_min, lo.min(0)) and np.array_equal(S.hi_max, hi.max(0))
+
+
+@pytest.mark.parametrize("longest", [0.0, 0.05, np.inf])
+def test_refine_scan_from_the_summary_is_the_scan(longest):
+    P, C = _mesh(5, 3000, spread=0.5)
+    lo, hi = boxes_of(P, C)
+    reach = _cut(5, 20, size=0.1)
+    ref = refine_scan.scan_cells(lo, hi, reach, longest)
+    cb = CellBoxes(P, C, B.Blocks(block=97))
+    got = refine_scan.scan_cells(cb.lo, cb.hi, reach, longest, cb.summary().scan_stats())
+    assert (got.n, got.ext_min, got.ext_max, got.fine, got.mag) == \
+        (ref.n, ref.ext_min, ref.ext_max, ref.fine, ref.mag)
+    assert np.array_equal(got.near, ref.near)
+
+
+def test_out_of_memory_in_the_plan_is_a_clear_refusal(monkeypatch):
+    import predicates
+    from predicates.registration import pipeline
+    from predicates.registration.examples import example
+
+    def boom(*a, **k):
+        raise MemoryError()
+
+    monkeypatch.setattr(pipeline, "consistent_scale", boom)
+    ex = example("sphere", 4, subdivisions=1)
+    with pytest.raises(pipeline.PlanMemoryError, match=r"plan \(scale\) of meshes of"):
+        predicates.intersect(*ex["sim"], *ex["cut"])
+    with pytest.raises(MemoryError):  # still a MemoryError for callers that catch it
+        predicates.intersect(*ex["sim"], *ex["cut"])

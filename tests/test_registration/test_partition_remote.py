@@ -1,0 +1,202 @@
+"""The plan's per-cell passes on the workers (predicates.registration.partition.remote;
+docs/partitioned.md, section 6): simulation cells given as a dask array stay on the
+workers, the client combines per-chunk summaries — and the result is the serial one bit
+for bit for any chunking and scheduler, also when the client process cannot hold the
+mesh at all."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings, strategies as st
+
+import predicates
+from predicates.registration.examples import example
+from predicates import portable
+
+da = pytest.importorskip("dask.array")
+
+
+def assert_identical(ref, res):
+    """Every kind's pairs and weights bit for bit, L, e and the resolution report."""
+    assert res.kinds == ref.kinds and res.counts == ref.counts
+    assert res.scale_exponent == ref.scale_exponent and res.L_a == ref.L_a
+    assert res.L_b == ref.L_b and res.resolution.to_dict() == ref.resolution.to_dict()
+    for kind in ref.kinds:
+        a, b = ref[kind], res[kind]
+        for x, y in ((a.sim, b.sim), (a.cut, b.cut), (a.sim_weights, b.sim_weights),
+                     (a.cut_weights, b.cut_weights)):
+            assert x.dtype == y.dtype and x.shape == y.shape, kind
+            assert x.tobytes() == y.tobytes(), kind
+
+
+def _case(name, n, angle=None, **kw):
+    ex = example(name, n, **kw)
+    (sp, sc), (cp, cc) = ex["sim"], ex["cut"]
+    if angle is not None:
+        R = portable.rotation(ex["dim"], angle)
+        sp, cp = portable.rotate(sp, R), portable.rotate(cp, R)
+    return sp, np.asarray(sc), cp, cc
+
+
+def _chunked(cells, rng, parts):
+    """A dask array of the cells in ``parts`` random row chunks."""
+    cuts = np.sort(rng.choice(np.arange(1, len(cells)), min(parts, len(cells)) - 1,
+                              replace=False)) if parts > 1 else []
+    sizes = tuple(np.diff(np.concatenate([[0], cuts, [len(cells)]])).tolist())
+    return da.from_array(cells, chunks=(sizes, cells.shape[1]))
+
+
+CASES = [("sphere", 5, dict(subdivisions=1)), ("plane", 4, {}), ("circle", 8,
+                                                                   dict(segments=24))]
+
+
+@settings(max_examples=12, deadline=None, suppress_health_check=list(HealthCheck))
+@given(st.sampled_from(range(len(CASES))), st.integers(1, 9), st.integers(1, 7),
+       st.sampled_from(["synchronous", "threads"]), st.integers(0, 2**32 - 1),
+       st.sampled_from([np.float64, np.float32]))
+def test_cells_on_the_workers_give_the_serial_result(case, parts, k, sched, seed, dtype):
+    name, n, kw = CASES[case]
+    sp, sc, cp, cc = _case(name, n, angle=seed % 7 or None, **kw)
+    ref = predicates.intersect(sp, sc, cp, cc, dtype=dtype)
+    cells = _chunked(sc, np.random.default_rng(seed), parts)
+    res = predicates.intersect(sp, cells, cp, cc, dtype=dtype, partitions=k,
+                               scheduler=sched)
+    assert_identical(ref, res)
+    remote = res.timings["plan_remote"]
+    assert remote["tasks"] >= 2 * cells.numblocks[0]  # validation + the first round
+
+
+def test_processes_and_a_distributed_cluster():
+    distributed = pytest.importorskip("distributed")
+    sp, sc, cp, cc = _case("sphere", 6, angle=3, subdivisions=2)
+    ref = predicates.intersect(sp, sc, cp, cc)
+    cells = _chunked(sc, np.random.default_rng(1), 5)
+    assert_identical(ref, predicates.intersect(sp, cells, cp, cc, partitions=3,
+                                               scheduler="processes"))
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        res = predicates.intersect(sp, cells, cp, cc, partitions=4, scheduler=client)
+    assert_identical(ref, res)
+
+
+@pytest.mark.parametrize("bad", ["negative", "range", "repeat"])
+def test_bad_cells_on_the_workers_are_refused_as_serially(bad):
+    sp, sc, cp, cc = _case("sphere", 4, subdivisions=1)
+    sc = sc.copy()
+    row = len(sc) - 3  # in the last chunk: the message names the global cell
+    sc[row, 1] = {"negative": -1, "range": len(sp) + 5, "repeat": sc[row, 0]}[bad]
+    with pytest.raises(ValueError) as serial:
+        predicates.intersect(sp, sc, cp, cc)
+    with pytest.raises(ValueError) as remote:
+        predicates.intersect(sp, da.from_array(sc, chunks=(40, 4)), cp, cc, partitions=2,
+                             scheduler="synchronous")
+    assert str(remote.value) == str(serial.value) and f"cell {row}" in str(serial.value)
+
+
+CLIENT = textwrap.dedent("""
+    import json, resource, sys
+    import numpy as np
+    import dask, dask.array as da
+    from distributed import Client
+    import predicates
+    from predicates.registration.examples import grid_coordinates, icosphere
+
+    n, address, headroom = int(sys.argv[1]), sys.argv[2], int(sys.argv[3])
+
+    def cells_chunk(n, a, b):  # rows [a, b) of cube_grid(n)[1], built on a worker
+        from predicates.registration.examples import _KUHN
+        r = np.arange(a, b, dtype=np.int64)
+        path, q = r // n ** 3, r % n ** 3
+        k, j, i = q // (n * n), (q // n) % n, q % n
+        out = np.empty((len(r), 4), dtype=np.int64)
+        for p, steps in enumerate(_KUHN):
+            sel = path == p
+            for v, (di, dj, dk) in enumerate(steps):
+                out[sel, v] = (i[sel] + di) + (n + 1) * ((j[sel] + dj) + (n + 1) * (k[sel] + dk))
+        return out
+
+    def status(field):
+        for line in open("/proc/self/status"):
+            if line.startswith(field + ":"):
+                return int(line.split()[1]) * 1024
+
+    x = grid_coordinates(n)
+    Z, Y, X = np.meshgrid(x, x, x, indexing="ij")
+    points = np.stack([X.ravel(), Y.ravel(), Z.ravel()], axis=1)
+    del X, Y, Z
+    cp, cc = icosphere(6)
+    cp = 0.5 + (cp - 0.5) * 0.5  # a small sphere: few cells can meet
+    m = 6 * n ** 3
+    cuts = np.linspace(0, m, 5).astype(int)
+    cells = da.concatenate([da.from_delayed(dask.delayed(cells_chunk)(n, a, b),
+                                            shape=(b - a, 4), dtype=np.int64)
+                            for a, b in zip(cuts[:-1], cuts[1:])])
+    mesh = points.nbytes + m * 4 * 8
+    client = Client(address)
+    limit = status("VmSize") + headroom
+    resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+    try:  # the limit is real: the cells alone do not fit
+        np.ones(m * 4 * 8, dtype=np.uint8)
+        fits = True
+    except MemoryError:
+        fits = False
+    res = predicates.intersect(points, cells, cp, cc, partitions=4, scheduler=client)
+    out = {"fits": fits, "mesh": mesh, "headroom": headroom, "counts": res.counts,
+           "L": [res.L_a, res.L_b], "e": res.scale_exponent, "hwm": status("VmHWM"),
+           "pairs": {k: [res[k].sim.tolist(), res[k].cut.tolist(),
+                         res[k].sim_weights.tobytes().hex(),
+                         res[k].cut_weights.tobytes().hex()] for k in res.kinds}}
+    client.close()
+    print(json.dumps(out))
+""")
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="RLIMIT_AS and /proc")
+def test_a_client_that_cannot_hold_the_mesh_gets_the_serial_result(tmp_path):
+    """The client's address space is limited to less than the simulation mesh's bytes
+    (RLIMIT_AS, set after its imports and connection); the workers, started outside it,
+    build the cells' chunks themselves. The run completes with the serial result. (The
+    cutting mesh is finer than the simulation cells: a coarse one's refinement gathers
+    the boxes of the cells near it on the client, docs/partitioned.md section 6.) The
+    client's address space (VmPeak − VmSize at the limit) was measured at 0.89 × the
+    mesh with a sphere of radius 0.37 (most of it proportional to the cells that can
+    meet: survivors, split, payloads, merge); with radius 0.185 it has room."""
+    distributed = pytest.importorskip("distributed")
+    from predicates.registration.examples import cube_grid, icosphere
+
+    n = 140  # 16.5 M tetrahedra: 527 MB of cells, 66 MB of points
+    sp, sc = cube_grid(n)
+    cp, cc = icosphere(6)
+    cp = 0.5 + (cp - 0.5) * 0.5  # as in the client
+    ref = predicates.intersect(sp, sc, cp, cc)
+    mesh = sp.nbytes + sc.nbytes
+    del sp, sc
+    script = tmp_path / "client.py"
+    script.write_text(CLIENT)
+    headroom = int(mesh * 0.75)
+    # one malloc arena, big blocks mapped and unmapped (not kept as heap): the address
+    # space then follows what the client holds
+    env = dict(os.environ, MALLOC_ARENA_MAX="1", MALLOC_MMAP_THRESHOLD_="65536",
+               MALLOC_TRIM_THRESHOLD_="65536", OMP_NUM_THREADS="1")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None, memory_limit=0) as cluster:
+        r = subprocess.run([sys.executable, str(script), str(n), cluster.scheduler_address,
+                            str(headroom)], capture_output=True, text=True, env=env,
+                           timeout=900)
+    assert r.returncode == 0, r.stderr[-3000:]
+    out = json.loads(r.stdout.strip().splitlines()[-1])
+    assert not out["fits"] and out["headroom"] < out["mesh"]
+    assert out["counts"] == ref.counts and out["L"] == [ref.L_a, ref.L_b]
+    assert out["e"] == ref.scale_exponent
+    for k in ref.kinds:
+        s, c, ws, wc = out["pairs"][k]
+        p = ref[k]
+        assert s == p.sim.tolist() and c == p.cut.tolist(), k
+        assert ws == p.sim_weights.tobytes().hex() and wc == p.cut_weights.tobytes().hex()
