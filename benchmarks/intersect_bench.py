@@ -5,7 +5,7 @@ after the robust registration) is its own. In the child:
 
 1. the meshes are generated (``predicates.registration.examples``, no download);
 2. the robust registration runs (``predicates.intersect``), with timers wrapped around
-   the broad phase (``box_pairs``), the sub-pair suppression (``Registration._blocked``,
+   the cell-level broad phase (``cell_pairs``), the sub-pair suppression (``Registration._blocked``,
    both in ``predicates.registration.levels.loop``) and the predicates (``Kind.evaluate`` of
    ``predicates.catalogue``) of every kind — wrappers installed at run time by this
    script, the library is not modified; ``res.timings`` gives setup (validation,
@@ -106,7 +106,9 @@ class _Timers:
         I = importlib.import_module("predicates.registration.levels.loop")
         Kind = importlib.import_module("predicates.catalogue").Kind
         timers = self
-        orig_bp, orig_blocked, orig_eval = I.box_pairs, I.Registration._blocked, Kind.evaluate
+        # the cell-level broad phase (``cell_pairs``; the per-kind candidates come from
+        # FacePairs inside ``_candidates``)
+        orig_bp, orig_blocked, orig_eval = I.cell_pairs, I.Registration._blocked, Kind.evaluate
         orig_cand = I.Registration._candidates
 
         def box_pairs(*a, **k):
@@ -133,7 +135,7 @@ class _Timers:
             timers.t[self.name]["predicates"] += time.perf_counter() - t
             return out
 
-        I.box_pairs = box_pairs
+        I.cell_pairs = box_pairs
         I.Registration._candidates = _candidates
         I.Registration._blocked = _blocked
         Kind.evaluate = evaluate
