@@ -65,9 +65,10 @@ def cut_files(sim, cut, *, output=None, png=None, explode: float = 0.0, surface=
     res = intersect_files(sim, cut, **options)
     sm = res.split()
     cm = sm.tetrahedralize() if conforming else None
-    cs = cut_surface(res) if (output or surface or png) else None
-    fv = (fragment_volumes(res, sm, cs)
-          if output is not None and volumes and cm is None else None)
+    with_volumes = output is not None and volumes and cm is None
+    # the surface only where something uses it: the volumes, --surface, the split picture
+    cs = cut_surface(res) if (with_volumes or surface or (png and cm is None)) else None
+    fv = fragment_volumes(res, sm, cs) if with_volumes else None
     if output is not None:
         write_meshio(output, cm.to_meshio(explode=explode) if cm is not None
                      else sm.to_meshio(explode=explode, volumes=fv))
