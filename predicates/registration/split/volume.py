@@ -155,6 +155,10 @@ def _fans(pieces, n: int, d: int):
         if d == 2:
             out.append((f, ids[0], ids[1]))
         else:
+            # a fan from the smallest node: a face region bent by a merged point (off
+            # its face by up to σ) is triangulated alike by both cells sharing it
+            k = ids.index(min(ids))
+            ids = ids[k:] + ids[:k]
             out += [(f, ids[0], ids[i], ids[i + 1]) for i in range(1, len(ids) - 1)]
     return out
 
