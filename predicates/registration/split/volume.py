@@ -147,16 +147,21 @@ _OUTWARD = {(2, True): (0, 1, 2), (2, False): (0, 2, 1), (3, True): _FACES,
 
 
 def _fans(pieces, n: int, d: int):
-    """(fragment, node ids of a boundary simplex) for the pieces' polygons (fans from
-    their first node) or segments; node id v for vertices, n + h for points."""
+    """(fragment, node ids of a boundary simplex) for the pieces' polygons or segments;
+    node id v for vertices, n + h for points. A face region is a star from its face's
+    smallest vertex (one triangle per region edge, none on the edges through it): a
+    region bent by a merged point (off its face by up to σ) is then triangulated alike by
+    both cells sharing it, and the chords cancel between the regions of a face. A cut
+    polygon (planar) is a fan from its smallest node, the same for both its sides."""
     out = []
-    for f, poly in pieces:
+    for f, poly, apex in pieces:
         ids = [x[1] if x[0] == "v" else n + x[1] for x in poly]
         if d == 2:
             out.append((f, ids[0], ids[1]))
+        elif apex is not None:
+            out += [(f, apex, a, b) for a, b in zip(ids, ids[1:] + ids[:1])
+                    if apex != a and apex != b]
         else:
-            # a fan from the smallest node: a face region bent by a merged point (off
-            # its face by up to σ) is triangulated alike by both cells sharing it
             k = ids.index(min(ids))
             ids = ids[k:] + ids[:k]
             out += [(f, ids[0], ids[i], ids[i + 1]) for i in range(1, len(ids) - 1)]
