@@ -82,12 +82,20 @@ def simplex_measure(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 class _Tables:
     """The registered points by simulation primitive and the cut polygons by cell."""
 
-    def __init__(self, cs, n_cells: int):
-        self.vertex_hit, self.edge_hits, self.prim, self.canon = {}, {}, [], []
-        for h, (ids, w) in enumerate(zip(cs.sim.tolist(), cs.sim_weights.tolist())):
+    def __init__(self, cs, n_cells: int, hits: np.ndarray | None = None):
+        """``hits``: only these points (every point on the primitives of the cells it
+        will be asked about; ``prim`` and ``canon`` are then dicts)."""
+        self.vertex_hit, self.edge_hits = {}, {}
+        self.prim, self.canon = ([], []) if hits is None else ({}, {})
+        rows = range(len(cs.sim)) if hits is None else hits.tolist()
+        for h, ids, w in zip(rows, cs.sim[rows].tolist(), cs.sim_weights[rows].tolist()):
             s = [i for i in ids if i >= 0]
-            self.prim.append(frozenset(s))
-            self.canon.append(self.vertex_hit.setdefault(s[0], h) if len(s) == 1 else h)
+            if hits is None:
+                self.prim.append(frozenset(s))
+                self.canon.append(self.vertex_hit.setdefault(s[0], h) if len(s) == 1 else h)
+            else:
+                self.prim[h] = frozenset(s)
+                self.canon[h] = self.vertex_hit.setdefault(s[0], h) if len(s) == 1 else h
             if len(s) == 2:
                 b = max(s)
                 self.edge_hits.setdefault((min(s), b), []).append((w[ids.index(b)], h))
@@ -168,10 +176,9 @@ def _fans(pieces, n: int, d: int):
     return out
 
 
-def _measures(fans, origin, Y, F, d):
-    """Volume, moment and closure residual (|Σ vector area| / Σ |area|) per fragment."""
-    A = np.array([f[0] for f in fans], dtype=np.int64)
-    S = np.array([f[1:] for f in fans], dtype=np.int64).reshape(len(fans), d)
+def _measures(A, S, origin, Y, F, d):
+    """Volume, moment and closure residual (|Σ vector area| / Σ |area|) per fragment of
+    the boundary simplices S (k, d) of fragments A (k,) coned from ``origin`` (k,)."""
     simp = np.concatenate([Y[origin][:, None], Y[S]], axis=1)
     v, m = simplex_measure(simp)
     vol = np.bincount(A, v, F)
@@ -187,10 +194,39 @@ def _measures(fans, origin, Y, F, d):
     return vol, mom, res
 
 
-def fragment_volumes(res, sm, cs=None) -> FragmentVolumes:
-    """Volume (area) and first moment of every fragment of the split ``sm`` of ``res``
-    (module docstring); ``cs``: its cut surface (computed when not given)."""
+def _per_cell_rows(res, sm, cs, cells, rest, start, nfrag, sgn, d):
+    """The boundary simplices of the fragments of the cells ``rest``, cell by cell by
+    the rules of :mod:`~predicates.registration.split.regions`, and the cells where
+    those do not apply."""
     from predicates.registration.split.regions import Unresolved, cell_pieces
+
+    n, on_cut = len(res.sim_points), sm.on_cut
+    todo = np.flatnonzero(rest)
+    near = np.zeros(n, dtype=bool)
+    near[cells[todo].ravel()] = True
+    T = _Tables(cs, len(cells), np.flatnonzero((near[cs.sim] | (cs.sim < 0)).all(axis=1)))
+    fans, bad = [], set()
+    for c in todo.tolist():
+        corners = cells[c].tolist()
+        frag = {v: start[c] + j for j in range(nfrag[c]) for k, v in enumerate(corners)
+                if sm.material[start[c] + j, k] and not on_cut[v]}
+        try:
+            pc = cell_pieces(corners, frag, on_cut, T, T.polygons(cs, c),
+                             _OUTWARD[d, bool(sgn[c] > 0)])
+        except Unresolved:
+            bad.add(c)
+            continue
+        fans += _fans(pc, n, d)
+    return np.array(fans, dtype=np.int64).reshape(len(fans), d + 1), bad
+
+
+def fragment_volumes(res, sm, cs=None, *, per_cell: bool = False) -> FragmentVolumes:
+    """Volume (area) and first moment of every fragment of the split ``sm`` of ``res``
+    (module docstring); ``cs``: its cut surface (computed when not given). The plain
+    tetrahedra (:mod:`~predicates.registration.split.plain_cells`) are summed
+    vectorised, the rest cell by cell; ``per_cell=True``: every cell cell by cell (the
+    reference the vectorised sums are tested against)."""
+    from predicates.registration.split.plain_cells import plain_cell_rows
     from predicates.registration.split.surface import cut_surface
 
     cs = cut_surface(res) if cs is None else cs
@@ -204,31 +240,21 @@ def fragment_volumes(res, sm, cs=None) -> FragmentVolumes:
     nfrag = np.bincount(sm.cell_origin, minlength=C)
     start = np.cumsum(nfrag) - nfrag
     twice = crossed_twice(cs, cells)
-    bad: set = set()
-    T, on_cut = _Tables(cs, C), sm.on_cut
-    fans, origin = [], []
     # every cell whose faces carry registered points: with the points on the cutting
     # side, a face is shared with the same (slightly bent) regions by both its cells
-    todo = (nfrag > 1) | twice | sm.severed.any(axis=1) | on_cut[cells].any(axis=1)
+    todo = (nfrag > 1) | twice | sm.severed.any(axis=1) | sm.on_cut[cells].any(axis=1)
     todo[cs.cell[~cs.on_face]] = True
-    for c in np.flatnonzero(todo).tolist():
-        corners = cells[c].tolist()
-        frag = {v: start[c] + j for j in range(nfrag[c]) for k, v in enumerate(corners)
-                if sm.material[start[c] + j, k] and not on_cut[v]}
-        try:
-            pc = cell_pieces(corners, frag, on_cut, T, T.polygons(cs, c),
-                             _OUTWARD[d, bool(sgn[c] > 0)])
-        except Unresolved:
-            bad.add(c)
-            continue
-        fc = _fans(pc, n, d)
-        fans += fc
-        origin += [corners[0]] * len(fc)
+    plain, rows = np.zeros(C, dtype=bool), np.zeros((0, d + 1), dtype=np.int64)
+    if d == 3 and not per_cell:
+        plain, rows = plain_cell_rows(cs, sm, cells, n, start, nfrag, sgn > 0, todo, twice)
+    rest_rows, bad = _per_cell_rows(res, sm, cs, cells, todo & ~plain, start, nfrag, sgn, d)
+    rows = np.concatenate([rows, rest_rows])
     split = todo[sm.cell_origin]
     unclaimed = np.zeros(C)
-    if fans:
+    if len(rows):
         Y = np.concatenate([X, _on_cut_side(res, cs)])
-        fv, fm, closure = _measures(fans, np.array(origin), Y, F, d)
+        A = rows[:, 0]
+        fv, fm, closure = _measures(A, rows[:, 1:], cells[sm.cell_origin[A], 0], Y, F, d)
         vol[split], mom[split] = fv[split], fm[split]
         bad.update(sm.cell_origin[split & (closure > 1e-9)].tolist())
         unclaimed = cv - np.bincount(sm.cell_origin, vol, C)

@@ -1,0 +1,298 @@
+"""The boundary simplices of the fragments of the *plain* split cells, vectorised over
+all of them (docs/split.md, "Volumes and moments"): the same simplices the per-cell
+rules of :mod:`~predicates.registration.split.regions` give, without forming the face
+regions.
+
+A tetrahedron is plain when no corner lies on the cut, no polygon of the cut lies in a
+face, every edge holds at most one registered point and holds one exactly when its two
+ends are in two fragments, every chord chain in a face runs from one edge point to
+another (each point inside a face on two chords of that face, each edge point on one
+chord in each of its two faces), and the cut polygons in the cell form a surface: each
+of their edges inside the cell shared by two polygons traversing it both ways. The rest
+go through the per-cell rules (at W1 none; the cells with a corner on the cut or an
+edge crossed twice, in general).
+
+In a plain cell each face's boundary segment belongs to the fragment of its corner,
+and a chord z→p ending at an edge point p (the face's outward cycle running
+x→p→y) is traversed by the region owning p→y, so the polygon it belongs to has that
+fragment in front and the fragment of x behind; the polygons joined by shared edges
+take the same sides (all their chords must agree). A face region is a star from its
+face's smallest vertex, one triangle per region edge, so the face is the sum over its
+segments (each to its owner) and its chords (a→b to the polygon's front, b→a to its
+back), with no region formed. All combinatorial; nothing here is floating point.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from predicates.registration.split import rules as R
+
+__all__ = ["plain_cell_rows"]
+
+_EDGES = np.array([(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)])
+_EDGE_OF = {frozenset(map(int, e)): i for i, e in enumerate(_EDGES)}
+_FACES = [(1, 2, 3), (0, 3, 2), (0, 1, 3), (0, 2, 1)]  # face k: opposite corner k
+
+
+def _face_cycles(positive: bool) -> np.ndarray:
+    """(4, 3, 2) local corners of the outward directed edges of every face."""
+    faces = _FACES if positive else [f[::-1] for f in _FACES]
+    return np.array([[(f[i], f[(i + 1) % 3]) for i in range(3)] for f in faces])
+
+
+def _bits(cells_c: np.ndarray, sim_h: np.ndarray) -> np.ndarray:
+    """Which corners of each row's cell the row's simulation primitive holds."""
+    eq = (cells_c[:, :, None] == sim_h[:, None, :]).any(axis=2)
+    return (eq << np.arange(4)).sum(axis=1)
+
+
+def _edge_points(cs, cells, cand, n):
+    """(C, 6) the registered point inside each local edge of the candidates (−1: none;
+    an edge with several is crossed twice, not a candidate)."""
+    nsim = (cs.sim >= 0).sum(axis=1)
+    eh = np.flatnonzero(nsim == 2)
+    lo = np.minimum(cs.sim[eh, 0], cs.sim[eh, 1])
+    hi = np.maximum(cs.sim[eh, 0], cs.sim[eh, 1])
+    key = lo * n + hi
+    o = np.argsort(key, kind="stable")
+    key, eh = key[o], eh[o]
+    c_ids = np.flatnonzero(cand)
+    a, b = cells[c_ids][:, _EDGES[:, 0]], cells[c_ids][:, _EDGES[:, 1]]
+    want = np.minimum(a, b) * n + np.maximum(a, b)
+    i = np.minimum(np.searchsorted(key, want), max(len(key) - 1, 0))
+    found = (key[i] == want) if len(key) else np.zeros(want.shape, dtype=bool)
+    pts = np.full((len(cells), 6), -1, dtype=np.int64)
+    pts[c_ids] = np.where(found, eh[i] if len(key) else -1, -1)
+    return pts
+
+
+def _corner_fragments(sm, start, nfrag, cand):
+    """(C, 4) the fragment of every corner of the candidates; marks off a corner in no
+    or several fragments."""
+    C = len(start)
+    f = np.flatnonzero(cand[sm.cell_origin])
+    c = sm.cell_origin[f]
+    mat = sm.material[f]
+    frag = np.full((C, 4), -1, dtype=np.int64)
+    cnt = np.zeros((C, 4), dtype=np.int64)
+    for k in range(4):
+        frag[c[mat[:, k]], k] = f[mat[:, k]]
+        np.add.at(cnt[:, k], c[mat[:, k]], 1)
+    return frag, (cnt != 1).any(axis=1) & cand
+
+
+def _expand(size: np.ndarray):
+    """(group, position) of the rows of groups of sizes ``size``."""
+    owner = np.repeat(np.arange(len(size)), size)
+    first = np.cumsum(size) - size
+    return owner, np.arange(int(size.sum())) - first[owner]
+
+
+def _polygons(cs, cells, cand):
+    """The polygons of the candidates (not lying in a face) as flat vertex rows; marks
+    off cells with a point the plain rules do not cover."""
+    q = np.flatnonzero(~cs.on_face & cand[cs.cell])
+    size = cs.offsets[q + 1] - cs.offsets[q]
+    qi, pos = _expand(size)
+    h = cs.index[cs.offsets[q][qi] + pos]
+    c = cs.cell[q][qi]
+    nsim = (cs.sim[h] >= 0).sum(axis=1)
+    bad = np.zeros(len(cells), dtype=bool)
+    bad[c[nsim == 1]] = True
+    nxt = np.arange(len(qi)) + np.where(pos == size[qi] - 1, 1 - size[qi], 1)
+    return {"q": q, "qc": cs.cell[q], "size": size, "qi": qi, "pos": pos, "h": h, "c": c, "nxt": nxt,
+            "bits": _bits(cells[c], cs.sim[h]), "nsim": nsim}, bad
+
+
+_POP = np.array([bin(m).count("1") for m in range(16)])
+_MISSING = np.array([(15 ^ m).bit_length() - 1 if _POP[m] == 3 else -1 for m in range(16)])
+_LOW = np.array([(m & -m).bit_length() - 1 if m else -1 for m in range(16)])
+_HIGH = np.array([m.bit_length() - 1 for m in range(16)])
+
+
+def _groups(*cols):
+    """Rows sorted by the key columns: (order, group of every sorted row, group sizes)."""
+    o = np.lexsort(cols[::-1])
+    diff = np.zeros(len(o), dtype=bool)
+    diff[:1] = True
+    for col in cols:
+        srt = col[o]
+        diff[1:] |= srt[1:] != srt[:-1]
+    gid = np.cumsum(diff) - 1
+    return o, gid, np.bincount(gid, minlength=int(gid[-1]) + 1 if len(o) else 0)
+
+
+def _edges(P, C):
+    """The polygons' edges: chords (in one face of the cell) and inner edges (shared by
+    two polygons traversing them both ways), polygons joined through their inner edges;
+    marks off cells where they are not a surface."""
+    i, j = np.arange(len(P["h"])), P["nxt"]
+    mask = P["bits"][i] | P["bits"][j]
+    c, a, b = P["c"], P["h"][i], P["h"][j]
+    bad = np.zeros(C, dtype=bool)
+    bad[c[_POP[mask] <= 2]] = True
+    inner = np.flatnonzero(_POP[mask] == 4)
+    lo, hi = np.minimum(a[inner], b[inner]), np.maximum(a[inner], b[inner])
+    o, gid, cnt = _groups(c[inner], lo, hi)
+    e = inner[o]
+    fwd = (a[e] < b[e]).astype(np.int64)
+    two = cnt[gid] == 2
+    bad[c[e[~two]]] = True
+    first = np.flatnonzero(np.diff(np.append(-1, gid)) != 0)
+    pair = first[cnt == 2]
+    same = fwd[pair] == fwd[pair + 1]
+    bad[c[e[pair[same]]]] = True
+    root = R.components(len(P["q"]), P["qi"][e[pair]], P["qi"][e[pair + 1]])
+    chord = np.flatnonzero(_POP[mask] == 3)
+    return {"k": _MISSING[mask[chord]], "a": a[chord], "b": b[chord], "c": c[chord],
+            "poly": P["qi"][chord], "bits_a": P["bits"][chord], "bits_b": P["bits"][j[chord]],
+            "ns_a": P["nsim"][chord], "ns_b": P["nsim"][j[chord]]}, root, bad
+
+
+def _chains(ch, C):
+    """Marks off cells whose chords do not chain, in every face, from one edge point to
+    another through face points (each on two chords of its face; each edge point of
+    the cell on one chord in each of its two faces)."""
+    bad = np.zeros(C, dtype=bool)
+    ends_c = np.concatenate([ch["c"], ch["c"]])
+    ends_k = np.concatenate([ch["k"], ch["k"]])
+    ends_h = np.concatenate([ch["a"], ch["b"]])
+    o, gid, cnt = _groups(ends_c, ends_k, ends_h)
+    kind = np.concatenate([ch["ns_a"], ch["ns_b"]])[o]
+    want = np.where(kind == 2, 1, 2)
+    bad[ends_c[o][(cnt[gid] != want) | ((kind != 2) & (kind != 3))]] = True
+    # every edge point of the cell on a chord in each of its two faces
+    node_c = ends_c[o][np.flatnonzero(np.diff(np.append(-1, gid)) != 0)]
+    node_edge = (kind[np.flatnonzero(np.diff(np.append(-1, gid)) != 0)] == 2)
+    have = np.bincount(node_c[node_edge], minlength=C)
+    # chains closed inside a face: components of chord ends without an edge point
+    m = len(ch["a"])
+    root = R.components(len(cnt), gid[np.argsort(o)[:m]], gid[np.argsort(o)[m:]])
+    has_edge = np.zeros(len(cnt), dtype=bool)
+    has_edge[root[np.flatnonzero(node_edge)]] = True
+    bad[node_c[~has_edge[root]]] = True
+    return bad, have
+
+
+def _direction_table() -> np.ndarray:
+    """(2, 4, 4, 4) bool: [positive, face k, u, v] is u→v an edge of face k's outward
+    cycle."""
+    t = np.zeros((2, 4, 4, 4), dtype=bool)
+    for s in (0, 1):
+        for k, cyc in enumerate(_face_cycles(bool(s))):
+            for u, v in cyc:
+                t[s, k, u, v] = True
+    return t
+
+
+_DIR = _direction_table()
+
+
+def _sides(P, ch, root, frag, positive, C):
+    """[front, back] fragment of every polygon (module docstring): from the chords ending
+    at an edge point, equal over the polygons joined by inner edges; marks off cells
+    where they disagree or are missing."""
+    bad = np.zeros(C, dtype=bool)
+    cand_f, cand_b, cand_p = [], [], []
+    for side, arrive in (("b", True), ("a", False)):
+        r = np.flatnonzero(ch["ns_" + side] == 2)
+        c, k, bits = ch["c"][r], ch["k"][r], ch["bits_" + side][r]
+        u, v = _LOW[bits], _HIGH[bits]
+        d = _DIR[positive[c].astype(np.int64), k, u, v]
+        x, y = np.where(d, u, v), np.where(d, v, u)  # the cycle runs x → point → y
+        fx, fy = frag[c, x], frag[c, y]
+        cand_f.append(fy if arrive else fx)
+        cand_b.append(fx if arrive else fy)
+        cand_p.append(root[ch["poly"][r]])
+    cf, cb, cp = (np.concatenate(v) for v in (cand_f, cand_b, cand_p))
+    n = len(root)
+    lo_f, hi_f = np.full(n, np.iinfo(np.int64).max), np.full(n, -1)
+    lo_b, hi_b = lo_f.copy(), hi_f.copy()
+    np.minimum.at(lo_f, cp, cf)
+    np.maximum.at(hi_f, cp, cf)
+    np.minimum.at(lo_b, cp, cb)
+    np.maximum.at(hi_b, cp, cb)
+    ok = (hi_f >= 0) & (lo_f == hi_f) & (lo_b == hi_b)
+    bad[P["qc"][~ok[root]]] = True
+    return hi_f[root], hi_b[root], bad
+
+
+def _segment_rows(cells, pts, frag, positive, plain, n):
+    """(fragment, apex, u, w): every face's boundary segments, each to the fragment of
+    its corner, as a star from the face's smallest vertex (no triangle on an edge
+    through it)."""
+    c = np.flatnonzero(plain)
+    out = []
+    for s in (0, 1):
+        cc = c[positive[c] == bool(s)]
+        for k, cyc in enumerate(_face_cycles(bool(s))):
+            apex = cells[cc][:, list(_FACES[k])].min(axis=1)
+            for x, y in cyc.tolist():
+                p = pts[cc, _EDGE_OF[frozenset((x, y))]]
+                vx, vy = cells[cc, x], cells[cc, y]
+                hit = p >= 0
+                out.append(np.stack([frag[cc, x], apex, vx, np.where(hit, n + p, vy)], 1))
+                out.append(np.stack([frag[cc, y], apex, n + p, vy], 1)[hit])
+    rows = np.concatenate(out) if out else np.zeros((0, 4), dtype=np.int64)
+    return rows[(rows[:, 1] != rows[:, 2]) & (rows[:, 1] != rows[:, 3])]
+
+
+def _chord_rows(cells, ch, front, back, plain, n):
+    """Every chord a→b (polygon direction) to its polygon's front, b→a to its back, as
+    stars from the face's smallest vertex."""
+    r = np.flatnonzero(plain[ch["c"]])
+    c, k = ch["c"][r], ch["k"][r]
+    face = np.array(_FACES)[k]
+    apex = np.take_along_axis(cells[c], face, axis=1).min(axis=1)
+    a, b, p = n + ch["a"][r], n + ch["b"][r], ch["poly"][r]
+    return np.concatenate([np.stack([front[p], apex, a, b], 1),
+                           np.stack([back[p], apex, b, a], 1)])
+
+
+def _fan_rows(P, front, back, plain, n):
+    """Every cut polygon with two sides: a fan from its smallest point, as it is to the
+    fragment behind it and reversed to the one in front."""
+    keep = plain[P["qc"]] & (front != back)
+    row = np.flatnonzero(keep[P["qi"]])
+    qi, pos, h = P["qi"][row], P["pos"][row], P["h"][row]
+    size = P["size"][qi]
+    first = np.flatnonzero(np.diff(np.append(-1, qi)) != 0)
+    m = np.minimum.reduceat(h, first) if len(first) else h[:0]
+    grp = np.cumsum(np.diff(np.append(-1, qi)) != 0) - 1
+    kmin = np.zeros(len(first), dtype=np.int64)
+    at = h == m[grp]
+    kmin[grp[at]] = pos[at]
+    r = (pos - kmin[grp]) % size
+    rot = np.empty_like(h)
+    rot[first[grp] + r] = h
+    tri = np.flatnonzero((pos >= 1) & (pos <= size - 2))  # rot: rotated in place
+    g = grp[tri]
+    p0, p1, p2 = n + m[g], n + rot[tri], n + rot[tri + 1]
+    return np.concatenate([np.stack([back[qi[tri]], p0, p1, p2], 1),
+                           np.stack([front[qi[tri]], p0, p2, p1], 1)])
+
+
+def plain_cell_rows(cs, sm, cells: np.ndarray, n: int, start: np.ndarray,
+                    nfrag: np.ndarray, positive: np.ndarray, todo: np.ndarray,
+                    twice: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(plain (C,) bool, rows (k, 4) int64): the plain cells among ``todo`` (module
+    docstring) and the triangles of their fragments' boundaries, each (fragment, three
+    node ids: v for vertex v, n + h for point h), oriented outward. ``positive``: the
+    cells with positive orientation; ``twice``: cells with an edge crossed twice."""
+    C = len(cells)
+    cand = todo & ~twice & ~sm.on_cut[cells].any(axis=1)
+    cand[cs.cell[cs.on_face]] = False
+    pts = _edge_points(cs, cells, cand, n)
+    frag, bad_f = _corner_fragments(sm, start, nfrag, cand)
+    fa, fb = frag[:, _EDGES[:, 0]], frag[:, _EDGES[:, 1]]
+    bad_s = ((pts >= 0) == (fa == fb)).any(axis=1)
+    P, bad_p = _polygons(cs, cells, cand)
+    ch, root, bad_g = _edges(P, C)
+    bad_c, have = _chains(ch, C)
+    bad_n = have != 2 * (pts >= 0).sum(axis=1)
+    front, back, bad_d = _sides(P, ch, root, frag, positive, C)
+    plain = cand & ~(bad_f | bad_s | bad_p | bad_g | bad_c | bad_n | bad_d)
+    rows = np.concatenate([_segment_rows(cells, pts, frag, positive, plain, n),
+                           _chord_rows(cells, ch, front, back, plain, n),
+                           _fan_rows(P, front, back, plain, n)])
+    return plain, rows.astype(np.int64)
