@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["FragmentVolumes", "fragment_volumes", "simplex_measure"]
+__all__ = ["FragmentVolumes", "fragment_boundaries", "fragment_volumes", "simplex_measure"]
 
 
 @dataclass
@@ -220,35 +220,58 @@ def _per_cell_rows(res, sm, cs, cells, rest, start, nfrag, sgn, d):
     return np.array(fans, dtype=np.int64).reshape(len(fans), d + 1), bad
 
 
+def _todo(sm, cs, cells, nfrag, twice):
+    """Every cell whose faces carry registered points: with the points on the cutting
+    side, a face is shared with the same (slightly bent) regions by both its cells."""
+    todo = (nfrag > 1) | twice | sm.severed.any(axis=1) | sm.on_cut[cells].any(axis=1)
+    todo[cs.cell[~cs.on_face]] = True
+    return todo
+
+
+def fragment_boundaries(res, sm, cs, *, per_cell: bool = False):
+    """The triangles (segments in 2D) bounding the fragments of the cut cells: (rows
+    (k, d+1) int64 — fragment, then node ids: v for vertex v, n + h for point h — the
+    cut cells (C,) bool, the cells where the rules do not apply (a set), the plain
+    cells (C,) bool). The plain tetrahedra
+    (:mod:`~predicates.registration.split.plain_cells`) vectorised, the rest cell by
+    cell by :mod:`~predicates.registration.split.regions`; ``per_cell=True``: every cut
+    cell cell by cell (the reference the vectorised rows are tested against)."""
+    cells = np.asarray(res.sim_cells, dtype=np.int64)
+    X = np.asarray(res.sim_points, dtype=np.float64)
+    v = simplex_measure(X[cells])[0] if len(cells) else np.zeros(0)
+    return _boundaries(res, sm, cs, cells, np.where(v < 0, -1.0, 1.0), per_cell)
+
+
+def _boundaries(res, sm, cs, cells, sgn, per_cell):
+    from predicates.registration.split.plain_cells import plain_cell_rows
+
+    d, n, C = sm.dim, len(res.sim_points), len(cells)
+    nfrag = np.bincount(sm.cell_origin, minlength=C)
+    start = np.cumsum(nfrag) - nfrag
+    twice = crossed_twice(cs, cells)
+    todo = _todo(sm, cs, cells, nfrag, twice)
+    plain, rows = np.zeros(C, dtype=bool), np.zeros((0, d + 1), dtype=np.int64)
+    if d == 3 and not per_cell:
+        plain, rows = plain_cell_rows(cs, sm, cells, n, start, nfrag, sgn > 0, todo, twice)
+    rest_rows, bad = _per_cell_rows(res, sm, cs, cells, todo & ~plain, start, nfrag, sgn, d)
+    return np.concatenate([rows, rest_rows]), todo, bad, plain
+
+
 def fragment_volumes(res, sm, cs=None, *, per_cell: bool = False) -> FragmentVolumes:
     """Volume (area) and first moment of every fragment of the split ``sm`` of ``res``
-    (module docstring); ``cs``: its cut surface (computed when not given). The plain
-    tetrahedra (:mod:`~predicates.registration.split.plain_cells`) are summed
-    vectorised, the rest cell by cell; ``per_cell=True``: every cell cell by cell (the
-    reference the vectorised sums are tested against)."""
-    from predicates.registration.split.plain_cells import plain_cell_rows
+    (module docstring) from :func:`fragment_boundaries`; ``cs``: its cut surface
+    (computed when not given)."""
     from predicates.registration.split.surface import cut_surface
 
     cs = cut_surface(res) if cs is None else cs
     d, cells = sm.dim, np.asarray(res.sim_cells, dtype=np.int64)
     X = np.asarray(res.sim_points, dtype=np.float64)
-    n, C, F = len(X), len(cells), len(sm.cells)
+    C, F = len(cells), len(sm.cells)
     cv, cm = simplex_measure(X[cells]) if C else (np.zeros(0), np.zeros((0, d)))
     sgn = np.where(cv < 0, -1.0, 1.0)
     cv, cm = cv * sgn, cm * sgn[:, None]
     vol, mom = cv[sm.cell_origin].copy(), cm[sm.cell_origin].copy()
-    nfrag = np.bincount(sm.cell_origin, minlength=C)
-    start = np.cumsum(nfrag) - nfrag
-    twice = crossed_twice(cs, cells)
-    # every cell whose faces carry registered points: with the points on the cutting
-    # side, a face is shared with the same (slightly bent) regions by both its cells
-    todo = (nfrag > 1) | twice | sm.severed.any(axis=1) | sm.on_cut[cells].any(axis=1)
-    todo[cs.cell[~cs.on_face]] = True
-    plain, rows = np.zeros(C, dtype=bool), np.zeros((0, d + 1), dtype=np.int64)
-    if d == 3 and not per_cell:
-        plain, rows = plain_cell_rows(cs, sm, cells, n, start, nfrag, sgn > 0, todo, twice)
-    rest_rows, bad = _per_cell_rows(res, sm, cs, cells, todo & ~plain, start, nfrag, sgn, d)
-    rows = np.concatenate([rows, rest_rows])
+    rows, todo, bad, _ = _boundaries(res, sm, cs, cells, sgn, per_cell)
     split = todo[sm.cell_origin]
     unclaimed = np.zeros(C)
     if len(rows):
