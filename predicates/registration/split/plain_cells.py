@@ -42,8 +42,14 @@ def _face_cycles(positive: bool) -> np.ndarray:
 
 def _bits(cells_c: np.ndarray, sim_h: np.ndarray) -> np.ndarray:
     """Which corners of each row's cell the row's simulation primitive holds."""
-    eq = (cells_c[:, :, None] == sim_h[:, None, :]).any(axis=2)
-    return (eq << np.arange(4)).sum(axis=1)
+    bits = np.zeros(len(cells_c), dtype=np.int64)
+    for k in range(4):
+        corner = cells_c[:, k]
+        held = corner == sim_h[:, 0]
+        for j in range(1, sim_h.shape[1]):
+            held |= corner == sim_h[:, j]
+        bits |= held.astype(np.int64) << k
+    return bits
 
 
 def _edge_points(cs, cells, cand, n):
@@ -74,11 +80,11 @@ def _corner_fragments(sm, start, nfrag, cand):
     c = sm.cell_origin[f]
     mat = sm.material[f]
     frag = np.full((C, 4), -1, dtype=np.int64)
-    cnt = np.zeros((C, 4), dtype=np.int64)
+    once = cand.copy()
     for k in range(4):
         frag[c[mat[:, k]], k] = f[mat[:, k]]
-        np.add.at(cnt[:, k], c[mat[:, k]], 1)
-    return frag, (cnt != 1).any(axis=1) & cand
+        once &= np.bincount(c[mat[:, k]], minlength=C) == 1
+    return frag, cand & ~once
 
 
 def _expand(size: np.ndarray):
@@ -280,16 +286,20 @@ def plain_cell_rows(cs, sm, cells: np.ndarray, n: int, start: np.ndarray,
     node ids: v for vertex v, n + h for point h), oriented outward. ``positive``: the
     cells with positive orientation; ``twice``: cells with an edge crossed twice."""
     C = len(cells)
-    cand = todo & ~twice & ~sm.on_cut[cells].any(axis=1)
+    cut = np.flatnonzero(todo)
+    cand = np.zeros(C, dtype=bool)
+    cand[cut] = ~twice[cut] & ~sm.on_cut[cells[cut]].any(axis=1)
     cand[cs.cell[cs.on_face]] = False
     pts = _edge_points(cs, cells, cand, n)
     frag, bad_f = _corner_fragments(sm, start, nfrag, cand)
-    fa, fb = frag[:, _EDGES[:, 0]], frag[:, _EDGES[:, 1]]
-    bad_s = ((pts >= 0) == (fa == fb)).any(axis=1)
+    fc, pc = frag[cut], pts[cut]
+    bad_s = np.zeros(C, dtype=bool)
+    bad_s[cut] = ((pc >= 0) == (fc[:, _EDGES[:, 0]] == fc[:, _EDGES[:, 1]])).any(axis=1)
     P, bad_p = _polygons(cs, cells, cand)
     ch, root, bad_g = _edges(P, C)
     bad_c, have = _chains(ch, C)
-    bad_n = have != 2 * (pts >= 0).sum(axis=1)
+    bad_n = np.zeros(C, dtype=bool)
+    bad_n[cut] = have[cut] != 2 * (pc >= 0).sum(axis=1)
     front, back, bad_d = _sides(P, ch, root, frag, positive, C)
     plain = cand & ~(bad_f | bad_s | bad_p | bad_g | bad_c | bad_n | bad_d)
     rows = np.concatenate([_segment_rows(cells, pts, frag, positive, plain, n),

@@ -179,19 +179,38 @@ def _fans(pieces, n: int, d: int):
 def _measures(A, S, origin, Y, F, d):
     """Volume, moment and closure residual (|Σ vector area| / Σ |area|) per fragment of
     the boundary simplices S (k, d) of fragments A (k,) coned from ``origin`` (k,)."""
-    simp = np.concatenate([Y[origin][:, None], Y[S]], axis=1)
-    v, m = simplex_measure(simp)
-    vol = np.bincount(A, v, F)
-    mom = np.stack([np.bincount(A, m[:, k], F) for k in range(d)], axis=1)
     if d == 3:
-        va = np.cross(simp[:, 2] - simp[:, 1], simp[:, 3] - simp[:, 1]) / 2
+        v, m, va = _tet_measures(Y, origin, S)
     else:
+        simp = np.concatenate([Y[origin][:, None], Y[S]], axis=1)
+        v, m = simplex_measure(simp)
         e = simp[:, 2] - simp[:, 1]
-        va = np.stack([e[:, 1], -e[:, 0]], axis=1)
-    tot = np.stack([np.bincount(A, va[:, k], F) for k in range(d)], axis=1)
-    mag = np.bincount(A, np.sqrt((va * va).sum(axis=1)), F)
+        m, va = m.T, [e[:, 1], -e[:, 0]]
+    vol = np.bincount(A, v, F)
+    mom = np.stack([np.bincount(A, m[k], F) for k in range(d)], axis=1)
+    tot = np.stack([np.bincount(A, va[k], F) for k in range(d)], axis=1)
+    mag = np.bincount(A, np.sqrt(sum(a * a for a in va)), F)
     res = np.sqrt((tot * tot).sum(axis=1)) / np.maximum(mag, 1e-300)
     return vol, mom, res
+
+
+def _tet_measures(Y, origin, S):
+    """:func:`simplex_measure` of the tetrahedra (origin, S) and the vector areas of
+    their faces S, on coordinate columns (the same operations in the same order,
+    without strided (k, 4, 3) temporaries)."""
+    cols = [np.ascontiguousarray(Y[:, j]) for j in range(3)]
+    x0 = [c[origin] for c in cols]
+    pts = [[c[S[:, i]] for c in cols] for i in range(3)]
+    E = [[p[j] - x0[j] for j in range(3)] for p in pts]
+    v = (E[0][0] * (E[1][1] * E[2][2] - E[1][2] * E[2][1])
+         - E[0][1] * (E[1][0] * E[2][2] - E[1][2] * E[2][0])
+         + E[0][2] * (E[1][0] * E[2][1] - E[1][1] * E[2][0])) / 6
+    m = [v * (((x0[j] + pts[0][j]) + pts[1][j]) + pts[2][j]) / 4 for j in range(3)]
+    a = [pts[1][j] - pts[0][j] for j in range(3)]
+    b = [pts[2][j] - pts[0][j] for j in range(3)]
+    va = [(a[1] * b[2] - a[2] * b[1]) / 2, (a[2] * b[0] - a[0] * b[2]) / 2,
+          (a[0] * b[1] - a[1] * b[0]) / 2]
+    return v, m, va
 
 
 def _per_cell_rows(res, sm, cs, cells, rest, start, nfrag, sgn, d):
