@@ -118,7 +118,14 @@ _HIGH = np.array([m.bit_length() - 1 for m in range(16)])
 
 def _groups(*cols):
     """Rows sorted by the key columns: (order, group of every sorted row, group sizes)."""
-    o = np.lexsort(cols[::-1])
+    span = [int(col.max()) + 1 if len(col) else 1 for col in cols]
+    if np.prod(np.array(span, dtype=np.float64)) < 2.0 ** 62:  # one int64 key: faster
+        key = cols[0].astype(np.int64)
+        for col, m in zip(cols[1:], span[1:]):
+            key = key * m + col
+        o = np.argsort(key, kind="stable")
+    else:
+        o = np.lexsort(cols[::-1])
     diff = np.zeros(len(o), dtype=bool)
     diff[:1] = True
     for col in cols:
@@ -173,7 +180,9 @@ def _chains(ch, C):
     have = np.bincount(node_c[node_edge], minlength=C)
     # chains closed inside a face: components of chord ends without an edge point
     m = len(ch["a"])
-    root = R.components(len(cnt), gid[np.argsort(o)[:m]], gid[np.argsort(o)[m:]])
+    node = np.empty_like(gid)
+    node[o] = gid  # the node of every chord end, in chord order
+    root = R.components(len(cnt), node[:m], node[m:])
     has_edge = np.zeros(len(cnt), dtype=bool)
     has_edge[root[np.flatnonzero(node_edge)]] = True
     bad[node_c[~has_edge[root]]] = True
@@ -228,17 +237,21 @@ def _segment_rows(cells, pts, frag, positive, plain, n):
     its corner, as a star from the face's smallest vertex (no triangle on an edge
     through it)."""
     c = np.flatnonzero(plain)
+    apex = np.stack([cells[c][:, list(f)].min(axis=1) for f in _FACES], axis=1)
     out = []
     for s in (0, 1):
-        cc = c[positive[c] == bool(s)]
-        for k, cyc in enumerate(_face_cycles(bool(s))):
-            apex = cells[cc][:, list(_FACES[k])].min(axis=1)
-            for x, y in cyc.tolist():
-                p = pts[cc, _EDGE_OF[frozenset((x, y))]]
-                vx, vy = cells[cc, x], cells[cc, y]
-                hit = p >= 0
-                out.append(np.stack([frag[cc, x], apex, vx, np.where(hit, n + p, vy)], 1))
-                out.append(np.stack([frag[cc, y], apex, n + p, vy], 1)[hit])
+        i = np.flatnonzero(positive[c] == bool(s))
+        cc = c[i]
+        cyc = _face_cycles(bool(s)).reshape(12, 2)  # (face, edge) → its two corners
+        x, y = cyc[:, 0], cyc[:, 1]
+        e = np.array([_EDGE_OF[frozenset((int(u), int(v)))] for u, v in cyc])
+        ap = apex[i][:, np.repeat(np.arange(4), 3)]
+        p = pts[cc][:, e]
+        vx, vy = cells[cc][:, x], cells[cc][:, y]
+        hit = p >= 0
+        out.append(np.stack([frag[cc][:, x], ap, vx, np.where(hit, n + p, vy)], -1)
+                   .reshape(-1, 4))
+        out.append(np.stack([frag[cc][:, y], ap, n + p, vy], -1)[hit])
     rows = np.concatenate(out) if out else np.zeros((0, 4), dtype=np.int64)
     return rows[(rows[:, 1] != rows[:, 2]) & (rows[:, 1] != rows[:, 3])]
 
@@ -305,4 +318,4 @@ def plain_cell_rows(cs, sm, cells: np.ndarray, n: int, start: np.ndarray,
     rows = np.concatenate([_segment_rows(cells, pts, frag, positive, plain, n),
                            _chord_rows(cells, ch, front, back, plain, n),
                            _fan_rows(P, front, back, plain, n)])
-    return plain, rows.astype(np.int64)
+    return plain, rows.astype(np.int64, copy=False)

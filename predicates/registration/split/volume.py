@@ -194,7 +194,7 @@ def _measures(A, S, origin, Y, F, d):
     return vol, mom, res
 
 
-def _tet_measures(Y, origin, S):
+def _tet_measures(Y, origin, S, areas: bool = True):
     """:func:`simplex_measure` of the tetrahedra (origin, S) and the vector areas of
     their faces S, on coordinate columns (the same operations in the same order,
     without strided (k, 4, 3) temporaries)."""
@@ -206,6 +206,8 @@ def _tet_measures(Y, origin, S):
          - E[0][1] * (E[1][0] * E[2][2] - E[1][2] * E[2][0])
          + E[0][2] * (E[1][0] * E[2][1] - E[1][1] * E[2][0])) / 6
     m = [v * (((x0[j] + pts[0][j]) + pts[1][j]) + pts[2][j]) / 4 for j in range(3)]
+    if not areas:
+        return v, m, None
     a = [pts[1][j] - pts[0][j] for j in range(3)]
     b = [pts[2][j] - pts[0][j] for j in range(3)]
     va = [(a[1] * b[2] - a[2] * b[1]) / 2, (a[2] * b[0] - a[0] * b[2]) / 2,
@@ -286,10 +288,14 @@ def fragment_volumes(res, sm, cs=None, *, per_cell: bool = False) -> FragmentVol
     d, cells = sm.dim, np.asarray(res.sim_cells, dtype=np.int64)
     X = np.asarray(res.sim_points, dtype=np.float64)
     C, F = len(cells), len(sm.cells)
-    cv, cm = simplex_measure(X[cells]) if C else (np.zeros(0), np.zeros((0, d)))
+    if d == 3 and C:
+        cv, cm, _ = _tet_measures(X, cells[:, 0], cells[:, 1:], areas=False)
+        cm = np.stack(cm, axis=1)
+    else:
+        cv, cm = simplex_measure(X[cells]) if C else (np.zeros(0), np.zeros((0, d)))
     sgn = np.where(cv < 0, -1.0, 1.0)
     cv, cm = cv * sgn, cm * sgn[:, None]
-    vol, mom = cv[sm.cell_origin].copy(), cm[sm.cell_origin].copy()
+    vol, mom = cv[sm.cell_origin], cm[sm.cell_origin]
     rows, todo, bad, _ = _boundaries(res, sm, cs, cells, sgn, per_cell)
     split = todo[sm.cell_origin]
     unclaimed = np.zeros(C)
