@@ -308,22 +308,25 @@ def fragment_volumes(res, sm, cs=None, *, per_cell: bool = False) -> FragmentVol
     if len(rows):
         Y = np.concatenate([X, _on_cut_side(res, cs)])
         A = rows[:, 0]
+        cA = sm.cell_origin[A]
         # a plain cell's fragment boundaries are closed by construction (docs/split.md)
-        fv, fm, closure = _measures(A, rows[:, 1:], cells[sm.cell_origin[A], 0], Y, F, d,
-                                    ~plain[sm.cell_origin[A]])
+        fv, fm, closure = _measures(A, rows[:, 1:], cells[cA, 0], Y, F, d, ~plain[cA])
         vol[split], mom[split] = fv[split], fm[split]
         bad.update(sm.cell_origin[split & (closure > 1e-9)].tolist())
         unclaimed = cv - np.bincount(sm.cell_origin, vol, C)
         # fragments may overlap by what the registration's tolerance σ moved points
         # (a degenerate pair merging close points): σ × the cell's size^(d−1)
-        slack = float(res.tolerances.values.get("sigma", 0.0)) * cv ** ((d - 1) / d) * 8
-        bad.update(np.flatnonzero(unclaimed < -np.maximum(slack, 1e-12 * cv)).tolist())
+        neg = np.flatnonzero(unclaimed < -1e-12 * cv)
+        slack = float(res.tolerances.values.get("sigma", 0.0)) * cv[neg] ** ((d - 1) / d) * 8
+        bad.update(neg[unclaimed[neg] < -slack].tolist())
         unclaimed[np.abs(unclaimed) <= 1e-12 * cv] = 0.0
     unresolved = np.array(sorted(bad), dtype=np.int64)
     unclaimed[unresolved] = np.nan
-    gone = np.isin(sm.cell_origin, unresolved)
+    gone_cell = np.zeros(C, dtype=bool)
+    gone_cell[unresolved] = True
+    gone = gone_cell[sm.cell_origin]
     vol[gone], mom[gone] = np.nan, np.nan
-    ok = ~gone
+    ok = ~gone if len(unresolved) else slice(None)
     pv = np.bincount(sm.piece[ok], vol[ok], sm.n_pieces)
     pm = np.stack([np.bincount(sm.piece[ok], mom[ok, k], sm.n_pieces) for k in range(d)], 1)
     return FragmentVolumes(vol, mom, cv, cm, unresolved, pv, pm, unclaimed)
