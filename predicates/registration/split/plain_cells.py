@@ -52,11 +52,18 @@ def _bits(cells_c: np.ndarray, sim_h: np.ndarray) -> np.ndarray:
     return bits
 
 
+def _held(cs) -> np.ndarray:
+    """(H,) the number of simulation vertices of every point's primitive."""
+    out = (cs.sim[:, 0] >= 0).astype(np.int64)
+    for j in range(1, cs.sim.shape[1]):
+        out += cs.sim[:, j] >= 0
+    return out
+
+
 def _edge_points(cs, cells, cand, n):
     """(C, 6) the registered point inside each local edge of the candidates (−1: none;
     an edge with several is crossed twice, not a candidate)."""
-    nsim = (cs.sim >= 0).sum(axis=1)
-    eh = np.flatnonzero(nsim == 2)
+    eh = np.flatnonzero(_held(cs) == 2)
     lo = np.minimum(cs.sim[eh, 0], cs.sim[eh, 1])
     hi = np.maximum(cs.sim[eh, 0], cs.sim[eh, 1])
     key = lo * n + hi
@@ -102,7 +109,7 @@ def _polygons(cs, cells, cand):
     qi, pos = _expand(size)
     h = cs.index[cs.offsets[q][qi] + pos]
     c = cs.cell[q][qi]
-    nsim = (cs.sim[h] >= 0).sum(axis=1)
+    nsim = _held(cs)[h]
     bad = np.zeros(len(cells), dtype=bool)
     bad[c[nsim == 1]] = True
     nxt = np.arange(len(qi)) + np.where(pos == size[qi] - 1, 1 - size[qi], 1)

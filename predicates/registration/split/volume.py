@@ -280,7 +280,10 @@ def _boundaries(res, sm, cs, cells, sgn, per_cell):
     plain, rows = np.zeros(C, dtype=bool), np.zeros((0, d + 1), dtype=np.int64)
     if d == 3 and not per_cell:
         plain, rows = plain_cell_rows(cs, sm, cells, n, start, nfrag, sgn > 0, todo, twice)
-    rest_rows, bad = _per_cell_rows(res, sm, cs, cells, todo & ~plain, start, nfrag, sgn, d)
+    rest = todo & ~plain
+    if not rest.any():
+        return rows, todo, set(), plain
+    rest_rows, bad = _per_cell_rows(res, sm, cs, cells, rest, start, nfrag, sgn, d)
     return np.concatenate([rows, rest_rows]), todo, bad, plain
 
 
