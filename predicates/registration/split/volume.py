@@ -15,8 +15,11 @@ with no chord take their sides from the polygons they share an edge with, and po
 whose sides stay unknown (a crack tip inside one fragment) bound nothing. In 2D the
 faces are the cell's edges, cut into segments at the registered points, and the cut
 segments' left side is the region behind them. All of this is combinatorial; only the
-final sums are floating point (fan tetrahedra from the cell's first corner, exact up to
-the rounding of the registered points).
+final sums are floating point (tetrahedra coned from the cell's first corner over the
+boundary triangles: a face region as a star from its face's smallest vertex, a cut
+polygon as a fan from its smallest point; exact up to the rounding of the registered
+points). The plain cells are summed vectorised
+(:mod:`~predicates.registration.split.plain_cells`), the others cell by cell.
 
 A cell is **reported** (``unresolved``: its fragments' volumes NaN) where this fails,
 instead of double counting: an edge crossed twice (the virtual-node approximation
