@@ -1,4 +1,4 @@
-"""The vectorised boundaries of the plain cut cells (predicates.registration.split.
+"""The vectorised boundaries of the plain cut cells (3D and 2D) (predicates.registration.split.
 plain_cells, docs/split.md "Volumes and moments") against the per-cell rules
 (split/regions.py, ``per_cell=True``) on several cuts: the same boundary triangles,
 compared as multisets of integer rows (exactly), the same reported cells, and the same
@@ -14,9 +14,10 @@ import numpy as np
 import pytest
 
 import predicates
-from cut_cases import box_surface, gmsh_box, torus
+from cut_cases import box_surface, gmsh_box, square_loop, torus
 from predicates.portable import rotate, rotation
-from predicates.registration.examples import cube_grid, grid_plane, icosphere
+from predicates.registration.examples import (circle_polygon, cube_grid, grid_plane,
+                                              icosphere, square_grid)
 from predicates.registration.split.surface import cut_surface
 from predicates.registration.split.volume import fragment_boundaries, fragment_volumes
 
@@ -36,6 +37,11 @@ CASES = {
     "kuhn8_box_on_faces": (lambda: cube_grid(8), lambda: box_surface(8, 2, 6), 0.0),
     "kuhn4_plane_on_vertices": (lambda: cube_grid(4), lambda: grid_plane(4), 0.0),
     "kuhn4_plane_offset": (lambda: cube_grid(4), lambda: grid_plane(4, offset=True), 0.0),
+    # 2D: a coarse circle (one segment per cell) and a fine one (paths through points
+    # inside the triangles), a square along grid edges (corners on the cut)
+    "2d_circle": (lambda: square_grid(10), lambda: circle_polygon(37, radius=0.33), 0.9),
+    "2d_fine_circle": (lambda: square_grid(16), lambda: circle_polygon(256, radius=0.3), 0.9),
+    "2d_square_on_edges": (lambda: square_grid(8), lambda: square_loop(8, 2, 6), 0.0),
 }
 
 

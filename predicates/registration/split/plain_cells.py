@@ -27,7 +27,7 @@ import numpy as np
 
 from predicates.registration.split import rules as R
 
-__all__ = ["plain_cell_rows"]
+__all__ = ["plain_cell_rows", "plain_triangle_rows"]
 
 _EDGES = np.array([(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)])
 _EDGE_OF = {frozenset(map(int, e)): i for i, e in enumerate(_EDGES)}
@@ -79,16 +79,16 @@ def _edge_points(cs, cells, cand, n):
     return pts
 
 
-def _corner_fragments(sm, start, nfrag, cand):
-    """(C, 4) the fragment of every corner of the candidates; marks off a corner in no
+def _corner_fragments(sm, start, nfrag, cand, m: int = 4):
+    """(C, m) the fragment of every corner of the candidates; marks off a corner in no
     or several fragments."""
     C = len(start)
     f = np.flatnonzero(cand[sm.cell_origin])
     c = sm.cell_origin[f]
     mat = sm.material[f]
-    frag = np.full((C, 4), -1, dtype=np.int64)
+    frag = np.full((C, m), -1, dtype=np.int64)
     once = cand.copy()
-    for k in range(4):
+    for k in range(m):
         frag[c[mat[:, k]], k] = f[mat[:, k]]
         once &= np.bincount(c[mat[:, k]], minlength=C) == 1
     return frag, cand & ~once
@@ -326,3 +326,107 @@ def plain_cell_rows(cs, sm, cells: np.ndarray, n: int, start: np.ndarray,
                            _chord_rows(cells, ch, front, back, plain, n),
                            _fan_rows(P, front, back, plain, n)])
     return plain, rows.astype(np.int64, copy=False)
+
+
+def plain_triangle_rows(cs, sm, cells: np.ndarray, n: int, start: np.ndarray,
+                        nfrag: np.ndarray, positive: np.ndarray, todo: np.ndarray,
+                        twice: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """2D :func:`plain_cell_rows`: (plain (C,) bool, rows (k, 3) int64 — fragment, two
+    node ids of a boundary segment). A triangle is plain when no corner lies on the cut,
+    no cut segment lies along an edge, every edge holds at most one point (one exactly
+    where its ends are in two fragments) and its cut segments form one path from an edge
+    point a to an edge point b through points inside (each the end of one segment and
+    the start of the next). The ring of edges (counter-clockwise) gives each piece of
+    an edge to the fragment of its corner; every segment of the path has on its left
+    the fragment of the corner after b along the ring and on its right the one after a
+    (:func:`~predicates.registration.split.regions.cell_pieces`)."""
+    C = len(cells)
+    cut = np.flatnonzero(todo)
+    cand = np.zeros(C, dtype=bool)
+    cand[cut] = ~twice[cut] & ~sm.on_cut[cells[cut]].any(axis=1)
+    cand[cs.cell[cs.on_face]] = False
+    pts = _edge_points_2d(cs, cells, cand, n, _EDGES_2D)
+    frag, bad = _corner_fragments(sm, start, nfrag, cand, m=3)
+    fc, pc = frag[cut], pts[cut]
+    bad[cut] |= ((pc >= 0) == (fc[:, _EDGES_2D[:, 0]] == fc[:, _EDGES_2D[:, 1]])).any(axis=1)
+    q = np.flatnonzero(~cs.on_face & cand[cs.cell])
+    a, b, c = cs.index[cs.offsets[q]], cs.index[cs.offsets[q] + 1], cs.cell[q]
+    head, tail, bad_p = _paths_2d(cs, c, a, b, (pts >= 0).sum(axis=1), C)
+    plain = cand & ~bad & ~bad_p
+    out = []
+    ring = np.array([(0, 1), (1, 2), (2, 0)])
+    for s in (0, 1):
+        cc = np.flatnonzero(plain & (positive == bool(s)))
+        for x, y in (ring if s else ring[::-1, ::-1]).tolist():
+            p = pts[cc, _EDGE_2D[frozenset((x, y))]]
+            vx, vy, hit = cells[cc, x], cells[cc, y], p >= 0
+            out.append(np.stack([frag[cc, x], vx, np.where(hit, n + p, vy)], 1))
+            out.append(np.stack([frag[cc, y], n + p, vy], 1)[hit])
+    keep = plain[c]
+    c, a, b = c[keep], a[keep], b[keep]
+    left = _after_2d(positive, pts, frag, c, tail[c])
+    right = _after_2d(positive, pts, frag, c, head[c])
+    two = left != right
+    out.append(np.stack([left, n + a, n + b], 1)[two])
+    out.append(np.stack([right, n + b, n + a], 1)[two])
+    return plain, np.concatenate(out).astype(np.int64, copy=False)
+
+
+def _paths_2d(cs, c, a, b, n_edge_points, C):
+    """Per cell, the first and last point (edge points) of the path its segments a→b
+    form; marks off cells where they do not form one path from edge point to edge
+    point through points inside."""
+    held = _held(cs)
+    bad = np.zeros(C, dtype=bool)
+    cc, hh = np.concatenate([c, c]), np.concatenate([a, b])
+    out = np.concatenate([np.ones(len(a)), np.zeros(len(b))])
+    o, gid, cnt = _groups(cc, hh)
+    n_out = np.bincount(gid, out[o], len(cnt)) if len(o) else np.zeros(0)
+    first = np.flatnonzero(np.diff(np.append(-1, gid)) != 0)
+    node_c, node_h = cc[o][first], hh[o][first]
+    edge = held[node_h] == 2
+    ok = np.where(edge, cnt == 1, (held[node_h] == 3) & (cnt == 2) & (n_out == 1))
+    bad[node_c[~ok]] = True
+    bad[np.flatnonzero(np.bincount(node_c[edge], minlength=C) != n_edge_points)] = True
+    node = np.empty_like(gid)
+    node[o] = gid
+    m = len(a)
+    root = R.components(len(cnt), node[:m], node[m:])
+    has_edge = np.zeros(len(cnt), dtype=bool)
+    has_edge[root[edge]] = True
+    bad[node_c[~has_edge[root]]] = True
+    head, tail = np.full(C, -1, dtype=np.int64), np.full(C, -1, dtype=np.int64)
+    head[node_c[edge & (n_out == 1)]] = node_h[edge & (n_out == 1)]
+    tail[node_c[edge & (n_out == 0)]] = node_h[edge & (n_out == 0)]
+    return head, tail, bad
+
+
+_EDGES_2D = np.array([(0, 1), (0, 2), (1, 2)])
+_EDGE_2D = {frozenset((0, 1)): 0, frozenset((0, 2)): 1, frozenset((1, 2)): 2}
+
+
+def _edge_points_2d(cs, cells, cand, n, edges):
+    """(C, 3) the point inside each local edge of the candidates (−1: none)."""
+    eh = np.flatnonzero(_held(cs) == 2)
+    lo = np.minimum(cs.sim[eh, 0], cs.sim[eh, 1])
+    key = lo * n + np.maximum(cs.sim[eh, 0], cs.sim[eh, 1])
+    o = np.argsort(key, kind="stable")
+    key, eh = key[o], eh[o]
+    c_ids = np.flatnonzero(cand)
+    u, v = cells[c_ids][:, edges[:, 0]], cells[c_ids][:, edges[:, 1]]
+    want = np.minimum(u, v) * n + np.maximum(u, v)
+    pts = np.full((len(cells), 3), -1, dtype=np.int64)
+    if len(key):
+        i = np.minimum(np.searchsorted(key, want), len(key) - 1)
+        pts[c_ids] = np.where(key[i] == want, eh[i], -1)
+    return pts
+
+
+def _after_2d(positive, pts, frag, c, h):
+    """The fragment of the corner after edge point h of cell c along its ring."""
+    e = np.argmax(pts[c] == h[:, None], axis=1)
+    u, v = _EDGES_2D[e, 0], _EDGES_2D[e, 1]
+    ring_next = np.where(positive[c], (u + 1) % 3 == v, (v + 1) % 3 == u)
+    # counter-clockwise ring 0→1→2→0 (positive) or 0→2→1→0: the edge runs u→v or v→u
+    return frag[c, np.where(ring_next, v, u)]
+

@@ -273,7 +273,7 @@ def fragment_boundaries(res, sm, cs, *, per_cell: bool = False):
 
 
 def _boundaries(res, sm, cs, cells, sgn, per_cell):
-    from predicates.registration.split.plain_cells import plain_cell_rows
+    from predicates.registration.split.plain_cells import plain_cell_rows, plain_triangle_rows
 
     d, n, C = sm.dim, len(res.sim_points), len(cells)
     nfrag = np.bincount(sm.cell_origin, minlength=C)
@@ -281,8 +281,9 @@ def _boundaries(res, sm, cs, cells, sgn, per_cell):
     twice = crossed_twice(cs, cells)
     todo = _todo(sm, cs, cells, nfrag, twice)
     plain, rows = np.zeros(C, dtype=bool), np.zeros((0, d + 1), dtype=np.int64)
-    if d == 3 and not per_cell:
-        plain, rows = plain_cell_rows(cs, sm, cells, n, start, nfrag, sgn > 0, todo, twice)
+    if not per_cell:
+        rule = plain_cell_rows if d == 3 else plain_triangle_rows
+        plain, rows = rule(cs, sm, cells, n, start, nfrag, sgn > 0, todo, twice)
     rest = todo & ~plain
     if not rest.any():
         return rows, todo, set(), plain
