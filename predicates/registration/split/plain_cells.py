@@ -1,7 +1,7 @@
 """The boundary simplices of the fragments of the *plain* split cells, vectorised over
 all of them (docs/split.md, "Volumes and moments"): the same simplices the per-cell
 rules of :mod:`~predicates.registration.split.regions` give, without forming the face
-regions.
+regions (2D: :func:`plain_triangle_rows`).
 
 A tetrahedron is plain when no corner lies on the cut, no polygon of the cut lies in a
 face, every edge holds at most one registered point and holds one exactly when its two
