@@ -10,6 +10,7 @@ shared). ``--cli``: ``fperr intersect`` end to end on W1 .vtu files (a subproces
 against reading them (meshio) + the registration in this process.
 
     PYTHONPATH=. python3 benchmarks/cut_bench.py [--repeat 3] [--cli] [--json FILE]
+    PYTHONPATH=. python3 benchmarks/cut_bench.py --alternate [--repeat 5] [--only W1]
 """
 from __future__ import annotations
 
@@ -64,6 +65,23 @@ def run_case(name, sim, cut, repeat, volumes=True):
     return row
 
 
+def alternate_case(name, sim, cut, repeat):
+    """The registration and the fragment volumes timed alternately (best of each): on a
+    shared machine the load changes between consecutive blocks of repeats."""
+    t_reg = t_vol = float("inf")
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        res = intersect(*sim, *cut)
+        t_reg = min(t_reg, time.perf_counter() - t0)
+        sm, cs = res.split(), cut_surface(res)
+        t0 = time.perf_counter()
+        fragment_volumes(res, sm, cs)
+        t_vol = min(t_vol, time.perf_counter() - t0)
+    print(f"{name} alternating x{repeat}: registration {t_reg:.3f} s, volumes {t_vol:.3f} s "
+          f"({t_vol / t_reg:.2f} × registration)")
+    return {"case": name, "t_register": t_reg, "t_volumes": t_vol}
+
+
 def cli_case(repeat):
     """fperr intersect on W1 files against read + registration, same process tree."""
     import meshio
@@ -98,8 +116,21 @@ def main(argv=None):
     ap.add_argument("--cli", action="store_true", help="fperr intersect end to end on W1")
     ap.add_argument("--no-volumes", action="store_true", help="skip the volumes")
     ap.add_argument("--only", choices=["W1", "2D"], help="one case only")
+    ap.add_argument("--alternate", action="store_true",
+                    help="only the registration and the volumes, timed alternately")
     ap.add_argument("--json", metavar="FILE")
     args = ap.parse_args(argv)
+    if args.alternate:
+        out = []
+        if args.only in (None, "W1"):
+            out.append(alternate_case("W1", cube_grid(48), icosphere(5), args.repeat))
+        if args.only in (None, "2D"):
+            out.append(alternate_case("2D n=512", square_grid(512), circle_polygon(8 * 512),
+                                      args.repeat))
+        if args.json:
+            with open(args.json, "w") as f:
+                json.dump({"alternate": out}, f, indent=1)
+        return
     rows = []
     if args.only in (None, "W1"):
         rows.append(run_case("W1", cube_grid(48), icosphere(5), args.repeat,

@@ -265,14 +265,13 @@ def _segment_rows(cells, pts, frag, positive, plain, n):
 
 def _chord_rows(cells, ch, front, back, plain, n):
     """Every chord a→b (polygon direction) to its polygon's front, b→a to its back, as
-    stars from the face's smallest vertex."""
+    stars from the face's smallest vertex: pairs (front, back, apex, a, b)."""
     r = np.flatnonzero(plain[ch["c"]])
     c, k = ch["c"][r], ch["k"][r]
     face = np.array(_FACES)[k]
     apex = np.take_along_axis(cells[c], face, axis=1).min(axis=1)
     a, b, p = n + ch["a"][r], n + ch["b"][r], ch["poly"][r]
-    return np.concatenate([np.stack([front[p], apex, a, b], 1),
-                           np.stack([back[p], apex, b, a], 1)])
+    return np.stack([front[p], back[p], apex, a, b], 1)
 
 
 def _fan_rows(P, front, back, plain, n):
@@ -294,16 +293,17 @@ def _fan_rows(P, front, back, plain, n):
     tri = np.flatnonzero((pos >= 1) & (pos <= size - 2))  # rot: rotated in place
     g = grp[tri]
     p0, p1, p2 = n + m[g], n + rot[tri], n + rot[tri + 1]
-    return np.concatenate([np.stack([back[qi[tri]], p0, p1, p2], 1),
-                           np.stack([front[qi[tri]], p0, p2, p1], 1)])
+    return np.stack([back[qi[tri]], front[qi[tri]], p0, p1, p2], 1)
 
 
 def plain_cell_rows(cs, sm, cells: np.ndarray, n: int, start: np.ndarray,
                     nfrag: np.ndarray, positive: np.ndarray, todo: np.ndarray,
-                    twice: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(plain (C,) bool, rows (k, 4) int64): the plain cells among ``todo`` (module
-    docstring) and the triangles of their fragments' boundaries, each (fragment, three
-    node ids: v for vertex v, n + h for point h), oriented outward. ``positive``: the
+                    twice: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(plain (C,) bool, rows (k, 4) int64, pairs (j, 5) int64): the plain cells among
+    ``todo`` (module docstring) and the triangles of their fragments' boundaries, each
+    (fragment, three node ids: v for vertex v, n + h for point h), oriented outward;
+    a pair (f, g, p, q, r) is the triangle (p, q, r) of f and (p, r, q) of g (a chord
+    or a cut polygon's triangle, on the two sides). ``positive``: the
     cells with positive orientation; ``twice``: cells with an edge crossed twice."""
     C = len(cells)
     cut = np.flatnonzero(todo)
@@ -322,17 +322,17 @@ def plain_cell_rows(cs, sm, cells: np.ndarray, n: int, start: np.ndarray,
     bad_n[cut] = have[cut] != 2 * (pc >= 0).sum(axis=1)
     front, back, bad_d = _sides(P, ch, root, frag, positive, C)
     plain = cand & ~(bad_f | bad_s | bad_p | bad_g | bad_c | bad_n | bad_d)
-    rows = np.concatenate([_segment_rows(cells, pts, frag, positive, plain, n),
-                           _chord_rows(cells, ch, front, back, plain, n),
-                           _fan_rows(P, front, back, plain, n)])
-    return plain, rows.astype(np.int64, copy=False)
+    pairs = np.concatenate([_chord_rows(cells, ch, front, back, plain, n),
+                            _fan_rows(P, front, back, plain, n)])
+    return (plain, _segment_rows(cells, pts, frag, positive, plain, n).astype(np.int64),
+            pairs.astype(np.int64, copy=False))
 
 
 def plain_triangle_rows(cs, sm, cells: np.ndarray, n: int, start: np.ndarray,
                         nfrag: np.ndarray, positive: np.ndarray, todo: np.ndarray,
-                        twice: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                        twice: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """2D :func:`plain_cell_rows`: (plain (C,) bool, rows (k, 3) int64 — fragment, two
-    node ids of a boundary segment). A triangle is plain when no corner lies on the cut,
+    node ids of a boundary segment — and no pairs). A triangle is plain when no corner lies on the cut,
     no cut segment lies along an edge, every edge holds at most one point (one exactly
     where its ends are in two fragments) and its cut segments form one path from an edge
     point a to an edge point b through points inside (each the end of one segment and
@@ -369,7 +369,7 @@ def plain_triangle_rows(cs, sm, cells: np.ndarray, n: int, start: np.ndarray,
     two = left != right
     out.append(np.stack([left, n + a, n + b], 1)[two])
     out.append(np.stack([right, n + b, n + a], 1)[two])
-    return plain, np.concatenate(out).astype(np.int64, copy=False)
+    return plain, np.concatenate(out).astype(np.int64, copy=False), np.zeros((0, 4), np.int64)
 
 
 def _paths_2d(cs, c, a, b, n_edge_points, C):

@@ -203,6 +203,23 @@ def _measures(A, S, origin, Y, F, d, check=None):
     return vol, mom, res
 
 
+def _pair_measures(pairs, origin, Y, F):
+    """Volume and moment per fragment of the pairs (f, g, p, q, r) coned from
+    ``origin``: (p, q, r) to f, (p, r, q) to g. The determinant of the second is exactly
+    the negated first (IEEE products commute, a − b = −(b − a)); its centroid is summed
+    in its own order, so both are the values :func:`_tet_measures` gives each row."""
+    v, m, _ = _tet_measures(Y, origin, pairs[:, 2:], areas=False)
+    cols = [np.ascontiguousarray(Y[:, j]) for j in range(3)]
+    p = [[c[pairs[:, i]] for c in cols] for i in (2, 3, 4)]
+    x0 = [c[origin] for c in cols]
+    w = -v
+    m2 = [w * (((x0[j] + p[0][j]) + p[2][j]) + p[1][j]) / 4 for j in range(3)]
+    vol = np.bincount(pairs[:, 0], v, F) + np.bincount(pairs[:, 1], w, F)
+    mom = np.stack([np.bincount(pairs[:, 0], m[j], F) + np.bincount(pairs[:, 1], m2[j], F)
+                    for j in range(3)], axis=1)
+    return vol, mom
+
+
 def _tet_measures(Y, origin, S, areas: bool = True):
     """:func:`simplex_measure` of the tetrahedra (origin, S) and the vector areas of
     their faces S, on coordinate columns (the same operations in the same order,
@@ -269,7 +286,11 @@ def fragment_boundaries(res, sm, cs, *, per_cell: bool = False):
     cells = np.asarray(res.sim_cells, dtype=np.int64)
     X = np.asarray(res.sim_points, dtype=np.float64)
     v = simplex_measure(X[cells])[0] if len(cells) else np.zeros(0)
-    return _boundaries(res, sm, cs, cells, np.where(v < 0, -1.0, 1.0), per_cell)
+    rows, pairs, todo, bad, plain = _boundaries(res, sm, cs, cells,
+                                                np.where(v < 0, -1.0, 1.0), per_cell)
+    if len(pairs):  # 3D only
+        rows = np.concatenate([rows, pairs[:, [0, 2, 3, 4]], pairs[:, [1, 2, 4, 3]]])
+    return rows, todo, bad, plain
 
 
 def _boundaries(res, sm, cs, cells, sgn, per_cell):
@@ -281,14 +302,15 @@ def _boundaries(res, sm, cs, cells, sgn, per_cell):
     twice = crossed_twice(cs, cells)
     todo = _todo(sm, cs, cells, nfrag, twice)
     plain, rows = np.zeros(C, dtype=bool), np.zeros((0, d + 1), dtype=np.int64)
+    pairs = np.zeros((0, d + 2), dtype=np.int64)
     if not per_cell:
         rule = plain_cell_rows if d == 3 else plain_triangle_rows
-        plain, rows = rule(cs, sm, cells, n, start, nfrag, sgn > 0, todo, twice)
+        plain, rows, pairs = rule(cs, sm, cells, n, start, nfrag, sgn > 0, todo, twice)
     rest = todo & ~plain
     if not rest.any():
-        return rows, todo, set(), plain
+        return rows, pairs, todo, set(), plain
     rest_rows, bad = _per_cell_rows(res, sm, cs, cells, rest, start, nfrag, sgn, d)
-    return np.concatenate([rows, rest_rows]), todo, bad, plain
+    return np.concatenate([rows, rest_rows]), pairs, todo, bad, plain
 
 
 def fragment_volumes(res, sm, cs=None, *, per_cell: bool = False) -> FragmentVolumes:
@@ -309,15 +331,18 @@ def fragment_volumes(res, sm, cs=None, *, per_cell: bool = False) -> FragmentVol
     sgn = np.where(cv < 0, -1.0, 1.0)
     cv, cm = cv * sgn, cm * sgn[:, None]
     vol, mom = cv[sm.cell_origin], cm[sm.cell_origin]
-    rows, todo, bad, plain = _boundaries(res, sm, cs, cells, sgn, per_cell)
+    rows, pairs, todo, bad, plain = _boundaries(res, sm, cs, cells, sgn, per_cell)
     split = todo[sm.cell_origin]
     unclaimed = np.zeros(C)
-    if len(rows):
+    if len(rows) or len(pairs):
         Y = np.concatenate([X, _on_cut_side(res, cs)])
         A = rows[:, 0]
         cA = sm.cell_origin[A]
         # a plain cell's fragment boundaries are closed by construction (docs/split.md)
         fv, fm, closure = _measures(A, rows[:, 1:], cells[cA, 0], Y, F, d, ~plain[cA])
+        if len(pairs):
+            pv, pm = _pair_measures(pairs, cells[sm.cell_origin[pairs[:, 0]], 0], Y, F)
+            fv, fm = fv + pv, fm + pm
         vol[split], mom[split] = fv[split], fm[split]
         bad.update(sm.cell_origin[split & (closure > 1e-9)].tolist())
         unclaimed = cv - np.bincount(sm.cell_origin, vol, C)
