@@ -113,7 +113,8 @@ def _sides(polys, owner):
 
 
 def _regions_3d(corners, frag, on_cut, T, polys, faces):
-    """The regions of every face, each [owner or None, node cycle]."""
+    """The regions of every face, each [owner or None, node cycle, the face's smallest
+    vertex]."""
     out = []
     edges = [(a, b, _prim(a, T) | _prim(b, T)) for P in polys for a, b in _pairs(P)]
     for face in faces:
@@ -122,7 +123,8 @@ def _regions_3d(corners, frag, on_cut, T, polys, faces):
         for i, k in enumerate(face):
             cycle += _path(corners[k], corners[face[(i + 1) % 3]], on_cut, T)
         chords = [(a, b) for a, b, pr in edges if pr <= fverts]
-        out += [[_owner(r, frag), r] for r in _split(cycle, _polylines(cycle, chords))]
+        apex = min(fverts)
+        out += [[_owner(r, frag), r, apex] for r in _split(cycle, _polylines(cycle, chords))]
     return out
 
 
@@ -133,7 +135,7 @@ def _pieces_3d(corners, frag, on_cut, T, polys, faces):
     regions = _regions_3d(corners, frag, on_cut, T, polys, faces)
     by_edge = {e: i for i, P in enumerate(polys) for e in _pairs(P)}
     while True:
-        owner = {e: f for f, r in regions if f is not None for e in _pairs(r)}
+        owner = {e: f for f, r, _ in regions if f is not None for e in _pairs(r)}
         sides = _sides(polys, owner)
         changed = False
         for reg in regions:
@@ -149,11 +151,11 @@ def _pieces_3d(corners, frag, on_cut, T, polys, faces):
                     break
         if not changed:
             break
-    pieces = [(f, r) for f, r in regions]
+    pieces = [(f, r, apex) for f, r, apex in regions]
     for P, (front, back) in zip(polys, sides):
         if front != back:
-            pieces += [(back, P), (front, P[::-1])]
-    return [(f, r) for f, r in pieces if f is not None]
+            pieces += [(back, P, None), (front, P[::-1], None)]
+    return [p for p in pieces if p[0] is not None]
 
 
 def _pieces_2d(corners, frag, on_cut, T, segs, ring):
@@ -163,7 +165,7 @@ def _pieces_2d(corners, frag, on_cut, T, segs, ring):
         path = _path(a, b, on_cut, T) + [_node(b, on_cut, T)]
         for u, w in zip(path[:-1], path[1:]):
             f = _owner([u, w], frag)
-            pieces.append((f, [u, w]))
+            pieces.append((f, [u, w], None))
             starts[u] = f
     nxt = {}
     for a, b in segs:
@@ -182,12 +184,14 @@ def _pieces_2d(corners, frag, on_cut, T, segs, ring):
         left, right = starts[cur], starts[p]
         if left != right:
             for u, w in zip(line[:-1], line[1:]):
-                pieces += [(left, [u, w]), (right, [w, u])]
-    return [(f, r) for f, r in pieces if f is not None]
+                pieces += [(left, [u, w], None), (right, [w, u], None)]
+    return [p for p in pieces if p[0] is not None]
 
 
 def cell_pieces(corners, frag, on_cut, T, polys, outward):
-    """[(fragment, boundary polygon of nodes)] of one split cell. ``corners``: its
+    """[(fragment, boundary polygon of nodes, apex)] of one split cell; ``apex``: for a
+    face region the smallest vertex of its face (None for cut polygons and in 2D), the
+    apex both cells on the face triangulate the region from. ``corners``: its
     vertex ids; ``frag``: {off-cut vertex: its fragment}; ``polys``: its cut polygons
     (canonical registered points, cyclic); ``outward``: the faces as corner positions,
     oriented outward (3D), or the counter-clockwise ring of corners (2D)."""

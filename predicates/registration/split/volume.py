@@ -15,8 +15,11 @@ with no chord take their sides from the polygons they share an edge with, and po
 whose sides stay unknown (a crack tip inside one fragment) bound nothing. In 2D the
 faces are the cell's edges, cut into segments at the registered points, and the cut
 segments' left side is the region behind them. All of this is combinatorial; only the
-final sums are floating point (fan tetrahedra from the cell's first corner, exact up to
-the rounding of the registered points).
+final sums are floating point (tetrahedra coned from the cell's first corner over the
+boundary triangles: a face region as a star from its face's smallest vertex, a cut
+polygon as a fan from its smallest point; exact up to the rounding of the registered
+points). The plain cells are summed vectorised
+(:mod:`~predicates.registration.split.plain_cells`), the others cell by cell.
 
 A cell is **reported** (``unresolved``: its fragments' volumes NaN) where this fails,
 instead of double counting: an edge crossed twice (the virtual-node approximation
@@ -31,7 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["FragmentVolumes", "fragment_volumes", "simplex_measure"]
+__all__ = ["FragmentVolumes", "fragment_boundaries", "fragment_volumes", "simplex_measure"]
 
 
 @dataclass
@@ -82,12 +85,20 @@ def simplex_measure(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 class _Tables:
     """The registered points by simulation primitive and the cut polygons by cell."""
 
-    def __init__(self, cs, n_cells: int):
-        self.vertex_hit, self.edge_hits, self.prim, self.canon = {}, {}, [], []
-        for h, (ids, w) in enumerate(zip(cs.sim.tolist(), cs.sim_weights.tolist())):
+    def __init__(self, cs, n_cells: int, hits: np.ndarray | None = None):
+        """``hits``: only these points (every point on the primitives of the cells it
+        will be asked about; ``prim`` and ``canon`` are then dicts)."""
+        self.vertex_hit, self.edge_hits = {}, {}
+        self.prim, self.canon = ([], []) if hits is None else ({}, {})
+        rows = range(len(cs.sim)) if hits is None else hits.tolist()
+        for h, ids, w in zip(rows, cs.sim[rows].tolist(), cs.sim_weights[rows].tolist()):
             s = [i for i in ids if i >= 0]
-            self.prim.append(frozenset(s))
-            self.canon.append(self.vertex_hit.setdefault(s[0], h) if len(s) == 1 else h)
+            if hits is None:
+                self.prim.append(frozenset(s))
+                self.canon.append(self.vertex_hit.setdefault(s[0], h) if len(s) == 1 else h)
+            else:
+                self.prim[h] = frozenset(s)
+                self.canon[h] = self.vertex_hit.setdefault(s[0], h) if len(s) == 1 else h
             if len(s) == 2:
                 b = max(s)
                 self.edge_hits.setdefault((min(s), b), []).append((w[ids.index(b)], h))
@@ -147,62 +158,112 @@ _OUTWARD = {(2, True): (0, 1, 2), (2, False): (0, 2, 1), (3, True): _FACES,
 
 
 def _fans(pieces, n: int, d: int):
-    """(fragment, node ids of a boundary simplex) for the pieces' polygons (fans from
-    their first node) or segments; node id v for vertices, n + h for points."""
+    """(fragment, node ids of a boundary simplex) for the pieces' polygons or segments;
+    node id v for vertices, n + h for points. A face region is a star from its face's
+    smallest vertex (one triangle per region edge, none on the edges through it): a
+    region bent by a merged point (off its face by up to σ) is then triangulated alike by
+    both cells sharing it, and the chords cancel between the regions of a face. A cut
+    polygon (planar) is a fan from its smallest node, the same for both its sides."""
     out = []
-    for f, poly in pieces:
+    for f, poly, apex in pieces:
         ids = [x[1] if x[0] == "v" else n + x[1] for x in poly]
         if d == 2:
             out.append((f, ids[0], ids[1]))
+        elif apex is not None:
+            out += [(f, apex, a, b) for a, b in zip(ids, ids[1:] + ids[:1])
+                    if apex != a and apex != b]
         else:
+            k = ids.index(min(ids))
+            ids = ids[k:] + ids[:k]
             out += [(f, ids[0], ids[i], ids[i + 1]) for i in range(1, len(ids) - 1)]
     return out
 
 
-def _measures(fans, origin, Y, F, d):
-    """Volume, moment and closure residual (|Σ vector area| / Σ |area|) per fragment."""
-    A = np.array([f[0] for f in fans], dtype=np.int64)
-    S = np.array([f[1:] for f in fans], dtype=np.int64).reshape(len(fans), d)
-    simp = np.concatenate([Y[origin][:, None], Y[S]], axis=1)
-    v, m = simplex_measure(simp)
-    vol = np.bincount(A, v, F)
-    mom = np.stack([np.bincount(A, m[:, k], F) for k in range(d)], axis=1)
+def _measures(A, S, origin, Y, F, d, check=None):
+    """Volume, moment and closure residual (|Σ vector area| / Σ |area|) per fragment of
+    the boundary simplices S (k, d) of fragments A (k,) coned from ``origin`` (k,); the
+    residual only from the rows ``check`` (all when None; 0 for fragments without)."""
     if d == 3:
-        va = np.cross(simp[:, 2] - simp[:, 1], simp[:, 3] - simp[:, 1]) / 2
+        v, m, _ = _tet_measures(Y, origin, S, areas=False)
     else:
-        e = simp[:, 2] - simp[:, 1]
-        va = np.stack([e[:, 1], -e[:, 0]], axis=1)
-    tot = np.stack([np.bincount(A, va[:, k], F) for k in range(d)], axis=1)
-    mag = np.bincount(A, np.sqrt((va * va).sum(axis=1)), F)
+        v, m = simplex_measure(np.concatenate([Y[origin][:, None], Y[S]], axis=1))
+        m = m.T
+    vol = np.bincount(A, v, F)
+    mom = np.stack([np.bincount(A, m[k], F) for k in range(d)], axis=1)
+    r = slice(None) if check is None else np.flatnonzero(check)
+    A, S, origin = A[r], S[r], origin[r]
+    if d == 3:
+        va = _tet_measures(Y, origin, S)[2]
+    else:
+        e = Y[S[:, 1]] - Y[S[:, 0]]
+        va = [e[:, 1], -e[:, 0]]
+    tot = np.stack([np.bincount(A, va[k], F) for k in range(d)], axis=1)
+    mag = np.bincount(A, np.sqrt(sum(a * a for a in va)), F)
     res = np.sqrt((tot * tot).sum(axis=1)) / np.maximum(mag, 1e-300)
     return vol, mom, res
 
 
-def fragment_volumes(res, sm, cs=None) -> FragmentVolumes:
-    """Volume (area) and first moment of every fragment of the split ``sm`` of ``res``
-    (module docstring); ``cs``: its cut surface (computed when not given)."""
-    from predicates.registration.split.regions import Unresolved, cell_pieces
-    from predicates.registration.split.surface import cut_surface
+def _triangle_measures(X, tris):
+    """:func:`simplex_measure` of the triangles ``tris`` on coordinate columns (the same
+    operations in the same order)."""
+    cols = [np.ascontiguousarray(X[:, j]) for j in range(2)]
+    p = [[c[tris[:, i]] for c in cols] for i in range(3)]
+    e = [[p[i][j] - p[0][j] for j in range(2)] for i in (1, 2)]
+    v = (e[0][0] * e[1][1] - e[0][1] * e[1][0]) / 2
+    return v, np.stack([v * ((p[0][j] + p[1][j]) + p[2][j]) / 3 for j in range(2)], axis=1)
 
-    cs = cut_surface(res) if cs is None else cs
-    d, cells = sm.dim, np.asarray(res.sim_cells, dtype=np.int64)
-    X = np.asarray(res.sim_points, dtype=np.float64)
-    n, C, F = len(X), len(cells), len(sm.cells)
-    cv, cm = simplex_measure(X[cells]) if C else (np.zeros(0), np.zeros((0, d)))
-    sgn = np.where(cv < 0, -1.0, 1.0)
-    cv, cm = cv * sgn, cm * sgn[:, None]
-    vol, mom = cv[sm.cell_origin].copy(), cm[sm.cell_origin].copy()
-    nfrag = np.bincount(sm.cell_origin, minlength=C)
-    start = np.cumsum(nfrag) - nfrag
-    twice = crossed_twice(cs, cells)
-    bad: set = set()
-    T, on_cut = _Tables(cs, C), sm.on_cut
-    fans, origin = [], []
-    # every cell whose faces carry registered points: with the points on the cutting
-    # side, a face is shared with the same (slightly bent) regions by both its cells
-    todo = (nfrag > 1) | twice | sm.severed.any(axis=1) | on_cut[cells].any(axis=1)
-    todo[cs.cell[~cs.on_face]] = True
-    for c in np.flatnonzero(todo).tolist():
+
+def _pair_measures(pairs, origin, Y, F):
+    """Volume and moment per fragment of the pairs (f, g, p, q, r) coned from
+    ``origin``: (p, q, r) to f, (p, r, q) to g. The determinant of the second is exactly
+    the negated first (IEEE products commute, a − b = −(b − a)); its centroid is summed
+    in its own order, so both are the values :func:`_tet_measures` gives each row."""
+    v, m, _ = _tet_measures(Y, origin, pairs[:, 2:], areas=False)
+    cols = [np.ascontiguousarray(Y[:, j]) for j in range(3)]
+    p = [[c[pairs[:, i]] for c in cols] for i in (2, 3, 4)]
+    x0 = [c[origin] for c in cols]
+    w = -v
+    m2 = [w * (((x0[j] + p[0][j]) + p[2][j]) + p[1][j]) / 4 for j in range(3)]
+    vol = np.bincount(pairs[:, 0], v, F) + np.bincount(pairs[:, 1], w, F)
+    mom = np.stack([np.bincount(pairs[:, 0], m[j], F) + np.bincount(pairs[:, 1], m2[j], F)
+                    for j in range(3)], axis=1)
+    return vol, mom
+
+
+def _tet_measures(Y, origin, S, areas: bool = True):
+    """:func:`simplex_measure` of the tetrahedra (origin, S) and the vector areas of
+    their faces S, on coordinate columns (the same operations in the same order,
+    without strided (k, 4, 3) temporaries)."""
+    cols = [np.ascontiguousarray(Y[:, j]) for j in range(3)]
+    x0 = [c[origin] for c in cols]
+    pts = [[c[S[:, i]] for c in cols] for i in range(3)]
+    E = [[p[j] - x0[j] for j in range(3)] for p in pts]
+    v = (E[0][0] * (E[1][1] * E[2][2] - E[1][2] * E[2][1])
+         - E[0][1] * (E[1][0] * E[2][2] - E[1][2] * E[2][0])
+         + E[0][2] * (E[1][0] * E[2][1] - E[1][1] * E[2][0])) / 6
+    m = [v * (((x0[j] + pts[0][j]) + pts[1][j]) + pts[2][j]) / 4 for j in range(3)]
+    if not areas:
+        return v, m, None
+    a = [pts[1][j] - pts[0][j] for j in range(3)]
+    b = [pts[2][j] - pts[0][j] for j in range(3)]
+    va = [(a[1] * b[2] - a[2] * b[1]) / 2, (a[2] * b[0] - a[0] * b[2]) / 2,
+          (a[0] * b[1] - a[1] * b[0]) / 2]
+    return v, m, va
+
+
+def _per_cell_rows(res, sm, cs, cells, rest, start, nfrag, sgn, d):
+    """The boundary simplices of the fragments of the cells ``rest``, cell by cell by
+    the rules of :mod:`~predicates.registration.split.regions`, and the cells where
+    those do not apply."""
+    from predicates.registration.split.regions import Unresolved, cell_pieces
+
+    n, on_cut = len(res.sim_points), sm.on_cut
+    todo = np.flatnonzero(rest)
+    near = np.zeros(n, dtype=bool)
+    near[cells[todo].ravel()] = True
+    T = _Tables(cs, len(cells), np.flatnonzero((near[cs.sim] | (cs.sim < 0)).all(axis=1)))
+    fans, bad = [], set()
+    for c in todo.tolist():
         corners = cells[c].tolist()
         frag = {v: start[c] + j for j in range(nfrag[c]) for k, v in enumerate(corners)
                 if sm.material[start[c] + j, k] and not on_cut[v]}
@@ -212,27 +273,104 @@ def fragment_volumes(res, sm, cs=None) -> FragmentVolumes:
         except Unresolved:
             bad.add(c)
             continue
-        fc = _fans(pc, n, d)
-        fans += fc
-        origin += [corners[0]] * len(fc)
+        fans += _fans(pc, n, d)
+    return np.array(fans, dtype=np.int64).reshape(len(fans), d + 1), bad
+
+
+def _todo(sm, cs, cells, nfrag, twice):
+    """Every cell whose faces carry registered points: with the points on the cutting
+    side, a face is shared with the same (slightly bent) regions by both its cells."""
+    todo = (nfrag > 1) | twice | sm.severed.any(axis=1) | sm.on_cut[cells].any(axis=1)
+    todo[cs.cell[~cs.on_face]] = True
+    return todo
+
+
+def fragment_boundaries(res, sm, cs, *, per_cell: bool = False):
+    """The triangles (segments in 2D) bounding the fragments of the cut cells: (rows
+    (k, d+1) int64 — fragment, then node ids: v for vertex v, n + h for point h — the
+    cut cells (C,) bool, the cells where the rules do not apply (a set), the plain
+    cells (C,) bool). The plain tetrahedra
+    (:mod:`~predicates.registration.split.plain_cells`) vectorised, the rest cell by
+    cell by :mod:`~predicates.registration.split.regions`; ``per_cell=True``: every cut
+    cell cell by cell (the reference the vectorised rows are tested against)."""
+    cells = np.asarray(res.sim_cells, dtype=np.int64)
+    X = np.asarray(res.sim_points, dtype=np.float64)
+    v = simplex_measure(X[cells])[0] if len(cells) else np.zeros(0)
+    rows, pairs, todo, bad, plain = _boundaries(res, sm, cs, cells,
+                                                np.where(v < 0, -1.0, 1.0), per_cell)
+    if len(pairs):  # 3D only
+        rows = np.concatenate([rows, pairs[:, [0, 2, 3, 4]], pairs[:, [1, 2, 4, 3]]])
+    return rows, todo, bad, plain
+
+
+def _boundaries(res, sm, cs, cells, sgn, per_cell):
+    from predicates.registration.split.plain_cells import plain_cell_rows, plain_triangle_rows
+
+    d, n, C = sm.dim, len(res.sim_points), len(cells)
+    nfrag = np.bincount(sm.cell_origin, minlength=C)
+    start = np.cumsum(nfrag) - nfrag
+    twice = crossed_twice(cs, cells)
+    todo = _todo(sm, cs, cells, nfrag, twice)
+    plain, rows = np.zeros(C, dtype=bool), np.zeros((0, d + 1), dtype=np.int64)
+    pairs = np.zeros((0, d + 2), dtype=np.int64)
+    if not per_cell:
+        rule = plain_cell_rows if d == 3 else plain_triangle_rows
+        plain, rows, pairs = rule(cs, sm, cells, n, start, nfrag, sgn > 0, todo, twice)
+    rest = todo & ~plain
+    if not rest.any():
+        return rows, pairs, todo, set(), plain
+    rest_rows, bad = _per_cell_rows(res, sm, cs, cells, rest, start, nfrag, sgn, d)
+    return np.concatenate([rows, rest_rows]), pairs, todo, bad, plain
+
+
+def fragment_volumes(res, sm, cs=None, *, per_cell: bool = False) -> FragmentVolumes:
+    """Volume (area) and first moment of every fragment of the split ``sm`` of ``res``
+    (module docstring) from :func:`fragment_boundaries`; ``cs``: its cut surface
+    (computed when not given)."""
+    from predicates.registration.split.surface import cut_surface
+
+    cs = cut_surface(res) if cs is None else cs
+    d, cells = sm.dim, np.asarray(res.sim_cells, dtype=np.int64)
+    X = np.asarray(res.sim_points, dtype=np.float64)
+    C, F = len(cells), len(sm.cells)
+    if d == 3 and C:
+        cv, cm, _ = _tet_measures(X, cells[:, 0], cells[:, 1:], areas=False)
+        cm = np.stack(cm, axis=1)
+    elif C:
+        cv, cm = _triangle_measures(X, cells)
+    else:
+        cv, cm = np.zeros(0), np.zeros((0, d))
+    sgn = np.where(cv < 0, -1.0, 1.0)
+    cv, cm = cv * sgn, cm * sgn[:, None]
+    vol, mom = cv[sm.cell_origin], cm[sm.cell_origin]
+    rows, pairs, todo, bad, plain = _boundaries(res, sm, cs, cells, sgn, per_cell)
     split = todo[sm.cell_origin]
     unclaimed = np.zeros(C)
-    if fans:
+    if len(rows) or len(pairs):
         Y = np.concatenate([X, _on_cut_side(res, cs)])
-        fv, fm, closure = _measures(fans, np.array(origin), Y, F, d)
+        A = rows[:, 0]
+        cA = sm.cell_origin[A]
+        # a plain cell's fragment boundaries are closed by construction (docs/split.md)
+        fv, fm, closure = _measures(A, rows[:, 1:], cells[cA, 0], Y, F, d, ~plain[cA])
+        if len(pairs):
+            pv, pm = _pair_measures(pairs, cells[sm.cell_origin[pairs[:, 0]], 0], Y, F)
+            fv, fm = fv + pv, fm + pm
         vol[split], mom[split] = fv[split], fm[split]
         bad.update(sm.cell_origin[split & (closure > 1e-9)].tolist())
         unclaimed = cv - np.bincount(sm.cell_origin, vol, C)
         # fragments may overlap by what the registration's tolerance σ moved points
         # (a degenerate pair merging close points): σ × the cell's size^(d−1)
-        slack = float(res.tolerances.values.get("sigma", 0.0)) * cv ** ((d - 1) / d) * 8
-        bad.update(np.flatnonzero(unclaimed < -np.maximum(slack, 1e-12 * cv)).tolist())
+        neg = np.flatnonzero(unclaimed < -1e-12 * cv)
+        slack = float(res.tolerances.values.get("sigma", 0.0)) * cv[neg] ** ((d - 1) / d) * 8
+        bad.update(neg[unclaimed[neg] < -slack].tolist())
         unclaimed[np.abs(unclaimed) <= 1e-12 * cv] = 0.0
     unresolved = np.array(sorted(bad), dtype=np.int64)
     unclaimed[unresolved] = np.nan
-    gone = np.isin(sm.cell_origin, unresolved)
+    gone_cell = np.zeros(C, dtype=bool)
+    gone_cell[unresolved] = True
+    gone = gone_cell[sm.cell_origin]
     vol[gone], mom[gone] = np.nan, np.nan
-    ok = ~gone
+    ok = ~gone if len(unresolved) else slice(None)
     pv = np.bincount(sm.piece[ok], vol[ok], sm.n_pieces)
     pm = np.stack([np.bincount(sm.piece[ok], mom[ok, k], sm.n_pieces) for k in range(d)], 1)
     return FragmentVolumes(vol, mom, cv, cm, unresolved, pv, pm, unclaimed)
