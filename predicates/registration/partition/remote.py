@@ -23,7 +23,7 @@ from predicates.registration.plan.inputs import (
 from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.boxes import boxes_of
 
-__all__ = ["RemoteCells", "is_remote", "validate_remote"]
+__all__ = ["RemoteCells", "is_remote", "validate_pair_remote", "validate_remote"]
 
 _LOCAL = ("threads", "processes", "synchronous", "sync", "single-threaded")
 
@@ -229,3 +229,14 @@ def validate_remote(points, cells, dim: int, dtype, scheduler, blocks: Blocks = 
     pts, rounded = _points(arr, used, "simulation", dtype)
     remote.points = pts  # the same boxes as from ``work`` (the used rows are equal)
     return MeshInput(pts, cells, "simulation", rounded), remote
+
+
+def validate_pair_remote(sp, sc, cp, cc, dtype, scheduler, blocks: Blocks = SERIAL):
+    """``validate_pair`` with the simulation cells ``sc`` on the workers: (dim, the
+    simulation's MeshInput, the cutting mesh's, the simulation's :class:`RemoteCells`)."""
+    from predicates.registration.plan.inputs import validate_mesh
+
+    dim = _array(sp, "simulation").shape[1]
+    sim, remote = validate_remote(sp, sc, dim, dtype, scheduler, blocks)
+    cut = validate_mesh(cp, cc, "cutting", dim, dtype, allow_empty=True, blocks=blocks)
+    return dim, sim, cut, remote
