@@ -431,7 +431,8 @@ def intersect_files(sim, cut: str | os.PathLike, *,
     check_outputs(input_roles(sim, cut),
                   {("-o", "mesh"): output, ("--plot", "plot"): plot,
                    ("--sim-output", "mesh"): sim_output})
-    arrays = load_pair(sim, cut, dtype=dtype, sim_region=sim_region, cut_region=cut_region)
+    arrays = load_pair(sim, cut, dtype=dtype, sim_region=sim_region, cut_region=cut_region,
+                       scheduler=options.get("scheduler"))  # pieces: read by its workers
     if plot is not None and arrays[0].shape[1] != 2:
         raise ValueError("plots are drawn for 2D meshes only (this case is 3D; open the "
                          "output in ParaView instead)")

@@ -79,7 +79,8 @@ def test_pieces_read_by_the_workers_give_the_serial_result(tmp_path, case, seed,
     rng = np.random.default_rng(seed)
     paths, cells = write_pieces(tmp_path, sp, sc, rng, count)
     ref = predicates.intersect(sp, cells, cp, cc)
-    points, remote, notes = read_pieces_on_workers(paths, sched)
+    got = read_pieces_on_workers(paths, sched)
+    points, remote, notes = got.points, got.cells, got.notes
     assert points.tobytes() == sp.astype(np.float64).tobytes()
     assert remote.numblocks[0] == count and "pieces read by the workers" in notes[-1]
     res = predicates.intersect(points, remote, cp, cc, partitions=int(rng.integers(1, 6)),
@@ -97,7 +98,8 @@ def test_pieces_on_a_distributed_cluster(tmp_path):
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                   dashboard_address=None) as cluster, \
             distributed.Client(cluster) as client:
-        points, remote, _ = read_pieces_on_workers(paths, client)
+        got = read_pieces_on_workers(paths, client)
+        points, remote = got.points, got.cells
         res = predicates.intersect(points, remote, cp, cc, partitions=3, scheduler=client)
         # the scheduler's address (fperr intersect --scheduler) the same way
         res2 = predicates.intersect(points, remote, cp, cc, partitions=2,
@@ -137,3 +139,53 @@ def test_missing_global_ids_and_points_are_refused(tmp_path):
     with pytest.raises(MeshFileError) as e:
         read_pieces_on_workers(paths, "synchronous")
     assert str(paths[1]) in str(e.value) and GLOBAL_IDS in str(e.value)
+
+
+def _cli(*argv):
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    code = "import sys; from proofs.cli import main; sys.exit(main(sys.argv[1:]))"
+    return subprocess.run([sys.executable, "-c", code, *argv], capture_output=True,
+                          text=True, cwd=root, env={**os.environ, "PYTHONPATH": str(root)})
+
+
+def test_cli_reads_pieces_with_global_ids_on_the_workers(tmp_path):
+    """fperr intersect PIECE... CUT --workers 2: pieces with GlobalNodeIds are read by
+    the workers (the note says so) and the output file holds the serial run's points,
+    kinds and weights on the whole mesh; --sim-output writes the whole mesh's cut
+    cells; a piece whose shared point differs: exit 2, nothing written."""
+    sp, sc, cp, cc = _case("sphere", 5, angle=2, subdivisions=2)
+    paths, cells = write_pieces(tmp_path, sp, sc, np.random.default_rng(11), 3)
+    whole, cut = tmp_path / "whole.vtu", tmp_path / "cut.vtu"
+    meshio.Mesh(sp, [("tetra", cells)]).write(whole)
+    meshio.Mesh(cp, [("triangle", cc)]).write(cut)
+    ref, ref_sim = tmp_path / "ref.vtu", tmp_path / "ref_sim.vtu"
+    r = _cli("intersect", str(whole), str(cut), "-o", str(ref), "--sim-output",
+             str(ref_sim), "--quiet")
+    assert r.returncode == 0, r.stderr
+    out, out_sim = tmp_path / "out.vtu", tmp_path / "out_sim.vtu"
+    r = _cli("intersect", *map(str, paths), str(cut), "-o", str(out), "--sim-output",
+             str(out_sim), "--workers", "2", "--partitions", "3", "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert "3 pieces read by the workers as one mesh" in r.stdout
+    for a, b in ((ref, out), (ref_sim, out_sim)):
+        ma, mb = meshio.read(a), meshio.read(b)
+        assert ma.points.tobytes() == mb.points.tobytes()
+        assert sorted(ma.point_data) == sorted(mb.point_data)
+        for key in ma.point_data:
+            assert ma.point_data[key].tobytes() == mb.point_data[key].tobytes(), key
+        for key in ma.cell_data:
+            assert all(x.tobytes() == y.tobytes()
+                       for x, y in zip(ma.cell_data[key], mb.cell_data[key])), key
+    m = meshio.read(paths[1])
+    m.points[0, 2] = np.nextafter(m.points[0, 2], -np.inf)
+    m.write(paths[1])
+    never = tmp_path / "never.vtu"
+    r = _cli("intersect", *map(str, paths), str(cut), "-o", str(never), "--workers", "2",
+             "--quiet")
+    assert r.returncode == 2 and str(paths[1]) in r.stderr and "global point" in r.stderr
+    assert "Traceback" not in r.stderr and not never.exists()

@@ -22,10 +22,18 @@ from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["GLOBAL_IDS", "Piece", "read_piece", "read_pieces_on_workers"]
+from predicates.registration.io.convert import Converted
+from predicates.registration.io.read import MeshFileError
+
+__all__ = ["GLOBAL_IDS", "NoGlobalIds", "Piece", "read_piece", "read_pieces_on_workers"]
 
 #: the point-data array holding each point's global id (ParaView's GlobalNodeIds)
 GLOBAL_IDS = "GlobalNodeIds"
+
+
+class NoGlobalIds(MeshFileError):
+    """A piece without :data:`GLOBAL_IDS`: the workers cannot place its points (the
+    command line then reads the pieces on the client, merging shared points)."""
 
 
 class Piece(NamedTuple):
@@ -44,7 +52,7 @@ def read_piece(path: str | os.PathLike, region=None) -> Piece:
     """Read one piece (on a worker): converted as a whole simulation file is, its cells
     renumbered to global ids through its :data:`GLOBAL_IDS`. Errors name the file."""
     from predicates.registration.io.convert import convert_sim
-    from predicates.registration.io.read import MeshFileError, read_mesh
+    from predicates.registration.io.read import read_mesh
 
     mesh = read_mesh(path)
     try:
@@ -53,7 +61,7 @@ def read_piece(path: str | os.PathLike, region=None) -> Piece:
         raise MeshFileError(path, e) from None
     ids = (mesh.point_data or {}).get(GLOBAL_IDS)
     if ids is None:
-        raise MeshFileError(path, f"a piece read by the workers needs its points' global "
+        raise NoGlobalIds(path, f"a piece read by the workers needs its points' global "
                                   f"ids as point data '{GLOBAL_IDS}' (docs/partitioned.md "
                                   f"section 6); without them give the pieces to the "
                                   f"client's reader (several SIM files, without workers)")
@@ -84,8 +92,9 @@ def _cells(piece: Piece) -> np.ndarray:
 
 
 def read_pieces_on_workers(paths, scheduler, region=None):
-    """The simulation mesh stored in ``paths`` (the format above) as ``(points, cells,
-    notes)``: points a numpy array assembled on the client by global id, cells a dask
+    """The simulation mesh stored in ``paths`` (the format above) as a
+    :class:`~predicates.registration.io.convert.Converted` (points, cells, notes,
+    plane): points a numpy array assembled on the client by global id, cells a dask
     array with one chunk per piece, read by the workers of ``scheduler`` (a
     ``dask.distributed.Client``: each piece read once and kept there; a local Dask
     scheduler's name: read again wherever a chunk is needed). Pass both to
@@ -105,12 +114,12 @@ def read_pieces_on_workers(paths, scheduler, region=None):
         read = [dask.delayed(read_piece, pure=True)(p, region) for p in paths]
         heads = dask.compute(*[dask.delayed(_head)(r) for r in read], scheduler=scheduler)
     points, notes = assemble_points(paths, heads)
-    dim = heads[0][3]
+    dim, plane = heads[0][3], heads[0][4]
     chunks = [da.from_delayed(dask.delayed(_cells, pure=True)(r), shape=(h[2], dim + 1),
                               dtype=np.int64) for r, h in zip(read, heads) if h[2]]
-    if not chunks:  # no cells at all: the plan refuses the empty mesh
-        return points, da.zeros((0, dim + 1), dtype=np.int64), notes
-    return points, da.concatenate(chunks), notes
+    # no cells at all: the plan refuses the empty mesh
+    cells = da.concatenate(chunks) if chunks else da.zeros((0, dim + 1), dtype=np.int64)
+    return Converted(points, cells, notes, plane)
 
 
 def assemble_points(paths: list, heads: list) -> tuple[np.ndarray, list]:
@@ -118,8 +127,6 @@ def assemble_points(paths: list, heads: list) -> tuple[np.ndarray, list]:
     every piece holding g gives it, bit for bit; refused, naming the pieces, when they
     differ, when an id is held by none, or when the pieces' dimensions or planes
     differ."""
-    from predicates.registration.io.read import MeshFileError
-
     dim, plane = heads[0][3], heads[0][4]
     for path, h in zip(paths, heads):
         if (h[3], h[4]) != (dim, plane):
