@@ -157,8 +157,17 @@ def child(mode: str, n: int, sub: int, workers: int, k: int, reps: int,
                 out["cpu"].append(time.process_time() - c)
                 out["setup"].append(res.timings["setup"])
             out["parts"] = [{key: p[key] for key in ("sim_cells", "cut_cells", "bytes_in",
-                                                     "bytes_out", "peak_rss_mib", "pid")}
+                                                     "bytes_out", "peak_rss_mib", "pid",
+                                                     "seconds", "cpu_s")}
                             for p in res.timings["partitions"]]
+            # CPU seconds on the critical path (load-independent; docs/partitioned.md
+            # 5b): the client's, the plan's per-chunk passes (largest chunk each), the
+            # busiest partition's task
+            remote = res.timings.get("plan_remote") or {}
+            out["critical_cpu"] = {
+                "client": out["cpu"][-1],
+                "plan_on_workers": sum(c for _, c in remote.get("worker_cpu", [])),
+                "busiest_task": max(p["cpu_s"] for p in res.timings["partitions"])}
             out["plan_remote"] = res.timings.get("plan_remote")
     out["timings"] = {key: round(v, 3) for key, v in res.timings.items()
                       if isinstance(v, float)}  # the last run's stages (wall, CPU)

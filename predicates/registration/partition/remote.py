@@ -78,6 +78,15 @@ def _near_scan(chunk, points, grid, centres: bool):
     return cat
 
 
+def _cpu_timed(f, *args):
+    """``(f(*args), the thread CPU seconds it took)`` (on a worker)."""
+    import time
+
+    c = time.thread_time()
+    out = f(*args)
+    return out, time.thread_time() - c
+
+
 class RemoteCells(CellBoxes):
     """A :class:`~predicates.registration.plan.cellboxes.CellBoxes` whose cells stay on
     the workers: ``summary`` and ``flag_pass`` are tasks per chunk; rows outside the
@@ -112,12 +121,16 @@ class RemoteCells(CellBoxes):
         return self.client.scatter(x, broadcast=True, hash=False)
 
     def _map(self, f, *args) -> list:
-        """``f(chunk, points, *args)`` per chunk, on the workers; the results in order."""
+        """``f(chunk, points, *args)`` per chunk, on the workers; the results in order.
+        ``stats["worker_cpu"]`` gets, per pass, the largest chunk's thread CPU seconds
+        (the pass's share of the run's critical path when the chunks run side by side)."""
         d = self.dask.delayed
-        tasks = [d(f, pure=False)(p, self._pts, *args) for p in self.parts]
+        tasks = [d(_cpu_timed, pure=False)(f, p, self._pts, *args) for p in self.parts]
         out = self.dask.compute(*tasks, scheduler=self.scheduler)
         self.stats["tasks"] += len(tasks)
-        return list(out)
+        self.stats.setdefault("worker_cpu", []).append(
+            (f.__name__.strip("_"), max(o[1] for o in out)))
+        return [o[0] for o in out]
 
     def check(self, n_points: int):
         """Validation and summary: (first bad cell per check (global rows, None where
