@@ -119,6 +119,8 @@ def read_pieces_on_workers(paths, scheduler, region=None):
                               dtype=np.int64) for r, h in zip(read, heads) if h[2]]
     # no cells at all: the plan refuses the empty mesh
     cells = da.concatenate(chunks) if chunks else da.zeros((0, dim + 1), dtype=np.int64)
+    if client is not None:  # the array holds its chunks' futures (the reads' are dropped)
+        cells = client.persist(cells)
     return Converted(points, cells, notes, plane)
 
 

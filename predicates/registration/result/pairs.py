@@ -110,7 +110,8 @@ def cells_holding(cells: np.ndarray, rows: np.ndarray) -> np.ndarray:
     r, k = rows.shape[1], cells.shape[1]
     combos = list(itertools.combinations(range(k), r))
     # the faces of a sorted row are sorted
-    faces = np.sort(cells[near], axis=1)[:, combos].reshape(-1, r).astype(np.int64)
+    # (np.asarray: cells kept on Dask workers give their near rows only)
+    faces = np.sort(np.asarray(cells[near]), axis=1)[:, combos].reshape(-1, r).astype(np.int64)
     owner = np.repeat(near, len(combos))
     void = np.dtype((np.void, 8 * r))  # a row as one comparable key, no overflow
     fk = np.ascontiguousarray(faces).view(void).ravel()
