@@ -87,6 +87,10 @@ def test_pieces_read_by_the_workers_give_the_serial_result(tmp_path, case, seed,
                                scheduler=sched)
     assert_identical(ref, res)
     assert res.timings["plan_remote"]["tasks"] >= 2 * count  # the plan ran per piece
+    # the result's cell queries scan the cells where they are, with the serial answers
+    assert np.array_equal(res.intersected_cells(), ref.intersected_cells())
+    for kind in ref.kinds:
+        assert np.array_equal(res[kind].sim_cell, ref[kind].sim_cell), kind
 
 
 def test_pieces_on_a_distributed_cluster(tmp_path):
