@@ -5,6 +5,12 @@ workers build themselves: the client never holds them).
 
     python benchmarks/partition_remote_bench.py [--n 120] [--subdivisions 7]
         [--workers 2] [--partitions 2] [--reps 2] [--rounds 1] [--json OUT]
+        [--modes serial,dask,remote,pieces,serial_pieces] [--folder DIR]
+
+Mode ``pieces``: the mesh written once (by a separate process) as ``--partitions``
+slabs of .vtu pieces with global point ids, read by the workers in every run
+(:mod:`predicates.registration.partition.pieces`; "read" is that part of the wall
+time); its serial baseline is ``serial_pieces`` (the same cells in the pieces' order).
 
 Each mode runs in its own child process; the modes alternate for ``--rounds``. Per mode:
 best wall time of ``--reps`` runs (the first partitioned run on a fresh cluster pays the
@@ -63,15 +69,50 @@ def status(field: str) -> float:
     return float("nan")
 
 
-def child(mode: str, n: int, sub: int, workers: int, k: int, reps: int) -> dict:
+def write_pieces(n: int, k: int, folder: str) -> list[str]:
+    """W-n as k pieces with global point ids (docs/partitioned.md section 6): slabs of
+    cube layers (the cells of cube_grid in their order within each slab), each piece
+    the points its cells use, by global id; .vtu without compression."""
+    import meshio
+
+    from predicates.registration.examples import cube_grid
+    from predicates.registration.partition.pieces import GLOBAL_IDS
+
+    sp, sc = cube_grid(n)
+    layer = (np.arange(len(sc)) % n ** 3) // (n * n)
+    paths = []
+    cuts = np.linspace(0, n, k + 1).astype(int)
+    for r in range(k):
+        cells = sc[(layer >= cuts[r]) & (layer < cuts[r + 1])]
+        ids, local = np.unique(cells, return_inverse=True)
+        path = f"{folder}/piece{r}.vtu"
+        meshio.Mesh(sp[ids], [("tetra", local.reshape(-1, 4))],
+                    point_data={GLOBAL_IDS: ids}).write(path, compression=None)
+        paths.append(path)
+    return paths
+
+
+def pieces_order(n: int, k: int) -> np.ndarray:
+    """The cells of cube_grid(n) in the order the pieces of :func:`write_pieces` hold
+    them (the serial baseline of the pieces mode runs on this order)."""
+    layer = (np.arange(6 * n ** 3) % n ** 3) // (n * n)
+    cuts = np.linspace(0, n, k + 1).astype(int)
+    return np.concatenate([np.flatnonzero((layer >= cuts[r]) & (layer < cuts[r + 1]))
+                           for r in range(k)])
+
+
+def child(mode: str, n: int, sub: int, workers: int, k: int, reps: int,
+          folder: str | None = None) -> dict:
     import predicates
     from predicates.registration.examples import cube_grid, grid_coordinates, icosphere
     from predicates.registration.partition.run import client_for
 
     cp, cc = icosphere(sub)
     m = 6 * n ** 3
-    out = {"mode": mode, "runs": [], "setup": []}
-    if mode == "remote":  # the points only: the cells are built on the workers
+    out = {"mode": mode, "runs": [], "setup": [], "cpu": []}
+    if mode == "pieces":  # nothing: the workers read the pieces
+        sp = sc = None
+    elif mode == "remote":  # the points only: the cells are built on the workers
         x = grid_coordinates(n)
         Z, Y, X = np.meshgrid(x, x, x, indexing="ij")
         sp = np.stack([X.ravel(), Y.ravel(), Z.ravel()], axis=1)
@@ -79,12 +120,15 @@ def child(mode: str, n: int, sub: int, workers: int, k: int, reps: int) -> dict:
         sc = None
     else:
         sp, sc = cube_grid(n)
-    out["mesh_mib"] = (sp.nbytes + m * 32) / 2**20
-    if mode == "serial":
+        if mode == "serial_pieces":  # the serial baseline in the pieces' cell order
+            sc = sc[pieces_order(n, k)]
+    out["mesh_mib"] = (3 * 8 * (n + 1) ** 3 + m * 32) / 2**20
+    if mode.startswith("serial"):
         for _ in range(reps):
-            t = time.perf_counter()
+            t, c = time.perf_counter(), time.process_time()
             res = predicates.intersect(sp, sc, cp, cc, memory_limit=16 << 30)
             out["runs"].append(time.perf_counter() - t)
+            out["cpu"].append(time.process_time() - c)
             out["setup"].append(res.timings["setup"])
     else:
         with client_for(workers) as client:
@@ -96,15 +140,34 @@ def child(mode: str, n: int, sub: int, workers: int, k: int, reps: int) -> dict:
                 sc = client.persist(da.concatenate([
                     da.from_delayed(dask.delayed(cube_cells)(n, a, b), shape=(b - a, 4),
                                     dtype=np.int64) for a, b in zip(cuts[:-1], cuts[1:])]))
+            out["read"] = []
             for _ in range(reps):
-                t = time.perf_counter()
+                t, c = time.perf_counter(), time.process_time()
+                if mode == "pieces":  # read by the workers, the client gets the points
+                    from predicates.registration.partition.pieces import (
+                        read_pieces_on_workers)
+
+                    got = read_pieces_on_workers(sorted(Path(folder).glob("*.vtu")),
+                                                 client)
+                    sp, sc = got.points, got.cells
+                    out["read"].append(time.perf_counter() - t)
                 res = predicates.intersect(sp, sc, cp, cc, partitions=k, scheduler=client,
                                            memory_limit=16 << 30)
                 out["runs"].append(time.perf_counter() - t)
+                out["cpu"].append(time.process_time() - c)
                 out["setup"].append(res.timings["setup"])
             out["parts"] = [{key: p[key] for key in ("sim_cells", "cut_cells", "bytes_in",
-                                                     "bytes_out", "peak_rss_mib", "pid")}
+                                                     "bytes_out", "peak_rss_mib", "pid",
+                                                     "seconds", "cpu_s")}
                             for p in res.timings["partitions"]]
+            # CPU seconds on the critical path (load-independent; docs/partitioned.md
+            # 5b): the client's, the plan's per-chunk passes (largest chunk each), the
+            # busiest partition's task
+            remote = res.timings.get("plan_remote") or {}
+            out["critical_cpu"] = {
+                "client": out["cpu"][-1],
+                "plan_on_workers": sum(c for _, c in remote.get("worker_cpu", [])),
+                "busiest_task": max(p["cpu_s"] for p in res.timings["partitions"])}
             out["plan_remote"] = res.timings.get("plan_remote")
     out["timings"] = {key: round(v, 3) for key, v in res.timings.items()
                       if isinstance(v, float)}  # the last run's stages (wall, CPU)
@@ -125,30 +188,46 @@ def main(argv=None):
     ap.add_argument("--modes", default="serial,dask,remote")
     ap.add_argument("--json")
     ap.add_argument("--child")
+    ap.add_argument("--folder", help="the pieces' folder (mode pieces: written once)")
     a = ap.parse_args(argv)
+    if a.child == "write":
+        write_pieces(a.n, a.partitions, a.folder)
+        return
     if a.child:
         print(json.dumps(child(a.child, a.n, a.subdivisions, a.workers, a.partitions,
-                               a.reps)))
+                               a.reps, a.folder)))
         return
+    if "pieces" in a.modes.split(","):
+        import tempfile
+
+        a.folder = a.folder or tempfile.mkdtemp(prefix="fperr-pieces-")
+        if not list(Path(a.folder).glob("*.vtu")):  # in its own process: the client of
+            # the pieces mode never holds the mesh
+            subprocess.run([sys.executable, __file__, "--child", "write", "--n", str(a.n),
+                            "--partitions", str(a.partitions), "--folder", a.folder],
+                           check=True)
     got = {}
     for _ in range(a.rounds):
         for mode in a.modes.split(","):
             cmd = [sys.executable, __file__, "--child", mode, "--n", str(a.n),
                    "--subdivisions", str(a.subdivisions), "--workers", str(a.workers),
-                   "--partitions", str(a.partitions), "--reps", str(a.reps)]
+                   "--partitions", str(a.partitions), "--reps", str(a.reps)] + (
+                       ["--folder", a.folder] if a.folder else [])
             with open("/proc/loadavg") as f:
                 load = float(f.read().split()[0])
             r = subprocess.run(cmd, capture_output=True, text=True)
             if r.returncode:
                 raise SystemExit(f"{mode} failed:\n{r.stderr[-3000:]}")
             rec = json.loads(r.stdout.strip().splitlines()[-1])
-            rec["load"] = load
+            with open("/proc/loadavg") as f:  # the machine is shared: before and after
+                rec["load"] = [load, float(f.read().split()[0])]
             got.setdefault(mode, []).append(rec)
             print(json.dumps({key: rec[key] for key in rec if key != "parts"}), flush=True)
             for p in rec.get("parts", []):
                 print("   ", p, flush=True)
+    # the pieces hold the cells in another order: their baseline is serial_pieces
     digests = {r["digest"] for recs in got.values() for r in recs}
-    print("identical results:", len(digests) == 1)
+    print("identical results:", len(digests) == 1, "(digests:", len(digests), ")")
     if a.json:
         Path(a.json).write_text(json.dumps(got, indent=1))
 

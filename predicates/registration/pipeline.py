@@ -55,6 +55,7 @@ differs in the predicates.
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import time
 import warnings
@@ -74,6 +75,7 @@ from predicates.registration.plan.cellboxes import CellBoxes
 from predicates.registration.plan.inputs import (
     mesh_arrays, scale_points, validate_options, validate_pair)
 from predicates.registration.levels.loop import Registration
+from predicates.registration.partition import remote  # the plan on the workers, no Dask
 from predicates.registration.plan.refine import refine
 from predicates.registration.plan.resolution import (
     Resolution, consistent_scale, estimate_cell_pairs, memory_error, near_cells,
@@ -155,23 +157,25 @@ def intersect(sim: MeshLike | ArrayLike, cut: MeshLike | ArrayLike,
         from predicates.registration.partition.run import check_timeout
 
         timeout = check_timeout(timeout, not serial, scheduler)
-    plan = _plan(  # partitioned: threads per worker, the workers' cells on the workers
-        args, dtype, tolerance_scale, progress, chunk, refine_cut, timings, sim_region,
-        cut_region, tolerances, threads=1 if serial else plan_threads.threads_for(scheduler),
-        scheduler=None if serial else (scheduler or "threads"), accelerate=accelerate)
-    timings["setup"] = time.perf_counter() - t0
-    timings["cpu_setup"] = time.process_time() - c0
-    check = partial(_check, plan.report, strict, memory_limit, plan.dim)
-    if serial:
-        check()
-        pairs = _register(plan, chunk, progress, timings)
-    else:
-        from predicates.registration.partition.run import run_partitioned
+    with _connected(scheduler) as scheduler:  # an address: one Client, plan and tasks
+        plan = _plan(  # partitioned: threads per worker, the workers' cells on the workers
+            args, dtype, tolerance_scale, progress, chunk, refine_cut, timings, sim_region,
+            cut_region, tolerances,
+            threads=1 if serial else plan_threads.threads_for(scheduler),
+            scheduler=None if serial else (scheduler or "threads"), accelerate=accelerate)
+        timings["setup"] = time.perf_counter() - t0
+        timings["cpu_setup"] = time.process_time() - c0
+        check = partial(_check, plan.report, strict, memory_limit, plan.dim)
+        if serial:
+            check()
+            pairs = _register(plan, chunk, progress, timings)
+        else:
+            from predicates.registration.partition.run import run_partitioned
 
-        # checked there, before any task: the memory guard counts the partitions held
-        # at once, not the whole run
-        pairs = run_partitioned(plan, partitions, scheduler, chunk, timings, check, progress,
-                                timeout)
+            # checked there, before any task: the memory guard counts the partitions
+            # held at once, not the whole run
+            pairs = run_partitioned(plan, partitions, scheduler, chunk, timings, check,
+                                    progress, timeout)
     timings["total"] = time.perf_counter() - t0
     timings["accelerated"] = accelerate  # which ran: the compiled chain, or numpy
     return _result(plan, pairs, timings)
@@ -258,8 +262,9 @@ def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, 
     arrays = mesh_arrays(args, sim_region, cut_region)
     sp, sc, cp, cc = arrays
     clock = _Stages(timings)
-    if scheduler is not None and _remote(sc, scheduler):
-        dim, sim, cut, sim_box = _validate_remote(sp, sc, cp, cc, dtype, scheduler, work)
+    if scheduler is not None and remote.is_remote(sc, scheduler):  # dask-array cells
+        dim, sim, cut, sim_box = remote.validate_pair_remote(sp, sc, cp, cc, dtype,
+                                                             scheduler, work.blocks)
         timings["plan_remote"] = sim_box.stats
     else:
         dim, sim, cut = validate_pair(sp, sc, cp, cc, dtype, work.blocks)
@@ -295,24 +300,14 @@ def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, 
                 work.blocks.accelerate)
 
 
-def _remote(cells, scheduler) -> bool:
-    """Do the simulation cells stay on the workers (a dask array, a scheduler whose
-    workers can hold them)?"""
-    from predicates.registration.partition.remote import is_remote
+def _connected(scheduler):
+    """A scheduler address connected once for the plan and the tasks (a Client, closed
+    after: :func:`~predicates.registration.partition.run.connected`), else as given."""
+    if not isinstance(scheduler, str) or "://" not in scheduler:
+        return contextlib.nullcontext(scheduler)
+    from predicates.registration.partition.run import connected
 
-    return is_remote(cells, scheduler)
-
-
-def _validate_remote(sp, sc, cp, cc, dtype, scheduler, work):
-    """validate_pair with the simulation cells on the workers: (dim, sim, cut, the
-    simulation's RemoteCells)."""
-    from predicates.registration.partition.remote import validate_remote
-    from predicates.registration.plan.inputs import _array, validate_mesh
-
-    dim = _array(sp, "simulation").shape[1]
-    sim, remote = validate_remote(sp, sc, dim, dtype, scheduler, work.blocks)
-    cut = validate_mesh(cp, cc, "cutting", dim, dtype, allow_empty=True, blocks=work.blocks)
-    return dim, sim, cut, remote
+    return connected(scheduler)
 
 
 class _Stages:
@@ -436,7 +431,8 @@ def intersect_files(sim, cut: str | os.PathLike, *,
     check_outputs(input_roles(sim, cut),
                   {("-o", "mesh"): output, ("--plot", "plot"): plot,
                    ("--sim-output", "mesh"): sim_output})
-    arrays = load_pair(sim, cut, dtype=dtype, sim_region=sim_region, cut_region=cut_region)
+    arrays = load_pair(sim, cut, dtype=dtype, sim_region=sim_region, cut_region=cut_region,
+                       scheduler=options.get("scheduler"))  # pieces: read by its workers
     if plot is not None and arrays[0].shape[1] != 2:
         raise ValueError("plots are drawn for 2D meshes only (this case is 3D; open the "
                          "output in ParaView instead)")

@@ -214,6 +214,9 @@ def _run_intersect(args) -> int:
     def work(**options):
         res = intersect_files(sim, args.cut, **({} if per_part else outputs),
                               naive=args.naive, **options)
+        # the summary's cut cells, counted while the cluster is open: cells read by its
+        # workers (pieces with global ids) stay there
+        res.intersected_cells()
         return res, (_write_parts(args, res) if per_part else None)
 
     status, out = _register(args, work, check)

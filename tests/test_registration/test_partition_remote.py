@@ -86,6 +86,24 @@ def test_processes_and_a_distributed_cluster():
     assert_identical(ref, res)
 
 
+def test_a_scheduler_address_keeps_the_cells_on_the_workers():
+    """``scheduler="tcp://..."`` (what ``fperr intersect --scheduler`` takes) connects
+    once and runs the plan's per-chunk passes on that cluster's workers, as a Client
+    does: the serial result, and the plan's tasks counted (the old path gathered the
+    cells and ran the plan on the client: no "plan_remote")."""
+    distributed = pytest.importorskip("distributed")
+    sp, sc, cp, cc = _case("sphere", 6, angle=2, subdivisions=2)
+    ref = predicates.intersect(sp, sc, cp, cc)
+    cells = _chunked(sc, np.random.default_rng(5), 4)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster:
+        res = predicates.intersect(sp, cells, cp, cc, partitions=3,
+                                   scheduler=cluster.scheduler_address)
+    assert_identical(ref, res)
+    assert res.timings["plan_remote"]["tasks"] >= 2 * cells.numblocks[0]
+    assert len(res.timings["partitions"]) >= 1
+
+
 @pytest.mark.parametrize("bad", ["negative", "range", "repeat"])
 def test_bad_cells_on_the_workers_are_refused_as_serially(bad):
     sp, sc, cp, cc = _case("sphere", 4, subdivisions=1)

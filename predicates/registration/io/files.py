@@ -22,15 +22,20 @@ __all__ = ["MESH_FORMATS", "PLOT_FORMATS", "MeshFileError", "check_output", "che
 
 
 def load_pair(sim, cut: str | os.PathLike, *, dtype="float64", sim_region=None,
-              cut_region=None) -> Arrays:
+              cut_region=None, scheduler=None) -> Arrays:
     """Read, convert and validate two mesh files; any problem raises an error that
     starts with the file's path (:class:`MeshFileError`). ``sim``: one file, or a list
-    of files holding the pieces of one simulation mesh (:func:`merge_pieces`)."""
-    dim, s, sim_name = _load_sim(sim, sim_region)
+    of files holding the pieces of one simulation mesh (:func:`merge_pieces`; pieces
+    with global point ids, in a partitioned run on ``scheduler``, are read by its
+    workers and their cells stay there: :mod:`~predicates.registration.partition.pieces`,
+    validated by the plan on the workers)."""
+    remote = _pieces_on_workers(sim, scheduler, sim_region)
+    dim, s, sim_name = remote or _load_sim(sim, sim_region)
     cut_mesh = read_mesh(cut)
     try:
-        validate_mesh(s.points, s.cells, "simulation", s.points.shape[1], np.dtype(dtype),
-                      allow_empty=False)
+        if remote is None:
+            validate_mesh(s.points, s.cells, "simulation", s.points.shape[1],
+                          np.dtype(dtype), allow_empty=False)
     except (ValueError, TypeError) as e:
         raise MeshFileError(sim_name, e) from None
     try:
@@ -53,6 +58,23 @@ def input_roles(sim, cut) -> dict:
     sims = [sim] if isinstance(sim, (str, os.PathLike)) else list(sim)
     names = ["SIM"] if len(sims) == 1 else [f"SIM piece {i + 1}" for i in range(len(sims))]
     return {**dict(zip(names, sims)), "CUT": cut}
+
+
+def _pieces_on_workers(sim, scheduler, region):
+    """(dim, Converted, name) of several pieces with global point ids read by the
+    workers of ``scheduler`` (a Client or a local Dask scheduler's name); None for one
+    file, a serial run, or pieces without ids (read on the client, :func:`_load_sim`)."""
+    paths = [sim] if isinstance(sim, (str, os.PathLike)) else list(sim)
+    if scheduler is None or len(paths) < 2 or isinstance(scheduler, str) and \
+            scheduler not in ("threads", "processes", "synchronous"):
+        return None
+    from predicates.registration.partition.pieces import NoGlobalIds, read_pieces_on_workers
+
+    try:
+        s = read_pieces_on_workers(paths, scheduler, region)
+    except NoGlobalIds:
+        return None
+    return s.points.shape[1], s, f"{os.fspath(paths[0])} (+{len(paths) - 1} pieces)"
 
 
 def _load_sim(sim, region):

@@ -30,6 +30,9 @@ class MeshFileError(ValueError):
             if str(problem).strip() else type(problem).__name__
         super().__init__(f"{self.path}: {self.problem}")
 
+    def __reduce__(self):  # raised on a Dask worker (pieces read there), re-raised here
+        return type(self), (self.path, self.problem)
+
 
 def _ext(path: str) -> str:
     p = path.lower()

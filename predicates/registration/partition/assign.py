@@ -74,17 +74,32 @@ def _spread(v: np.ndarray, dim: int) -> np.ndarray:
 def morton_order(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
     """Position of every cell in the Morton order of its first vertex (a point of the
     cell; cheaper than the centroid and as good for compact runs)."""
-    m, dim = len(cells), points.shape[1]
-    # one contiguous row per axis: numpy's min/max over axis 0 of an (m, 3) array is
-    # ~90× slower than over contiguous rows (W1: 3.7 ms vs 0.04 ms); same values
-    c = np.ascontiguousarray(points[cells[:, 0]].astype(np.float64).T)
-    lo, hi = c.min(axis=1)[:, None], c.max(axis=1)[:, None]
+    c = first_vertices(points, cells)
+    return order_of(morton_codes(c, c.min(axis=1)[:, None], c.max(axis=1)[:, None]))
+
+
+def first_vertices(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """The cells' first vertices' coordinates, one contiguous row per axis (numpy's
+    min/max over axis 0 of an (m, 3) array is ~90× slower than over contiguous rows)."""
+    return np.ascontiguousarray(points[cells[:, 0]].astype(np.float64).T)
+
+
+def morton_codes(c: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """The Morton codes of the points ``c`` (one row per axis) in the box [lo, hi] of
+    all cells' first vertices: element-wise, so any block of cells gets its codes."""
+    dim = len(c)
     bits = 21 if dim == 3 else 31
     span = np.where(hi > lo, hi - lo, 1.0)
     q = np.clip(((c - lo) / span * (2 ** bits - 1)), 0, 2 ** bits - 1).astype(np.uint64)
-    code = np.zeros(m, dtype=np.uint64)
+    code = np.zeros(c.shape[1], dtype=np.uint64)
     for ax in range(dim):
         code |= _spread(q[ax], dim) << np.uint64(ax)
+    return code
+
+
+def order_of(code: np.ndarray) -> np.ndarray:
+    """Each cell's position in the stable order of ``code``."""
+    m = len(code)
     order = np.argsort(code, kind="stable")
     pos = np.empty(m, dtype=np.int64)
     pos[order] = np.arange(m, dtype=np.int64)
@@ -112,10 +127,24 @@ def assign(P_sim: np.ndarray, sim_cells: np.ndarray, k: int):
     smallest-index cell that contains it (−1: in no cell)."""
     m, n = len(sim_cells), len(P_sim)
     pos = morton_order(P_sim, sim_cells)
-    first = np.full(n, m, dtype=np.int64)
-    np.minimum.at(first, sim_cells.ravel(), np.repeat(np.arange(m), sim_cells.shape[1]))
-    owner = np.where(first < m, pos[np.minimum(first, m - 1)] * k // m, -1)
-    return pos, owner
+    return pos, owners_from(pos, first_cells(sim_cells, n), k)
+
+
+def first_cells(cells: np.ndarray, n: int, offset: int = 0, none: int | None = None):
+    """Per vertex of n, the smallest index (``offset`` + row) of the cells containing
+    it, ``none`` (default: offset + the rows) where none does."""
+    m = len(cells)
+    first = np.full(n, offset + m if none is None else none, dtype=np.int64)
+    np.minimum.at(first, cells.ravel(),
+                  np.repeat(np.arange(offset, offset + m, dtype=np.int64), cells.shape[1]))
+    return first
+
+
+def owners_from(pos: np.ndarray, first: np.ndarray, k: int) -> np.ndarray:
+    """Each vertex's owner partition of k: the partition owning its first cell (−1: in
+    no cell), from the cells' Morton positions ``pos``."""
+    m = len(pos)
+    return np.where(first < m, pos[np.minimum(first, m - 1)] * k // m, -1)
 
 
 def split(P_sim, sim_cells, P_cut, cut_cells, k: int, pad: float):

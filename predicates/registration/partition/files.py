@@ -6,7 +6,7 @@ import os
 
 import numpy as np
 
-__all__ = ["part_paths", "read_pieces", "write_parts"]
+__all__ = ["part_paths", "read_pieces", "vertex_owners", "write_parts"]
 
 
 def part_paths(pattern: str | os.PathLike, k: int) -> list[str]:
@@ -36,14 +36,13 @@ def write_parts(res, k: int, pattern: str | os.PathLike) -> list[str]:
 
     from predicates.registration.io.files import check_output
     from predicates.registration.io.write import write_meshio
-    from predicates.registration.partition.assign import assign
     from predicates.registration.partition.run import count_partitions
 
     k = count_partitions(k, None, len(res.sim_cells))
     paths = part_paths(pattern, k)
     for path in paths:
         check_output(path, "mesh")
-    _, owner = assign(res.sim_points, res.sim_cells, k)
+    owner = vertex_owners(res.sim_points, res.sim_cells, k)
     for r, path in enumerate(paths):
         sub = {}
         for kind in res.kinds:
@@ -53,6 +52,56 @@ def write_parts(res, k: int, pattern: str | os.PathLike) -> list[str]:
                                 sim_weights=p.sim_weights[keep], cut_weights=p.cut_weights[keep])
         write_meshio(path, replace(res, pairs=sub).to_meshio())
     return paths
+
+
+def vertex_owners(points: np.ndarray, cells, k: int) -> np.ndarray:
+    """Each vertex's owner among k partitions of all ``cells`` (the rule of
+    :func:`~predicates.registration.partition.assign.assign`). ``cells`` may be a dask
+    array (cells on the workers, docs/partitioned.md 6): each chunk's first vertices'
+    hull, Morton codes and first cell per vertex are computed where the chunk is (the
+    default Dask scheduler: a Client while one is open), and the client holds 8 bytes
+    per cell (the codes) and their order, not the cells; the same owners bit for bit."""
+    from predicates.registration.partition import assign as A
+
+    if not hasattr(cells, "to_delayed"):
+        return A.assign(points, cells, k)[1]
+    import dask
+
+    offsets = np.concatenate([[0], np.cumsum(cells.chunks[0])]).astype(np.int64)
+    m, n = int(offsets[-1]), len(points)
+    rows = [(p, o) for p, o, size in zip(cells.rechunk({1: -1}).to_delayed().ravel(),
+                                         offsets, cells.chunks[0]) if size]
+    parts, offsets = [p for p, _ in rows], [o for _, o in rows]
+    pts = dask.delayed(np.asarray(points))  # one key: sent once, not per task
+    hulls = dask.compute(*[dask.delayed(_first_hull)(p, pts) for p in parts])
+    lo = np.min([h[0] for h in hulls], axis=0)[:, None]  # min and max: exact, any order
+    hi = np.max([h[1] for h in hulls], axis=0)[:, None]
+    got = dask.compute(*[dask.delayed(_codes_and_first)(p, pts, lo, hi, int(o), m)
+                         for p, o in zip(parts, offsets)])
+    first = np.full(n, m, dtype=np.int64)
+    for _, f in got:
+        np.minimum(first, f, out=first)
+    pos = A.order_of(np.concatenate([c for c, _ in got]))
+    return A.owners_from(pos, first, k)
+
+
+def _first_hull(chunk, points):
+    """A chunk's first vertices' per-axis minimum and maximum (on a worker)."""
+    from predicates.registration.partition.assign import first_vertices
+
+    c = first_vertices(points, np.asarray(chunk))
+    return c.min(axis=1), c.max(axis=1)
+
+
+def _codes_and_first(chunk, points, lo, hi, offset: int, m: int):
+    """A chunk's Morton codes and, per vertex, its smallest global cell index (m where
+    none) (on a worker)."""
+    from predicates.registration.partition.assign import (
+        first_cells, first_vertices, morton_codes)
+
+    chunk = np.asarray(chunk)
+    codes = morton_codes(first_vertices(points, chunk), lo, hi)
+    return codes, first_cells(chunk, len(points), offset, none=m)
 
 
 def read_pieces(paths) -> tuple[np.ndarray, np.ndarray]:

@@ -23,7 +23,7 @@ from predicates.registration.plan.inputs import (
 from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.boxes import boxes_of
 
-__all__ = ["RemoteCells", "is_remote", "validate_remote"]
+__all__ = ["RemoteCells", "is_remote", "validate_pair_remote", "validate_remote"]
 
 _LOCAL = ("threads", "processes", "synchronous", "sync", "single-threaded")
 
@@ -78,6 +78,15 @@ def _near_scan(chunk, points, grid, centres: bool):
     return cat
 
 
+def _cpu_timed(f, *args):
+    """``(f(*args), the thread CPU seconds it took)`` (on a worker)."""
+    import time
+
+    c = time.thread_time()
+    out = f(*args)
+    return out, time.thread_time() - c
+
+
 class RemoteCells(CellBoxes):
     """A :class:`~predicates.registration.plan.cellboxes.CellBoxes` whose cells stay on
     the workers: ``summary`` and ``flag_pass`` are tasks per chunk; rows outside the
@@ -112,12 +121,16 @@ class RemoteCells(CellBoxes):
         return self.client.scatter(x, broadcast=True, hash=False)
 
     def _map(self, f, *args) -> list:
-        """``f(chunk, points, *args)`` per chunk, on the workers; the results in order."""
+        """``f(chunk, points, *args)`` per chunk, on the workers; the results in order.
+        ``stats["worker_cpu"]`` gets, per pass, the largest chunk's thread CPU seconds
+        (the pass's share of the run's critical path when the chunks run side by side)."""
         d = self.dask.delayed
-        tasks = [d(f, pure=False)(p, self._pts, *args) for p in self.parts]
+        tasks = [d(_cpu_timed, pure=False)(f, p, self._pts, *args) for p in self.parts]
         out = self.dask.compute(*tasks, scheduler=self.scheduler)
         self.stats["tasks"] += len(tasks)
-        return list(out)
+        self.stats.setdefault("worker_cpu", []).append(
+            (f.__name__.strip("_"), max(o[1] for o in out)))
+        return [o[0] for o in out]
 
     def check(self, n_points: int):
         """Validation and summary: (first bad cell per check (global rows, None where
@@ -229,3 +242,14 @@ def validate_remote(points, cells, dim: int, dtype, scheduler, blocks: Blocks = 
     pts, rounded = _points(arr, used, "simulation", dtype)
     remote.points = pts  # the same boxes as from ``work`` (the used rows are equal)
     return MeshInput(pts, cells, "simulation", rounded), remote
+
+
+def validate_pair_remote(sp, sc, cp, cc, dtype, scheduler, blocks: Blocks = SERIAL):
+    """``validate_pair`` with the simulation cells ``sc`` on the workers: (dim, the
+    simulation's MeshInput, the cutting mesh's, the simulation's :class:`RemoteCells`)."""
+    from predicates.registration.plan.inputs import validate_mesh
+
+    dim = _array(sp, "simulation").shape[1]
+    sim, remote = validate_remote(sp, sc, dim, dtype, scheduler, blocks)
+    cut = validate_mesh(cp, cc, "cutting", dim, dtype, allow_empty=True, blocks=blocks)
+    return dim, sim, cut, remote

@@ -26,7 +26,7 @@ from predicates.registration.partition.assign import Part, merge, owned, split
 from predicates.registration.partition.memory import peak_rss_mib, rss_mib
 
 __all__ = ["DaskMissingError", "LOCAL_SCHEDULERS", "PartitionError", "check_timeout",
-           "client_for", "run_part", "run_partitioned"]
+           "client_for", "connected", "run_part", "run_partitioned"]
 
 LOCAL_SCHEDULERS = ("threads", "processes", "synchronous")
 #: "auto" makes at least one partition per this many simulation cells
@@ -268,6 +268,23 @@ def _thread_counts(before) -> list[int]:
     now = resource.getrusage(resource.RUSAGE_THREAD)
     return [getattr(now, a) - getattr(before, a)
             for a in ("ru_nvcsw", "ru_nivcsw", "ru_minflt", "ru_majflt")]
+
+
+@contextlib.contextmanager
+def connected(scheduler):
+    """``scheduler`` for a whole partitioned run: an address string (``"tcp://..."``) is
+    connected once — the plan's per-chunk tasks (:mod:`.remote`) and the partitions then
+    run on the same Client, closed after — and refused at once when it is not one; a
+    local scheduler's name, a Client or None is yielded as given (docs/partitioned.md 6)."""
+    if not isinstance(scheduler, str) or scheduler in LOCAL_SCHEDULERS:
+        yield scheduler
+        return
+    _dask()
+    client = _client(scheduler)
+    try:
+        yield client
+    finally:
+        client.close()
 
 
 def run_partitioned(plan, partitions, scheduler, chunk: int, timings: dict,

@@ -159,7 +159,8 @@ class IntersectionResult(Mapping):
         for p in prims.values():
             on[p.ravel()] = True
         near = np.flatnonzero(any_corner(on, cells))
-        sub, k = np.sort(cells[near], axis=1), cells.shape[1]  # faces of sorted rows: sorted
+        # faces of sorted rows are sorted (np.asarray: cells on Dask workers, near rows)
+        sub, k = np.sort(np.asarray(cells[near]), axis=1), cells.shape[1]
         faces = {}
         out = {}
         for kind, p in prims.items():

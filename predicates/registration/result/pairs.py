@@ -86,7 +86,13 @@ class KindPairs:
 
 def any_corner(mask: np.ndarray, cells: np.ndarray) -> np.ndarray:
     """(C,) bool: cells (C, k) with a corner where ``mask`` (a bool per vertex) is set.
-    One gather; the k bools of a row read as one integer when k is 2 or 4."""
+    One gather; the k bools of a row read as one integer when k is 2 or 4. Cells on
+    Dask workers (a dask array: docs/partitioned.md 6) are scanned there, chunk by
+    chunk: one bool per cell comes back, not the cells."""
+    if hasattr(cells, "map_blocks"):
+        rows = cells.rechunk({1: -1}).map_blocks(_corner_rows, mask, drop_axis=1,
+                                                 dtype=bool)
+        return np.asarray(rows.compute())
     cells = np.asarray(cells)
     if len(cells) == 0:
         return np.zeros(0, dtype=bool)
@@ -94,6 +100,11 @@ def any_corner(mask: np.ndarray, cells: np.ndarray) -> np.ndarray:
     if g.shape[1] in (2, 4):
         return g.view(np.uint16 if g.shape[1] == 2 else np.uint32).ravel() != 0
     return np.logical_or.reduce([g[:, j] for j in range(g.shape[1])])
+
+
+def _corner_rows(block: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """:func:`any_corner` of one chunk of cells (on a Dask worker)."""
+    return any_corner(mask, block)
 
 
 def cells_holding(cells: np.ndarray, rows: np.ndarray) -> np.ndarray:
@@ -110,7 +121,8 @@ def cells_holding(cells: np.ndarray, rows: np.ndarray) -> np.ndarray:
     r, k = rows.shape[1], cells.shape[1]
     combos = list(itertools.combinations(range(k), r))
     # the faces of a sorted row are sorted
-    faces = np.sort(cells[near], axis=1)[:, combos].reshape(-1, r).astype(np.int64)
+    # (np.asarray: cells kept on Dask workers give their near rows only)
+    faces = np.sort(np.asarray(cells[near]), axis=1)[:, combos].reshape(-1, r).astype(np.int64)
     owner = np.repeat(near, len(combos))
     void = np.dtype((np.void, 8 * r))  # a row as one comparable key, no overflow
     fk = np.ascontiguousarray(faces).view(void).ravel()

@@ -1,0 +1,163 @@
+"""A simulation mesh stored in pieces that the workers read (docs/partitioned.md, section
+6, "Pieces with global point ids"): the cells never pass through the client.
+
+Format: each piece is a mesh file meshio reads (.vtu is what ParaView's partitioned
+writers produce) holding some of the mesh's cells — tetrahedra (3D) or triangles (2D,
+points with z or in a plane z = c), converted as a whole file is
+(:func:`~predicates.registration.io.convert.convert_sim`) — and, as point data named
+:data:`GLOBAL_IDS` (ParaView's name), the global id of each of its points: integers
+0 … N − 1, every id used by some piece, a point shared by pieces having bit-identical
+coordinates in each. The mesh is: point g at its coordinates, the cells of the pieces
+in the order the pieces are given, each piece's in its file's order, in global ids.
+
+Each worker reads its pieces once; the client receives per piece its point ids and
+coordinates (the plan scales the points: docs/partitioned.md section 6) and a few
+numbers; the cells stay on the workers as the chunks of a dask array, which the plan's
+per-chunk passes (:mod:`.remote`) and the split's gather of the cells that can meet use.
+"""
+from __future__ import annotations
+
+import os
+from typing import NamedTuple
+
+import numpy as np
+
+from predicates.registration.io.convert import Converted
+from predicates.registration.io.read import MeshFileError
+
+__all__ = ["GLOBAL_IDS", "NoGlobalIds", "Piece", "read_piece", "read_pieces_on_workers"]
+
+#: the point-data array holding each point's global id (ParaView's GlobalNodeIds)
+GLOBAL_IDS = "GlobalNodeIds"
+
+
+class NoGlobalIds(MeshFileError):
+    """A piece without :data:`GLOBAL_IDS`: the workers cannot place its points (the
+    command line then reads the pieces on the client, merging shared points)."""
+
+
+class Piece(NamedTuple):
+    """One piece as read on a worker: its points' global ids and coordinates, its cells
+    in global ids (int64), the mesh's dimension, its plane (2D stored with z) and notes."""
+
+    ids: np.ndarray
+    points: np.ndarray
+    cells: np.ndarray
+    dim: int
+    plane: float | None
+    notes: list
+
+
+def read_piece(path: str | os.PathLike, region=None) -> Piece:
+    """Read one piece (on a worker): converted as a whole simulation file is, its cells
+    renumbered to global ids through its :data:`GLOBAL_IDS`. Errors name the file."""
+    from predicates.registration.io.convert import convert_sim
+    from predicates.registration.io.read import read_mesh
+
+    mesh = read_mesh(path)
+    try:
+        dim, conv = convert_sim(mesh, region)
+    except (ValueError, TypeError) as e:
+        raise MeshFileError(path, e) from None
+    ids = (mesh.point_data or {}).get(GLOBAL_IDS)
+    if ids is None:
+        raise NoGlobalIds(path, f"a piece read by the workers needs its points' global "
+                                  f"ids as point data '{GLOBAL_IDS}' (docs/partitioned.md "
+                                  f"section 6); without them give the pieces to the "
+                                  f"client's reader (several SIM files, without workers)")
+    ids = np.asarray(ids).reshape(len(conv.points), -1)
+    if ids.shape[1] != 1 or ids.dtype.kind not in "iu" or (len(ids) and ids.min() < 0):
+        raise MeshFileError(path, f"point data '{GLOBAL_IDS}' must be one non-negative "
+                                  f"integer per point, got dtype {ids.dtype} shape "
+                                  f"{ids.shape}" + (f", minimum {ids.min()}" if
+                                                    ids.dtype.kind in "iu" else ""))
+    ids = ids[:, 0].astype(np.int64)
+    cells = np.asarray(conv.cells)
+    if cells.size and (cells.min() < 0 or cells.max() >= len(ids)):
+        bad = cells.min() if cells.min() < 0 else cells.max()
+        raise MeshFileError(path, f"a cell refers to point {bad} of a piece with "
+                                  f"{len(ids)} points")
+    return Piece(ids, np.asarray(conv.points, dtype=np.float64), ids[cells], dim,
+                 conv.plane, conv.notes)
+
+
+def _head(piece: Piece):
+    """What the client needs of a piece: (ids, coordinates, cell count, dim, plane,
+    notes); its cells stay where it was read."""
+    return piece.ids, piece.points, len(piece.cells), piece.dim, piece.plane, piece.notes
+
+
+def _cells(piece: Piece) -> np.ndarray:
+    return piece.cells
+
+
+def read_pieces_on_workers(paths, scheduler, region=None):
+    """The simulation mesh stored in ``paths`` (the format above) as a
+    :class:`~predicates.registration.io.convert.Converted` (points, cells, notes,
+    plane): points a numpy array assembled on the client by global id, cells a dask
+    array with one chunk per piece, read by the workers of ``scheduler`` (a
+    ``dask.distributed.Client``: each piece read once and kept there; a local Dask
+    scheduler's name: read again wherever a chunk is needed). Pass both to
+    :func:`predicates.intersect` with the same ``scheduler``: the run's plan and result
+    are those of the mesh read serially (docs/partitioned.md section 6)."""
+    import dask
+    import dask.array as da
+
+    paths = [os.fspath(p) for p in paths]
+    if not paths:
+        raise ValueError("no simulation piece given")
+    client = None if isinstance(scheduler, str) else scheduler
+    if client is not None:  # read once; the cells' chunks are views of what was read
+        read = client.map(read_piece, paths, region=region, pure=False)
+        heads = client.gather(client.map(_head, read, pure=False))
+    else:
+        read = [dask.delayed(read_piece, pure=True)(p, region) for p in paths]
+        heads = dask.compute(*[dask.delayed(_head)(r) for r in read], scheduler=scheduler)
+    points, notes = assemble_points(paths, heads)
+    dim, plane = heads[0][3], heads[0][4]
+    chunks = [da.from_delayed(dask.delayed(_cells, pure=True)(r), shape=(h[2], dim + 1),
+                              dtype=np.int64) for r, h in zip(read, heads) if h[2]]
+    # no cells at all: the plan refuses the empty mesh
+    cells = da.concatenate(chunks) if chunks else da.zeros((0, dim + 1), dtype=np.int64)
+    if client is not None:  # the array holds its chunks' futures (the reads' are dropped)
+        cells = client.persist(cells)
+    return Converted(points, cells, notes, plane)
+
+
+def assemble_points(paths: list, heads: list) -> tuple[np.ndarray, list]:
+    """The global points from the pieces' (ids, coordinates): point g at the coordinates
+    every piece holding g gives it, bit for bit; refused, naming the pieces, when they
+    differ, when an id is held by none, or when the pieces' dimensions or planes
+    differ."""
+    dim, plane = heads[0][3], heads[0][4]
+    for path, h in zip(paths, heads):
+        if (h[3], h[4]) != (dim, plane):
+            what = f"{h[3]}D" if h[3] != dim else f"in the plane z = {h[4]}"
+            raise MeshFileError(path, f"this piece is {what}, the first piece {paths[0]} "
+                                      f"is not: the pieces of one mesh share its "
+                                      f"dimension and plane")
+    n = 1 + max((int(h[0].max()) for h in heads if len(h[0])), default=-1)
+    points = np.zeros((n, dim), dtype=np.float64)
+    owner = np.full(n, -1, dtype=np.int64)  # the first piece giving each point
+    for i, (path, h) in enumerate(zip(paths, heads)):
+        ids, coords = h[0], h[1]
+        seen = owner[ids] >= 0
+        # bits, not values: -0.0 and 0.0, or two NaNs, are not "the same point" here
+        differ = seen & np.any(points[ids].view(np.uint64) != coords.view(np.uint64), axis=1)
+        if differ.any():
+            g = int(ids[np.flatnonzero(differ)[0]])
+            raise MeshFileError(path, f"global point {g} has coordinates "
+                                      f"{coords[np.flatnonzero(differ)[0]].tolist()} here "
+                                      f"and {points[g].tolist()} in {paths[owner[g]]}: "
+                                      f"a point shared by pieces must be identical in each")
+        points[ids[~seen]] = coords[~seen]
+        owner[ids[~seen]] = i
+    if n and (owner < 0).any():
+        g = int(np.flatnonzero(owner < 0)[0])
+        raise ValueError(f"the pieces' global point ids must be 0 … N-1 (N = {n}), each "
+                         f"held by some piece; {int((owner < 0).sum())} are held by none "
+                         f"(the first: {g}): give every piece, or renumber the ids")
+    notes = [n for h in heads for n in h[5]]
+    notes.append(f"{len(paths)} pieces read by the workers as one mesh ({n} points by "
+                 f"their '{GLOBAL_IDS}')")
+    return points, notes
