@@ -1,5 +1,5 @@
-"""The plan's and the cell-level broad phase's compiled passes (predicates.compiled.cells,
-.gridsort) and the hits' final order are bit-identical to their numpy twins
+"""The plan's compiled flag pass (predicates.compiled.cells) and the hits' final order
+(packed keys) are bit-identical to their numpy twins
 (docs/design.md, "Compiled candidate chain"), on adversarial inputs drawn by hypothesis:
 signed zeros, repeated coordinates, binades far apart, float32 points, boxes on grid
 lines; serial and on a thread pool with tiny blocks. Each test also checks the property
@@ -106,29 +106,3 @@ def test_packed_order_is_lexsort(data, widths, n):
     rows = [tuple(r) + (k,) for k, r in enumerate(both.tolist())]
     assert [r[-1] for r in sorted(rows)] == want.tolist()
 
-
-@settings(deadline=None)
-@given(data=st.data(), ncells=st.integers(1, 70))
-def test_counting_sort_is_stable_argsort(data, ncells):
-    """The broad phase's compiled counting sort (gridsort.shared_runs) keeps and orders
-    exactly the entries numpy's dense branch keeps (stable argsort of the entries whose
-    cell the other side occupies), with the same runs; each run holds one key."""
-    from predicates.compiled.gridsort import shared_runs
-    from predicates.registration.spatial.broadphase import runs
-
-    keys = st.lists(st.integers(0, ncells - 1), max_size=200)
-    key_a = np.array(data.draw(keys), dtype=np.int64)
-    key_b = np.array(data.draw(keys), dtype=np.int64)
-    ka, kb = np.isin(key_a, key_b), np.isin(key_b, key_a)
-    oa = np.flatnonzero(ka)[np.argsort(key_a[ka], kind="stable")]
-    ob = np.flatnonzero(kb)[np.argsort(key_b[kb], kind="stable")]
-    cells, sa, ca = runs(key_a[oa])
-    _, sb, cb = runs(key_b[ob])
-    got_a, got_b, got_runs = shared_runs(key_a, key_b, ncells)
-    assert np.array_equal(got_a, oa) and np.array_equal(got_b, ob)
-    for x, y in zip(got_runs, (cells, sa, ca, sb, cb)):
-        assert np.array_equal(x, y)
-    shared = sorted(set(key_a.tolist()) & set(key_b.tolist()))
-    assert cells.tolist() == shared
-    for c, s, n in zip(cells, sa, ca):
-        assert set(key_a[oa[s:s + n]].tolist()) == {c} and list(oa[s:s + n]) == sorted(oa[s:s + n])

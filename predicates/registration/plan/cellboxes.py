@@ -95,10 +95,7 @@ class CellBoxes:
     def __init__(self, points: np.ndarray, cells: np.ndarray, blocks: Blocks = SERIAL):
         self.points, self.cells, self.blocks = points, cells, blocks
         self.n, self.d = len(cells), points.shape[1]
-        if blocks.accelerate:  # the compiled passes read the points as given
-            self.points = np.ascontiguousarray(points)
-        else:
-            self.cols = np.ascontiguousarray(points.T, dtype=np.float64)
+        self.cols = np.ascontiguousarray(points.T, dtype=np.float64)
         self._summary = None
         self._kept = None  # (ids, lo, hi) of the last subset gathered
         self._local = threading.local()  # the last block computed, per thread
@@ -120,12 +117,9 @@ class CellBoxes:
         if last is not None and last[0] == a and last[1] == b:
             return last[2], last[3]
         lo, hi = np.empty((self.d, b - a)), np.empty((self.d, b - a))
-        if self.blocks.accelerate:  # the same boxes, compiled (points as given)
-            from predicates.compiled.cells import fill_boxes as kernel
-
-            kernel(self.points, self.cells[a:b], lo, hi)
-        else:
-            fill_boxes(self.cols, np.ascontiguousarray(self.cells[a:b].T), lo, hi)
+        # numpy even when accelerated: its per-axis takes over the transposed points
+        # beat the compiled per-row loop here (benchmarks/README.md, "Speed, part 2")
+        fill_boxes(self.cols, np.ascontiguousarray(self.cells[a:b].T), lo, hi)
         self._local.last = (a, b, lo.T, hi.T)
         return lo.T, hi.T
 

@@ -213,15 +213,10 @@ def _level(bx, ids_a, ids_b, origin, G, h, ranges, chunk, depth):
     ia0, ia1, ib0, ib1 = ranges
     box_a, key_a, mask_a = _entries(ia0, ia1, G)
     box_b, key_b, mask_b = _entries(ib0, ib1, G)
-    if _dense(G, len(key_a) + len(key_b)) and bx[8]:  # the same, a compiled counting sort
-        from predicates.compiled.gridsort import shared_runs
-
-        oa, ob, (cells, sa, ca, sb, cb) = shared_runs(key_a, key_b, int(np.prod(G)))
-    elif _dense(G, len(key_a) + len(key_b)):  # drop entries alone in their cell, then sort
+    if _dense(G, len(key_a) + len(key_b)):  # drop entries alone in their cell, then sort
         ka, kb = _occupied(key_a, key_b, G), _occupied(key_b, key_a, G)
-        # stable: ties in entry order, as the compiled counting sort leaves them
-        oa = np.flatnonzero(ka)[np.argsort(key_a[ka], kind="stable")]
-        ob = np.flatnonzero(kb)[np.argsort(key_b[kb], kind="stable")]
+        oa = np.flatnonzero(ka)[np.argsort(key_a[ka])]
+        ob = np.flatnonzero(kb)[np.argsort(key_b[kb])]
         cells, sa, ca = _runs(key_a[oa])
         _, sb, cb = _runs(key_b[ob])  # both sides occupy exactly the same cells now
     else:  # sparse grid: sort everything, join the sorted runs
