@@ -19,7 +19,23 @@ from numba import njit
 
 from .build import JIT_OPTIONS
 
-__all__ = ["add_corners", "cell_index", "fill_boxes", "least_square_edge", "look_corners"]
+__all__ = ["add_corners", "cell_index", "fill_boxes", "flag_block", "least_square_edge",
+           "look_corners"]
+
+
+@njit(**JIT_OPTIONS)
+def _box_row(points, rows, m, ax):
+    """lo, hi of row m on axis ax: numpy's ``minimum``/``maximum`` fold over the
+    vertices (module docstring), each coordinate converted to binary64 exactly."""
+    a = np.float64(points[rows[m, 0], ax])
+    b = a
+    for v in range(1, rows.shape[1]):
+        x = np.float64(points[rows[m, v], ax])
+        # np.minimum(a, x): a only if a < x or a NaN; `|` and a conditional expression
+        # (no short-circuit): a select, no branch to mispredict on random data
+        a = a if (a < x) | (a != a) else x
+        b = b if (b > x) | (b != b) else x
+    return a, b
 
 
 @njit(**JIT_OPTIONS)
@@ -29,16 +45,16 @@ def fill_boxes(points, rows, lo, hi):
     is converted on reading, exactly); one pass over the rows, all axes per row."""
     for m in range(rows.shape[0]):
         for ax in range(points.shape[1]):
-            a = np.float64(points[rows[m, 0], ax])
-            b = a
-            for v in range(1, rows.shape[1]):
-                x = np.float64(points[rows[m, v], ax])
-                if not (a < x) and a == a:  # np.minimum(a, x): a only if a < x or a NaN
-                    a = x
-                if not (b > x) and b == b:
-                    b = x
-            lo[ax, m] = a
-            hi[ax, m] = b
+            lo[ax, m], hi[ax, m] = _box_row(points, rows, m, ax)
+
+
+@njit(**JIT_OPTIONS)
+def _index(x, o, h, top):
+    """``clip(floor((x − o) / h), 0, top)`` as int32 (boxgrid.cell_index's roundings)."""
+    i = np.floor((x - o) / h)
+    i = 0.0 if i < 0 else i
+    i = float(top) if i > top else i
+    return np.int32(i)
 
 
 @njit(**JIT_OPTIONS)
@@ -46,13 +62,7 @@ def cell_index(x, origin, h, G, out):
     """As :func:`predicates.registration.spatial.boxgrid.cell_index` (rows of x)."""
     for r in range(x.shape[0]):
         for ax in range(x.shape[1]):
-            i = np.floor((x[r, ax] - origin[ax]) / h)
-            top = G[ax] - 1
-            if i < 0:
-                i = 0.0
-            if i > top:
-                i = float(top)
-            out[r, ax] = np.int32(i)
+            out[r, ax] = _index(x[r, ax], origin[ax], h, G[ax] - 1)
 
 
 @njit(**JIT_OPTIONS)
@@ -87,6 +97,57 @@ def look_corners(S, i0, i1, stride, out):
             key, sign = _key(i0, i1, r, pick, stride)
             count += sign * np.int64(S[key])
         out[r] = count > 0
+
+
+@njit(**JIT_OPTIONS)
+def flag_block(points, rows, origin, h, G, stride, S, has_table, i0, i1, near):
+    """One block of :func:`predicates.registration.plan.lean.flag_pass`, fused: each
+    row's box (:func:`fill_boxes`), its cell range into ``i0``, ``i1``
+    (:func:`cell_index`), the cells it covers (``ncells``, summed), and with a table
+    ``S`` the flag ``near`` (:func:`look_corners`: the 2^d corners' keys from per-axis
+    terms, as gridsums._corners) and the largest box edge of the flagged rows
+    (``box_extent``: per row max over the axes of hi − lo, exact). Returns (cells
+    covered, largest edge of the flagged rows or 0.0)."""
+    d = points.shape[1]
+    lo = np.empty(d)
+    hi = np.empty(d)
+    low_term = np.empty(d, dtype=np.int64)
+    up_term = np.empty(d, dtype=np.int64)
+    covered = 0
+    ext = 0.0
+    for m in range(rows.shape[0]):
+        cells = 1
+        for ax in range(d):
+            lo[ax], hi[ax] = _box_row(points, rows, m, ax)
+            j0 = _index(lo[ax], origin[ax], h, G[ax] - 1)
+            j1 = _index(hi[ax], origin[ax], h, G[ax] - 1)
+            i0[m, ax], i1[m, ax] = j0, j1
+            low_term[ax] = np.int64(j0) * stride[ax]
+            up_term[ax] = (np.int64(j1) + 1) * stride[ax]
+            cells *= np.int64(j1) - j0 + 1
+        covered += cells
+        if not has_table:
+            continue
+        count = 0
+        for pick in range(1 << d):
+            key = 0
+            ups = 0
+            for ax in range(d):
+                if pick >> ax & 1:
+                    key += up_term[ax]
+                    ups += 1
+                else:
+                    key += low_term[ax]
+            value = np.int64(S[key])
+            count += value if (d - ups) % 2 == 0 else -value
+        near[m] = count > 0
+        if count > 0:
+            e = hi[0] - lo[0]
+            for ax in range(1, d):
+                x = hi[ax] - lo[ax]
+                e = e if (e > x) | (e != e) else x  # np.maximum(e, x)
+            ext = e if e > ext else ext  # Python's max(ext, e): e only when larger
+    return covered, ext
 
 
 @njit(**JIT_OPTIONS)

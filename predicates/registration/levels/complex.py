@@ -13,7 +13,7 @@ from math import comb
 
 import numpy as np
 
-__all__ = ["Complex", "Side", "any_flagged", "unique_rows"]
+__all__ = ["Complex", "Side", "any_flagged", "lex_order", "packed_keys", "unique_rows"]
 
 
 def any_flagged(flags: np.ndarray, rows: np.ndarray) -> np.ndarray:
@@ -26,8 +26,10 @@ def any_flagged(flags: np.ndarray, rows: np.ndarray) -> np.ndarray:
     return out
 
 
-def unique_rows(rows: np.ndarray, n: int):
-    """Unique rows (sorted lexicographically) and the inverse map, for ids < n."""
+def packed_keys(rows: np.ndarray, n: int) -> list:
+    """The rows (ids < n) as few int64 keys, the first most significant: consecutive
+    columns a, b, c → (a·n + b)·n + c while n^columns < 2^62 — injective and
+    order-preserving, so sorting the keys lexicographically sorts the rows."""
     w = rows.shape[1]
     per = 1  # columns per int64 key: n^per < 2^62
     while per < w and n ** (per + 1) < 2 ** 62:
@@ -36,9 +38,21 @@ def unique_rows(rows: np.ndarray, n: int):
     for start in range(0, w, per):
         key = rows[:, start].astype(np.int64)
         for c in range(start + 1, min(w, start + per)):
-            key = key * n + rows[:, c]
+            key *= n
+            key += rows[:, c]
         keys.append(key)
-    return _unique_keys(keys, rows)
+    return keys
+
+
+def lex_order(keys: list) -> np.ndarray:
+    """``np.lexsort(keys[::-1])`` (the first key most significant; stable), as one
+    stable argsort when there is one key."""
+    return np.argsort(keys[0], kind="stable") if len(keys) == 1 else np.lexsort(keys[::-1])
+
+
+def unique_rows(rows: np.ndarray, n: int):
+    """Unique rows (sorted lexicographically) and the inverse map, for ids < n."""
+    return _unique_keys(packed_keys(rows, n), rows)
 
 
 def _unique_keys(keys: list, rows: np.ndarray):

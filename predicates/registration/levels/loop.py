@@ -17,7 +17,7 @@ import numpy as np
 from predicates.catalogue import kinds as catalogue_kinds
 from predicates.registration.spatial.blocks import Blocks
 from predicates.registration.spatial.broadphase import boxes_of, tighten_flags
-from predicates.registration.levels.complex import Side, any_flagged
+from predicates.registration.levels.complex import Side, any_flagged, lex_order, packed_keys
 from predicates.registration.levels.facepairs import FacePairs, cell_pairs
 from predicates.registration.result.intersection import KindPairs
 
@@ -220,8 +220,11 @@ class Registration:
                              np.zeros((0, i + 1), self.dtype), np.zeros((0, j + 1), self.dtype))
         sid = self.sim.ids(i, s).reshape(len(s), i + 1)
         cid = self.cut.ids(j, c).reshape(len(c), j + 1)
-        both = np.concatenate([np.sort(sid, axis=1), np.sort(cid, axis=1)], axis=1)
-        order = np.lexsort(both.T[::-1]) if len(both) else np.zeros(0, dtype=np.int64)
+        # lexicographic on (sorted sim ids, sorted cut ids): packed into few int64 keys
+        # (order-preserving; the same stable order as a lexsort of the 2 + i + j columns)
+        keys = (packed_keys(np.sort(sid, axis=1), len(self.sim.order))
+                + packed_keys(np.sort(cid, axis=1), len(self.cut.order)))
+        order = lex_order(keys) if len(sid) else np.zeros(0, dtype=np.int64)
         return KindPairs(kind, sid[order], cid[order], sw[order], cw[order],
                          candidates=ncand, suppressed=nsup)
 

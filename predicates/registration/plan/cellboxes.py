@@ -117,6 +117,8 @@ class CellBoxes:
         if last is not None and last[0] == a and last[1] == b:
             return last[2], last[3]
         lo, hi = np.empty((self.d, b - a)), np.empty((self.d, b - a))
+        # numpy even when accelerated: its per-axis takes over the transposed points
+        # beat the compiled per-row loop here (benchmarks/README.md, "Speed, part 2")
         fill_boxes(self.cols, np.ascontiguousarray(self.cells[a:b].T), lo, hi)
         self._local.last = (a, b, lo.T, hi.T)
         return lo.T, hi.T

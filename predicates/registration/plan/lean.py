@@ -23,7 +23,7 @@ from predicates.registration.spatial.boxes import box_extent
 from predicates.registration.spatial.boxgrid import (
     BITS, cell_index, colmax, colmin, enlarge, mean_extent, ncells)
 from predicates.registration.spatial.broadphase import _dense, near_flags
-from predicates.registration.spatial.gridsums import _corners, any_in, occupancy
+from predicates.registration.spatial.gridsums import _corners, _stride, any_in, occupancy
 
 __all__ = ["flag_pass", "near_all"]
 
@@ -79,6 +79,10 @@ def flag_pass(boxes, origin, h, G, table):
     grid: only the count. ``boxes``: a :class:`~.cellboxes.CellBoxes`."""
     d = len(G)
     near = np.zeros(len(boxes), dtype=bool) if table is not None else None
+    if boxes.blocks.accelerate:  # the same values, one compiled GIL-free loop per block
+        span = _compiled_span(boxes, origin, h, G, table, near)
+        parts = boxes.blocks.map(span, len(boxes))
+        return _gathered(parts, table, near, d)
 
     def span(a: int, b: int):
         count, ext, r0, r1 = 0, 0.0, [], []
@@ -96,13 +100,49 @@ def flag_pass(boxes, origin, h, G, table):
                 ext = max(ext, float(box_extent(lo[f], hi[f]).max()))
         return count, r0, r1, ext
 
-    parts = boxes.blocks.map(span, len(boxes))
+    return _gathered(boxes.blocks.map(span, len(boxes)), table, near, d)
+
+
+def _gathered(parts, table, near, d):
+    """:func:`flag_pass`'s result from its spans' (count, r0, r1, ext)."""
     count = sum(p[0] for p in parts)
     if table is None:
         return count, None
     r0 = [x for p in parts for x in p[1]] or [np.zeros((0, d), dtype=np.int32)]
     r1 = [x for p in parts for x in p[2]] or [np.zeros((0, d), dtype=np.int32)]
     return count, (near, np.concatenate(r0), np.concatenate(r1), max(p[3] for p in parts))
+
+
+def _compiled_span(boxes, origin, h, G, table, near):
+    """:func:`flag_pass`'s span, each block one call of the fused kernel
+    (:func:`predicates.compiled.cells.flag_block`); the cell ranges go to reused
+    per-thread buffers, only the flagged rows' are kept."""
+    from predicates.compiled.buffers import buffer
+    from predicates.compiled.cells import flag_block
+
+    P = np.ascontiguousarray(boxes.points)
+    o, G_ = np.asarray(origin, dtype=np.float64), np.asarray(G, dtype=np.int64)
+    S = np.zeros(1, dtype=np.int32) if table is None else table
+    stride = _stride(G)
+    flags = np.zeros(1, dtype=bool) if near is None else near
+
+    def span(a: int, b: int):
+        count, ext, r0, r1 = 0, 0.0, [], []
+        for s, t in boxes.blocks.each(a, b):
+            i0 = buffer("flag_i0", t - s, np.int32, len(G))
+            i1 = buffer("flag_i1", t - s, np.int32, len(G))
+            n, e = flag_block(P, boxes.cells[s:t], o, float(h), G_, stride, S,
+                              table is not None, i0, i1, flags[s:t] if near is not None
+                              else flags)
+            count += int(n)
+            if near is not None and near[s:t].any():
+                f = near[s:t]
+                r0.append(i0[f])
+                r1.append(i1[f])
+                ext = max(ext, float(e))
+        return count, r0, r1, ext
+
+    return span
 
 
 def _table(occ: np.ndarray) -> np.ndarray:
