@@ -248,24 +248,47 @@ def _mean(tris, Y):
 
 
 def _fallback(tris, Y, d: int):
-    """The cone from a kernel point (:mod:`~.kernel`), else peeling (:mod:`~.peel`);
-    None when neither fills the fragment with positive simplices. (A fan from a boundary
-    point is not tried: the boundary triangles coplanar with it, on a face through it
-    triangulated by the global rule, would give zero-volume simplices.)"""
+    """The cone from a kernel point (:mod:`~.kernel`), else from a boundary point
+    (:func:`~.search.fan_from_boundary`: the triangles through it are skipped, the others
+    must all give positive simplices), else peeling (:mod:`~.peel`), else the
+    backtracking search (:mod:`~.search`); None when none fills the fragment with
+    positive simplices (every result is checked again by :func:`positive`)."""
     from predicates.registration.split.kernel import kernel_point
     from predicates.registration.split.peel import peel
+    from predicates.registration.split.search import (fan_from_boundary, folded_triangle,
+                                                      search_fill)
 
     cand = _apex_cone(tris, Y, d, kernel_point(tris, Y))
-    if cand is not None:
+    if cand is not None or d != 3:
         return cand
-    if d != 3:
-        return None
 
     def try_cone(front):
         return (_apex_cone(front, Y, d, _mean(front, Y))
                 or _apex_cone(front, Y, d, kernel_point(front, Y)))
 
-    return peel(tris, Y, try_cone)
+    found = _checked(fan_from_boundary(tris, Y.array), Y) or peel(tris, Y, try_cone)
+    if found is None and folded_triangle(tris, Y.array) is None:  # else: no search helps
+        found = _checked(search_fill(tris, Y.array), Y)
+    return found
+
+
+def _checked(tets, Y):
+    """``tets`` if every one has positive exact orientation (classic.FILTERED)."""
+    if not tets:
+        return None
+    ok = np.all(positive(np.array(tets, dtype=np.int64), Y.array) > 0)
+    return tets if ok else None
+
+
+def _why(tris, Y) -> str:
+    """Why a region was refused, for the report (:func:`~.search.folded_triangle`)."""
+    from predicates.registration.split.search import folded_triangle
+
+    if len(tris[0]) == 3 and folded_triangle(tris, Y.array) is not None:
+        return ("its boundary folds onto itself (a zero-thickness flap: registered points "
+                "merged within the tolerances, placed on the cut), which no positive "
+                "tetrahedra can fill")
+    return "no apex, peeling or search fills it with positive simplices"
 
 
 def _collect(res, sm, cs, ctx):
@@ -322,9 +345,10 @@ def conforming_mesh(res, sm, cs=None) -> ConformingMesh:
     Y = Points(np.concatenate([X, on_cut_points(res, cs)]))
     filled, bad = _fill(frag_tris, Y, d)
     if bad:
-        cells_bad = sorted({where[f][0] for f in bad})
-        raise NotConforming(_report([(c, "no apex fills it with positive simplices")
-                                     for c in cells_bad]))
+        why = {}
+        for f in bad:
+            why.setdefault(where[f][0], _why(frag_tris[f], Y))
+        raise NotConforming(_report(sorted(why.items())))
     return ConformingMesh(**assemble(res, sm, cs, ctx, filled, Y.array, cuts, faces, where))
 
 
