@@ -59,7 +59,9 @@ class ConformingMesh:
     cut, −1 behind, 0 not on it, 2 both).
     ``cut_faces`` (K, d) oriented like their cutting cell, ``cut_cell`` /
     ``input_cut_cell`` (K,) the cutting cell they lie on (registered / as given),
-    ``cut_sides`` (K, 2) the simplex behind and in front."""
+    ``cut_sides`` (K, 2) the simplex behind and in front; ``point_moved`` (N,) the
+    degenerate registered points placed on their simulation primitive instead of the cut
+    to fill regions their placement on the cut folded (:func:`_repair`)."""
 
     dim: int
     points: np.ndarray
@@ -76,6 +78,7 @@ class ConformingMesh:
     input_cut_cell: np.ndarray
     cut_sides: np.ndarray
     split_piece: np.ndarray
+    point_moved: np.ndarray | None = None
 
     def volumes(self) -> np.ndarray:
         """(T,) the simplices' volumes (areas), elementwise (no BLAS)."""
@@ -129,7 +132,9 @@ class ConformingMesh:
     def summary(self) -> dict:
         return {"dim": self.dim, "simplices": len(self.cells), "points": len(self.points),
                 "interior_points": int((self.point_kind == 2).sum()),
-                "pieces": self.n_pieces, "cut_faces": len(self.cut_faces)}
+                "pieces": self.n_pieces, "cut_faces": len(self.cut_faces),
+                "moved_points": int(self.point_moved.sum()) if self.point_moved is not None
+                else 0}
 
 
 def _touched(cs, cells: np.ndarray, n: int) -> np.ndarray:
@@ -344,12 +349,46 @@ def conforming_mesh(res, sm, cs=None) -> ConformingMesh:
         raise NotConforming(_report(problems))
     Y = Points(np.concatenate([X, on_cut_points(res, cs)]))
     filled, bad = _fill(frag_tris, Y, d)
+    bad, moved = _repair(res, cs, frag_tris, Y, filled, bad, n, d)
     if bad:
         why = {}
         for f in bad:
             why.setdefault(where[f][0], _why(frag_tris[f], Y))
         raise NotConforming(_report(sorted(why.items())))
-    return ConformingMesh(**assemble(res, sm, cs, ctx, filled, Y.array, cuts, faces, where))
+    fields = assemble(res, sm, cs, ctx, filled, Y.array, cuts, faces, where)
+    hit = fields["point_hit"]
+    fields["point_moved"] = (hit >= 0) & moved[np.maximum(hit, 0)]
+    return ConformingMesh(**fields)
+
+
+def _repair(res, cs, frag_tris: dict, Y, filled: dict, bad: list, n: int, d: int,
+            rounds: int = 3):
+    """Refill refused regions after moving their degenerate registered points onto their
+    simulation primitives (:func:`~.tetra_faces.degenerate_on_sim`: the flaps of merged
+    points placed on the cut), with every region through a moved point refilled and
+    checked again; up to ``rounds`` times, a refused region's points moved each time.
+    Only where a refusal needs it: elsewhere the cut faces stay exactly on the cut.
+    Returns (regions still refused, (H,) bool the points moved)."""
+    from predicates.registration.split.tetra_faces import degenerate_on_sim
+
+    deg, on_sim = degenerate_on_sim(res, cs)
+    moved = np.zeros(len(deg), dtype=bool)
+    for _ in range(rounds):
+        hits = {p - n for f in bad for t in frag_tris[f] for p in t if n <= p < n + len(deg)}
+        new = np.array(sorted(h for h in hits if deg[h] and not moved[h]), dtype=np.int64)
+        if not len(new):
+            break
+        moved[new] = True
+        Y.buf[n + new] = on_sim[new]
+        ids = set((n + new).tolist())
+        redo = {f: tris for f, tris in frag_tris.items()
+                if f in bad or any(p in ids for t in tris for p in t)}
+        again, still = _fill(redo, Y, d)
+        filled.update(again)
+        for f in still:
+            filled.pop(f, None)
+        bad = sorted((set(bad) - set(again)) | set(still))
+    return bad, moved
 
 
 def _report(problems) -> str:
