@@ -271,15 +271,22 @@ def _fallback(tris, Y, d: int):
         return (_apex_cone(front, Y, d, _mean(front, Y))
                 or _apex_cone(front, Y, d, kernel_point(front, Y)))
 
-    found = _checked(fan_from_boundary(tris, Y.array), Y) or peel(tris, Y, try_cone)
+    found = (_checked(fan_from_boundary(tris, Y.array), Y, tris)
+             or _checked(peel(tris, Y, try_cone), Y, tris))
     if found is None and folded_triangle(tris, Y.array) is None:  # else: no search helps
-        found = _checked(search_fill(tris, Y.array), Y)
+        found = _checked(search_fill(tris, Y.array), Y, tris)
     return found
 
 
-def _checked(tets, Y):
-    """``tets`` if every one has positive exact orientation (classic.FILTERED)."""
-    if not tets:
+def _checked(tets, Y, tris):
+    """``tets`` if every one has positive exact orientation (classic.FILTERED) and their
+    faces pair up to exactly the boundary ``tris``: each boundary triangle the outward
+    face of one tetrahedron, every other face shared with opposite orientations. (Positive
+    tetrahedra whose boundary is S only as a chain are not enough: the two sides of a slit
+    cancel there, and tetrahedra crossing the crack would pass.)"""
+    from predicates.registration.split.search import paired
+
+    if not tets or not paired(tets, tris):
         return None
     ok = np.all(positive(np.array(tets, dtype=np.int64), Y.array) > 0)
     return tets if ok else None
@@ -357,7 +364,8 @@ def conforming_mesh(res, sm, cs=None) -> ConformingMesh:
         raise NotConforming(_report(sorted(why.items())))
     fields = assemble(res, sm, cs, ctx, filled, Y.array, cuts, faces, where)
     hit = fields["point_hit"]
-    fields["point_moved"] = (hit >= 0) & moved[np.maximum(hit, 0)]
+    fields["point_moved"] = np.zeros(len(hit), dtype=bool)
+    fields["point_moved"][hit >= 0] = moved[hit[hit >= 0]]
     return ConformingMesh(**fields)
 
 

@@ -29,7 +29,7 @@ from fractions import Fraction
 
 import numpy as np
 
-__all__ = ["fan_from_boundary", "folded_triangle", "search_fill", "orient_signs"]
+__all__ = ["fan_from_boundary", "folded_triangle", "orient_signs", "paired", "search_fill"]
 
 _OUT = ((1, 2, 3), (0, 3, 2), (0, 1, 3), (0, 2, 1))
 #: far above the rounding error of the float determinant below (Shewchuk: 7.8e-16)
@@ -62,6 +62,21 @@ def orient_signs(P: np.ndarray) -> np.ndarray:
 def _canon(face) -> tuple:
     k = face.index(min(face))
     return tuple(face[k:]) + tuple(face[:k])
+
+
+def paired(tets, tris) -> bool:
+    """Every triangle of ``tris`` (outward) is the outward face of exactly one of the
+    tetrahedra and every other face of them is shared by two with opposite
+    orientations: the tetrahedra's boundary is ``tris`` as triangles, not only as a chain
+    (where the two sides of a slit would cancel)."""
+    count = Counter(_canon(tuple(t[k] for k in o)) for t in tets for o in _OUT)
+    for t in tris:
+        key = _canon(tuple(t))
+        if count[key] < 1:
+            return False
+        count[key] -= 1
+    count = +count
+    return all(count[_canon(f[::-1])] == c for f, c in count.items())
 
 
 def _apply(front: Counter, tet) -> tuple:
