@@ -13,7 +13,7 @@ import numpy as np
 
 from conform_check import orientation_signs
 from predicates.registration.split.search import (fan_from_boundary, folded_triangle,
-                                                  orient_signs, search_fill)
+                                                  orient_signs, paired, search_fill)
 
 OUT = ((1, 2, 3), (0, 3, 2), (0, 1, 3), (0, 2, 1))
 KUHN = ((0, 1, 3, 7), (0, 1, 5, 7), (0, 2, 3, 7), (0, 2, 6, 7), (0, 4, 5, 7), (0, 4, 6, 7))
@@ -132,3 +132,14 @@ def test_orient_signs_exact_on_near_coplanar_points():
                + e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0]))
         want.append((det > 0) - (det < 0))
     assert orient_signs(P).tolist() == want
+
+
+def test_paired_rejects_a_filling_that_crosses_a_slit():
+    """A tetrahedron with a crack triangle inside it (both sides in the boundary, as a
+    region around a crack front has): the tetrahedron alone bounds that boundary as a
+    chain (the two sides cancel) but not as triangles, so it is rejected."""
+    a, b, c, d, e = range(5)
+    box = [(a, c, b), (a, b, d), (b, c, d), (c, a, d)]
+    slit = [(a, b, e), (b, a, e)]
+    assert paired([(a, b, c, d)], box)
+    assert not paired([(a, b, c, d)], box + slit)
