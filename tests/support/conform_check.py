@@ -164,3 +164,13 @@ def polygon_area(Q) -> Fraction:
 def exact_mesh_volume(P, cells) -> Fraction:
     return sum(abs(_det_exact(P[c])) for c in np.asarray(cells)) / (
         6 if np.asarray(cells).shape[1] == 4 else 2)
+
+
+def polygon_area_3d(T) -> float:
+    """The area of a triangle in 3D from its float corners, in Fraction arithmetic up to
+    the final square root: √(Σ (exact cross product components)²) / 2."""
+    P = [[Fraction(float(x)) for x in p] for p in T]
+    a = [x - y for x, y in zip(P[1], P[0])]
+    b = [x - y for x, y in zip(P[2], P[0])]
+    c = (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+    return float(sum(x * x for x in c)) ** 0.5 / 2

@@ -59,7 +59,9 @@ class ConformingMesh:
     cut, −1 behind, 0 not on it, 2 both).
     ``cut_faces`` (K, d) oriented like their cutting cell, ``cut_cell`` /
     ``input_cut_cell`` (K,) the cutting cell they lie on (registered / as given),
-    ``cut_sides`` (K, 2) the simplex behind and in front."""
+    ``cut_sides`` (K, 2) the simplex behind and in front; ``point_moved`` (N,) the
+    degenerate registered points placed on their simulation primitive instead of the cut
+    to fill regions their placement on the cut folded (:func:`_repair`)."""
 
     dim: int
     points: np.ndarray
@@ -76,6 +78,7 @@ class ConformingMesh:
     input_cut_cell: np.ndarray
     cut_sides: np.ndarray
     split_piece: np.ndarray
+    point_moved: np.ndarray | None = None
 
     def volumes(self) -> np.ndarray:
         """(T,) the simplices' volumes (areas), elementwise (no BLAS)."""
@@ -129,7 +132,9 @@ class ConformingMesh:
     def summary(self) -> dict:
         return {"dim": self.dim, "simplices": len(self.cells), "points": len(self.points),
                 "interior_points": int((self.point_kind == 2).sum()),
-                "pieces": self.n_pieces, "cut_faces": len(self.cut_faces)}
+                "pieces": self.n_pieces, "cut_faces": len(self.cut_faces),
+                "moved_points": int(self.point_moved.sum()) if self.point_moved is not None
+                else 0}
 
 
 def _touched(cs, cells: np.ndarray, n: int) -> np.ndarray:
@@ -248,24 +253,54 @@ def _mean(tris, Y):
 
 
 def _fallback(tris, Y, d: int):
-    """The cone from a kernel point (:mod:`~.kernel`), else peeling (:mod:`~.peel`);
-    None when neither fills the fragment with positive simplices. (A fan from a boundary
-    point is not tried: the boundary triangles coplanar with it, on a face through it
-    triangulated by the global rule, would give zero-volume simplices.)"""
+    """The cone from a kernel point (:mod:`~.kernel`), else from a boundary point
+    (:func:`~.search.fan_from_boundary`: the triangles through it are skipped, the others
+    must all give positive simplices), else peeling (:mod:`~.peel`), else the
+    backtracking search (:mod:`~.search`); None when none fills the fragment with
+    positive simplices (every result is checked again by :func:`positive`)."""
     from predicates.registration.split.kernel import kernel_point
     from predicates.registration.split.peel import peel
+    from predicates.registration.split.search import (fan_from_boundary, folded_triangle,
+                                                      search_fill)
 
     cand = _apex_cone(tris, Y, d, kernel_point(tris, Y))
-    if cand is not None:
+    if cand is not None or d != 3:
         return cand
-    if d != 3:
-        return None
 
     def try_cone(front):
         return (_apex_cone(front, Y, d, _mean(front, Y))
                 or _apex_cone(front, Y, d, kernel_point(front, Y)))
 
-    return peel(tris, Y, try_cone)
+    found = (_checked(fan_from_boundary(tris, Y.array), Y, tris)
+             or _checked(peel(tris, Y, try_cone), Y, tris))
+    if found is None and folded_triangle(tris, Y.array) is None:  # else: no search helps
+        found = _checked(search_fill(tris, Y.array), Y, tris)
+    return found
+
+
+def _checked(tets, Y, tris):
+    """``tets`` if every one has positive exact orientation (classic.FILTERED) and their
+    faces pair up to exactly the boundary ``tris``: each boundary triangle the outward
+    face of one tetrahedron, every other face shared with opposite orientations. (Positive
+    tetrahedra whose boundary is S only as a chain are not enough: the two sides of a slit
+    cancel there, and tetrahedra crossing the crack would pass.)"""
+    from predicates.registration.split.search import paired
+
+    if not tets or not paired(tets, tris):
+        return None
+    ok = np.all(positive(np.array(tets, dtype=np.int64), Y.array) > 0)
+    return tets if ok else None
+
+
+def _why(tris, Y) -> str:
+    """Why a region was refused, for the report (:func:`~.search.folded_triangle`)."""
+    from predicates.registration.split.search import folded_triangle
+
+    if len(tris[0]) == 3 and folded_triangle(tris, Y.array) is not None:
+        return ("its boundary folds onto itself (a zero-thickness flap: registered points "
+                "merged within the tolerances, placed on the cut), which no positive "
+                "tetrahedra can fill")
+    return "no apex, peeling or search fills it with positive simplices"
 
 
 def _collect(res, sm, cs, ctx):
@@ -321,11 +356,47 @@ def conforming_mesh(res, sm, cs=None) -> ConformingMesh:
         raise NotConforming(_report(problems))
     Y = Points(np.concatenate([X, on_cut_points(res, cs)]))
     filled, bad = _fill(frag_tris, Y, d)
+    bad, moved = _repair(res, cs, frag_tris, Y, filled, bad, n, d)
     if bad:
-        cells_bad = sorted({where[f][0] for f in bad})
-        raise NotConforming(_report([(c, "no apex fills it with positive simplices")
-                                     for c in cells_bad]))
-    return ConformingMesh(**assemble(res, sm, cs, ctx, filled, Y.array, cuts, faces, where))
+        why = {}
+        for f in bad:
+            why.setdefault(where[f][0], _why(frag_tris[f], Y))
+        raise NotConforming(_report(sorted(why.items())))
+    fields = assemble(res, sm, cs, ctx, filled, Y.array, cuts, faces, where)
+    hit = fields["point_hit"]
+    fields["point_moved"] = np.zeros(len(hit), dtype=bool)
+    fields["point_moved"][hit >= 0] = moved[hit[hit >= 0]]
+    return ConformingMesh(**fields)
+
+
+def _repair(res, cs, frag_tris: dict, Y, filled: dict, bad: list, n: int, d: int,
+            rounds: int = 3):
+    """Refill refused regions after moving their degenerate registered points onto their
+    simulation primitives (:func:`~.tetra_faces.degenerate_on_sim`: the flaps of merged
+    points placed on the cut), with every region through a moved point refilled and
+    checked again; up to ``rounds`` times, a refused region's points moved each time.
+    Only where a refusal needs it: elsewhere the cut faces stay exactly on the cut.
+    Returns (regions still refused, (H,) bool the points moved)."""
+    from predicates.registration.split.tetra_faces import degenerate_on_sim
+
+    deg, on_sim = degenerate_on_sim(res, cs)
+    moved = np.zeros(len(deg), dtype=bool)
+    for _ in range(rounds):
+        hits = {p - n for f in bad for t in frag_tris[f] for p in t if n <= p < n + len(deg)}
+        new = np.array(sorted(h for h in hits if deg[h] and not moved[h]), dtype=np.int64)
+        if not len(new):
+            break
+        moved[new] = True
+        Y.buf[n + new] = on_sim[new]
+        ids = set((n + new).tolist())
+        redo = {f: tris for f, tris in frag_tris.items()
+                if f in bad or any(p in ids for t in tris for p in t)}
+        again, still = _fill(redo, Y, d)
+        filled.update(again)
+        for f in still:
+            filled.pop(f, None)
+        bad = sorted((set(bad) - set(again)) | set(still))
+    return bad, moved
 
 
 def _report(problems) -> str:

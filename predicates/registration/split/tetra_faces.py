@@ -81,6 +81,25 @@ def on_cut_points(res, cs) -> np.ndarray:
     return acc
 
 
+def degenerate_on_sim(res, cs) -> tuple:
+    """((H,) bool, (H, d) float): the degenerate registered points (their primitives'
+    dimensions add up to less than d: a vertex or edge of the cut registered on a vertex,
+    edge or face of the mesh within the paper's tolerances σ, τ, δ, section 1) and their
+    places Σ wᵢ·xᵢ on their *simulation* primitives (fixed order, no BLAS). Placed on the
+    cut (:func:`on_cut_points`), such a point lifts a face region off its face by up to
+    the tolerance, and a sliver region between a chord and the point can fold onto the
+    cut polygon's plane: a zero-thickness flap no positive tetrahedra fill. Moved to its
+    simulation primitive, the face regions through it stay in their faces' planes
+    (docs/split.md, "The conforming tetrahedralization")."""
+    X = np.asarray(res.sim_points, dtype=np.float64)
+    deg = (cs.sim >= 0).sum(axis=1) + (cs.cut >= 0).sum(axis=1) < res.dim + 2
+    ids = np.where(cs.sim >= 0, cs.sim, 0)
+    acc = cs.sim_weights[:, 0, None] * X[ids[:, 0]]
+    for j in range(1, ids.shape[1]):
+        acc = acc + cs.sim_weights[:, j, None] * X[ids[:, j]]
+    return deg, acc
+
+
 def gid(node, T, n: int) -> int:
     """The global point id of a node of :mod:`~predicates.registration.split.regions`."""
     if node[0] == "v":
