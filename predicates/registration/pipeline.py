@@ -145,7 +145,9 @@ def intersect(sim: MeshLike | ArrayLike, cut: MeshLike | ArrayLike,
     submitted, then cancels them and raises
     :class:`~predicates.registration.partition.run.PartitionError` (as when a worker
     dies under a task). ``accelerate``: the compiled candidate chain, same bits
-    (:mod:`predicates.compiled`; None: if installed and FPERR_ACCELERATE != 0). Returns an :class:`~predicates.registration.IntersectionResult`.
+    (:mod:`predicates.compiled`; None: by FPERR_ACCELERATE, else when installed and
+    the run is large enough, :func:`predicates.compiled.resolve`). Returns an
+    :class:`~predicates.registration.IntersectionResult`.
     """
     args = [sim, cut, cut_points, cut_cells]
     while len(args) > 2 and args[-1] is None:  # the two-mesh form, or a bad count
@@ -177,7 +179,7 @@ def intersect(sim: MeshLike | ArrayLike, cut: MeshLike | ArrayLike,
             pairs = run_partitioned(plan, partitions, scheduler, chunk, timings, check,
                                     progress, timeout)
     timings["total"] = time.perf_counter() - t0
-    timings["accelerated"] = accelerate  # which ran: the compiled chain, or numpy
+    timings["accelerated"] = plan.accelerate  # which ran: the compiled chain, or numpy
     return _result(plan, pairs, timings)
 
 
@@ -234,7 +236,7 @@ class Plan(NamedTuple):
 
 def _plan(args, dtype, tolerance_scale, progress, chunk, refine_cut, timings, sim_region,
           cut_region, tolerances=None, threads: int = 1, scheduler=None,
-          accelerate: bool = False) -> Plan:
+          accelerate: bool | None = False) -> Plan:
     """Validation, refinement, L over the cells that can meet, exact scaling,
     tolerances, reach and the resolution report: the global part of the run.
     ``threads`` > 1: the per-cell work in chunks on a thread pool, identical values
@@ -261,6 +263,8 @@ def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, 
     dtype, ts = validate_options(dtype, tolerance_scale, progress, chunk)
     arrays = mesh_arrays(args, sim_region, cut_region)
     sp, sc, cp, cc = arrays
+    if work.accelerate is None:  # auto: compiled when the run repays loading it
+        work.use_compiled(compiled.resolve(None, cells=sc.shape[0] + cc.shape[0]))
     clock = _Stages(timings)
     if scheduler is not None and remote.is_remote(sc, scheduler):  # dask-array cells
         dim, sim, cut, sim_box = remote.validate_pair_remote(sp, sc, cp, cc, dtype,

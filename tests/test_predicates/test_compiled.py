@@ -160,6 +160,7 @@ def test_registration_identical(case, dtype):
 
 
 def test_switch(monkeypatch):
+    monkeypatch.setattr(compiled, "_loaded", False)
     monkeypatch.setenv("FPERR_ACCELERATE", "0")
     assert compiled.resolve(None) is False
     assert compiled.resolve(True) is True
@@ -171,6 +172,27 @@ def test_switch(monkeypatch):
     assert compiled.resolve(None) is False
     with pytest.raises(ImportError, match="fast"):
         compiled.resolve(True)
+
+
+def test_auto_follows_the_run_size(monkeypatch):
+    """Unset FPERR_ACCELERATE: the compiled chain from AUTO_CELLS cells on (loading it
+    costs more than it saves below), or once it ran in this process; the result says
+    which ran, and both give the same bits."""
+    monkeypatch.delenv("FPERR_ACCELERATE", raising=False)
+    monkeypatch.setattr(compiled, "_loaded", False)
+    assert compiled.resolve(None) is None  # decided once the cells are counted
+    assert compiled.resolve(None, cells=compiled.AUTO_CELLS - 1) is False
+    assert compiled.resolve(None, cells=float("nan")) is True  # unknown: a large run
+    monkeypatch.setattr(compiled, "_loaded", False)
+    sim, cut = examples.cube_grid(6), examples.icosphere(2)
+    small = predicates.intersect(*sim, *cut)
+    assert small.timings["accelerated"] is False
+    monkeypatch.setattr(compiled, "AUTO_CELLS", len(sim[1]) + len(cut[1]))
+    large = predicates.intersect(*sim, *cut)
+    assert large.timings["accelerated"] is True
+    _same(small, large)
+    monkeypatch.setattr(compiled, "AUTO_CELLS", 10**12)  # loaded now: stays compiled
+    assert predicates.intersect(*sim, *cut).timings["accelerated"] is True
 
 
 def test_trace_refuses_if_on_a_number():

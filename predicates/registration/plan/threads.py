@@ -30,9 +30,16 @@ class Work:
     calls in program order; ``Work(pool, threads)`` the threaded one (identical values)."""
 
     def __init__(self, pool: Executor | None = None, threads: int = 1,
-                 accelerate: bool = False):
-        self.blocks = (SERIAL if pool is None and not accelerate
-                       else Blocks(pool, threads, accelerate=accelerate))
+                 accelerate: bool | None = False):
+        self.pool, self.threads = pool, threads
+        self.use_compiled(bool(accelerate))
+        self.accelerate = accelerate  # None: decided once the cells are counted
+
+    def use_compiled(self, accelerate: bool) -> None:
+        """Run the per-cell passes compiled (``accelerate``) or on numpy: same values."""
+        self.accelerate = accelerate
+        self.blocks = (SERIAL if self.pool is None and not accelerate
+                       else Blocks(self.pool, self.threads, accelerate=accelerate))
         self.boxes = partial(boxes_of, blocks=self.blocks)
         self.flags = partial(broadphase.near_flags, blocks=self.blocks)
 
