@@ -143,7 +143,8 @@ def hits_csr(cells: np.ndarray, top: Topology, hit_sim: np.ndarray, n: int):
     cc = top.near[cc]
     i, f = expand(top.start[cc], top.nfrag[cc])
     hh = hh[i]
-    srt = np.lexsort((hh, f))
+    # by fragment, then hit: one stable sort of a combined key (as np.lexsort((hh, f)))
+    srt = np.argsort(f * (int(hh.max(initial=-1)) + 1) + hh, kind="stable")
     F = len(top.cell_origin)
     offsets = np.zeros(F + 1, dtype=np.int64)
     np.cumsum(np.bincount(f, minlength=F), out=offsets[1:])

@@ -177,9 +177,11 @@ def components(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         diff = pa != pb
         if not diff.any():
             return parent
+        # an edge inside one component stays inside it: later rounds skip it
+        a, b, pa, pb = a[diff], b[diff], pa[diff], pb[diff]
         # hook each larger root onto a smaller one it is joined to (any: the last write
         # wins; parents still only decrease, and the smallest member stays a root)
-        parent[np.maximum(pa, pb)[diff]] = np.minimum(pa, pb)[diff]
+        parent[np.maximum(pa, pb)] = np.minimum(pa, pb)
         while True:
             nxt = parent[parent]
             if np.array_equal(nxt, parent):
