@@ -147,8 +147,8 @@ def _touched(cs, cells: np.ndarray, n: int) -> np.ndarray:
     return out
 
 
-def _outward(corners: np.ndarray, X: np.ndarray, d: int):
-    sign = positive(corners[None], X)[0]
+def _outward(sign: int, d: int):
+    """The cell's faces oriented outward, from its exact orientation ``sign``."""
     if d == 2:
         return (0, 1, 2) if sign > 0 else (0, 2, 1)
     return list(OUTWARD) if sign > 0 else [f[::-1] for f in OUTWARD]
@@ -164,7 +164,7 @@ def _pieces(c, ctx):
     corners = cells[c].tolist()
     nf, s = int(ctx["nfrag"][c]), int(ctx["start"][c])
     polys = [[("h", h) for h in P] for P in T.polygons(ctx["cs"], c)]
-    out = _outward(cells[c], ctx["X"], d)
+    out = _outward(ctx["sign"][c], d)
     if d == 2:
         faces = [r for _, r in ring_pieces(corners, 0, sm.on_cut, T, out)]
     else:
@@ -351,6 +351,9 @@ def conforming_mesh(res, sm, cs=None) -> ConformingMesh:
     ctx = {"sm": sm, "cs": cs, "T": _Tables(cs, C), "cells": cells, "X": X, "d": d,
            "n": n, "nfrag": nfrag, "start": np.cumsum(nfrag) - nfrag,
            "touched": _touched(cs, cells, n) | (nfrag > 1)}
+    # the touched cells' exact orientations in one filtered batch (not one call a cell)
+    ctx["sign"] = np.zeros(C, dtype=np.int8)
+    ctx["sign"][ctx["touched"]] = positive(cells[ctx["touched"]], X)
     frag_tris, cuts, faces, where, problems = _collect(res, sm, cs, ctx)
     if problems:
         raise NotConforming(_report(problems))
