@@ -12,32 +12,9 @@ import predicates
 from predicates.registration.io.read import MeshFileError
 from predicates.registration.partition.pieces import GLOBAL_IDS, read_pieces_on_workers
 
-from predicates import portable
-from predicates.registration.examples import example
+from same_result import assert_identical, rotated_case as _case
 
 pytest.importorskip("dask.array")
-
-
-def assert_identical(ref, res):
-    """Every kind's pairs and weights bit for bit, L, e and the resolution report."""
-    assert res.kinds == ref.kinds and res.counts == ref.counts
-    assert res.scale_exponent == ref.scale_exponent and res.L_a == ref.L_a
-    assert res.L_b == ref.L_b and res.resolution.to_dict() == ref.resolution.to_dict()
-    for kind in ref.kinds:
-        a, b = ref[kind], res[kind]
-        for x, y in ((a.sim, b.sim), (a.cut, b.cut), (a.sim_weights, b.sim_weights),
-                     (a.cut_weights, b.cut_weights)):
-            assert x.dtype == y.dtype and x.shape == y.shape, kind
-            assert x.tobytes() == y.tobytes(), kind
-
-
-def _case(name, n, angle=None, **kw):
-    ex = example(name, n, **kw)
-    (sp, sc), (cp, cc) = ex["sim"], ex["cut"]
-    if angle is not None:
-        R = portable.rotation(ex["dim"], angle)
-        sp, cp = portable.rotate(sp, R), portable.rotate(cp, R)
-    return sp, np.asarray(sc), cp, cc
 
 
 def write_pieces(tmp_path, sp, sc, rng, count: int):

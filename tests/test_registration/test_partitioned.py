@@ -18,36 +18,13 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 import predicates
 from predicates.registration.examples import example
 from predicates.registration.partition.assign import assign, split
-from predicates import portable
+from same_result import assert_identical, rotated_case as case
 
 dask = pytest.importorskip("dask")
 ROOT = Path(__file__).resolve().parents[2]
 KS = (1, 2, 3, 7, 16)
 
 
-def assert_identical(ref, res):
-    """Same kinds, same pairs in the same order, bit-identical weights, same counts,
-    the same global quantities and resolution report."""
-    assert res.kinds == ref.kinds and res.counts == ref.counts
-    assert res.scale_exponent == ref.scale_exponent and res.L_a == ref.L_a
-    assert res.L_b == ref.L_b and res.resolution.to_dict() == ref.resolution.to_dict()
-    for kind in ref.kinds:
-        a, b = ref[kind], res[kind]
-        for x, y in ((a.sim, b.sim), (a.cut, b.cut), (a.sim_weights, b.sim_weights),
-                     (a.cut_weights, b.cut_weights)):
-            assert x.dtype == y.dtype and x.shape == y.shape, kind
-            assert x.tobytes() == y.tobytes(), kind
-
-
-
-
-def case(name, n, rotate=None, **kw):
-    ex = example(name, n, **kw)
-    (sp, sc), (cp, cc) = ex["sim"], ex["cut"]
-    if rotate is not None:
-        R = portable.rotation(ex["dim"], rotate)
-        sp, cp = portable.rotate(sp, R), portable.rotate(cp, R)
-    return sp, sc, cp, cc
 
 
 CASES = {
