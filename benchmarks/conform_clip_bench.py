@@ -30,18 +30,15 @@ import time
 import numpy as np
 
 from predicates import intersect
-from predicates.portable import cos_sin, rotate
+from predicates.portable import axis_rotation, rotate
 from predicates.registration.examples import cube_grid, grid_plane
 from predicates.registration.split.tetra_faces import positive
 
 
 def tiny_rotation(ulps: int) -> np.ndarray:
-    """The rotation by ``ulps`` ulp of 1 radian about (1, 2, 0)/√5 (IEEE operations; the
-    same as tests/test_registration/test_conforming.py)."""
-    k = np.array([1.0, 2.0, 0.0]) / np.sqrt(5.0)
-    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    (c,), (s,) = cos_sin(np.array([ulps * np.finfo(np.float64).eps]))
-    return np.eye(3) + s * K + (1 - c) * rotate(K, K.T)
+    """The rotation by ``ulps`` ulp of 1 radian about (1, 2, 0)/√5 (portable; the same as
+    tests/support/cut_cases.py)."""
+    return axis_rotation([1.0, 2.0, 0.0], ulps * np.finfo(np.float64).eps)
 
 
 def best(f, repeat: int):

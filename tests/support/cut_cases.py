@@ -140,3 +140,18 @@ def torus(m: int = 24, k: int = 12, R: float = 0.3, r: float = 0.12, center=(0.5
     d = i * k + (j + 1) % k
     T = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
     return P, T.astype(np.int64)
+
+
+def tiny_rotation(ulps: int = 2) -> np.ndarray:
+    """The rotation by ``ulps`` ulp of 1 radian about (1, 2, 0)/√5 (portable: the same
+    bits on every machine): a cut just off the grid's vertices and faces."""
+    from predicates.portable import axis_rotation
+
+    return axis_rotation([1.0, 2.0, 0.0], ulps * np.finfo(np.float64).eps)
+
+
+def about_centre(P: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """The points P rotated by R about the unit cube's centre (portable)."""
+    from predicates.portable import rotate
+
+    return rotate(P - 0.5, R) + 0.5

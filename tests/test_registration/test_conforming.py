@@ -18,23 +18,12 @@ from predicates.portable import cos_sin, rotate, rotation
 from predicates.registration.examples import (circle_polygon, cube_grid, grid_plane,
                                               icosphere, square_grid)
 from predicates.registration.split.surface import cut_surface
-
-
-def tiny_rotation(ulps: int = 2):
-    """The rotation by ``ulps`` ulp of 1 radians about (1, 2, 0)/√5 (IEEE operations)."""
-    k = np.array([1.0, 2.0, 0.0]) / np.sqrt(5.0)
-    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    (c,), (s,) = cos_sin(np.array([ulps * np.finfo(np.float64).eps]))
-    return np.eye(3) + s * K + (1 - c) * rotate(K, K.T)
-
-
-def _about_centre(P, R):
-    return rotate(P - 0.5, R) + 0.5
+from cut_cases import about_centre, tiny_rotation
 
 
 def _sphere():
     P, T = icosphere(2)
-    return _about_centre(P, rotation(3, 3)), T
+    return about_centre(P, rotation(3, 3)), T
 
 
 def _vertex_at(P, x) -> int:
@@ -64,7 +53,7 @@ def check(res, cm, want: dict, exact_vs=None):
 
 CASES3 = {
     "plane": lambda n: grid_plane(n),
-    "plane_2ulp": lambda n: (_about_centre(grid_plane(n)[0], tiny_rotation()),
+    "plane_2ulp": lambda n: (about_centre(grid_plane(n)[0], tiny_rotation()),
                              grid_plane(n)[1]),
 }
 
@@ -136,7 +125,7 @@ def test_a_crack_inside_the_cube_stays_one_piece():
 def test_square_grid_cut_by_a_circle():
     P, C = square_grid(8)
     Q, E = circle_polygon(29, radius=0.33)
-    Q = _about_centre(Q, rotation(2, 5))
+    Q = about_centre(Q, rotation(2, 5))
     res = predicates.intersect(P, C, Q, E)
     cm = res.split().triangulate()
     assert cm.n_pieces == 2

@@ -11,10 +11,11 @@ import pytest
 
 import predicates
 from exact_clip import clipped, fr, polygon_area2
-from predicates.portable import cos_sin, rotate, rotation
+from predicates.portable import rotation
 from predicates.registration.examples import (circle_polygon, cube_grid, grid_plane,
                                               icosphere, square_grid)
 from predicates.registration.split.surface import cut_surface
+from cut_cases import about_centre, tiny_rotation
 
 
 #: the kinds of a cut in general position (a cutting edge through a face, a simulation
@@ -22,28 +23,15 @@ from predicates.registration.split.surface import cut_surface
 GENERIC = ("triangle_edge", "edge_triangle", "tetrahedron_vertex")
 
 
-def tiny_rotation(ulps: int = 2):
-    """The rotation by ``ulps`` ulp of 1 radians about the axis (1, 2, 0)/√5 (portable:
-    IEEE operations only)."""
-    k = np.array([1.0, 2.0, 0.0]) / np.sqrt(5.0)
-    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    (c,), (s,) = cos_sin(np.array([ulps * np.finfo(np.float64).eps]))
-    return np.eye(3) + s * K + (1 - c) * rotate(K, K.T)
-
-
-def _about_centre(P, R):
-    return rotate(P - 0.5, R) + 0.5
-
-
 def CASES():
     P, T = icosphere(2)
     return {
-        "sphere": (cube_grid(4), (_about_centre(P, rotation(3, 3)), T)),
+        "sphere": (cube_grid(4), (about_centre(P, rotation(3, 3)), T)),
         "plane": (cube_grid(4), grid_plane(4)),
-        "plane_2ulp": (cube_grid(4), (_about_centre(grid_plane(4)[0], tiny_rotation()),
+        "plane_2ulp": (cube_grid(4), (about_centre(grid_plane(4)[0], tiny_rotation()),
                                       grid_plane(4)[1])),
         "plane_offset": (cube_grid(4), grid_plane(4, offset=True)),
-        "circle": (square_grid(8), (_about_centre(circle_polygon(29, radius=0.33)[0],
+        "circle": (square_grid(8), (about_centre(circle_polygon(29, radius=0.33)[0],
                                                   rotation(2, 5)),
                                     circle_polygon(29, radius=0.33)[1])),
     }
