@@ -45,13 +45,15 @@ def resolve(accelerate: bool | None, cells: int | None = None) -> bool | None:
     global _loaded
     if accelerate is None:
         mode = os.environ.get("FPERR_ACCELERATE", "auto").strip().lower()
-        if mode == "0" or not available():
+        if mode == "0":
             return False
-        if mode != "1" and not _loaded:
+        if mode != "1" and not _loaded:  # the count first: importing numba costs ~0.25 s
             if cells is None:
                 return None
             if cells < AUTO_CELLS:
                 return False
+        if not available():
+            return False
         _loaded = True
         return True
     if not isinstance(accelerate, bool):
