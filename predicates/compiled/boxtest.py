@@ -40,29 +40,19 @@ def _pairs(pad, lo_a, hi_a, lo_b, hi_b, ia, ib, pos):
 
 
 @njit(**JIT_OPTIONS)
-def _owned_a(tab, A, B, pad, lo_a, hi_a, lo_b, hi_b, out_a, out_b):
+def _owned(tab, A, B, faces_of_a, pad, lo_a, hi_a, lo_b, hi_b, out_a, out_b):
     count = 0
     for q in range(A.shape[0]):
-        b = B[q]
         for k in range(tab.shape[1]):
-            f = tab[A[q], k]
-            if f >= 0 and _near(pad, lo_a, hi_a, lo_b, hi_b, f, b):
-                out_a[count] = f
-                out_b[count] = b
-                count += 1
-    return count
-
-
-@njit(**JIT_OPTIONS)
-def _owned_b(tab, A, B, pad, lo_a, hi_a, lo_b, hi_b, out_a, out_b):
-    count = 0
-    for q in range(A.shape[0]):
-        a = A[q]
-        for k in range(tab.shape[1]):
-            g = tab[B[q], k]
-            if g >= 0 and _near(pad, lo_a, hi_a, lo_b, hi_b, a, g):
+            if faces_of_a:  # a: every face of A[q]; b = B[q]
+                a, b = tab[A[q], k], B[q]
+                face = a
+            else:  # a = A[q]; b: every face of B[q]
+                a, b = A[q], tab[B[q], k]
+                face = b
+            if face >= 0 and _near(pad, lo_a, hi_a, lo_b, hi_b, a, b):
                 out_a[count] = a
-                out_b[count] = g
+                out_b[count] = b
                 count += 1
     return count
 
@@ -82,8 +72,7 @@ def owned_pairs(tab: np.ndarray, side: str, A: np.ndarray, B: np.ndarray, pad: f
     ``tab[B[q]]``. ``boxes_*``: (lo, hi) as (d, n) columns. Returns (a, b)."""
     n = len(A) * tab.shape[1]
     out_a, out_b = buffer("owned_a", n, np.int64), buffer("owned_b", n, np.int64)
-    run = _owned_a if side == "a" else _owned_b
-    k = run(tab, A, B, float(pad), *boxes_a, *boxes_b, out_a, out_b)
+    k = _owned(tab, A, B, side == "a", float(pad), *boxes_a, *boxes_b, out_a, out_b)
     return out_a[:k].copy(), out_b[:k].copy()
 
 
