@@ -2,6 +2,8 @@
 import pathlib
 import re
 
+import numpy as np
+
 README = pathlib.Path(__file__).resolve().parents[1] / "README.md"
 
 
@@ -17,6 +19,11 @@ def test_readme_python_blocks_run(capsys, tmp_path, monkeypatch):
     assert env["hit"].shape == (10**6,) and env["w"].shape == (10**6, 4)
     assert env["res"]["vertex_vertex"].sim.shape == (81, 1)  # (n+1)² for n = 8
     assert (tmp_path / "cut.vtu").stat().st_size > 0
+    # the cut: two halves, then a quarter off one (sums of 1/3072 per tetrahedron)
+    assert env["sm"].n_pieces == 2
+    assert np.allclose(env["cm"].piece_volumes(), [0.5, 0.5], rtol=0, atol=1e-12)
+    assert np.allclose(sorted(env["cm2"].piece_volumes()), [0.25, 0.25, 0.5], rtol=0, atol=1e-12)
+    assert (tmp_path / "pieces.vtu").stat().st_size > 0
 
 
 def test_readme_quick_start_matches_ci():
