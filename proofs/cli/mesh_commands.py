@@ -100,6 +100,7 @@ def _register(args, work, check):
 
     from fperr.warnings import ResolutionError, ResolutionWarning
     from predicates.registration.partition.run import PartitionError
+    from predicates.registration.plan.inputs import MeshTypeError
 
     cmd = args.command
     table = None
@@ -125,13 +126,30 @@ def _register(args, work, check):
         # did not finish (a worker died, the timeout): exit 1, nothing written
         print(f"fperr {cmd}: error: {e}", file=sys.stderr)
         return 1, None
-    except (ValueError, TypeError, OSError, ArithmeticError, ImportError, MemoryError) as e:
-        # bad input (meshes, paths): a message, never a traceback; nothing was written
+    except MemoryError as e:  # a failure of this machine, not of the input: exit 1
+        print(f"fperr {cmd}: error: {_out_of_memory(e)}", file=sys.stderr)
+        return 1, None
+    except (ValueError, MeshTypeError, OSError, ImportError) as e:
+        # bad input (meshes, paths): a message, never a traceback; nothing was written.
+        # Any other TypeError or an ArithmeticError is a bug (main: internal error).
         return _error(cmd, e), None
     for w in caught:  # one line each, no Python warning boilerplate
         print(f"fperr {cmd}: warning: {w.message}", file=sys.stderr)
     return None, out
 
+
+
+def _out_of_memory(e: MemoryError) -> str:
+    """The message of a run that ran out of memory: the plan's names its stage and the
+    meshes' size (``PlanMemoryError``); any other says what to try."""
+    from predicates.registration.pipeline import PlanMemoryError
+
+    if isinstance(e, PlanMemoryError):
+        return str(e)
+    return (f"not enough memory for this run ({type(e).__name__}: {e or 'no detail'}); "
+            f"nothing was written: free memory, use a machine with more, or partition "
+            f"the run (--workers N --partitions K, each partition then holds less: "
+            f"docs/partitioned.md)")
 
 # -- intersect -------------------------------------------------------------------------
 def _add_intersect(sub) -> None:

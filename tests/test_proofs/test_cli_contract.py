@@ -89,6 +89,50 @@ def test_bad_input_stays_exit_2_and_is_no_bug(tmp_path):
         assert "internal error" not in r.stderr and "Traceback" not in r.stderr
 
 
+
+_RAISE_IN_RUN = ("import sys, predicates.registration as r\n"
+                 "from predicates.registration.plan.inputs import MeshTypeError\n"
+                 "def boom(*a, **k):\n"
+                 "    raise {exc}\n"
+                 "r.intersect_files = boom\n"
+                 "from proofs.cli import main\n"
+                 "sys.exit(main(sys.argv[1:]))\n")
+
+
+@pytest.mark.parametrize("exc, status, says", [
+    ("MemoryError('injected')", 1, "error: not enough memory for this run (MemoryError: "
+                                   "injected); nothing was written"),
+    ("TypeError('injected')", 1, "internal error (a bug"),
+    ("ZeroDivisionError('injected')", 1, "internal error (a bug"),
+    ("MeshTypeError('simulation cells must be integer vertex indices')", 2,
+     "error: simulation cells must be integer vertex indices"),
+])
+def test_run_errors_are_bad_input_only_when_the_input_is_bad(tmp_path, cube_plane, exc,
+                                                              status, says):
+    """Out of memory is a failure (1, with what to do), not bad input; a TypeError or an
+    ArithmeticError from inside the work is a bug (1); a mesh of the wrong number type
+    is bad input (2). Nothing is written in any case."""
+    out = tmp_path / "hits.vtu"
+    r = subprocess.run([sys.executable, "-c", _RAISE_IN_RUN.format(exc=exc), "intersect",
+                        *cube_plane, "-o", str(out)], cwd=ROOT, env=ENV,
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == status, r.stderr
+    assert says in r.stderr and "Traceback" not in r.stderr
+    assert not out.exists()
+
+
+def test_a_mesh_of_the_wrong_number_type_is_a_mesh_type_error():
+    """What the command line reports as bad input is what validation raises (and, for
+    a library caller, still a TypeError)."""
+    from predicates import intersect
+    from predicates.registration.plan.inputs import MeshTypeError
+
+    (P, T), (Q, F) = cube_grid(2), grid_plane(2, k=1)
+    for args in ((P, T.astype(float), Q, F), (P.astype(complex), T, Q, F)):
+        with pytest.raises(MeshTypeError) as e:
+            intersect(*args)
+        assert isinstance(e.value, TypeError)
+
 def test_version_names_what_a_bug_report_needs():
     import fperr as pkg
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from predicates.registration.plan.cellboxes import CellBoxes, _Side
 from predicates.registration.plan.inputs import (
-    MeshInput, _array, _points, cell_error, first_bad)
+    MeshInput, MeshTypeError, _array, _points, cell_error, first_bad)
 from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.boxes import boxes_of
 
@@ -225,7 +225,8 @@ def validate_remote(points, cells, dim: int, dtype, scheduler, blocks: Blocks = 
     name, k = "simulation cells", dim + 1
     what = {2: "triangles", 3: "tetrahedra"}[dim]
     if cells.dtype.kind not in "iu":
-        raise TypeError(f"{name} must be integer vertex indices, got dtype {cells.dtype}")
+        raise MeshTypeError(f"{name} must be integer vertex indices, got dtype "
+                            f"{cells.dtype}")
     if cells.shape[1] != k:
         raise ValueError(f"{name} must have shape (M, {k}) ({what} of a {dim}D "
                          f"simulation mesh), got {cells.shape}")

@@ -14,7 +14,7 @@ import numpy as np
 from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.broadphase import boxes_of
 
-__all__ = ["Arrays", "MeshInput", "from_meshio", "max_box_edge", "mesh_arrays",
+__all__ = ["Arrays", "MeshInput", "MeshTypeError", "from_meshio", "max_box_edge", "mesh_arrays",
            "scale_points", "times_pow2", "cell_error", "first_bad", "validate_mesh", "validate_options", "validate_pair"]
 
 
@@ -29,6 +29,12 @@ class MeshInput:
     rounded: bool = False  # were the coordinates rounded into the working dtype?
 
 
+
+class MeshTypeError(TypeError):
+    """A mesh's points or cells of the wrong number type (strings, complex, float vertex
+    ids): bad input, which the command line reports as such (exit 2), unlike a
+    TypeError from inside the work, which is a bug."""
+
 def _array(points, role):
     name = f"{role} points"
     try:
@@ -36,7 +42,8 @@ def _array(points, role):
     except Exception as e:  # ragged nested lists and the like
         raise ValueError(f"{name} cannot be read as an array: {e}") from None
     if arr.dtype.kind not in "fiu":
-        raise TypeError(f"{name} must be real numbers (float or int), got dtype {arr.dtype}")
+        raise MeshTypeError(f"{name} must be real numbers (float or int), got dtype "
+                            f"{arr.dtype}")
     if arr.ndim != 2 or arr.shape[1] not in (2, 3):
         raise ValueError(f"{name} must have shape (N, 2) or (N, 3), got {arr.shape}")
     return arr
@@ -78,7 +85,7 @@ def _cells(cells, role, width, n_points, what, blocks: Blocks = SERIAL):
     if arr.size == 0:
         arr = arr.reshape(0, width).astype(np.int64)
     if arr.dtype.kind not in "iu":
-        raise TypeError(f"{name} must be integer vertex indices, got dtype {arr.dtype}")
+        raise MeshTypeError(f"{name} must be integer vertex indices, got dtype {arr.dtype}")
     if arr.ndim != 2 or arr.shape[1] != width:
         raise ValueError(f"{name} must have shape (M, {width}) ({what}), got {arr.shape}")
     found = first_bad(arr, width, n_points, blocks)
