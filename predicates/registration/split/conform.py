@@ -258,6 +258,7 @@ def _fallback(tris, Y, d: int):
     must all give positive simplices), else peeling (:mod:`~.peel`), else the
     backtracking search (:mod:`~.search`); None when none fills the fragment with
     positive simplices (every result is checked again by :func:`positive`)."""
+    from predicates.registration.split.crack_front import crack_front_fill
     from predicates.registration.split.kernel import kernel_point
     from predicates.registration.split.peel import peel
     from predicates.registration.split.search import (fan_from_boundary, folded_triangle,
@@ -271,7 +272,12 @@ def _fallback(tris, Y, d: int):
         return (_apex_cone(front, Y, d, _mean(front, Y))
                 or _apex_cone(front, Y, d, kernel_point(front, Y)))
 
-    found = (_checked(fan_from_boundary(tris, Y.array), Y, tris)
+    def fill_part(part):  # a part of a crack front's region, without a slit
+        return (try_cone(part) or _checked(fan_from_boundary(part, Y.array), Y, part)
+                or _checked(peel(part, Y, try_cone), Y, part))
+
+    found = (crack_front_fill(tris, Y, lambda tets: _checked(tets, Y, tris), fill_part)
+             or _checked(fan_from_boundary(tris, Y.array), Y, tris)
              or _checked(peel(tris, Y, try_cone), Y, tris))
     if found is None and folded_triangle(tris, Y.array) is None:  # else: no search helps
         found = _checked(search_fill(tris, Y.array), Y, tris)
