@@ -253,11 +253,14 @@ def _mean(tris, Y):
 
 
 def _fallback(tris, Y, d: int):
-    """The cone from a kernel point (:mod:`~.kernel`), else from a boundary point
+    """The cone from a kernel point (:mod:`~.kernel`), else, in a region around a crack
+    front, two cones on either side of the crack joined across the uncut part of the
+    cell (:mod:`~.crack_front`), else the cone from a boundary point
     (:func:`~.search.fan_from_boundary`: the triangles through it are skipped, the others
     must all give positive simplices), else peeling (:mod:`~.peel`), else the
-    backtracking search (:mod:`~.search`); None when none fills the fragment with
-    positive simplices (every result is checked again by :func:`positive`)."""
+    backtracking search (:mod:`~.search`), else the crack front's region split and its
+    parts peeled; None when none fills the fragment with positive simplices (every
+    result is checked again by :func:`positive`)."""
     from predicates.registration.split.crack_front import crack_front_fill
     from predicates.registration.split.kernel import kernel_point
     from predicates.registration.split.peel import peel
@@ -272,15 +275,18 @@ def _fallback(tris, Y, d: int):
         return (_apex_cone(front, Y, d, _mean(front, Y))
                 or _apex_cone(front, Y, d, kernel_point(front, Y)))
 
-    def fill_part(part):  # a part of a crack front's region, without a slit
+    def fill_part(part, thorough: bool):  # a part of a crack front's region: no slit
         return (try_cone(part) or _checked(fan_from_boundary(part, Y.array), Y, part)
-                or _checked(peel(part, Y, try_cone), Y, part))
+                or (_checked(peel(part, Y, try_cone), Y, part) if thorough else None))
 
-    found = (crack_front_fill(tris, Y, lambda tets: _checked(tets, Y, tris), fill_part)
-             or _checked(fan_from_boundary(tris, Y.array), Y, tris)
+    def crack_front(thorough: bool):
+        return crack_front_fill(tris, Y, lambda tets: _checked(tets, Y, tris), fill_part,
+                                thorough)
+
+    found = (crack_front(False) or _checked(fan_from_boundary(tris, Y.array), Y, tris)
              or _checked(peel(tris, Y, try_cone), Y, tris))
     if found is None and folded_triangle(tris, Y.array) is None:  # else: no search helps
-        found = _checked(search_fill(tris, Y.array), Y, tris)
+        found = _checked(search_fill(tris, Y.array), Y, tris) or crack_front(True)
     return found
 
 

@@ -79,6 +79,14 @@ def _tets(tris, upper: np.ndarray, hi: int, mid: int, lo: int) -> list:
                    for s in ((x, hi, y, mid), (x, mid, y, lo))]
 
 
+def _plausible(tets, Z: np.ndarray) -> bool:
+    """Every tetrahedron's float orientation positive (a cheap screen before the
+    caller's exact check: it only rejects)."""
+    P = Z[np.array(tets, dtype=np.int64)]
+    E = P[:, 1:] - P[:, :1]
+    return bool(np.all((E[:, 0] * np.cross(E[:, 1], E[:, 2])).sum(axis=1) > 0))
+
+
 def _section(tris, Z: np.ndarray, n, level: float, tol: float, twins: set):
     """The points where the non-slit boundary edges cross Π strictly (the section of the
     cell beyond the front, Q, apart from the front itself)."""
@@ -120,12 +128,15 @@ def _apexes(front, tris, Z, n, level: float, twins: set):
             yield x0 + frac * (top - x0), x0, x0 + frac * (bottom - x0)
 
 
-def crack_front_fill(tris, Y, checked, fill_part):
+def crack_front_fill(tris, Y, checked, fill_part, thorough: bool = False):
     """Tetrahedra filling the closed outward boundary ``tris`` (ids into the growing
     point set ``Y``) of a region with a partial slit, with interior points appended to
     ``Y``; None when the region has no slit with a front or no candidate passes
-    ``checked(tets)`` (the caller's exact check). ``fill_part(boundary)``: the caller's
-    filling of a closed boundary without a slit, or None. Points appended for a failed
+    ``checked(tets)`` (the caller's exact check). ``fill_part(boundary, thorough)``: the
+    caller's filling of a closed boundary without a slit (cheap ones only unless
+    ``thorough``), or None; ``thorough``: only the split, its parts filled thoroughly
+    (the caller tries the cheap candidates first, then its own fillings of the whole
+    region, then this). Points appended for a failed
     candidate may stay in ``Y`` unused (the mesh keeps only the points its simplices
     use)."""
     tris = [tuple(int(v) for v in t) for t in tris]
@@ -148,17 +159,21 @@ def crack_front_fill(tris, Y, checked, fill_part):
     upper[lower] = False
     upper[[i for i in twins if i not in set(lower)]] = True
     cands = list(_apexes(front, tris, Z, n, level, set(twins)))
+    centres = [pm for _, pm, _ in cands[:3]]
+    if thorough:
+        return _split_fill(tris, upper, Y, centres, fill_part, checked, (True,))
     for ph, pm, pl in cands:  # the surface between the cones a fan from x₀ in Q
         hi, mid, lo = Y.append(ph), Y.append(pm), Y.append(pl)
-        found = checked(_tets(tris, upper, hi, mid, lo))
+        tets = _tets(tris, upper, hi, mid, lo)
+        found = checked(tets) if _plausible(tets, Y.array) else None
         if found is not None:
             return found
         for _ in range(3):
             Y.pop()
-    return _split_fill(tris, upper, Y, [pm for _, pm, _ in cands[:3]], fill_part, checked)
+    return _split_fill(tris, upper, Y, centres, fill_part, checked, (False,))
 
 
-def _split_fill(tris, upper: np.ndarray, Y, centres: list, fill_part, checked):
+def _split_fill(tris, upper: np.ndarray, Y, centres: list, fill_part, checked, passes):
     """The region split by a fan D from a point of Q (an interior point x₀, or a point
     of the loop ∂T₊: a front passing close to a cell edge leaves Q a sliver around which
     no two apexes see D), the two parts — without a slit — filled by ``fill_part``."""
@@ -166,12 +181,13 @@ def _split_fill(tris, upper: np.ndarray, Y, centres: list, fill_part, checked):
     edges = Counter((t[k], t[(k + 1) % 3]) for t, u in zip(tris, up) if u for k in range(3))
     loop = [e for e, m in edges.items() for _ in range(m - edges.get(e[::-1], 0))]
     mids = [Y.append(x0) for x0 in centres] + sorted({p for e in loop for p in e})
-    for mid in mids:
-        disc = [(x, mid, y) for x, y in loop if mid not in (x, y)]
-        above = fill_part([t for t, u in zip(tris, up) if u] + disc)
-        below = None if above is None else fill_part(
-            [t for t, u in zip(tris, up) if not u] + [d[::-1] for d in disc])
-        found = None if below is None else checked(above + below)
-        if found is not None:
-            return found
+    for thorough in passes:
+        for mid in mids:
+            disc = [(x, mid, y) for x, y in loop if mid not in (x, y)]
+            above = fill_part([t for t, u in zip(tris, up) if u] + disc, thorough)
+            below = None if above is None else fill_part(
+                [t for t, u in zip(tris, up) if not u] + [d[::-1] for d in disc], thorough)
+            found = None if below is None else checked(above + below)
+            if found is not None:
+                return found
     return None
