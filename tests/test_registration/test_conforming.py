@@ -291,3 +291,37 @@ def test_a_disc_crack_opens_across_its_whole_area(radius):
                 assert opened, (t, w, f)
             met += 1
     assert met == len(K) * len(weights)
+
+
+def test_a_plane_within_the_tolerance_of_a_vertex_is_refused_where_it_is():
+    """The third plane of the progressive gmsh case, y = 0.640625, *alone* on the gmsh
+    box (no earlier cut, no sliver): it passes within σ+ of a gmsh vertex, and the
+    refined cutting mesh has an edge passing within τ of it, which the registration
+    registers (edge_edge) on several edges of that vertex at once; two coplanar cutting
+    triangles then both hold a chord of one face (docs/split.md, "Still refused"). The
+    conforming tetrahedralization refuses, naming the cells (never a wrong element), and
+    only cells with a vertex within σ+ of the plane (exact distance, Fraction); the
+    virtual-node split of the same registration gives its two pieces."""
+    import re
+
+    pytest.importorskip("gmsh")
+    from cut_cases import gmsh_box_in_box
+    from predicates.registration.split.conform import NotConforming
+
+    P, C, _, _ = gmsh_box_in_box(0.1)
+    c = 0.640625
+    u = np.linspace(-0.1, 1.1, 5)
+    U, V = np.meshgrid(u, u, indexing="xy")
+    Q = np.column_stack([U.ravel(), np.full(U.size, c), V.ravel()])
+    v = (np.arange(4)[None, :] + 5 * np.arange(4)[:, None]).ravel()
+    K = np.concatenate([np.stack([v, v + 1, v + 6], 1), np.stack([v, v + 6, v + 5], 1)])
+    res = predicates.intersect(P, C, Q, K)
+    assert res.split().n_pieces == 2
+    with pytest.raises(NotConforming) as err:
+        res.split().tetrahedralize()
+    named = [int(x) for x in re.findall(r"cell (\d+):", str(err.value))]
+    assert named
+    sigma = Fraction(res.tolerances_input_units()["sigma"])
+    for cell in named:
+        gap = min(abs(Fraction(float(P[p, 1])) - Fraction(c)) for p in C[cell].tolist())
+        assert gap < sigma, (cell, float(gap), float(sigma))
