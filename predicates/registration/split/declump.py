@@ -41,7 +41,7 @@ def _det(Z, a, b, c, d) -> float:
     return float((e1 * np.cross(e2, e3)).sum())
 
 
-def _crosses(Z, seg, tri):
+def _crosses(Z: np.ndarray, seg, tri):
     """+1 when segment ``seg`` properly crosses triangle ``tri`` (exact signs), 0 when it
     misses it, None when a sign is 0 (degenerate: leave the cluster alone)."""
     a, b = seg
@@ -105,7 +105,7 @@ def _resolve(Z, n, v, hs, cs, tris) -> list:
     return rows
 
 
-def _face_points(Z, n, e, faces, have):
+def _face_points(Z: np.ndarray, n: int, e, faces, have: set):
     """Rows (sim face, its weights, e, weights on e, point) where e properly crosses a
     face; None when degenerate."""
     rows = []
@@ -127,9 +127,11 @@ def _face_points(Z, n, e, faces, have):
     return rows
 
 
-def declump(res, cs, refused):
+def declump(res, cs, refused: list):
     """The cut surface of ``res`` with the clusters around the vertices of the
-    ``refused`` cells re-decided (module docstring), or None when there is none."""
+    ``refused`` cells re-decided (module docstring): a
+    :class:`~predicates.registration.split.surface.CutSurface` with the new points after
+    the registered ones, or None when there is none."""
     from predicates.registration.split.surface import cut_surface
 
     kinds = list(res.kinds)
