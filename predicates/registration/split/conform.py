@@ -79,6 +79,7 @@ class ConformingMesh:
     cut_sides: np.ndarray
     split_piece: np.ndarray
     point_moved: np.ndarray | None = None
+    surface: object = None  # the cut surface ``point_hit`` indexes (declump.py)
 
     def volumes(self) -> np.ndarray:
         """(T,) the simplices' volumes (areas), elementwise (no BLAS)."""
@@ -253,11 +254,15 @@ def _mean(tris, Y):
 
 
 def _fallback(tris, Y, d: int):
-    """The cone from a kernel point (:mod:`~.kernel`), else from a boundary point
+    """The cone from a kernel point (:mod:`~.kernel`), else, in a region around a crack
+    front, two cones on either side of the crack joined across the uncut part of the
+    cell (:mod:`~.crack_front`), else the cone from a boundary point
     (:func:`~.search.fan_from_boundary`: the triangles through it are skipped, the others
     must all give positive simplices), else peeling (:mod:`~.peel`), else the
-    backtracking search (:mod:`~.search`); None when none fills the fragment with
-    positive simplices (every result is checked again by :func:`positive`)."""
+    backtracking search (:mod:`~.search`), else the crack front's region split and its
+    parts peeled; None when none fills the fragment with positive simplices (every
+    result is checked again by :func:`positive`)."""
+    from predicates.registration.split.crack_front import crack_front_fill
     from predicates.registration.split.kernel import kernel_point
     from predicates.registration.split.peel import peel
     from predicates.registration.split.search import (fan_from_boundary, folded_triangle,
@@ -271,10 +276,18 @@ def _fallback(tris, Y, d: int):
         return (_apex_cone(front, Y, d, _mean(front, Y))
                 or _apex_cone(front, Y, d, kernel_point(front, Y)))
 
-    found = (_checked(fan_from_boundary(tris, Y.array), Y, tris)
+    def fill_part(part, thorough: bool):  # a part of a crack front's region: no slit
+        return (try_cone(part) or _checked(fan_from_boundary(part, Y.array), Y, part)
+                or (_checked(peel(part, Y, try_cone), Y, part) if thorough else None))
+
+    def crack_front(thorough: bool):
+        return crack_front_fill(tris, Y, lambda tets: _checked(tets, Y, tris), fill_part,
+                                thorough)
+
+    found = (crack_front(False) or _checked(fan_from_boundary(tris, Y.array), Y, tris)
              or _checked(peel(tris, Y, try_cone), Y, tris))
     if found is None and folded_triangle(tris, Y.array) is None:  # else: no search helps
-        found = _checked(search_fill(tris, Y.array), Y, tris)
+        found = _checked(search_fill(tris, Y.array), Y, tris) or crack_front(True)
     return found
 
 
@@ -335,15 +348,9 @@ def _collect(res, sm, cs, ctx):
     return tris_of, cuts, faces, where, problems
 
 
-def conforming_mesh(res, sm, cs=None) -> ConformingMesh:
-    """The conforming simplices of the split ``sm`` of ``res`` (module docstring);
-    ``cs``: its cut surface (computed when not given). Raises :class:`NotConforming`
-    naming the cells it cannot fill."""
-    from predicates.registration.split.conform_parts import assemble
-    from predicates.registration.split.surface import cut_surface
+def _context(res, sm, cs) -> dict:
     from predicates.registration.split.volume import _Tables
 
-    cs = cut_surface(res) if cs is None else cs
     d, cells = sm.dim, np.asarray(res.sim_cells, dtype=np.int64)
     X = np.asarray(res.sim_points, dtype=np.float64)
     n, C = len(X), len(cells)
@@ -354,9 +361,28 @@ def conforming_mesh(res, sm, cs=None) -> ConformingMesh:
     # the touched cells' exact orientations in one filtered batch (not one call a cell)
     ctx["sign"] = np.zeros(C, dtype=np.int8)
     ctx["sign"][ctx["touched"]] = positive(cells[ctx["touched"]], X)
+    return ctx
+
+
+def conforming_mesh(res, sm, cs=None) -> ConformingMesh:
+    """The conforming simplices of the split ``sm`` of ``res`` (module docstring);
+    ``cs``: its cut surface (computed when not given). Raises :class:`NotConforming`
+    naming the cells it cannot fill."""
+    from predicates.registration.split.conform_parts import assemble
+    from predicates.registration.split.declump import declump
+    from predicates.registration.split.surface import cut_surface
+
+    cs = cut_surface(res) if cs is None else cs
+    ctx = _context(res, sm, cs)
     frag_tris, cuts, faces, where, problems = _collect(res, sm, cs, ctx)
+    again = declump(res, cs, [c for c, _ in problems]) if problems else None
+    if again is not None:  # merged crossings around a vertex, re-decided (declump.py)
+        cs = again
+        ctx = _context(res, sm, cs)
+        frag_tris, cuts, faces, where, problems = _collect(res, sm, cs, ctx)
     if problems:
         raise NotConforming(_report(problems))
+    X, n, d = ctx["X"], ctx["n"], ctx["d"]
     Y = Points(np.concatenate([X, on_cut_points(res, cs)]))
     filled, bad = _fill(frag_tris, Y, d)
     bad, moved = _repair(res, cs, frag_tris, Y, filled, bad, n, d)
@@ -369,7 +395,7 @@ def conforming_mesh(res, sm, cs=None) -> ConformingMesh:
     hit = fields["point_hit"]
     fields["point_moved"] = np.zeros(len(hit), dtype=bool)
     fields["point_moved"][hit >= 0] = moved[hit[hit >= 0]]
-    return ConformingMesh(**fields)
+    return ConformingMesh(**fields, surface=cs)
 
 
 def _repair(res, cs, frag_tris: dict, Y, filled: dict, bad: list, n: int, d: int,

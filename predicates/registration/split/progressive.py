@@ -80,7 +80,7 @@ def recut(prev, cut_points, cut_cells, **options):
     res = intersect(prev.points, prev.cells, cut_points, cut_cells, **options)
     sm = res.split()
     cm2 = sm.tetrahedralize()
-    cs2 = cut_surface(res)
+    cs2 = cm2.surface if cm2.surface is not None else cut_surface(res)
     old, where = _earlier_faces(cm2, cs2, prev)
     new = [list(f) for f in cm2.cut_faces.tolist()]
     allf = old + new

@@ -171,11 +171,13 @@ def _order(g, lam, dim):
     return np.lexsort((ang, g))
 
 
-def cut_surface(res) -> CutSurface:
+def cut_surface(res, hits=None) -> CutSurface:
     """The polygons of the cutting surface inside every simulation cell (module
-    docstring) from ``res``, an :class:`~predicates.registration.IntersectionResult`."""
+    docstring) from ``res``, an :class:`~predicates.registration.IntersectionResult`;
+    ``hits``: its :func:`hit_table` as re-decided by
+    :func:`~predicates.registration.split.declump.declump` (default: as registered)."""
     d = int(res.dim)
-    pts, kind, hs, hw, hc, hcw = hit_table(res)
+    pts, kind, hs, hw, hc, hcw = hit_table(res) if hits is None else hits
     h, c, t = _pairs_of(res, hs, hc)
     sim_cells = np.asarray(res.sim_cells, dtype=np.int64)
     cut_cells = np.asarray(res.cut_cells, dtype=np.int64)
