@@ -167,8 +167,21 @@ def _order(g, lam, dim):
     cnt = np.bincount(g).astype(np.float64)
     cu = np.bincount(g, lam[:, 1]) / np.maximum(cnt, 1)
     cv = np.bincount(g, lam[:, 2]) / np.maximum(cnt, 1)
-    ang = np.arctan2(lam[:, 2] - cv[g], lam[:, 1] - cu[g])
+    ang = pseudo_angle(lam[:, 1] - cu[g], lam[:, 2] - cv[g])
     return np.lexsort((ang, g))
+
+
+def pseudo_angle(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """A number in [−2, 2] increasing with the angle of (x, y) as ``arctan2(y, x)`` in
+    (−π, π] does (0 at the origin), from one addition and one division: correctly
+    rounded on every machine, where arctan2's last bit depends on the CPU's libm or
+    SIMD (docs/design.md, "The same answer on every machine")."""
+    ax, ay = np.abs(x), np.abs(y)
+    s = ax + ay
+    with np.errstate(invalid="ignore", divide="ignore"):
+        r = np.where(s > 0, y / s, 0.0)  # sin-like: in [−1, 1], increasing with |angle| < π/2
+    # x ≥ 0: r in [−1, 1]; x < 0: 2 − r above the axis, −2 − r below (y < 0)
+    return np.where(x >= 0, r, np.where(y >= 0, 2.0 - r, -2.0 - r))
 
 
 def cut_surface(res, hits=None) -> CutSurface:
