@@ -89,7 +89,8 @@ def _pieces(new_cells: np.ndarray, n_nodes: int):
     """Pieces: components of the new cells through shared nodes, numbered by their first
     new cell."""
     F, m = new_cells.shape
-    root = R.components(n_nodes, np.repeat(new_cells[:, 0], m - 1), new_cells[:, 1:].ravel())
+    ids = new_cells.astype(np.int32) if n_nodes < 2 ** 31 else new_cells  # half the bytes
+    root = R.components(n_nodes, np.repeat(ids[:, 0], m - 1), ids[:, 1:].ravel())
     froot = root[new_cells[:, 0]] if F else np.zeros(0, dtype=np.int64)
     first = np.full(max(n_nodes, 1), F, dtype=np.int64)
     np.minimum.at(first, froot, np.arange(F))
@@ -137,15 +138,22 @@ def split_topology(res, cells: np.ndarray, n: int, near_only: bool = True) -> To
 
 def hits_csr(cells: np.ndarray, top: Topology, hit_sim: np.ndarray, n: int):
     """CSR (offsets, index) of the intersection points on the closure of every new cell
-    (a point on a face of the original cell belongs to all its fragments); only the near
-    cells carry points."""
+    (a point on a face of the original cell belongs to all its fragments), each cell's by
+    increasing point; only the near cells carry points. The (cell, point) pairs are
+    sorted once as packed int64 keys (distinct: ``np.sort``, no argsort), then each
+    cell's run is repeated for its fragments."""
     hh, cc = R.cell_hits(cells[top.near], hit_sim, n)
-    cc = top.near[cc]
-    i, f = expand(top.start[cc], top.nfrag[cc])
-    hh = hh[i]
-    # by fragment, then hit: one stable sort of a combined key (as np.lexsort((hh, f)))
-    srt = np.argsort(f * (int(hh.max(initial=-1)) + 1) + hh, kind="stable")
+    H = max(len(hit_sim), 1)
+    key = cc * H + hh  # near cells are increasing: by (cell, point)
+    key.sort()
+    hh = key % H
+    per_cell = np.bincount(key // H, minlength=len(top.near))
+    run = np.cumsum(per_cell) - per_cell
+    reps = top.nfrag[top.near]
+    _, at = expand(np.repeat(run, reps), np.repeat(per_cell, reps))
     F = len(top.cell_origin)
+    counts = np.zeros(F, dtype=np.int64)
+    counts[expand(top.start[top.near], reps)[1]] = np.repeat(per_cell, reps)
     offsets = np.zeros(F + 1, dtype=np.int64)
-    np.cumsum(np.bincount(f, minlength=F), out=offsets[1:])
-    return offsets, hh[srt]
+    np.cumsum(counts, out=offsets[1:])
+    return offsets, hh[at]

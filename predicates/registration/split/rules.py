@@ -16,6 +16,7 @@ import itertools
 import numpy as np
 
 from predicates.registration.spatial.boxgrid import expand
+from predicates.registration.split.sorting import sort_rows
 
 __all__ = ["LOCAL_EDGES", "any_corner", "cell_hits", "components", "fragments", "glue", "on_cut_vertices",
            "match_rows", "row_keys", "severed_edges"]
@@ -86,8 +87,8 @@ def severed_edges(res, cells: np.ndarray, n: int) -> np.ndarray:
     pair. An edge crossed twice is severed all the same (docs/split.md)."""
     d = cells.shape[1] - 1
     E = LOCAL_EDGES[d]
-    local = np.sort(cells[:, np.array(E)], axis=2).reshape(-1, 2)
-    crossed = [np.sort(res[k].sim, axis=1) for k in res.kinds
+    local = sort_rows(cells[:, np.array(E)]).reshape(-1, 2)
+    crossed = [sort_rows(res[k].sim) for k in res.kinds
                if res[k].sim.shape[1] == 2 and len(res[k])]
     flag = np.zeros(len(local), dtype=bool)
     if crossed:
@@ -132,32 +133,49 @@ def glue(cells: np.ndarray, frag_of: np.ndarray, n: int, first: np.ndarray,
     material (off-cut) vertex of the face in both, or — a face whose vertices are all on
     the cut — when ``covered`` (faces (k, d) -> (k,) bool, :mod:`.cover`) says the
     cutting surface does not cover it; such a cell has one fragment, ``first[c]``.
-    Returns (g1, g2): glued fragment pairs, and (s1, s2): identified node slots (slot =
-    fragment·(d+1) + corner), every vertex of the face for every glue. Faces shared by
-    more than two cells are glued pairwise along the sorted order."""
+    Returns (g1, g2): glued fragment pairs, each once per face, and (s1, s2): identified
+    node slots (slot = fragment·(d+1) + corner), every vertex of the face for every glue.
+    Faces shared by more than two cells are glued pairwise along the sorted order."""
     C, m = cells.shape
+    n_frag = max(int(frag_of.max(initial=-1)), int(first.max(initial=-1))) + 1
+    dt = np.int32 if n_frag * m < 2 ** 31 else np.int64  # slots fit: half the bytes
     order = np.argsort(cells, axis=1, kind="stable")
-    # face k of a cell omits corner k; L: its corners, by increasing vertex id
-    L = np.concatenate([order[order != k].reshape(C, m - 1) for k in range(m)])
-    occ_cell = np.tile(np.arange(C), m)
-    fid = row_keys(np.take_along_axis(cells[occ_cell], L, axis=1), n)
+    by_id = np.take_along_axis(cells, order, axis=1)
+    frag_by_id = np.take_along_axis(frag_of, order, axis=1).astype(dt)
+    order = order.astype(dt)
+    # occurrence k·C + c: the face of cell c omitting its k-th smallest vertex; L: the
+    # face's corner positions, V: its vertex ids, G: their fragments (−1: on the cut),
+    # all by increasing vertex id (column slices: no per-row selection)
+    cols = [[j for j in range(m) if j != k] for k in range(m)]
+    L = np.concatenate([order[:, c] for c in cols])
+    V = np.concatenate([by_id[:, c] for c in cols])
+    G = np.concatenate([frag_by_id[:, c] for c in cols])
+    fid = row_keys(V, n)
     srt = np.argsort(fid, kind="stable")
     same = np.flatnonzero(fid[srt[1:]] == fid[srt[:-1]])
     o1, o2 = srt[same], srt[same + 1]
-    c1, c2, L1, L2 = occ_cell[o1], occ_cell[o2], L[o1], L[o2]
-    F1 = np.take_along_axis(frag_of[c1], L1, axis=1)  # (P, d): −1 where on the cut
-    F2 = np.take_along_axis(frag_of[c2], L2, axis=1)
-    p, j = np.nonzero(F1 >= 0)  # witnesses: a material vertex of the face in both cells
-    g1, g2 = F1[p, j], F2[p, j]
-    q = np.flatnonzero((F1 < 0).all(axis=1))  # every vertex of the face on the cut
+    L1, L2, F1, F2 = L[o1], L[o2], G[o1], G[o2]
+    # witnesses: a material vertex of the face in both cells; a fragment pair already
+    # glued through an earlier vertex of the same face is not repeated
+    p, g1, g2 = [], [], []
+    for j in range(m - 1):
+        new = F1[:, j] >= 0
+        for i in range(j):
+            new &= (F1[:, i] != F1[:, j]) | (F2[:, i] != F2[:, j])
+        pj = np.flatnonzero(new)
+        p.append(pj)
+        g1.append(F1[pj, j])
+        g2.append(F2[pj, j])
+    q = np.flatnonzero(F1[:, 0] < 0)
+    if len(q):
+        q = q[(F1[q] < 0).all(axis=1)]  # every vertex of the face on the cut
     if len(q) and covered is not None:
-        q = q[~covered(np.take_along_axis(cells[c1[q]], L1[q], axis=1))]
-        p, g1, g2 = (np.concatenate([p, q]), np.concatenate([g1, first[c1[q]]]),
-                     np.concatenate([g2, first[c2[q]]]))
-    nf = int(frag_of.max(initial=-1)) + 1
-    nf = max(nf, int(first.max(initial=-1)) + 1, 1)
-    _, keep = np.unique(g1 * nf + g2, return_index=True)
-    p, g1, g2 = p[keep], g1[keep], g2[keep]
+        q = q[~covered(V[o1[q]])]
+        c1, c2 = o1[q] % C, o2[q] % C
+        p.append(q)
+        g1.append(first[c1].astype(dt))
+        g2.append(first[c2].astype(dt))
+    p, g1, g2 = np.concatenate(p), np.concatenate(g1), np.concatenate(g2)
     s1 = (g1[:, None] * m + L1[p]).ravel()
     s2 = (g2[:, None] * m + L2[p]).ravel()
     return (g1, g2), (s1, s2)
@@ -165,20 +183,23 @@ def glue(cells: np.ndarray, frag_of: np.ndarray, n: int, first: np.ndarray,
 
 def components(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Connected components of the graph on 0..n−1 with edges (a[i], b[i]): the smallest
-    member of each node's component. Vectorised union-find: every round hooks each root
-    onto a smaller root it is joined to (one fancy assignment), then pointer jumping
-    compresses every path; a round that hooks nothing ends it. Parents only decrease,
-    so no cycle can form; each round removes at least one root; the smallest member of
-    a component is never hooked, so it is the final root."""
-    parent = np.arange(n, dtype=np.int64)
-    a, b = np.asarray(a, dtype=np.int64), np.asarray(b, dtype=np.int64)
+    member of each node's component (int64). Vectorised union-find: every round hooks
+    each root onto a smaller root it is joined to (one fancy assignment), then pointer
+    jumping compresses every path; a round that hooks nothing ends it. Parents only
+    decrease, so no cycle can form; each round removes at least one root; the smallest
+    member of a component is never hooked, so it is the final root. Ids are int32 when
+    they fit (half the memory traffic of the gathers); the first round reads the edges
+    themselves (every node is its own root)."""
+    dt = np.int32 if n < 2 ** 31 else np.int64
+    parent = np.arange(n, dtype=dt)
+    a, b = np.asarray(a, dtype=dt), np.asarray(b, dtype=dt)
+    pa, pb = a, b
     while True:
-        pa, pb = parent[a], parent[b]
-        diff = pa != pb
-        if not diff.any():
-            return parent
-        # an edge inside one component stays inside it: later rounds skip it
-        a, b, pa, pb = a[diff], b[diff], pa[diff], pb[diff]
+        live = np.flatnonzero(pa != pb)
+        if len(live) == 0:
+            return parent.astype(np.int64)
+        if len(live) < len(a):  # an edge inside one component stays inside it
+            a, b, pa, pb = a[live], b[live], pa[live], pb[live]
         # hook each larger root onto a smaller one it is joined to (any: the last write
         # wins; parents still only decrease, and the smallest member stays a root)
         parent[np.maximum(pa, pb)] = np.minimum(pa, pb)
@@ -187,6 +208,7 @@ def components(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
             if np.array_equal(nxt, parent):
                 break
             parent = nxt
+        pa, pb = parent[a], parent[b]
 
 
 def cell_hits(cells: np.ndarray, hit_sim: np.ndarray, n: int):
@@ -201,8 +223,8 @@ def cell_hits(cells: np.ndarray, hit_sim: np.ndarray, n: int):
         if h.size == 0 or len(cells) == 0:
             continue
         combos = np.array(list(itertools.combinations(range(m), s)))
-        sub = np.sort(cells[:, combos], axis=2).reshape(-1, s)
-        i, j = match_rows(sub, np.sort(hit_sim[h, :s], axis=1), n)
+        sub = sort_rows(cells[:, combos]).reshape(-1, s)
+        i, j = match_rows(sub, sort_rows(hit_sim[h, :s]), n)
         owner_hit.append(h[j])
         owner_cell.append(i // len(combos))
     return np.concatenate(owner_hit), np.concatenate(owner_cell)
