@@ -19,7 +19,7 @@ from predicates.registration.spatial.boxgrid import expand
 from predicates.registration.split.sorting import sort_rows
 
 __all__ = ["LOCAL_EDGES", "any_corner", "cell_hits", "components", "fragments", "glue", "on_cut_vertices",
-           "match_rows", "row_keys", "severed_edges"]
+           "match_rows", "row_keys", "rows_touched", "severed_edges"]
 
 #: The local edges (pairs of corner positions) of a triangle (2D) and a tetrahedron (3D).
 LOCAL_EDGES = {d: tuple(itertools.combinations(range(d + 1), 2)) for d in (2, 3)}
@@ -81,19 +81,48 @@ def on_cut_vertices(res, n: int) -> np.ndarray:
     return on
 
 
+def rows_touched(cells: np.ndarray, combos: np.ndarray, touched: np.ndarray):
+    """The rows (cell, combination of corners) of ``cells`` whose every vertex is
+    ``touched`` (a bool per vertex), in (cell, combination) order: their flat indices
+    cell·len(combos) + combination and their vertex ids sorted. Only those can be a
+    registered primitive: the others are never built, sorted or searched."""
+    combos = np.asarray(combos)
+    ok = np.ascontiguousarray(touched[cells])
+    flat = np.flatnonzero(ok[:, combos].all(axis=2).ravel())
+    cell, combo = np.divmod(flat, len(combos))
+    return flat, sort_rows(cells[cell[:, None], combos[combo]])
+
+
 def severed_edges(res, cells: np.ndarray, n: int) -> np.ndarray:
     """(C, E) bool: local edge e of cell c is crossed by the cut — its simulation edge is
     the simulation primitive of a registered edge_vertex, edge_edge or (3D) edge_triangle
     pair. An edge crossed twice is severed all the same (docs/split.md)."""
     d = cells.shape[1] - 1
-    E = LOCAL_EDGES[d]
-    local = sort_rows(cells[:, np.array(E)]).reshape(-1, 2)
-    crossed = [sort_rows(res[k].sim) for k in res.kinds
-               if res[k].sim.shape[1] == 2 and len(res[k])]
-    flag = np.zeros(len(local), dtype=bool)
+    E = np.array(LOCAL_EDGES[d])
+    flag = np.zeros(len(cells) * len(E), dtype=bool)
+    crossed = [res[k].sim for k in res.kinds if res[k].sim.shape[1] == 2 and len(res[k])]
     if crossed:
-        flag[match_rows(local, np.concatenate(crossed), n)[0]] = True
+        crossed = sort_rows(np.concatenate(crossed))
+        touched = np.zeros(n, dtype=bool)
+        touched[crossed.ravel()] = True
+        flat, local = rows_touched(cells, E, touched)
+        flag[flat[match_rows(local, crossed, n)[0]]] = True
     return flag.reshape(len(cells), len(E))
+
+
+def _corner_labels(off: np.ndarray, severed: np.ndarray) -> np.ndarray:
+    """(k, m) int8: per corner the smallest corner of its component of off-cut corners
+    through unsevered edges (min-label propagation), m for an on-cut corner."""
+    m = off.shape[1]
+    lab = np.where(off, np.arange(m, dtype=np.int8), np.int8(m))
+    E = LOCAL_EDGES[m - 1]
+    conn = ~severed & np.stack([off[:, a] & off[:, b] for a, b in E], axis=1)
+    for _ in range(m - 1):  # a component of m corners has paths of at most m - 1 edges
+        for e, (a, b) in enumerate(E):
+            lo = np.minimum(lab[:, a], lab[:, b])
+            lab[:, a] = np.where(conn[:, e], lo, lab[:, a])
+            lab[:, b] = np.where(conn[:, e], lo, lab[:, b])
+    return lab
 
 
 def fragments(cells: np.ndarray, on_cut: np.ndarray, severed: np.ndarray):
@@ -107,14 +136,11 @@ def fragments(cells: np.ndarray, on_cut: np.ndarray, severed: np.ndarray):
     the cut lies on the closure of every fragment that touches it)."""
     C, m = cells.shape
     off = ~on_cut[cells]
-    lab = np.where(off, np.arange(m), m)  # m: no component (on-cut corner)
-    E = LOCAL_EDGES[m - 1]
-    conn = ~severed & np.stack([off[:, a] & off[:, b] for a, b in E], axis=1)
-    for _ in range(m - 1):  # a component of m corners has paths of at most m - 1 edges
-        for e, (a, b) in enumerate(E):
-            lo = np.minimum(lab[:, a], lab[:, b])
-            lab[:, a] = np.where(conn[:, e], lo, lab[:, a])
-            lab[:, b] = np.where(conn[:, e], lo, lab[:, b])
+    # a cell with every corner off the cut and no severed edge is one component,
+    # labelled 0 everywhere: only the others need the propagation
+    lab = np.zeros((C, m), dtype=np.int8)
+    some = np.flatnonzero(~off.all(axis=1) | severed.any(axis=1))
+    lab[some] = _corner_labels(off[some], severed[some])
     rep = off & (lab == np.arange(m))
     rep[~off.any(axis=1), 0] = True  # all corners on the cut: the cell stays one fragment
     cell_origin, rep_corner = np.nonzero(rep)  # new cells ordered by (cell, representative)
@@ -144,13 +170,12 @@ def glue(cells: np.ndarray, frag_of: np.ndarray, n: int, first: np.ndarray,
     frag_by_id = np.take_along_axis(frag_of, order, axis=1).astype(dt)
     order = order.astype(dt)
     # occurrence k·C + c: the face of cell c omitting its k-th smallest vertex; L: the
-    # face's corner positions, V: its vertex ids, G: their fragments (−1: on the cut),
-    # all by increasing vertex id (column slices: no per-row selection)
+    # face's corner positions, G: their fragments (−1: on the cut), fid: the key of its
+    # vertex ids, all by increasing vertex id (column slices: no per-row selection)
     cols = [[j for j in range(m) if j != k] for k in range(m)]
     L = np.concatenate([order[:, c] for c in cols])
-    V = np.concatenate([by_id[:, c] for c in cols])
     G = np.concatenate([frag_by_id[:, c] for c in cols])
-    fid = row_keys(V, n)
+    fid = np.concatenate([row_keys(by_id[:, c], n) for c in cols])
     srt = np.argsort(fid, kind="stable")
     same = np.flatnonzero(fid[srt[1:]] == fid[srt[:-1]])
     o1, o2 = srt[same], srt[same + 1]
@@ -170,8 +195,11 @@ def glue(cells: np.ndarray, frag_of: np.ndarray, n: int, first: np.ndarray,
     if len(q):
         q = q[(F1[q] < 0).all(axis=1)]  # every vertex of the face on the cut
     if len(q) and covered is not None:
-        q = q[~covered(V[o1[q]])]
-        c1, c2 = o1[q] % C, o2[q] % C
+        k1, c1 = np.divmod(o1[q], C)
+        c2 = o2[q] % C
+        faces = np.stack([by_id[c1, np.array(cols)[k1, j]] for j in range(m - 1)], axis=1)
+        keep = ~covered(faces)
+        q, c1, c2 = q[keep], c1[keep], c2[keep]
         p.append(q)
         g1.append(first[c1].astype(dt))
         g2.append(first[c2].astype(dt))
@@ -223,8 +251,11 @@ def cell_hits(cells: np.ndarray, hit_sim: np.ndarray, n: int):
         if h.size == 0 or len(cells) == 0:
             continue
         combos = np.array(list(itertools.combinations(range(m), s)))
-        sub = sort_rows(cells[:, combos]).reshape(-1, s)
-        i, j = match_rows(sub, sort_rows(hit_sim[h, :s]), n)
+        table = sort_rows(hit_sim[h, :s])
+        touched = np.zeros(n, dtype=bool)
+        touched[table.ravel()] = True
+        flat, sub = rows_touched(cells, combos, touched)
+        i, j = match_rows(sub, table, n)
         owner_hit.append(h[j])
-        owner_cell.append(i // len(combos))
+        owner_cell.append(flat[i] // len(combos))
     return np.concatenate(owner_hit), np.concatenate(owner_cell)
