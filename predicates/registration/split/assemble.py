@@ -89,8 +89,7 @@ def _pieces(new_cells: np.ndarray, n_nodes: int):
     """Pieces: components of the new cells through shared nodes, numbered by their first
     new cell."""
     F, m = new_cells.shape
-    ids = new_cells.astype(np.int32) if n_nodes < 2 ** 31 else new_cells  # half the bytes
-    root = R.components(n_nodes, np.repeat(ids[:, 0], m - 1), ids[:, 1:].ravel())
+    root = R.row_components(n_nodes, [new_cells[:, j] for j in range(m)])
     froot = root[new_cells[:, 0]] if F else np.zeros(0, dtype=np.int64)
     first = np.full(max(n_nodes, 1), F, dtype=np.int64)
     np.minimum.at(first, froot, np.arange(F))
@@ -125,7 +124,9 @@ def split_topology(res, cells: np.ndarray, n: int, near_only: bool = True) -> To
     F = int(nfrag.sum())
     cell_origin = np.repeat(np.arange(C, dtype=np.int64), nfrag)
     gfrag = start[local][co] + (np.arange(Fl) - first_l[co])
-    new_cells = offsets[cells[cell_origin]]
+    new_cells = offsets[cells]  # then one row per fragment: rows of cells[cell_origin]
+    if F > C:
+        new_cells = np.repeat(new_cells, nfrag, axis=0)
     new_cells[gfrag] = slot_node.reshape(Fl, m)
     material = np.ones((F, m), dtype=bool)
     material[gfrag] = mat

@@ -19,7 +19,7 @@ from predicates.registration.spatial.boxgrid import expand
 from predicates.registration.split.sorting import sort_rows
 
 __all__ = ["LOCAL_EDGES", "any_corner", "cell_hits", "components", "fragments", "glue", "on_cut_vertices",
-           "match_rows", "row_keys", "rows_touched", "severed_edges"]
+           "match_rows", "row_components", "row_keys", "rows_touched", "severed_edges"]
 
 #: The local edges (pairs of corner positions) of a triangle (2D) and a tetrahedron (3D).
 LOCAL_EDGES = {d: tuple(itertools.combinations(range(d + 1), 2)) for d in (2, 3)}
@@ -211,32 +211,47 @@ def glue(cells: np.ndarray, frag_of: np.ndarray, n: int, first: np.ndarray,
 
 def components(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Connected components of the graph on 0..n−1 with edges (a[i], b[i]): the smallest
-    member of each node's component (int64). Vectorised union-find: every round hooks
-    each root onto a smaller root it is joined to (one fancy assignment), then pointer
-    jumping compresses every path; a round that hooks nothing ends it. Parents only
-    decrease, so no cycle can form; each round removes at least one root; the smallest
-    member of a component is never hooked, so it is the final root. Ids are int32 when
-    they fit (half the memory traffic of the gathers); the first round reads the edges
-    themselves (every node is its own root)."""
+    member of each node's component (int64); :func:`row_components` of the two columns."""
+    return row_components(n, [a, b])
+
+
+def row_components(n: int, columns) -> np.ndarray:
+    """Connected components of 0..n−1 where the entries of each row (the i-th entries of
+    the equally long ``columns``: the nodes of a cell, the two ends of an edge) are joined:
+    the smallest member of each node's component (int64).
+
+    Vectorised union-find: every round takes the roots of each row's entries, hooks each
+    of them onto the smallest (``np.minimum.at``: a root keeps the smallest root offered
+    to it), then pointer jumping compresses every path; a round in which every row has one
+    root ends it. Parents only decrease and stay in their component, so no cycle can form;
+    each round hooks at least the largest root of some row; the smallest member of a
+    component is never hooked, so it is the final root. Ids are int32 when they fit (half
+    the memory traffic of the gathers); the first round reads the entries themselves
+    (every node is its own root)."""
     dt = np.int32 if n < 2 ** 31 else np.int64
     parent = np.arange(n, dtype=dt)
-    a, b = np.asarray(a, dtype=dt), np.asarray(b, dtype=dt)
-    pa, pb = a, b
+    cols = [np.asarray(c, dtype=dt) for c in columns]
+    roots = cols
     while True:
-        live = np.flatnonzero(pa != pb)
+        lo = roots[0].copy()
+        for r in roots[1:]:
+            np.minimum(lo, r, out=lo)
+        differ = np.zeros(len(lo), dtype=bool)
+        for r in roots:
+            differ |= r != lo
+        live = np.flatnonzero(differ)
         if len(live) == 0:
             return parent.astype(np.int64)
-        if len(live) < len(a):  # an edge inside one component stays inside it
-            a, b, pa, pb = a[live], b[live], pa[live], pb[live]
-        # hook each larger root onto a smaller one it is joined to (any: the last write
-        # wins; parents still only decrease, and the smallest member stays a root)
-        parent[np.maximum(pa, pb)] = np.minimum(pa, pb)
+        if len(live) < len(lo):  # a row inside one component stays inside it
+            cols, roots, lo = [c[live] for c in cols], [r[live] for r in roots], lo[live]
+        for r in roots:
+            np.minimum.at(parent, r, lo)
         while True:
             nxt = parent[parent]
             if np.array_equal(nxt, parent):
                 break
             parent = nxt
-        pa, pb = parent[a], parent[b]
+        roots = [parent[c] for c in cols]
 
 
 def cell_hits(cells: np.ndarray, hit_sim: np.ndarray, n: int):
