@@ -143,7 +143,7 @@ def hits_csr(cells: np.ndarray, top: Topology, hit_sim: np.ndarray, n: int):
     increasing point; only the near cells carry points. The (cell, point) pairs are
     sorted once as packed int64 keys (distinct: ``np.sort``, no argsort), then each
     cell's run is repeated for its fragments."""
-    hh, cc = R.cell_hits(cells[top.near], hit_sim, n)
+    hh, cc = R.cell_hits(cells[top.near], hit_sim, n, top.severed[top.near])
     H = max(len(hit_sim), 1)
     key = cc * H + hh  # near cells are increasing: by (cell, point)
     key.sort()

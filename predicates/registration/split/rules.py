@@ -48,7 +48,7 @@ def match_rows(rows: np.ndarray, table: np.ndarray, n: int):
     starts = np.zeros(n, dtype=bool)
     starts[table[:, 0]] = True
     cand = np.flatnonzero(starts[rows[:, 0]])
-    kr, kt = row_keys(rows[cand], n), row_keys(table, n)
+    kr, kt = row_keys(rows, n)[cand], row_keys(table, n)  # keys, then a 1D gather
     order = np.argsort(kt, kind="stable")
     ukey, first, count = np.unique(kt[order], return_index=True, return_counts=True)
     at = np.minimum(np.searchsorted(ukey, kr), len(ukey) - 1)
@@ -81,16 +81,24 @@ def on_cut_vertices(res, n: int) -> np.ndarray:
     return on
 
 
-def rows_touched(cells: np.ndarray, combos: np.ndarray, touched: np.ndarray):
+def rows_touched(cells: np.ndarray, combos: np.ndarray, touched: np.ndarray,
+                 rows_ok: np.ndarray | None = None):
     """The rows (cell, combination of corners) of ``cells`` whose every vertex is
-    ``touched`` (a bool per vertex), in (cell, combination) order: their flat indices
-    cell·len(combos) + combination and their vertex ids sorted. Only those can be a
-    registered primitive: the others are never built, sorted or searched."""
+    ``touched`` (a bool per vertex), or where ``rows_ok`` ((C, len(combos)) bool) is set,
+    in (cell, combination) order: their flat indices cell·len(combos) + combination and
+    their vertex ids sorted. Only those can be a registered primitive: the others are
+    never built, sorted or searched. Column by column (1D gathers)."""
     combos = np.asarray(combos)
-    ok = np.ascontiguousarray(touched[cells])
-    flat = np.flatnonzero(ok[:, combos].all(axis=2).ravel())
+    C, m = cells.shape
+    if rows_ok is None:
+        ok = [touched[cells[:, k]] for k in range(m)]
+        rows_ok = np.stack([np.logical_and.reduce([ok[k] for k in c]) for c in combos], 1)
+    flat = np.flatnonzero(rows_ok.ravel())
     cell, combo = np.divmod(flat, len(combos))
-    return flat, sort_rows(cells[cell[:, None], combos[combo]])
+    at = cell * m
+    flat_cells = cells.ravel()
+    cols = [flat_cells.take(at + combos[:, i].take(combo)) for i in range(combos.shape[1])]
+    return flat, sort_rows(np.stack(cols, axis=1))
 
 
 def severed_edges(res, cells: np.ndarray, n: int) -> np.ndarray:
@@ -281,10 +289,13 @@ def row_components(n: int, columns) -> np.ndarray:
         roots = [parent[c] for c in cols]
 
 
-def cell_hits(cells: np.ndarray, hit_sim: np.ndarray, n: int):
+def cell_hits(cells: np.ndarray, hit_sim: np.ndarray, n: int,
+              severed: np.ndarray | None = None):
     """(hit, cell) pairs: hit h lies on the closure of cell c of ``cells`` when the
     simulation primitive of h (its vertex ids, −1 padded in ``hit_sim``) is a face of c.
-    Returns (hits, cells) int64 arrays, one entry per pair."""
+    Returns (hits, cells) int64 arrays, one entry per pair. ``severed`` ((C, E) bool, of
+    :func:`severed_edges`, when ``hit_sim`` holds the registered points): the edges the
+    points on edges can lie on, so the others are not searched."""
     m = cells.shape[1]
     owner_hit, owner_cell = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
     size = (hit_sim >= 0).sum(axis=1)
@@ -296,7 +307,8 @@ def cell_hits(cells: np.ndarray, hit_sim: np.ndarray, n: int):
         table = sort_rows(hit_sim[h, :s])
         touched = np.zeros(n, dtype=bool)
         touched[table.ravel()] = True
-        flat, sub = rows_touched(cells, combos, touched)
+        edges = severed if s == 2 and severed is not None else None
+        flat, sub = rows_touched(cells, combos, touched, edges)
         i, j = match_rows(sub, table, n)
         owner_hit.append(h[j])
         owner_cell.append(flat[i] // len(combos))
