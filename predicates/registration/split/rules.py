@@ -255,38 +255,51 @@ def row_components(n: int, columns) -> np.ndarray:
     the equally long ``columns``: the nodes of a cell, the two ends of an edge) are joined:
     the smallest member of each node's component (int64).
 
-    Vectorised union-find: every round takes the roots of each row's entries, hooks each
-    of them onto the smallest (``np.minimum.at``: a root keeps the smallest root offered
-    to it), then pointer jumping compresses every path; a round in which every row has one
-    root ends it. Parents only decrease and stay in their component, so no cycle can form;
-    each round hooks at least the largest root of some row; the smallest member of a
-    component is never hooked, so it is the final root. Ids are int32 when they fit (half
-    the memory traffic of the gathers); the first round reads the entries themselves
-    (every node is its own root)."""
+    One round of a vectorised union-find, then the same on the contracted graph: every
+    node is hooked onto the smallest entry of the rows it is in (``np.minimum.at``, so
+    parents only decrease and stay in their component: no cycle), and pointer jumping
+    takes each node to the root of its tree, the smallest member of the tree. Rows
+    whose entries now share one root are done; the others, on their roots renumbered in
+    increasing order, are a smaller problem (the largest entry of some row was hooked),
+    solved the same way; the smallest root of a component is its smallest member. Ids
+    are int32 when they fit (half the memory traffic of the gathers); later rounds touch
+    only the nodes still open, never all n again."""
     dt = np.int32 if n < 2 ** 31 else np.int64
     parent = np.arange(n, dtype=dt)
     cols = [np.asarray(c, dtype=dt) for c in columns]
-    roots = cols
+    if not cols or len(cols[0]) == 0:
+        return parent.astype(np.int64)
+    lo = cols[0].copy()
+    for c in cols[1:]:
+        np.minimum(lo, c, out=lo)
+    for c in cols:
+        np.minimum.at(parent, c, lo)
     while True:
-        lo = roots[0].copy()
-        for r in roots[1:]:
-            np.minimum(lo, r, out=lo)
-        differ = np.zeros(len(lo), dtype=bool)
-        for r in roots:
-            differ |= r != lo
-        live = np.flatnonzero(differ)
-        if len(live) == 0:
-            return parent.astype(np.int64)
-        if len(live) < len(lo):  # a row inside one component stays inside it
-            cols, roots, lo = [c[live] for c in cols], [r[live] for r in roots], lo[live]
-        for r in roots:
-            np.minimum.at(parent, r, lo)
-        while True:
-            nxt = parent[parent]
-            if np.array_equal(nxt, parent):
-                break
-            parent = nxt
-        roots = [parent[c] for c in cols]
+        nxt = parent[parent]
+        if np.array_equal(nxt, parent):
+            break
+        parent = nxt
+    roots = [parent[c] for c in cols]
+    lo = roots[0].copy()
+    for r in roots[1:]:
+        np.minimum(lo, r, out=lo)
+    differ = np.zeros(len(lo), dtype=bool)
+    for r in roots:
+        differ |= r != lo
+    live = np.flatnonzero(differ)
+    if len(live) == 0:
+        return parent.astype(np.int64)
+    roots = [r[live] for r in roots]
+    kept = np.zeros(n, dtype=bool)
+    for r in roots:
+        kept[r] = True
+    ids = np.flatnonzero(kept)  # increasing: the order of the roots is kept
+    rank = np.zeros(n, dtype=dt)
+    rank[ids] = np.arange(len(ids), dtype=dt)
+    sub = row_components(len(ids), [rank[r] for r in roots])
+    lut = np.arange(n, dtype=np.int64)
+    lut[ids] = ids[sub]
+    return lut[parent]
 
 
 def cell_hits(cells: np.ndarray, hit_sim: np.ndarray, n: int,
