@@ -8,6 +8,8 @@ and Fedkiw 2004; Wang, Jiang, Schroeder and Teran, adaptive VNA) and approximati
 
 The only loops are over constants (the d+1 corners or the C(d+1, 2) local edges of one
 cell, the kinds) or over rounds of the vectorised union-find, never over cells or edges.
+Where speed matters, columns are gathered as 1D arrays (``take``) rather than rows of a
+(k, 3) array, and short rows are sorted by a network of ``minimum`` / ``maximum``.
 """
 from __future__ import annotations
 
@@ -16,13 +18,34 @@ import itertools
 import numpy as np
 
 from predicates.registration.spatial.boxgrid import expand
-from predicates.registration.split.sorting import sort_rows
 
 __all__ = ["LOCAL_EDGES", "any_corner", "cell_hits", "components", "fragments", "glue", "on_cut_vertices",
-           "match_rows", "row_components", "row_keys", "rows_touched", "severed_edges"]
+           "match_rows", "row_components", "row_keys", "rows_touched", "severed_edges",
+           "sort_rows"]
 
 #: The local edges (pairs of corner positions) of a triangle (2D) and a tetrahedron (3D).
 LOCAL_EDGES = {d: tuple(itertools.combinations(range(d + 1), 2)) for d in (2, 3)}
+
+#: Compare-exchange networks (column pairs) sorting rows of w = 1, 2, 3, 4 values.
+NETWORKS = {1: (), 2: ((0, 1),), 3: ((0, 1), (1, 2), (0, 1)),
+            4: ((0, 1), (2, 3), (0, 2), (1, 3), (1, 2))}
+
+
+def sort_rows(x: np.ndarray) -> np.ndarray:
+    """``np.sort(x, axis=-1)`` for integer arrays whose last axis has 1–4 entries (an
+    edge, a face, a cell), by a sorting network of column-wise ``minimum`` / ``maximum``:
+    several times faster than ``np.sort`` along so short an axis (a call per row), and
+    exact (integers). Other widths and dtypes: ``np.sort``."""
+    x = np.asarray(x)
+    w = x.shape[-1]
+    if w not in NETWORKS or x.dtype.kind not in "iu":
+        return np.sort(x, axis=-1)
+    cols = [x[..., j].copy() for j in range(w)]
+    for i, j in NETWORKS[w]:
+        lo = np.minimum(cols[i], cols[j])
+        np.maximum(cols[i], cols[j], out=cols[j])
+        cols[i] = lo
+    return np.stack(cols, axis=-1)
 
 
 def row_keys(rows: np.ndarray, n: int) -> np.ndarray:
