@@ -124,9 +124,8 @@ def split_topology(res, cells: np.ndarray, n: int, near_only: bool = True) -> To
     F = int(nfrag.sum())
     cell_origin = np.repeat(np.arange(C, dtype=np.int64), nfrag)
     gfrag = start[local][co] + (np.arange(Fl) - first_l[co])
-    new_cells = offsets[cells]  # then one row per fragment: rows of cells[cell_origin]
-    if F > C:
-        new_cells = np.repeat(new_cells, nfrag, axis=0)
+    # rows of cells[cell_origin]; take(axis=0): a row copy, not an element-wise gather
+    new_cells = offsets.take(cells.take(cell_origin, axis=0) if F > C else cells)
     new_cells[gfrag] = slot_node.reshape(Fl, m)
     material = np.ones((F, m), dtype=bool)
     material[gfrag] = mat
