@@ -176,7 +176,7 @@ def fragments(cells: np.ndarray, on_cut: np.ndarray, severed: np.ndarray):
     plain = np.logical_and.reduce([off[:, k] for k in range(m)])
     plain &= ~np.logical_or.reduce([severed[:, e] for e in range(severed.shape[1])])
     some = np.flatnonzero(~plain)
-    lab[some] = _corner_labels(off[some], severed[some])
+    lab[some] = _corner_labels(off.take(some, axis=0), severed.take(some, axis=0))
     rep = off & (lab == np.arange(m))
     rep[~any_corner(~on_cut, cells), 0] = True  # all corners on the cut: one fragment
     cell_origin, rep_corner = np.nonzero(rep)  # new cells ordered by (cell, representative)
