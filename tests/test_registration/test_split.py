@@ -21,7 +21,8 @@ import pytest
 import predicates
 from predicates.registration.examples import circle_polygon, cube_grid, grid_plane, icosphere, square_grid
 from predicates.portable import cos_sin, rotate, rotation
-from predicates.registration.split.rules import components, row_components, sort_rows
+from predicates.registration.split.rules import (components, match_rows, row_components,
+                                                 sort_rows)
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -298,6 +299,22 @@ def test_row_components_against_breadth_first_search(width):
         want = _bfs_smallest(n, rows.tolist())
         got = row_components(n, [rows[:, j] for j in range(width)])
         assert got.dtype == np.int64 and np.array_equal(got, want)
+
+
+def test_match_rows_against_brute_force():
+    """Every (row, table row) pair of equal rows, by row then table row, with ids small
+    and large (keys of n^w ≥ 2^62: the ids renumbered among the table's)."""
+    rng = np.random.default_rng(4)
+    for n, w in [(10, 2), (100000, 4), (3000000, 3), (60, 4)]:
+        table = np.sort(rng.integers(0, min(n, 60), (40, w)), axis=1)
+        table = np.concatenate([table, table[:5]])  # repeated rows: every copy matched
+        rows = np.concatenate([table[rng.integers(0, len(table), 30)],
+                               np.sort(rng.integers(0, min(n, 60), (200, w)), axis=1)])
+        rows[-1, -1] = n - 1  # an id no table row holds
+        want = [(i, j) for i, r in enumerate(rows.tolist())
+                for j, t in enumerate(table.tolist()) if r == t]
+        i, j = match_rows(rows, table, n)
+        assert list(zip(i.tolist(), j.tolist())) == want and len(want) > 30
 
 
 def test_sort_rows_equals_numpy_sort():

@@ -71,7 +71,15 @@ def match_rows(rows: np.ndarray, table: np.ndarray, n: int):
     starts = np.zeros(n, dtype=bool)
     starts[table[:, 0]] = True
     cand = np.flatnonzero(starts[rows[:, 0]])
-    kr, kt = row_keys(rows, n)[cand], row_keys(table, n)  # keys, then a 1D gather
+    if float(max(n, 1)) ** rows.shape[1] < 2.0 ** 62:
+        kr, kt = row_keys(rows, n)[cand], row_keys(table, n)  # keys, then a 1D gather
+    else:  # ids renumbered among the table's: int64 keys, not byte strings, if they fit
+        used = np.zeros(n, dtype=bool)
+        used[table.ravel()] = True
+        cand = cand[used[rows[cand]].all(axis=1)]
+        rank = np.cumsum(used) - 1
+        base = int(rank[-1]) + 1
+        kr, kt = row_keys(rank[rows[cand]], base), row_keys(rank[table], base)
     order = np.argsort(kt, kind="stable")
     ukey, first, count = np.unique(kt[order], return_index=True, return_counts=True)
     at = np.minimum(np.searchsorted(ukey, kr), len(ukey) - 1)
