@@ -89,7 +89,8 @@ def _pieces(new_cells: np.ndarray, n_nodes: int):
     """Pieces: components of the new cells through shared nodes, numbered by their first
     new cell."""
     F, m = new_cells.shape
-    root = R.row_components(n_nodes, [new_cells[:, j] for j in range(m)])
+    ids = new_cells.astype(np.int32) if n_nodes < 2 ** 31 else new_cells  # one pass
+    root = R.row_components(n_nodes, [ids[:, j] for j in range(m)])
     froot = root[new_cells[:, 0]] if F else np.zeros(0, dtype=np.int64)
     first = np.full(max(n_nodes, 1), F, dtype=np.int64)
     np.minimum.at(first, froot, np.arange(F))

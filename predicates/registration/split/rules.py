@@ -296,11 +296,12 @@ def row_components(n: int, columns) -> np.ndarray:
     whose entries now share one root are done; the others, on their roots renumbered in
     increasing order, are a smaller problem (the largest entry of some row was hooked),
     solved the same way; the smallest root of a component is its smallest member. Ids
-    are int32 when they fit (half the memory traffic of the gathers); later rounds touch
-    only the nodes still open, never all n again."""
+    are int32 when they fit (half the memory traffic of the gathers), gathered by
+    ``take`` (a third of fancy indexing's time on 1D arrays); later rounds touch only the
+    nodes still open, never all n again."""
     dt = np.int32 if n < 2 ** 31 else np.int64
     parent = np.arange(n, dtype=dt)
-    cols = [np.asarray(c, dtype=dt) for c in columns]
+    cols = [np.ascontiguousarray(c, dtype=dt) for c in columns]
     if not cols or len(cols[0]) == 0:
         return parent.astype(np.int64)
     lo = cols[0].copy()
@@ -309,11 +310,11 @@ def row_components(n: int, columns) -> np.ndarray:
     for c in cols:
         np.minimum.at(parent, c, lo)
     while True:
-        nxt = parent[parent]
+        nxt = parent.take(parent)
         if np.array_equal(nxt, parent):
             break
         parent = nxt
-    roots = [parent[c] for c in cols]
+    roots = [parent.take(c) for c in cols]
     lo = roots[0].copy()
     for r in roots[1:]:
         np.minimum(lo, r, out=lo)
@@ -323,17 +324,17 @@ def row_components(n: int, columns) -> np.ndarray:
     live = np.flatnonzero(differ)
     if len(live) == 0:
         return parent.astype(np.int64)
-    roots = [r[live] for r in roots]
+    roots = [r.take(live) for r in roots]
     kept = np.zeros(n, dtype=bool)
     for r in roots:
         kept[r] = True
     ids = np.flatnonzero(kept)  # increasing: the order of the roots is kept
     rank = np.zeros(n, dtype=dt)
     rank[ids] = np.arange(len(ids), dtype=dt)
-    sub = row_components(len(ids), [rank[r] for r in roots])
+    sub = row_components(len(ids), [rank.take(r) for r in roots])
     lut = np.arange(n, dtype=np.int64)
-    lut[ids] = ids[sub]
-    return lut[parent]
+    lut[ids] = ids.take(sub)
+    return lut.take(parent)
 
 
 def cell_hits(cells: np.ndarray, hit_sim: np.ndarray, n: int,
