@@ -70,8 +70,9 @@ def _nodes(root, origin, ring_v, used):
     """Node ids of the local slots and the node counts per vertex: a vertex of a near
     cell has one node per class of its slots, ordered by the class's smallest slot;
     every other used vertex one node."""
-    cls = np.flatnonzero((root == np.arange(len(root))) & ring_v[origin])
-    cls_origin = origin[cls]
+    in_ring = ring_v.take(origin)
+    cls = np.flatnonzero((root == np.arange(len(root))) & in_ring)
+    cls_origin = origin.take(cls)
     count = np.where(ring_v, 0, used).astype(np.int64)
     count += np.bincount(cls_origin, minlength=len(used))
     offsets = np.cumsum(count) - count
@@ -81,7 +82,7 @@ def _nodes(root, origin, ring_v, used):
     within = rank - np.searchsorted(cls_origin[o], cls_origin, side="left")
     lut = np.zeros(len(root), dtype=np.int64)
     lut[cls] = offsets[cls_origin] + within
-    slot_node = np.where(ring_v[origin], lut[root], offsets[origin])
+    slot_node = np.where(in_ring, lut.take(root), offsets.take(origin))
     return slot_node, count, offsets
 
 
@@ -91,13 +92,14 @@ def _pieces(new_cells: np.ndarray, n_nodes: int):
     F, m = new_cells.shape
     ids = new_cells.astype(np.int32) if n_nodes < 2 ** 31 else new_cells  # one pass
     root = R.row_components(n_nodes, [ids[:, j] for j in range(m)])
-    froot = root[new_cells[:, 0]] if F else np.zeros(0, dtype=np.int64)
+    froot = root.take(ids[:, 0])
     first = np.full(max(n_nodes, 1), F, dtype=np.int64)
     np.minimum.at(first, froot, np.arange(F))
+    first_of = first.take(froot)  # each new cell's piece, as its first new cell
     mark = np.zeros(F + 1, dtype=bool)
-    mark[first[froot]] = True
+    mark[first_of] = True
     rank = np.cumsum(mark) - 1
-    return rank[first[froot]], int(mark.sum())
+    return rank.take(first_of), int(mark.sum())
 
 
 def split_topology(res, cells: np.ndarray, n: int, near_only: bool = True) -> Topology:
