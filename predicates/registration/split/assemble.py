@@ -153,11 +153,11 @@ def hits_csr(cells: np.ndarray, top: Topology, hit_sim: np.ndarray, n: int):
     hh = key % H
     per_cell = np.bincount(key // H, minlength=len(top.near))
     run = np.cumsum(per_cell) - per_cell
-    reps = top.nfrag[top.near]
+    reps = top.nfrag.take(top.near)
     _, at = expand(np.repeat(run, reps), np.repeat(per_cell, reps))
     F = len(top.cell_origin)
     counts = np.zeros(F, dtype=np.int64)
-    counts[expand(top.start[top.near], reps)[1]] = np.repeat(per_cell, reps)
+    counts[expand(top.start.take(top.near), reps)[1]] = np.repeat(per_cell, reps)
     offsets = np.zeros(F + 1, dtype=np.int64)
     np.cumsum(counts, out=offsets[1:])
-    return offsets, hh[at]
+    return offsets, hh.take(at)

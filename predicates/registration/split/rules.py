@@ -243,9 +243,9 @@ def glue(cells: np.ndarray, frag_of: np.ndarray, n: int, first: np.ndarray,
     G = [np.concatenate([frag_by_id[:, c[j]] for c in cols]) for j in range(m - 1)]
     fid = _face_keys(by_id, n)
     srt = np.argsort(fid, kind="stable")
-    fid = fid[srt]
+    fid = fid.take(srt)
     same = np.flatnonzero(fid[1:] == fid[:-1])
-    o1, o2 = srt[same], srt[same + 1]
+    o1, o2 = srt.take(same), srt.take(same + 1)
     L1, L2 = [x.take(o1) for x in L], [x.take(o2) for x in L]
     F1, F2 = [x.take(o1) for x in G], [x.take(o2) for x in G]
     # witnesses: a material vertex of the face in both cells; a fragment pair already
