@@ -90,9 +90,8 @@ def _pieces(new_cells: np.ndarray, n_nodes: int):
     """Pieces: components of the new cells through shared nodes, numbered by their first
     new cell."""
     F, m = new_cells.shape
-    ids = new_cells.astype(np.int32) if n_nodes < 2 ** 31 else new_cells  # one pass
-    root = R.row_components(n_nodes, [ids[:, j] for j in range(m)])
-    froot = root.take(ids[:, 0])
+    root = R.row_components(n_nodes, [new_cells[:, j] for j in range(m)])
+    froot = root.take(new_cells[:, 0])
     first = np.full(max(n_nodes, 1), F, dtype=np.int64)
     np.minimum.at(first, froot, np.arange(F))
     first_of = first.take(froot)  # each new cell's piece, as its first new cell
