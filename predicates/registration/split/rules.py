@@ -125,7 +125,7 @@ def rows_touched(cells: np.ndarray, combos: np.ndarray, touched: np.ndarray,
     combos = np.asarray(combos)
     C, m = cells.shape
     if rows_ok is None:
-        ok = [touched[cells[:, k]] for k in range(m)]
+        ok = [touched.take(cells[:, k]) for k in range(m)]
         rows_ok = np.stack([np.logical_and.reduce([ok[k] for k in c]) for c in combos], 1)
     flat = np.flatnonzero(rows_ok.ravel())
     cell, combo = np.divmod(flat, len(combos))
@@ -284,26 +284,10 @@ def components(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return row_components(n, [a, b])
 
 
-def row_components(n: int, columns) -> np.ndarray:
-    """Connected components of 0..n−1 where the entries of each row (the i-th entries of
-    the equally long ``columns``: the nodes of a cell, the two ends of an edge) are joined:
-    the smallest member of each node's component (int64).
-
-    One round of a vectorised union-find, then the same on the contracted graph: every
-    node is hooked onto the smallest entry of the rows it is in (``np.minimum.at``, so
-    parents only decrease and stay in their component: no cycle), and pointer jumping
-    takes each node to the root of its tree, the smallest member of the tree. Rows
-    whose entries now share one root are done; the others, on their roots renumbered in
-    increasing order, are a smaller problem (the largest entry of some row was hooked),
-    solved the same way; the smallest root of a component is its smallest member. Ids
-    are int32 when they fit (half the memory traffic of the gathers), gathered by
-    ``take`` (a third of fancy indexing's time on 1D arrays); later rounds touch only the
-    nodes still open, never all n again."""
-    dt = np.int32 if n < 2 ** 31 else np.int64
-    parent = np.arange(n, dtype=dt)
-    cols = [np.ascontiguousarray(c, dtype=dt) for c in columns]
-    if not cols or len(cols[0]) == 0:
-        return parent.astype(np.int64)
+def _hook_round(n: int, cols: list):
+    """One round of :func:`row_components` on 0..n−1: the forest (each node's root) and
+    the rows still joining several roots, as columns of roots (None: no such row)."""
+    parent = np.arange(n, dtype=cols[0].dtype)
     lo = cols[0].copy()
     for c in cols[1:]:
         np.minimum(lo, c, out=lo)
@@ -322,19 +306,47 @@ def row_components(n: int, columns) -> np.ndarray:
     for r in roots:
         differ |= r != lo
     live = np.flatnonzero(differ)
-    if len(live) == 0:
-        return parent.astype(np.int64)
-    roots = [r.take(live) for r in roots]
-    kept = np.zeros(n, dtype=bool)
-    for r in roots:
-        kept[r] = True
-    ids = np.flatnonzero(kept)  # increasing: the order of the roots is kept
-    rank = np.zeros(n, dtype=dt)
-    rank[ids] = np.arange(len(ids), dtype=dt)
-    sub = row_components(len(ids), [rank.take(r) for r in roots])
-    lut = np.arange(n, dtype=np.int64)
-    lut[ids] = ids.take(sub)
-    return lut.take(parent)
+    return parent, ([r.take(live) for r in roots] if len(live) else None)
+
+
+def row_components(n: int, columns) -> np.ndarray:
+    """Connected components of 0..n−1 where the entries of each row (the i-th entries of
+    the equally long ``columns``: the nodes of a cell, the two ends of an edge) are joined:
+    the smallest member of each node's component (int64).
+
+    Rounds of a vectorised union-find, each on a contracted graph: every node is hooked
+    onto the smallest entry of the rows it is in (``np.minimum.at``, so parents only
+    decrease and stay in their component: no cycle), and pointer jumping takes each node
+    to the root of its tree, the smallest member of the tree. Rows whose entries now
+    share one root are done; the others, on their roots renumbered in increasing order,
+    are the next, smaller problem (the largest entry of some row was hooked); the
+    smallest root of a component is its smallest member. Ids are int32 when they fit
+    (half the memory traffic of the gathers), gathered by ``take`` (a third of fancy
+    indexing's time on 1D arrays); later rounds touch only the nodes still open."""
+    dt = np.int32 if n < 2 ** 31 else np.int64
+    cols = [np.ascontiguousarray(c, dtype=dt) for c in columns]
+    if not cols or len(cols[0]) == 0:
+        return np.arange(n, dtype=np.int64)
+    levels = []  # (forest, the roots kept for the next round) per round
+    while True:
+        parent, roots = _hook_round(n, cols)
+        if roots is None:
+            break
+        kept = np.zeros(n, dtype=bool)
+        for r in roots:
+            kept[r] = True
+        ids = np.flatnonzero(kept)  # increasing: the order of the roots is kept
+        rank = np.zeros(n, dtype=dt)
+        rank[ids] = np.arange(len(ids), dtype=dt)
+        levels.append((parent, ids))
+        n, cols = len(ids), [rank.take(r) for r in roots]
+    smallest = parent.astype(np.int64)
+    while levels:  # back through the rounds: a kept root's answer is its round's
+        parent, ids = levels.pop()
+        lut = np.arange(len(parent), dtype=np.int64)
+        lut[ids] = ids.take(smallest)
+        smallest = lut.take(parent)
+    return smallest
 
 
 def cell_hits(cells: np.ndarray, hit_sim: np.ndarray, n: int,
