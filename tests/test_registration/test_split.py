@@ -21,7 +21,8 @@ import pytest
 import predicates
 from predicates.registration.examples import circle_polygon, cube_grid, grid_plane, icosphere, square_grid
 from predicates.portable import cos_sin, rotate, rotation
-from predicates.registration.split.rules import components
+from predicates.registration.split.rules import (components, match_rows, row_components,
+                                                 sort_rows)
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -252,6 +253,25 @@ def test_hits_on_each_cell_match_brute_force():
     assert sm.hit_offsets[-1] > len(sm.hit_points)  # points shared by several cells
 
 
+def _bfs_smallest(n, rows):
+    """The smallest member of each node's component, rows joining their entries (BFS)."""
+    adj = [[] for _ in range(n)]
+    for r in rows:
+        for x, y in zip(r[:-1], r[1:]):
+            adj[x].append(y)
+            adj[y].append(x)
+    want = np.full(n, -1)
+    for s in range(n):
+        if want[s] < 0:
+            want[s], stack = s, [s]
+            while stack:
+                for y in adj[stack.pop()]:
+                    if want[y] < 0:
+                        want[y] = s
+                        stack.append(y)
+    return want
+
+
 def test_components_against_breadth_first_search():
     rng = np.random.default_rng(0)
     for n, m in [(1, 0), (50, 0), (200, 150), (200, 400), (1000, 999)]:
@@ -259,20 +279,51 @@ def test_components_against_breadth_first_search():
         if n == 1000:  # a path with shuffled labels: the long-diameter case
             perm = rng.permutation(n)
             a, b = perm[:-1], perm[1:]
-        adj = [[] for _ in range(n)]
-        for x, y in zip(a.tolist(), b.tolist()):
-            adj[x].append(y)
-            adj[y].append(x)
-        want = np.full(n, -1)
-        for s in range(n):
-            if want[s] < 0:
-                want[s], stack = s, [s]
-                while stack:
-                    for y in adj[stack.pop()]:
-                        if want[y] < 0:
-                            want[y] = s
-                            stack.append(y)
+        want = _bfs_smallest(n, list(zip(a.tolist(), b.tolist())))
         assert np.array_equal(components(n, a, b), want)
+
+
+@pytest.mark.parametrize("width", [1, 2, 3, 4])
+def test_row_components_against_breadth_first_search(width):
+    """Rows of 1–4 entries (a cell's nodes): random graphs, a grid's triangles with
+    shuffled labels (several rounds of contraction) and rows with repeated entries."""
+    rng = np.random.default_rng(width)
+    cases = [(1, np.zeros((0, width), int)), (300, rng.integers(0, 300, (120, width))),
+             (300, rng.integers(0, 300, (400, width))),
+             (40, np.repeat(rng.integers(0, 40, (15, 1)), width, axis=1))]
+    P, T = square_grid(12)
+    perm = rng.permutation(len(P))
+    cases.append((len(P), perm[T][:, :width] if width <= 3 else
+                  np.column_stack([perm[T], perm[T][:, :1]])))
+    for n, rows in cases:
+        want = _bfs_smallest(n, rows.tolist())
+        got = row_components(n, [rows[:, j] for j in range(width)])
+        assert got.dtype == np.int64 and np.array_equal(got, want)
+
+
+def test_match_rows_against_brute_force():
+    """Every (row, table row) pair of equal rows, by row then table row, with ids small
+    and large (keys of n^w ≥ 2^62: the ids renumbered among the table's)."""
+    rng = np.random.default_rng(4)
+    for n, w in [(10, 2), (100000, 4), (3000000, 3), (60, 4)]:
+        table = np.sort(rng.integers(0, min(n, 60), (40, w)), axis=1)
+        table = np.concatenate([table, table[:5]])  # repeated rows: every copy matched
+        rows = np.concatenate([table[rng.integers(0, len(table), 30)],
+                               np.sort(rng.integers(0, min(n, 60), (200, w)), axis=1)])
+        rows[-1, -1] = n - 1  # an id no table row holds
+        want = [(i, j) for i, r in enumerate(rows.tolist())
+                for j, t in enumerate(table.tolist()) if r == t]
+        i, j = match_rows(rows, table, n)
+        assert list(zip(i.tolist(), j.tolist())) == want and len(want) > 30
+
+
+def test_sort_rows_equals_numpy_sort():
+    rng = np.random.default_rng(3)
+    for w in (1, 2, 3, 4, 5):
+        for hi in (2, 1000, 2 ** 40):
+            x = rng.integers(0, hi, (300, 6, w))
+            assert np.array_equal(sort_rows(x), np.sort(x, axis=-1))
+            assert np.array_equal(sort_rows(x[:, 0]), np.sort(x[:, 0], axis=1))
 
 
 # -- the command ------------------------------------------------------------------------------

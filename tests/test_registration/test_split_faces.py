@@ -103,3 +103,29 @@ def test_near_the_cut_equals_everywhere(case):
     a, b = split_mesh(res), split_mesh(res, near_only=False)
     for f in FIELDS:
         assert np.array_equal(getattr(a, f), getattr(b, f)), f
+
+
+def _more_cases():
+    """Cracks (the cut ends inside the mesh; a circle half outside the square)."""
+    P, T = grid_plane(3)
+    sheet = P * np.array([0.8, 1.4, 1.0]) + np.array([-0.2, -0.2, 0.013])
+    yield cube_grid(4), (sheet, T)
+    yield square_grid(8), (np.array([[-0.3, 0.31], [0.3, 0.43], [0.61, 0.38]]),
+                           np.array([[0, 1], [1, 2]]))
+    Q, E = circle_polygon(29, radius=0.3)
+    yield square_grid(7), (Q + 0.5, E)
+
+
+@pytest.mark.parametrize("case", range(13))
+def test_split_equals_the_straightforward_reference(case):
+    """Every field of the split equals the rules written with Python loops and dicts
+    over every cell and face (tests/support/split_reference.py): the vectorised passes
+    (sorts, union-finds, CSR of the points) change nothing."""
+    from split_reference import reference_split
+
+    sim, cut = (list(_cases()) + list(_more_cases()))[case]
+    res = predicates.intersect(*sim, *cut)
+    got, want = split_mesh(res), reference_split(res)
+    assert got.n_pieces == want["n_pieces"]
+    for f in FIELDS + ("hit_points", "hit_kind", "hit_sim", "hit_weights"):
+        assert np.array_equal(getattr(got, f), want[f]), f

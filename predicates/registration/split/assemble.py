@@ -62,7 +62,7 @@ def _zones(res, cells: np.ndarray, n: int, near_only: bool):
         return used, everything, used.copy(), everything
     near = np.flatnonzero(R.any_corner(touched_vertices(res, n), cells))
     ring_v = np.zeros(n, dtype=bool)
-    ring_v[cells[near].ravel()] = True
+    ring_v[cells.take(near, axis=0).ravel()] = True
     return used, near, ring_v, np.flatnonzero(R.any_corner(ring_v, cells))
 
 
@@ -70,8 +70,9 @@ def _nodes(root, origin, ring_v, used):
     """Node ids of the local slots and the node counts per vertex: a vertex of a near
     cell has one node per class of its slots, ordered by the class's smallest slot;
     every other used vertex one node."""
-    cls = np.flatnonzero((root == np.arange(len(root))) & ring_v[origin])
-    cls_origin = origin[cls]
+    in_ring = ring_v.take(origin)
+    cls = np.flatnonzero((root == np.arange(len(root))) & in_ring)
+    cls_origin = origin.take(cls)
     count = np.where(ring_v, 0, used).astype(np.int64)
     count += np.bincount(cls_origin, minlength=len(used))
     offsets = np.cumsum(count) - count
@@ -81,7 +82,7 @@ def _nodes(root, origin, ring_v, used):
     within = rank - np.searchsorted(cls_origin[o], cls_origin, side="left")
     lut = np.zeros(len(root), dtype=np.int64)
     lut[cls] = offsets[cls_origin] + within
-    slot_node = np.where(ring_v[origin], lut[root], offsets[origin])
+    slot_node = np.where(in_ring, lut.take(root), offsets.take(origin))
     return slot_node, count, offsets
 
 
@@ -89,14 +90,15 @@ def _pieces(new_cells: np.ndarray, n_nodes: int):
     """Pieces: components of the new cells through shared nodes, numbered by their first
     new cell."""
     F, m = new_cells.shape
-    root = R.components(n_nodes, np.repeat(new_cells[:, 0], m - 1), new_cells[:, 1:].ravel())
-    froot = root[new_cells[:, 0]] if F else np.zeros(0, dtype=np.int64)
+    root = R.row_components(n_nodes, [new_cells[:, j] for j in range(m)])
+    froot = root.take(new_cells[:, 0])
     first = np.full(max(n_nodes, 1), F, dtype=np.int64)
     np.minimum.at(first, froot, np.arange(F))
+    first_of = first.take(froot)  # each new cell's piece, as its first new cell
     mark = np.zeros(F + 1, dtype=bool)
-    mark[first[froot]] = True
+    mark[first_of] = True
     rank = np.cumsum(mark) - 1
-    return rank[first[froot]], int(mark.sum())
+    return rank.take(first_of), int(mark.sum())
 
 
 def split_topology(res, cells: np.ndarray, n: int, near_only: bool = True) -> Topology:
@@ -106,7 +108,7 @@ def split_topology(res, cells: np.ndarray, n: int, near_only: bool = True) -> To
     C, m = cells.shape
     used, near, ring_v, local = _zones(res, cells, n, near_only)
     on_cut = R.on_cut_vertices(res, n)
-    sub = cells[local]
+    sub = cells.take(local, axis=0)  # row copies (take: faster than fancy indexing)
     sev_sub = R.severed_edges(res, sub, n)
     severed = np.zeros((C, sev_sub.shape[1]), dtype=bool)
     severed[local] = sev_sub
@@ -116,7 +118,7 @@ def split_topology(res, cells: np.ndarray, n: int, near_only: bool = True) -> To
     (_, _), (s1, s2) = R.glue(sub, frag_of, n, first_l,
                               lambda faces: covered_faces(res, faces))
     root = R.components(Fl * m, s1, s2)
-    origin = sub[co].ravel()
+    origin = sub.take(co, axis=0).ravel()
     slot_node, count, offsets = _nodes(root, origin, ring_v, used)
     nfrag = np.ones(C, dtype=np.int64)
     nfrag[local] = np.bincount(co, minlength=len(local))
@@ -124,7 +126,8 @@ def split_topology(res, cells: np.ndarray, n: int, near_only: bool = True) -> To
     F = int(nfrag.sum())
     cell_origin = np.repeat(np.arange(C, dtype=np.int64), nfrag)
     gfrag = start[local][co] + (np.arange(Fl) - first_l[co])
-    new_cells = offsets[cells[cell_origin]]
+    # rows of cells[cell_origin]; take(axis=0): a row copy, not an element-wise gather
+    new_cells = offsets.take(cells.take(cell_origin, axis=0) if F > C else cells)
     new_cells[gfrag] = slot_node.reshape(Fl, m)
     material = np.ones((F, m), dtype=bool)
     material[gfrag] = mat
@@ -137,15 +140,23 @@ def split_topology(res, cells: np.ndarray, n: int, near_only: bool = True) -> To
 
 def hits_csr(cells: np.ndarray, top: Topology, hit_sim: np.ndarray, n: int):
     """CSR (offsets, index) of the intersection points on the closure of every new cell
-    (a point on a face of the original cell belongs to all its fragments); only the near
-    cells carry points."""
-    hh, cc = R.cell_hits(cells[top.near], hit_sim, n)
-    cc = top.near[cc]
-    i, f = expand(top.start[cc], top.nfrag[cc])
-    hh = hh[i]
-    # by fragment, then hit: one stable sort of a combined key (as np.lexsort((hh, f)))
-    srt = np.argsort(f * (int(hh.max(initial=-1)) + 1) + hh, kind="stable")
+    (a point on a face of the original cell belongs to all its fragments), each cell's by
+    increasing point; only the near cells carry points. The (cell, point) pairs are
+    sorted once as packed int64 keys (distinct: ``np.sort``, no argsort), then each
+    cell's run is repeated for its fragments."""
+    hh, cc = R.cell_hits(cells.take(top.near, axis=0), hit_sim, n,
+                         top.severed.take(top.near, axis=0))
+    H = max(len(hit_sim), 1)
+    key = cc * H + hh  # near cells are increasing: by (cell, point)
+    key.sort()
+    hh = key % H
+    per_cell = np.bincount(key // H, minlength=len(top.near))
+    run = np.cumsum(per_cell) - per_cell
+    reps = top.nfrag.take(top.near)
+    _, at = expand(np.repeat(run, reps), np.repeat(per_cell, reps))
     F = len(top.cell_origin)
+    counts = np.zeros(F, dtype=np.int64)
+    counts[expand(top.start.take(top.near), reps)[1]] = np.repeat(per_cell, reps)
     offsets = np.zeros(F + 1, dtype=np.int64)
-    np.cumsum(np.bincount(f, minlength=F), out=offsets[1:])
-    return offsets, hh[srt]
+    np.cumsum(counts, out=offsets[1:])
+    return offsets, hh.take(at)

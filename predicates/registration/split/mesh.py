@@ -222,7 +222,8 @@ def split_mesh(res, near_only: bool = True) -> SplitMesh:
     top = split_topology(res, cells, n, near_only)
     hp, hk, hs, hw = _hits(res, d)
     offsets, index = hits_csr(cells, top, hs, n)
-    return SplitMesh(dim=d, kinds=tuple(res.kinds), points=P[top.node_origin],
+    points = np.take(P, top.node_origin, axis=0)  # as P[node_origin], a row copy
+    return SplitMesh(dim=d, kinds=tuple(res.kinds), points=points,
                      cells=top.cells, cell_origin=top.cell_origin,
                      node_origin=top.node_origin, material=top.material, piece=top.piece,
                      n_pieces=top.n_pieces, hit_points=hp, hit_kind=hk, hit_sim=hs,
