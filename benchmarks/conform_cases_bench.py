@@ -16,10 +16,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import time
 import warnings
 
 import numpy as np
+from timing import best  # benchmarks/timing.py (this script's folder)
 
 import predicates
 from predicates.portable import cos_sin, rotate, rotation
@@ -48,14 +48,6 @@ def plane(axis: int, c: float, m: int = 4):
     return P, np.concatenate([np.stack([v, v + 1, v + m + 2], 1),
                               np.stack([v, v + m + 2, v + m + 1], 1)])
 
-
-def best(f, repeat: int):
-    out, t = None, float("inf")
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = f()
-        t = min(t, time.perf_counter() - t0)
-    return out, t
 
 
 def _conform(f):

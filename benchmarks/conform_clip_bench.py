@@ -25,9 +25,9 @@ from __future__ import annotations
 
 import argparse
 import json
-import time
 
 import numpy as np
+from timing import best  # benchmarks/timing.py (this script's folder)
 
 from predicates import intersect
 from predicates.portable import axis_rotation, rotate
@@ -40,14 +40,6 @@ def tiny_rotation(ulps: int) -> np.ndarray:
     tests/support/cut_cases.py)."""
     return axis_rotation([1.0, 2.0, 0.0], ulps * np.finfo(np.float64).eps)
 
-
-def best(f, repeat: int):
-    out, t = None, float("inf")
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = f()
-        t = min(t, time.perf_counter() - t0)
-    return out, t
 
 
 def _grid(points: np.ndarray, tets: np.ndarray):

@@ -23,20 +23,13 @@ import tempfile
 import time
 
 import numpy as np
+from timing import best  # benchmarks/timing.py (this script's folder)
 
 from predicates import intersect
 from predicates.registration.examples import circle_polygon, cube_grid, icosphere, square_grid
 from predicates.registration.split.surface import cut_surface
 from predicates.registration.split.volume import fragment_boundaries, fragment_volumes
 
-
-def best(f, repeat):
-    out, t = None, float("inf")
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = f()
-        t = min(t, time.perf_counter() - t0)
-    return out, t
 
 
 def fresh(res):

@@ -12,9 +12,9 @@ from __future__ import annotations
 
 import argparse
 import json
-import time
 
 import numpy as np
+from timing import best  # benchmarks/timing.py (this script's folder)
 
 from predicates import intersect
 from predicates.registration.examples import circle_polygon, cube_grid, icosphere, square_grid
@@ -22,14 +22,6 @@ from predicates.registration.examples import circle_polygon, cube_grid, icospher
 CASES = {3: (8, 12, 16, 24, 32), 2: (64, 128, 256, 512)}
 QUICK = {3: (8, 12, 16), 2: (64, 128, 256)}
 
-
-def best(f, repeat):
-    out, t = None, float("inf")
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = f()
-        t = min(t, time.perf_counter() - t0)
-    return out, t
 
 
 def run_case(dim: int, n: int, repeat: int) -> dict:
