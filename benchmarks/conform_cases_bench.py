@@ -16,38 +16,18 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import warnings
+from pathlib import Path
 
-import numpy as np
 from timing import best  # benchmarks/timing.py (this script's folder)
 
 import predicates
-from predicates.portable import cos_sin, rotate, rotation
+from predicates.portable import rotate, rotation
 from predicates.registration.examples import cube_grid, icosphere
 
-
-def disc(radius: float, centre, segments: int = 24):
-    """The tests' disc crack (tests/test_registration/test_conforming.py)."""
-    c, s = cos_sin(np.arange(segments) * (2.0 * np.pi / segments))
-    Q = np.zeros((segments + 1, 3))
-    Q[1:, 0], Q[1:, 1] = radius * c, radius * s
-    Q = rotate(Q, rotation(3, 7)) + np.asarray(centre)
-    K = np.array([[0, 1 + i, 1 + (i + 1) % segments] for i in range(segments)])
-    return Q, K
-
-
-def plane(axis: int, c: float, m: int = 4):
-    """The progressive tests' square of (m × m × 2) triangles at x_axis = c."""
-    u = np.linspace(-0.1, 1.1, m + 1)
-    U, V = np.meshgrid(u, u, indexing="xy")
-    P = np.zeros((U.size, 3))
-    a, b = [k for k in range(3) if k != axis]
-    P[:, a], P[:, b], P[:, axis] = U.ravel(), V.ravel(), c
-    i, j = np.meshgrid(np.arange(m), np.arange(m), indexing="xy")
-    v = (i + (m + 1) * j).ravel()
-    return P, np.concatenate([np.stack([v, v + 1, v + m + 2], 1),
-                              np.stack([v, v + m + 2, v + m + 1], 1)])
-
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "support"))
+from cut_cases import axis_plane as plane, disc_crack as disc, gmsh_box_in_box  # noqa: E402
 
 
 def _conform(f):
@@ -71,10 +51,6 @@ def one_shot(name: str, P, C, Q, K, repeat: int) -> dict:
 
 def progressive(repeat: int) -> list:
     from predicates.registration.split.progressive import recut
-
-    import sys
-    sys.path.insert(0, "tests/support")
-    from cut_cases import gmsh_box_in_box
 
     P, C, _, _ = gmsh_box_in_box(0.1)
     planes = [plane(2, 0.546875), plane(0, 0.421875), plane(1, 0.640625)]

@@ -155,3 +155,30 @@ def about_centre(P: np.ndarray, R: np.ndarray) -> np.ndarray:
     from predicates.portable import rotate
 
     return rotate(P - 0.5, R) + 0.5
+
+
+def disc_crack(radius: float, centre, segments: int = 24):
+    """A flat disc of radius ``radius`` (a fan of ``segments`` triangles around its
+    centre, vertex 0), tilted by a fixed rotation (portable): a crack ending inside the
+    mesh."""
+    from predicates.portable import cos_sin, rotate, rotation
+
+    c, s = cos_sin(np.arange(segments) * (2.0 * np.pi / segments))
+    Q = np.zeros((segments + 1, 3))
+    Q[1:, 0], Q[1:, 1] = radius * c, radius * s
+    Q = rotate(Q, rotation(3, 7)) + np.asarray(centre)
+    K = np.array([[0, 1 + i, 1 + (i + 1) % segments] for i in range(segments)])
+    return Q, K
+
+
+def axis_plane(axis: int, c: float, m: int = 4):
+    """The square [−0.1, 1.1]² as m × m × 2 triangles in the plane x_axis = c."""
+    u = np.linspace(-0.1, 1.1, m + 1)
+    U, V = np.meshgrid(u, u, indexing="xy")
+    P = np.zeros((U.size, 3))
+    a, b = [k for k in range(3) if k != axis]
+    P[:, a], P[:, b], P[:, axis] = U.ravel(), V.ravel(), c
+    i, j = np.meshgrid(np.arange(m), np.arange(m), indexing="xy")
+    v = (i + (m + 1) * j).ravel()
+    return P, np.concatenate([np.stack([v, v + 1, v + m + 2], 1),
+                              np.stack([v, v + m + 2, v + m + 1], 1)])

@@ -14,11 +14,11 @@ import predicates
 from conform_check import (below_surface_volume, boundary_locator, closed_surface_volume,
                            exact_mesh_volume, incidence, orientation_signs,
                            piece_boundaries, polygon_area, polygon_area_3d)
-from predicates.portable import cos_sin, rotate, rotation
+from predicates.portable import rotation
 from predicates.registration.examples import (circle_polygon, cube_grid, grid_plane,
                                               icosphere, square_grid)
 from predicates.registration.split.surface import cut_surface
-from cut_cases import about_centre, tiny_rotation
+from cut_cases import about_centre, disc_crack, tiny_rotation
 
 
 def _sphere():
@@ -176,16 +176,6 @@ def test_kuhn16_sphere_no_region_refused():
     assert 0 < abs(float(enclosed - sphere)) <= 1e-6 * float(sphere)
 
 
-def _disc(R: float, centre, segments: int = 24):
-    """A flat disc of radius R (a fan of ``segments`` triangles around its centre,
-    vertex 0), tilted by a fixed rotation: a crack ending inside the mesh."""
-    c, s = cos_sin(np.arange(segments) * (2.0 * np.pi / segments))
-    Q = np.zeros((segments + 1, 3))
-    Q[1:, 0], Q[1:, 1] = R * c, R * s
-    Q = rotate(Q, rotation(3, 7)) + np.asarray(centre)
-    K = np.array([[0, 1 + i, 1 + (i + 1) % segments] for i in range(segments)])
-    return Q, K
-
 
 def _det3(a, b, c, d) -> Fraction:
     """((b − a) × (c − a))·(d − a) in exact arithmetic (Fraction coordinates)."""
@@ -228,7 +218,7 @@ def test_a_disc_crack_opens_across_its_whole_area(radius):
     n = 16
     h = 1.0 / n
     P, C = cube_grid(n)
-    Q, K = _disc(radius * h, (0.5 + 0.3 * h, 0.5 + 0.2 * h, 0.5 + 0.1 * h))
+    Q, K = disc_crack(radius * h, (0.5 + 0.3 * h, 0.5 + 0.2 * h, 0.5 + 0.1 * h))
     res = predicates.intersect(P, C, Q, K)
     cm = res.split().tetrahedralize()
     assert cm.n_pieces == 1

@@ -13,6 +13,7 @@ import pytest
 import predicates
 from fperr.warnings import ResolutionWarning
 from conform_check import closed_surface_volume, incidence, orientation_signs
+from cut_cases import axis_plane
 from predicates.registration.examples import cube_grid, icosphere, square_grid
 from predicates.registration.split.progressive import recut
 
@@ -23,17 +24,6 @@ def _line(axis: int, c: float):
     P[:, 1 - axis] = [-0.1, 1.1]
     return P, np.array([[0, 1]])
 
-
-def _plane(axis: int, c: float, m: int = 4):
-    u = np.linspace(-0.1, 1.1, m + 1)
-    U, V = np.meshgrid(u, u, indexing="xy")
-    P = np.zeros((U.size, 3))
-    a, b = [k for k in range(3) if k != axis]
-    P[:, a], P[:, b], P[:, axis] = U.ravel(), V.ravel(), c
-    i, j = np.meshgrid(np.arange(m), np.arange(m), indexing="xy")
-    v = (i + (m + 1) * j).ravel()
-    return P, np.concatenate([np.stack([v, v + 1, v + m + 2], 1),
-                              np.stack([v, v + m + 2, v + m + 1], 1)])
 
 
 def _vertex_piece(cm, n: int) -> dict:
@@ -128,7 +118,7 @@ def gmsh_two_planes():
     from cut_cases import gmsh_box_in_box
 
     P, C, _, _ = gmsh_box_in_box(0.1)
-    a, b = _plane(2, 0.546875), _plane(0, 0.421875)
+    a, b = axis_plane(2, 0.546875), axis_plane(0, 0.421875)
     c1 = predicates.intersect(P, C, *a).split().tetrahedralize()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ResolutionWarning)  # coarse: slivers of c1
@@ -162,7 +152,7 @@ def test_three_planes_on_the_gmsh_box_equal_the_one_shot_split(gmsh_two_planes):
     nothing is refused: 8 pieces, equal to the one-shot split of the three planes, every
     simplex positive by exact orientation, faces paired, piece volumes the boxes'."""
     P, C, planes, _, c2 = gmsh_two_planes
-    third = _plane(1, 0.640625)
+    third = axis_plane(1, 0.640625)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ResolutionWarning)  # coarse: slivers of c2
         c3 = recut(c2, *third)
@@ -196,7 +186,7 @@ def test_three_planes_on_the_gmsh_box_equal_the_one_shot_split(gmsh_two_planes):
 
 def test_three_planes_give_eight_pieces():
     P, C = cube_grid(8)
-    planes = [_plane(2, 0.546875), _plane(0, 0.421875), _plane(1, 0.640625)]
+    planes = [axis_plane(2, 0.546875), axis_plane(0, 0.421875), axis_plane(1, 0.640625)]
     cm = predicates.intersect(P, C, *planes[0]).split().tetrahedralize()
     for Q, K in planes[1:]:
         with warnings.catch_warnings():
@@ -221,7 +211,7 @@ def test_three_planes_give_eight_pieces():
 
 def test_a_sphere_after_a_plane_gives_four_pieces():
     P, C = cube_grid(8)
-    c1 = predicates.intersect(P, C, *_plane(2, 0.546875)).split().tetrahedralize()
+    c1 = predicates.intersect(P, C, *axis_plane(2, 0.546875)).split().tetrahedralize()
     Q, K = icosphere(2)
     cm = recut(c1, Q, K)
     assert cm.n_pieces == 4
