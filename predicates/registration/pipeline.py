@@ -264,7 +264,7 @@ def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, 
     arrays = mesh_arrays(args, sim_region, cut_region)
     sp, sc, cp, cc = arrays
     if work.accelerate is None:  # auto: compiled when the run repays loading it
-        work.use_compiled(compiled.resolve(None, cells=sc.shape[0] + cc.shape[0]))
+        work.use_compiled(compiled.resolve(None, cells=len(sc) + len(cc)))  # lists too
     clock = _Stages(timings)
     if scheduler is not None and remote.is_remote(sc, scheduler):  # dask-array cells
         dim, sim, cut, sim_box = remote.validate_pair_remote(sp, sc, cp, cc, dtype,
