@@ -244,6 +244,28 @@ def test_indices_out_of_range_negative_or_repeated():
     bad(P3, C3, S3[0], np.array([[0, 1, 1]]), match="cell 0 repeats a vertex")
 
 
+
+def test_lists_in_a_fresh_process():
+    """Points and cells as nested lists, in a process where the compiled chain has not
+    run (the automatic choice counts the cells first: docs/design.md): the registration
+    of a segment crossing one triangle, as with arrays."""
+    import os
+    import subprocess
+    import sys
+
+    code = ("import predicates\n"
+            "r = predicates.intersect([[0, 0], [1, 0], [0, 1]], [[0, 1, 2]],\n"
+            "                         [[-1, 0.2], [2, 0.2]], [[0, 1]])\n"
+            "print(r.total, r['edge_edge'].sim.tolist())\n")
+    env = {k: v for k, v in os.environ.items() if k != "FPERR_ACCELERATE"}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env=env, timeout=120, check=True).stdout.split(maxsplit=1)
+    want = predicates.intersect(np.array([[0, 0], [1, 0], [0, 1]], float),
+                                np.array([[0, 1, 2]]), np.array([[-1, 0.2], [2, 0.2]]),
+                                np.array([[0, 1]]))
+    assert int(out[0]) == want.total
+    assert out[1].strip() == str(want["edge_edge"].sim.tolist())
+
 def test_empty_and_mixed_dimensions():
     bad(P2, np.zeros((0, 3), dtype=int), *S2, match="simulation mesh is empty")
     bad(np.zeros((0, 2)), np.zeros((0, 3), dtype=int), *S2, match="simulation mesh is empty")
