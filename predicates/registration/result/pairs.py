@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from predicates.portable import weighted_sum
+from predicates.registration.spatial.boxgrid import any_corner as corner_flags
 
 __all__ = ["KIND_CODES", "KindPairs", "any_corner", "cells_holding", "pad_rows"]
 
@@ -85,26 +86,19 @@ class KindPairs:
 
 
 def any_corner(mask: np.ndarray, cells: np.ndarray) -> np.ndarray:
-    """(C,) bool: cells (C, k) with a corner where ``mask`` (a bool per vertex) is set.
-    One gather; the k bools of a row read as one integer when k is 2 or 4. Cells on
-    Dask workers (a dask array: docs/partitioned.md 6) are scanned there, chunk by
+    """(C,) bool: cells (C, k) with a corner where ``mask`` (a bool per vertex) is set
+    (:func:`~predicates.registration.spatial.boxgrid.any_corner`). Cells on Dask workers (a dask array: docs/partitioned.md 6) are scanned there, chunk by
     chunk: one bool per cell comes back, not the cells."""
     if hasattr(cells, "map_blocks"):
         rows = cells.rechunk({1: -1}).map_blocks(_corner_rows, mask, drop_axis=1,
                                                  dtype=bool)
         return np.asarray(rows.compute())
-    cells = np.asarray(cells)
-    if len(cells) == 0:
-        return np.zeros(0, dtype=bool)
-    g = np.ascontiguousarray(mask[cells])
-    if g.shape[1] in (2, 4):
-        return g.view(np.uint16 if g.shape[1] == 2 else np.uint32).ravel() != 0
-    return np.logical_or.reduce([g[:, j] for j in range(g.shape[1])])
+    return corner_flags(mask, cells)
 
 
 def _corner_rows(block: np.ndarray, mask: np.ndarray) -> np.ndarray:
     """:func:`any_corner` of one chunk of cells (on a Dask worker)."""
-    return any_corner(mask, block)
+    return corner_flags(mask, block)
 
 
 def cells_holding(cells: np.ndarray, rows: np.ndarray) -> np.ndarray:

@@ -75,12 +75,11 @@ def recut(prev, cut_points, cut_cells, **options):
     :func:`predicates.intersect`."""
     from predicates import intersect
     from predicates.registration.split.conform_parts import _cut_records, _pieces, face_table
-    from predicates.registration.split.surface import cut_surface
 
     res = intersect(prev.points, prev.cells, cut_points, cut_cells, **options)
     sm = res.split()
     cm2 = sm.tetrahedralize()
-    cs2 = cm2.surface if cm2.surface is not None else cut_surface(res)
+    cs2 = cm2.surface  # the surface its points index (re-decided clusters included)
     old, where = _earlier_faces(cm2, cs2, prev)
     new = [list(f) for f in cm2.cut_faces.tolist()]
     allf = old + new

@@ -17,7 +17,7 @@ import itertools
 
 import numpy as np
 
-from predicates.registration.spatial.boxgrid import expand
+from predicates.registration.spatial.boxgrid import any_corner, expand
 
 __all__ = ["LOCAL_EDGES", "any_corner", "cell_hits", "components", "fragments", "glue", "on_cut_vertices",
            "match_rows", "row_components", "row_keys", "rows_touched", "severed_edges",
@@ -86,22 +86,6 @@ def match_rows(rows: np.ndarray, table: np.ndarray, n: int):
     hit = np.flatnonzero(ukey[at] == kr)
     i, k = expand(first[at[hit]], count[at[hit]])
     return cand[hit[i]], order[k]
-
-
-def any_corner(mask: np.ndarray, cells: np.ndarray) -> np.ndarray:
-    """(C,) bool: cells (C, k) with a corner where ``mask`` (a bool per vertex) is set:
-    one gather, the k bools of a row read as one integer when k is 2 or 4. (The result
-    layer has its own copy: the split sits above it and may not be imported by it.)"""
-    cells = np.asarray(cells)
-    if len(cells) == 0:
-        return np.zeros(0, dtype=bool)
-    g = np.take(mask, cells)  # a contiguous (C, k) copy; take: half fancy indexing's time
-    if g.shape[1] in (2, 4):
-        return g.view(np.uint16 if g.shape[1] == 2 else np.uint32).ravel() != 0
-    out = g[:, 0].copy()
-    for j in range(1, g.shape[1]):
-        out |= g[:, j]
-    return out
 
 
 def on_cut_vertices(res, n: int) -> np.ndarray:
