@@ -121,13 +121,12 @@ def _register(args, work, check):
         with _dask_client(args) as client, warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", ResolutionWarning)
             out = work(**options, scheduler=client)
-    except (ResolutionError, PartitionError) as e:
-        # valid input this precision cannot resolve, or a partitioned run's tasks that
-        # did not finish (a worker died, the timeout): exit 1, nothing written
-        print(f"fperr {cmd}: error: {e}", file=sys.stderr)
-        return 1, None
-    except MemoryError as e:  # a failure of this machine, not of the input: exit 1
-        print(f"fperr {cmd}: error: {_out_of_memory(e)}", file=sys.stderr)
+    except (ResolutionError, PartitionError, MemoryError) as e:
+        # valid input this precision cannot resolve, a partitioned run's tasks that did
+        # not finish (a worker died, the timeout), or this machine's memory: exit 1,
+        # nothing written
+        why = _out_of_memory(e) if isinstance(e, MemoryError) else e
+        print(f"fperr {cmd}: error: {why}", file=sys.stderr)
         return 1, None
     except (ValueError, MeshTypeError, OSError, ImportError) as e:
         # bad input (meshes, paths): a message, never a traceback; nothing was written.

@@ -29,11 +29,11 @@ class MeshInput:
     rounded: bool = False  # were the coordinates rounded into the working dtype?
 
 
-
 class MeshTypeError(TypeError):
     """A mesh's points or cells of the wrong number type (strings, complex, float vertex
     ids): bad input, which the command line reports as such (exit 2), unlike a
     TypeError from inside the work, which is a bug."""
+
 
 def _array(points, role):
     name = f"{role} points"
