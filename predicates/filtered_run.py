@@ -111,7 +111,8 @@ class RunningLanes(Lanes):
     permanent-style second stage, :mod:`predicates.filtered`): with ẑ = fl(x̂ ∘ ŷ) and
     |fl(s) − s| ≤ u·|fl(s)| (round to nearest, no underflow: checked),
     e(x ± y) = e_x + e_y + u|ẑ| and e(x·y) = |x̂|e_y + |ŷ|e_x + e_x·e_y + u|ẑ|, each
-    evaluated in binary64 with every operation rounded one ulp up. Division and square
+    evaluated in binary64 with every operation rounded one ulp up (docs/proofs.md,
+    "Filtered predicates"). Division and square
     roots have no such bound here: e = ∞ (the lane goes to the exact path)."""
 
     __slots__ = ("e",)
@@ -121,7 +122,9 @@ class RunningLanes(Lanes):
         self.e = e
 
     def _round(self, r):
-        return self.ctx.u * np.abs(np.asarray(r, dtype=np.float64))  # exact: u = 2^-p
+        # u·|r| is exact unless it falls below the normal range (|r| near the smallest
+        # normal of binary64), where rounding to nearest could drop it: one ulp up
+        return _up(self.ctx.u * np.abs(np.asarray(r, dtype=np.float64)))
 
     def _sum(self, r, o):
         e = _up(_up(self.e + _error(o)) + self._round(r))
@@ -237,11 +240,11 @@ class FilterContext(fperr.NumpyContext):
 
     def const(self, x):
         c = super().const(x)
-        return RunningLanes(c, self, self.u * abs(float(c))) if self.running else c
+        return RunningLanes(c, self, _up(self.u * abs(float(c)))) if self.running else c
 
     def eps_multiple(self, q, power: int = 1):
         c = super().eps_multiple(q, power)
-        return RunningLanes(c, self, self.u * abs(float(c))) if self.running else c
+        return RunningLanes(c, self, _up(self.u * abs(float(c)))) if self.running else c
 
     def flag(self, r, a=None, b=None, product=False):
         """Careful run: lanes where ``r`` is not finite, or (a product/quotient) where it
