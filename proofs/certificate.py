@@ -20,10 +20,11 @@ from __future__ import annotations
 import functools
 import json
 from fractions import Fraction
-from pathlib import Path
 
 import mpmath
 import sympy
+
+from predicates.registration.io.write import write_text_atomic
 
 from .check_certificate import FORMAT, VERSION, below_S
 from .decide import S_HI, l_degree
@@ -225,5 +226,4 @@ def build(reports: dict, require_paper_argument: bool = False) -> dict:
 def write(path, reports: dict, require_paper_argument: bool = False) -> None:
     """Write the certificate of ``reports`` to ``path`` (JSON)."""
     doc = build(reports, require_paper_argument)
-    Path(path).write_text(json.dumps(doc, indent=1, ensure_ascii=False) + "\n",
-                          encoding="utf-8")
+    write_text_atomic(path, json.dumps(doc, indent=1, ensure_ascii=False) + "\n")

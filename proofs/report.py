@@ -24,6 +24,7 @@ import predicates
 from fperr import bounds
 from fperr.notation import GREEK, epow, lpow
 from fperr.symbols import EPS_MAX, L, eps
+from predicates.registration.io.write import write_text_atomic
 
 from . import paper_printed as paper
 from .constraints import fmt
@@ -377,7 +378,7 @@ def write_report(path) -> str:
     if str(path) == "-":
         sys.stdout.write(text)
     else:
-        Path(path).write_text(text, encoding="utf-8")
+        write_text_atomic(path, text)
     return text
 
 

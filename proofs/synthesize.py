@@ -37,6 +37,7 @@ import sympy
 import predicates
 from fperr import round_fraction
 from fperr.symbols import L, eps
+from predicates.registration.io.write import write_text_atomic
 
 from . import tables
 from .constraints import GEOMETRIC
@@ -349,7 +350,7 @@ def render(results: list[Synthesis], suffix: str, module: str | None = None) -> 
 
 def write(path: str | Path, results: list[Synthesis], module: str | None = None) -> None:
     """Write the tables to ``path``: TOML or JSON as its extension says."""
-    Path(path).write_text(render(results, Path(path).suffix, module), encoding="utf-8")
+    write_text_atomic(path, render(results, Path(path).suffix, module))
 
 
 def is_current(text: str, results: list[Synthesis], suffix: str) -> bool:

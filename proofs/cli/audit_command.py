@@ -200,6 +200,7 @@ def _emit(args, s: dict) -> int:
 
     print(text(args.format))
     if args.output:  # the format its extension says (checked when parsed)
-        with open(args.output, "w", encoding="utf-8") as fh:
-            fh.write(text("json" if args.output.lower().endswith(".json") else "md"))
+        from predicates.registration.io.write import write_text_atomic
+        write_text_atomic(args.output,
+                          text("json" if args.output.lower().endswith(".json") else "md"))
     return 1 if s["violation_count"] else 0

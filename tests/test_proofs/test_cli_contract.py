@@ -203,6 +203,43 @@ def test_synthesize_json_is_read_by_verify_with_a_progress_bar_and_no_stray_line
     assert json.loads((tmp_path / "c.json").read_text())
 
 
+_FULL_DISK = ("import builtins, io, os, sys\n"
+              "real = io.open\n"
+              "class Half:\n"
+              "    def __init__(self, fh): self.fh = fh\n"
+              "    def __enter__(self): return self\n"
+              "    def __exit__(self, *a): self.fh.close()\n"
+              "    def write(self, t):\n"
+              "        self.fh.write(t[:len(t) // 2]); self.fh.flush()\n"
+              "        raise OSError(28, 'No space left on device (injected)')\n"
+              "    def close(self): self.fh.close()\n"
+              "def full(path, mode='r', *a, **k):\n"
+              "    fh = real(path, mode, *a, **k)\n"
+              "    name = os.path.basename(str(path)).lstrip('.')\n"
+              "    return Half(fh) if 'w' in mode and name.startswith({name!r}) else fh\n"
+              "builtins.open = io.open = full\n"
+              "from proofs.cli import main\n"
+              "sys.exit(main(sys.argv[1:]))\n")
+
+
+@pytest.mark.parametrize("name, argv", [
+    ("c.json", ["verify", "--dim", "2", "--quiet", "--certificate", "c.json"]),
+    ("e.md", ["verify", "--dim", "2", "--quiet", "--report", "e.md"]),
+    ("a.md", ["audit", "--samples", "3", "--search-steps", "0", "--dim", "2", "--predicates",
+              "vertex_vertex", "--dtype", "float64", "--quiet", "-o", "a.md"]),
+])
+def test_a_failed_proof_output_leaves_the_old_file_and_no_other(tmp_path, name, argv):
+    """Certificates, reports and audits are written whole or not at all: a write that
+    fails half-way (a full disk, injected) leaves the file that was there and no
+    temporary file beside it."""
+    (tmp_path / name).write_text("before\n")
+    r = subprocess.run([sys.executable, "-c", _FULL_DISK.format(name=name), *argv],
+                       cwd=tmp_path, env=ENV, capture_output=True, text=True, timeout=300)
+    assert r.returncode != 0 and "No space left on device" in r.stderr, r.stderr
+    assert (tmp_path / name).read_text() == "before\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == [name]
+
+
 # -- 4. written files have the user's umask ------------------------------------------------
 @pytest.mark.parametrize("umask", [0o022, 0o077])
 def test_written_files_have_the_users_umask(tmp_path, umask, square_circle, cube_plane):

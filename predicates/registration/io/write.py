@@ -20,7 +20,7 @@ import threading
 import numpy as np
 
 __all__ = ["MESH_FORMATS", "PLOT_FORMATS", "check_output", "check_outputs", "write_atomic",
-           "write_mesh"]
+           "write_mesh", "write_text_atomic"]
 
 #: the mesh formats a result is written in (they hold point, cell and field data)
 MESH_FORMATS = (".vtu",)
@@ -91,6 +91,16 @@ def write_atomic(path: str | os.PathLike, write) -> None:
         with contextlib.suppress(OSError):
             os.remove(tmp)
         raise
+
+
+def write_text_atomic(path: str | os.PathLike, text: str) -> None:
+    """Write ``text`` (UTF-8) to ``path`` atomically (:func:`write_atomic`): a report,
+    table or certificate is either written whole or not at all."""
+    def write(tmp):
+        with open(tmp, "w", encoding="utf-8") as fh:
+            fh.write(text)
+
+    write_atomic(path, write)
 
 
 _UMASK_LOCK = threading.Lock()
