@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 import tracemalloc
 from collections import defaultdict
+from fractions import Fraction
 
 import numpy as np
 import pytest
@@ -213,7 +214,7 @@ def test_marks_equal_the_definition_over_all_cells(seed, boxes):
     elo, ehi = ends.min(axis=1), ends.max(axis=1)
     eext = box_extent(elo, ehi)
     qlo, qhi = elo - eext[:, None], ehi + eext[:, None]
-    cls = np.floor(np.log2(np.maximum(eext, 1e-300)) / 2)  # as refine._too_long
+    cls = refine_mod.size_classes(eext)  # as refine._too_long
     classes = []
     for k in np.unique(cls):
         sel = cls == k
@@ -315,3 +316,19 @@ if given is not None:
         got[points_near(lo, hi, (rlo, rhi))] = True
         assert not (_meets_any(mid, mid, rlo, rhi) & ~got).any()
         assert s.ext_max == box_extent(lo, hi).max()
+
+
+def test_size_classes_are_exact_next_to_powers_of_four():
+    """refine.size_classes: the largest c with 4^c ≤ x (Fractions), for x one ulp below,
+    at and one ulp above every power of four from 1e-300 (below it, x counts as 1e-300)
+    to the top of binary64, and for random x."""
+    rng = np.random.default_rng(5)
+    xs = [np.nextafter(4.0 ** c, d) for c in range(-498, 512) for d in (0, np.inf)]
+    xs += [4.0 ** c for c in range(-498, 512)]
+    xs += list(np.ldexp(rng.random(2000) + 0.5, rng.integers(-990, 1020, 2000)))
+    got = refine_mod.size_classes(np.array(xs))
+    for x, c in zip(xs, got.tolist()):
+        q = Fraction(x)
+        assert Fraction(4) ** c <= q < Fraction(4) ** (c + 1), (x, c)
+    tiny = refine_mod.size_classes(np.array([0.0, 1e-310, 1e-300]))
+    assert tiny.tolist() == [tiny[2]] * 3

@@ -304,6 +304,14 @@ def _group(key):
     return key[order[starts]], order, starts
 
 
+def size_classes(ext: np.ndarray) -> np.ndarray:
+    """The size class c of each box edge: 4^c ≤ max(ext, 1e-300) < 4^(c+1), i.e.
+    floor(log2(ext)/2), from the binary exponent (frexp: ext = μ·2^e, μ ∈ [1/2, 1), so
+    floor(log2 ext) = e − 1) — exact on every machine, where ``np.log2``'s last bit
+    (libm or SIMD) could move an edge just below a power of four into the next class."""
+    return (np.frexp(np.maximum(ext, 1e-300))[1].astype(np.int64) - 1) // 2
+
+
 def _too_long(P, E, sim):
     """Marks: box edge of each edge > largest box edge of the simulation cells meeting
     the edge's box enlarged by its own box edge (heuristic scale; soundness comes from
@@ -323,8 +331,7 @@ def _too_long(P, E, sim):
     lo, hi, ext = lo[todo] - ext[todo, None], hi[todo] + ext[todo, None], ext[todo]
     # one query per size class 4^c, against boxes of that class (the cells, or bins of
     # size 4^c: a few huge edges would otherwise pair with every cell they span)
-    with np.errstate(divide="ignore"):
-        size_class = np.floor(np.log2(np.maximum(ext, 1e-300)) / 2)
+    size_class = size_classes(ext)
     for c in np.unique(size_class):
         sel = np.flatnonzero(size_class == c)
         marked[todo[sel]] = sim.marks(math.ldexp(1.0, 2 * int(c)), lo[sel], hi[sel], ext[sel])
