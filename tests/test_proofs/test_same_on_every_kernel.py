@@ -1,9 +1,12 @@
 """The same answer on every machine (docs/design.md): ``fperr demo`` prints byte-identical
 tables and writes byte-identical VTU files under the default OpenBLAS kernel and under
 each ``OPENBLAS_CORETYPE`` this CPU can run (Haswell, SkylakeX, Sandybridge, Prescott);
-a kernel the CPU lacks is skipped and named. Nothing the demo computes may go through
-BLAS/LAPACK, whose last bits differ per kernel: before the examples were built from
-exact rotations, a LAPACK QR made the demo fail under three of the four kernels."""
+a kernel the CPU lacks is skipped and named; and under each lower level of numpy's own
+SIMD dispatch this CPU runs (``NPY_DISABLE_CPU_FEATURES``: what an older CPU's numpy
+runs; its transcendental functions differ in the last bit per level). Nothing the demo
+computes may go through BLAS/LAPACK, whose last bits differ per kernel: before the
+examples were built from exact rotations, a LAPACK QR made the demo fail under three of
+the four kernels."""
 from __future__ import annotations
 
 import os
@@ -15,16 +18,22 @@ from pathlib import Path
 import pytest
 
 from blas_kernels import KERNELS, supported
+from numpy_dispatch import settings as numpy_dispatch_settings
 
 ROOT = Path(__file__).resolve().parents[2]
+SUPPORT = ROOT / "tests" / "support"
 SUPPORTED, LACKING = supported()
 
 
-def _demo(tmp: Path, kernel: str | None) -> tuple[str, dict]:
-    """(stdout without the timing lines, {vtu name: bytes}) of ``fperr demo --n 8``."""
-    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_CORETYPE"}
+def _demo(tmp: Path, kernel: str | None, numpy_off: str | None = None) -> tuple[str, dict]:
+    """(stdout without the timing lines, {vtu name: bytes}) of ``fperr demo --n 8``
+    under OpenBLAS kernel ``kernel`` with numpy's dispatch targets ``numpy_off`` off."""
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("OPENBLAS_CORETYPE", "NPY_DISABLE_CPU_FEATURES")}
     if kernel:
         env["OPENBLAS_CORETYPE"] = kernel
+    if numpy_off:
+        env["NPY_DISABLE_CPU_FEATURES"] = numpy_off
     tmp.mkdir()
     r = subprocess.run([sys.executable, "-m", "fperr", "demo", "--n", "8", "--quiet",
                         "--out", "out"], cwd=tmp, env=env, capture_output=True, text=True,
@@ -50,6 +59,32 @@ def test_demo_identical_under_every_kernel(kernel, default_run, tmp_path):
     assert files.keys() == ref_files.keys()
     differ = [name for name in files if files[name] != ref_files[name]]
     assert not differ, f"under {kernel}: {differ} differ from the default kernel's"
+
+
+@pytest.mark.parametrize("numpy_off", numpy_dispatch_settings() or [None])
+def test_demo_identical_under_every_numpy_dispatch_level(numpy_off, default_run, tmp_path):
+    if numpy_off is None:
+        pytest.skip("this CPU runs no numpy dispatch target above numpy's baseline")
+    text, files = _demo(tmp_path / "numpy", None, numpy_off)
+    ref_text, ref_files = default_run
+    assert "degenerate cases" in ref_text and len(ref_files) == 6  # a real run
+    assert text == ref_text
+    differ = [name for name in files if files[name] != ref_files[name]]
+    assert files.keys() == ref_files.keys() and not differ, \
+        f"with numpy's {numpy_off} off: {differ} differ from the default dispatch's"
+
+
+def test_numpy_dispatch_levels_change_what_numpy_runs():
+    """The settings really lower numpy's dispatch (a setting numpy ignored would make the
+    test above vacuous): in a subprocess with a setting, its targets are off."""
+    for off in numpy_dispatch_settings():
+        code = (f"import sys; sys.path.insert(0, {str(SUPPORT)!r}); "
+                "from numpy_dispatch import running; print(' '.join(running()))")
+        env = {**os.environ, "NPY_DISABLE_CPU_FEATURES": off}
+        r = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                           text=True, timeout=60)
+        assert r.returncode == 0, r.stderr
+        assert not set(off.split()) & set(r.stdout.split()), (off, r.stdout)
 
 
 def test_kernel_list_reads_this_cpu():
