@@ -7,7 +7,8 @@ others, so within a few ulps of it), in one run:
 
 * throughput (lanes per CPU second) of naive numpy (the determinant's sign, no filter,
   not exact), the filtered predicate (semi-static and static), and the all-exact path
-  (every lane in Fractions, on a subset);
+  on a subset: dyadic integers, all lanes at once (:mod:`predicates.exact_lanes`, what
+  the filter falls back to) and lane by lane in Fractions;
 * the share of lanes each filter leaves undecided, on the same inputs: ours (the derived
   bound with each lane's L, or one L for the batch; then what the running-error second
   stage leaves to the exact path), CGAL's semi-static filter (its
@@ -188,11 +189,13 @@ def run_case(name, kind, n, n_exact, repeat, rng):
     t_static, rt = cpu(lambda: static(*P), repeat)
     sub = [p[:n_exact] for p in P]
     t_exact, ex = cpu(lambda: semi.exact(*sub), 1)
+    t_frac, exf = cpu(lambda: semi.exact(*sub, arithmetic="fractions"), 1)
     assert (rs.hit[:n_exact] == ex).all() and (rt.hit[:n_exact] == ex).all()
+    assert (ex == exf).all()
     return {
         "predicate": name, "inputs": kind, "lanes": n,
         "rate_naive": n / t_naive, "rate_semi": n / t_semi, "rate_static": n / t_static,
-        "rate_exact": n_exact / t_exact,
+        "rate_exact": n_exact / t_exact, "rate_fractions": n_exact / t_frac,
         "undecided_semi": float(rs.first_stage.mean()),
         "undecided_static": float(rt.first_stage.mean()),
         "undecided_running": rs.share,
@@ -214,14 +217,16 @@ def main(argv=None):
     rows = [run_case(name, kind, args.n, args.exact, args.repeat, rng)
             for name in classic.PREDICATES for kind in INPUTS]
     print("| predicate | inputs | K (ε·L^p) | naive Mlanes/s | filtered (semi-static) |"
-          " filtered (static) | exact klanes/s | undecided: ours semi-static |"
+          " filtered (static) | exact (dyadic) klanes/s | Fractions klanes/s |"
+          " undecided: ours semi-static |"
           " ours static | CGAL semi-static | Shewchuk A | ours after running stage |"
           " naive wrong |")
-    print("|" + " --- |" * 13)
+    print("|" + " --- |" * 14)
     for r in rows:
         print(f"| {r['predicate']} | {r['inputs']} | {r['bound_K']:.0f} | "
               f"{r['rate_naive'] / 1e6:.1f} | {r['rate_semi'] / 1e6:.2f} | "
               f"{r['rate_static'] / 1e6:.2f} | {r['rate_exact'] / 1e3:.1f} | "
+              f"{r['rate_fractions'] / 1e3:.1f} | "
               f"{100 * r['undecided_semi']:.2f} % | {100 * r['undecided_static']:.2f} % | "
               f"{100 * r['undecided_cgal']:.2f} % | {100 * r['undecided_shewchuk']:.2f} % | "
               f"{100 * r['undecided_running']:.2f} % | {100 * r['naive_wrong']:.2f} % |")

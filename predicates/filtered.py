@@ -37,12 +37,14 @@ each block runs with numpy's underflow and overflow traps; a block that raises i
 with per-lane flags (a nonzero product or quotient below the smallest normal, a zero
 one from nonzero operands, a non-finite value), and flagged lanes fall back.
 
-**The exact path** evaluates the same source with :class:`fperr.ExactContext`
-(``fractions.Fraction``, ε = 0, square roots refused unless rational) on the lanes that
-fell back. Exactness comes first: Fractions are exact for every +, −, ×, ÷ a predicate
-writes, with no expansion arithmetic to get wrong, and Python's big integers make a
-degree-5 insphere on binary64 inputs cost tens of microseconds a lane — fine for the
-small share a filter leaves (benchmarks/README.md, "Filtered predicates").
+**The exact path** evaluates the same source exactly on the lanes that fell back: all
+at once in dyadic integers (:mod:`predicates.exact_lanes`: every float is m·2^s and
++, −, × keep that form, so Python integers and one exponent per value suffice, with no
+gcd) when the source needs no quotient or root, else lane by lane with
+:class:`fperr.ExactContext` (``fractions.Fraction``, ε = 0, square roots refused unless
+rational). Exactness comes first: neither rounds, with no expansion arithmetic to get
+wrong; the dyadic path costs 3–8 µs a lane for the classic determinants, Fractions
+30–240 µs (benchmarks/README.md, "Filtered predicates").
 """
 from __future__ import annotations
 
@@ -57,6 +59,7 @@ import fperr
 from fperr import round_fraction
 
 from . import premise
+from .exact_lanes import ExactLanesContext, NotDyadic, lanes_of
 from .filtered_run import FilterContext, Lanes, RunningLanes
 from .tolerances import Tolerances
 
@@ -150,6 +153,7 @@ class FilteredPredicate:
             raise ValueError("L is the static filter's scale: pass mode='static' with it")
         self.pred, self.mode, self.L = pred, mode, None if L is None else float(L)
         self.running = running
+        self._dyadic = True  # until the source divides or takes a root (exact path)
         self.table = None if table is None else tuple(sorted(table.items()))
         self.name = pred.name
         functools.update_wrapper(self, pred.fn)
@@ -191,10 +195,17 @@ class FilteredPredicate:
             hit[lanes] = self._exact_lanes(arrs, lanes, tol)
         return FilteredResult(hit.reshape(batch), fell.reshape(batch), first.reshape(batch))
 
-    def exact(self, *args, tol: Tolerances | None = None) -> np.ndarray:
-        """The all-exact path (every lane in Fractions): the reference and baseline."""
+    def exact(self, *args, tol: Tolerances | None = None,
+              arithmetic: str = "auto") -> np.ndarray:
+        """The all-exact path (every lane exact): the reference and baseline.
+        ``arithmetic``: "auto" (dyadic integers when the source allows, else Fractions)
+        or "fractions" (lane by lane)."""
+        if arithmetic not in ("auto", "fractions"):
+            raise ValueError(f"arithmetic must be 'auto' or 'fractions', not {arithmetic!r}")
         arrs, batch, _, tol = self._inputs(args, tol)
         lanes = np.arange(arrs[0].shape[0])
+        if arithmetic == "fractions":
+            return self._fraction_lanes(arrs, lanes, tol).reshape(batch)
         return self._exact_lanes(arrs, lanes, tol).reshape(batch)
 
     # -- pieces ---------------------------------------------------------------------------
@@ -259,7 +270,23 @@ class FilteredPredicate:
         return np.asarray(hit, dtype=bool) & ~ctx.undecided, ctx.undecided
 
     def _exact_lanes(self, arrs, lanes, tol) -> np.ndarray:
-        """The exact answer on ``lanes`` (Fractions; an irrational sqrt is refused)."""
+        """The exact answer on ``lanes``: all at once in dyadic integers
+        (:mod:`predicates.exact_lanes`) when the source needs no quotient or root, else
+        lane by lane in Fractions (an irrational sqrt is refused)."""
+        if lanes.size and self._dyadic:
+            run = ExactLanesContext(lanes.size).fresh(len(self.pred.weight_names), lanes.size)
+            try:
+                tol_values = _NoTolerances(self.pred) if tol is None else \
+                    self.pred._tolerances_for(tol, run)
+                pts = [tuple(lanes_of(a[lanes, j]) for j in range(self.pred.dim))
+                       for a in arrs]
+                return np.asarray(self.pred.fn(run, *pts, tol_values)[0], dtype=bool)
+            except NotDyadic:
+                self._dyadic = False  # this source divides or takes roots: Fractions
+        return self._fraction_lanes(arrs, lanes, tol)
+
+    def _fraction_lanes(self, arrs, lanes, tol) -> np.ndarray:
+        """The exact answer on ``lanes``, one lane at a time in Fractions."""
         exact = fperr.ExactContext(sqrt_bits=None)
         tol_values = _NoTolerances(self.pred) if tol is None else \
             self.pred._tolerances_for(tol, exact)
