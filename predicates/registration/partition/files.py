@@ -54,13 +54,15 @@ def write_parts(res, k: int, pattern: str | os.PathLike) -> list[str]:
     return paths
 
 
-def vertex_owners(points: np.ndarray, cells, k: int) -> np.ndarray:
+def vertex_owners(points: np.ndarray, cells, k: int, scheduler=None) -> np.ndarray:
     """Each vertex's owner among k partitions of all ``cells`` (the rule of
     :func:`~predicates.registration.partition.assign.assign`). ``cells`` may be a dask
     array (cells on the workers, docs/partitioned.md 6): each chunk's first vertices'
     hull, Morton codes and first cell per vertex are computed where the chunk is (the
     default Dask scheduler: a Client while one is open), and the client holds 8 bytes
-    per cell (the codes) and their order, not the cells; the same owners bit for bit."""
+    per cell (the codes) and their order, not the cells; the same owners bit for bit.
+    ``scheduler``: the run's (a Client or a local scheduler's name; None: Dask's
+    default)."""
     from predicates.registration.partition import assign as A
 
     if not hasattr(cells, "to_delayed"):
@@ -73,11 +75,12 @@ def vertex_owners(points: np.ndarray, cells, k: int) -> np.ndarray:
                                          offsets, cells.chunks[0]) if size]
     parts, offsets = [p for p, _ in rows], [o for _, o in rows]
     pts = dask.delayed(np.asarray(points))  # one key: sent once, not per task
-    hulls = dask.compute(*[dask.delayed(_first_hull)(p, pts) for p in parts])
+    run = {} if scheduler is None else {"scheduler": scheduler}
+    hulls = dask.compute(*[dask.delayed(_first_hull)(p, pts) for p in parts], **run)
     lo = np.min([h[0] for h in hulls], axis=0)[:, None]  # min and max: exact, any order
     hi = np.max([h[1] for h in hulls], axis=0)[:, None]
     got = dask.compute(*[dask.delayed(_codes_and_first)(p, pts, lo, hi, int(o), m)
-                         for p, o in zip(parts, offsets)])
+                         for p, o in zip(parts, offsets)], **run)
     first = np.full(n, m, dtype=np.int64)
     for _, f in got:
         np.minimum(first, f, out=first)
