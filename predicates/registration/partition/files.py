@@ -36,7 +36,7 @@ def write_parts(res, k: int, pattern: str | os.PathLike) -> list[str]:
 
     from predicates.registration.io.files import check_output
     from predicates.registration.io.write import write_meshio
-    from predicates.registration.partition.run import count_partitions
+    from predicates.registration.partition.counts import count_partitions
 
     k = count_partitions(k, None, len(res.sim_cells))
     paths = part_paths(pattern, k)

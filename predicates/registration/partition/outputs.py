@@ -20,7 +20,7 @@ import numpy as np
 
 from predicates.registration.partition.files import part_paths, vertex_owners
 
-__all__ = ["FileSpec", "PartFiles", "Staged", "intersect_files_parts", "write_part"]
+__all__ = ["FileSpec", "PartFiles", "Staged", "write_part"]
 
 
 @dataclass(frozen=True)
@@ -55,12 +55,20 @@ class FileSpec:
     L_b: float
     refinement: object
     plane: float | None
+    live: str  # the run's marker: a task keeps its file only while it exists
 
 
 class Staged:
     """A run's k per-partition files: checked and their owners computed before any task
     (:meth:`__init__`), each written under a staged name beside its path by its task,
-    then all renamed (:meth:`commit`) or all removed (:meth:`discard`)."""
+    then all renamed (:meth:`commit`) or all removed (:meth:`discard`).
+
+    A task cannot be stopped once it runs (a timeout cancels only the others), so one
+    may write its file after the run was abandoned: the run's hidden marker file
+    (``spec.live``) is removed *before* the staged files, and a task removes its file
+    when the marker is gone after writing it — whichever comes last removes the file.
+    The client and the workers must therefore see the same directory (always so on
+    one machine; a cluster of several hosts needs a shared filesystem for ``-o``)."""
 
     def __init__(self, files: PartFiles, k: int, plan, scheduler=None):
         from predicates.registration.io.write import check_outputs
@@ -69,14 +77,17 @@ class Staged:
         check_outputs(files.inputs, {**{(f"-o (partition {r})", "mesh"): p
                                         for r, p in enumerate(self.paths)}, **files.others})
         token = secrets.token_hex(6)
-        self.staged = [_staged_name(p, token) for p in self.paths]
+        self.staged = [_staged_name(p, token, "staged") for p in self.paths]
+        live = _staged_name(self.paths[0], token, "live")
         sc = plan.scale
         self.spec = FileSpec(plan.dim, plan.dtype, plan.kinds, plan.tol, sc.e, plan.ts,
                              sc.L_a, sc.L_b, plan.refinement,
-                             plan.arrays.plane if files.plane is None else files.plane)
+                             plan.arrays.plane if files.plane is None else files.plane,
+                             live)
         self.owner = vertex_owners(plan.sim.points, plan.sim.cells, k, scheduler)
         # the run's cells are the rows of the masks: a part's cells' indices among all
         self.write = (plan.sim.points, np.flatnonzero(sc.masks[0]))
+        open(live, "x").close()  # last: a refusal above leaves nothing
 
     def commit(self, ran) -> None:
         """Write the files of the partitions that ran no task (no pairs: the legend
@@ -87,26 +98,28 @@ class Staged:
                 write_part(path, self.spec, None, {})
         for tmp, path in zip(self.staged, self.paths):
             os.replace(tmp, path)
+        os.remove(self.spec.live)
 
     def discard(self) -> None:
-        """Remove every staged file (a failed or refused run writes nothing)."""
-        for tmp in self.staged:
+        """Remove the marker, then every staged file (a failed or refused run writes
+        nothing; a task still running removes its own: the class's note)."""
+        for tmp in (self.spec.live, *self.staged):
             with contextlib.suppress(OSError):
                 os.remove(tmp)
 
 
-def _staged_name(path: str, token: str) -> str:
+def _staged_name(path: str, token: str, what: str) -> str:
     """A hidden name beside ``path`` with its extension (the format stays the one the
     name says)."""
     d, base = os.path.split(os.path.abspath(path))
     stem, ext = os.path.splitext(base)
-    return os.path.join(d, f".{stem}.{token}.staged{ext}")
+    return os.path.join(d, f".{stem}.{token}.{what}{ext}")
 
 
 def write_part(path: str, spec: FileSpec, part, local: dict) -> int:
     """Write the pairs ``part`` owns (``local``: its run's pairs in local ids) as the
     file :func:`.files.write_parts` writes for its partition; ``part`` None: an empty
-    file. Returns the file's bytes."""
+    file. Returns the file's bytes (0: the run was abandoned, nothing written)."""
     from predicates.registration.io.write import write_meshio
     from predicates.registration.result.intersection import IntersectionResult
     from predicates.registration.result.pairs import KindPairs
@@ -144,8 +157,15 @@ def write_part(path: str, spec: FileSpec, part, local: dict) -> int:
     data = mesh.point_data
     data["sim_ids"] = _global(data["sim_ids"], ids)
     data["sim_cell"] = _global(data["sim_cell"], cell_ids)
+    if not os.path.exists(spec.live):
+        return 0
     write_meshio(path, mesh)
-    return os.path.getsize(path)
+    size = os.path.getsize(path)
+    if not os.path.exists(spec.live):  # abandoned while writing (Staged's note)
+        with contextlib.suppress(OSError):
+            os.remove(path)
+        return 0
+    return size
 
 
 def _global(local: np.ndarray, ids: np.ndarray) -> np.ndarray:
@@ -154,34 +174,3 @@ def _global(local: np.ndarray, ids: np.ndarray) -> np.ndarray:
     if len(ids) == 0:
         return local.astype(np.int64)
     return np.where(local >= 0, ids[np.maximum(local, 0)], -1).astype(np.int64)
-
-
-def intersect_files_parts(sim, cut, pattern: str | os.PathLike, *,
-                          partitions: int | str = "auto", scheduler="threads",
-                          plot=None, sim_output=None, dtype: str = "float64",
-                          naive: bool = False, sim_region=None, cut_region=None,
-                          **options):
-    """:func:`predicates.registration.intersect_files` with one file per partition
-    (``pattern``: ``"hits_{part}.vtu"``), each written by its partition's task
-    (:class:`PartFiles`); ``plot`` and ``sim_output`` written by the client as there.
-    Every path is checked before any work, and nothing is written when the run is
-    refused or fails. Returns the result (its pairs merged as always)."""
-    from predicates.registration.io.files import input_roles, load_pair, write_results
-    from predicates.registration.io.write import check_outputs
-    from predicates.registration.pipeline import intersect
-
-    roles = input_roles(sim, cut)
-    others = {("--plot", "plot"): plot, ("--sim-output", "mesh"): sim_output}
-    check_outputs(roles, {("-o", "mesh"): part_paths(pattern, 1)[0], **others})
-    arrays = load_pair(sim, cut, dtype=dtype, sim_region=sim_region,
-                       cut_region=cut_region, scheduler=scheduler)
-    if plot is not None and arrays[0].shape[1] != 2:
-        raise ValueError("plots are drawn for 2D meshes only (this case is 3D; open the "
-                         "output in ParaView instead)")
-    files = PartFiles(os.fspath(pattern), partitions, roles, others, arrays.plane)
-    res = intersect(*arrays, dtype=np.dtype(dtype), tolerance_scale=0.0 if naive else 1.0,
-                    partitions=files, scheduler=scheduler, **options)
-    res.notes[:0] = arrays.notes
-    res.plane = arrays.plane
-    write_results(res, plot=plot, sim_output=sim_output)
-    return res

@@ -19,6 +19,8 @@ import time
 import numpy as np
 
 from predicates.registration.partition.assign import Part, merge, split
+from predicates.registration.partition.counts import (  # noqa: F401 (re-exported)
+    CELLS_PER_PART, slots, count_partitions)
 from predicates.registration.partition.outputs import PartFiles, Staged
 from predicates.registration.partition.task import run_part
 
@@ -26,8 +28,6 @@ __all__ = ["DaskMissingError", "LOCAL_SCHEDULERS", "PartitionError", "check_time
            "client_for", "connected", "run_part", "run_partitioned"]
 
 LOCAL_SCHEDULERS = ("threads", "processes", "synchronous")
-#: "auto" makes at least one partition per this many simulation cells
-CELLS_PER_PART = 1_000_000
 #: seconds before the partitions' progress bar shows (as the serial run's bar)
 PROGRESS_DELAY = 1.0
 
@@ -207,27 +207,6 @@ def _warm() -> bool:
     return True
 
 
-def _slots(client, scheduler) -> int:
-    """Partitions that can run at once: the cluster's worker threads, one for the
-    synchronous scheduler, the CPUs for the other local schedulers."""
-    if client is not None:
-        return max(1, sum(w["nthreads"] for w in client.scheduler_info()["workers"].values()))
-    return 1 if scheduler == "synchronous" else os.cpu_count() or 1
-
-
-def count_partitions(partitions, client, n_cells: int) -> int:
-    """The number of partitions a run makes: ``partitions`` checked, or "auto" (one per
-    worker slot and at least one per CELLS_PER_PART cells), never more than the cells."""
-    if isinstance(partitions, str) and partitions == "auto" or partitions is None:
-        workers = _slots(client, "threads")
-        return max(1, min(n_cells, max(workers, -(-n_cells // CELLS_PER_PART))))
-    if isinstance(partitions, (bool, np.bool_)) or not isinstance(partitions, (int, np.integer)):
-        raise TypeError(f"partitions must be a positive int or 'auto', got {partitions!r}")
-    if partitions < 1:
-        raise ValueError(f"partitions must be at least 1, got {partitions}")
-    return int(max(1, min(partitions, n_cells)))
-
-
 @contextlib.contextmanager
 def connected(scheduler):
     """``scheduler`` for a whole partitioned run: an address string (``"tcp://..."``) is
@@ -276,7 +255,7 @@ def _run(dask, client, plan, partitions, scheduler, chunk, timings, check, progr
                          len(plan.sim_cells))
     timings["partition_count"] = k  # (per-partition output: one file per partition)
     if check is not None:  # before any work
-        check(share=min(k, _slots(client, scheduler)) / k, stacklevel=5)
+        check(share=min(k, slots(client, scheduler)) / k, stacklevel=5)
     # the files' paths checked and their owners computed, before any task
     staged = files and Staged(files, k, plan, client or scheduler or "threads")
     with _bar(progress, k) as bar:
