@@ -102,6 +102,31 @@ def test_cells_on_the_workers_of_a_cluster(tmp_path):
     same_files(ref, 4, pattern)
 
 
+@pytest.mark.parametrize("seed", range(6))
+def test_owners_of_the_run_vertices_are_assigns(seed):
+    """The files' owners of some vertices, ranked chunk by chunk where the cells are
+    (no sort of all cells on the client), equal assign's on the whole array; -1 for the
+    vertices not asked for. Grid meshes: many cells share a first vertex (equal Morton
+    codes), so the (code, index) ties are exercised."""
+    import dask.array as da
+
+    from predicates.registration.partition.assign import assign
+    from predicates.registration.partition.files import owners_of
+
+    rng = np.random.default_rng(seed)
+    name = ["sphere", "circle", "plane", "coarse_cut"][seed % 4]
+    sp, sc = CASES[name]()[:2]
+    sc = sc[rng.permutation(len(sc))]
+    sizes = np.diff(np.concatenate([[0], np.sort(rng.integers(0, len(sc), 4)), [len(sc)]]))
+    cells = da.from_array(sc, chunks=(tuple(sizes.tolist()), sc.shape[1]))  # some empty
+    wanted = rng.random(len(sp)) < [0.05, 0.5, 1.0][seed % 3]
+    for k in (1, 2, 5, 13):
+        ref = np.where(wanted, assign(sp, sc, k)[1], -1)
+        for given in (cells, sc):
+            got = owners_of(sp, given, k, wanted, "synchronous")
+            assert got.dtype == ref.dtype and np.array_equal(got, ref), (k, type(given))
+
+
 def test_a_failed_partition_leaves_no_file(tmp_path, monkeypatch):
     """Partition 0 writes its staged file, partition 1 fails: the error propagates and
     no file — final or staged — is left."""

@@ -1,7 +1,8 @@
 """One file per partition, written by the workers (docs/partitioned.md 6): a run given
 ``partitions=PartFiles("hits_{part}.vtu")`` gives partition r every cell with a vertex
 that file r's rule assigns to r (the owners of :func:`.files.vertex_owners` over every
-simulation cell, the rule of :func:`.files.write_parts`), so the pairs task r owns are
+simulation cell, the rule of :func:`.files.write_parts`; :func:`.files.owners_of` for
+the run's vertices), so the pairs task r owns are
 exactly file r's; the task writes its file from them where it runs, under a staged
 name, and the client renames the k files once every partition has succeeded (removes
 them otherwise). The files are byte for byte those :func:`.files.write_parts` writes
@@ -18,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from predicates.registration.partition.files import part_paths, vertex_owners
+from predicates.registration.partition.files import owners_of, part_paths
 
 __all__ = ["FileSpec", "PartFiles", "Staged", "write_part"]
 
@@ -84,7 +85,9 @@ class Staged:
                              sc.L_a, sc.L_b, plan.refinement,
                              plan.arrays.plane if files.plane is None else files.plane,
                              live)
-        self.owner = vertex_owners(plan.sim.points, plan.sim.cells, k, scheduler)
+        run_vertices = np.zeros(len(plan.sim.points), dtype=bool)
+        run_vertices[plan.sim_cells.ravel()] = True  # the only owners the split reads
+        self.owner = owners_of(plan.sim.points, plan.sim.cells, k, run_vertices, scheduler)
         # the run's cells are the rows of the masks: a part's cells' indices among all
         self.write = (plan.sim.points, np.flatnonzero(sc.masks[0]))
         open(live, "x").close()  # last: a refusal above leaves nothing
