@@ -68,6 +68,26 @@ def test_worker_files_are_the_clients_files(tmp_path, name, k, sched):
     assert written and all(p["file_bytes"] > 0 for p in written)
 
 
+@pytest.mark.parametrize("chunked", [False, True])
+@pytest.mark.parametrize("cut", ["empty", "far"])
+def test_runs_without_pairs_write_every_file(tmp_path, cut, chunked):
+    """An empty cutting mesh, or one far from the simulation mesh (no cell can meet):
+    no task runs, and the client writes the k files with the legend only — the same
+    bytes as write_parts."""
+    import dask.array as da
+
+    sp, sc, cp, cc = CASES["sphere"]()
+    cp, cc = (cp, cc[:0]) if cut == "empty" else (cp + 10.0, cc)
+    ref = predicates.intersect(sp, sc, cp, cc)
+    assert ref.total == 0
+    cells = da.from_array(sc, chunks=(100, 4)) if chunked else sc
+    pattern = tmp_path / "h_{part}.vtu"
+    res = predicates.intersect(sp, cells, cp, cc, partitions=PartFiles(str(pattern), 3),
+                               scheduler="threads")
+    assert res.timings["partitions"] == []
+    same_files(ref, 3, pattern)
+
+
 @pytest.mark.filterwarnings("ignore::fperr.ResolutionWarning")  # float32 is coarse here
 def test_random_partitionings_float32_and_naive(tmp_path):
     rng = np.random.default_rng(7)

@@ -28,8 +28,13 @@ def intersect_files_parts(sim, cut, pattern: str | os.PathLike, *,
     refused or fails. Returns the result (its pairs merged as always)."""
     from predicates.registration.io.files import input_roles, load_pair, write_results
     from predicates.registration.io.write import check_outputs
-    from predicates.registration.pipeline import intersect
+    from predicates.registration.pipeline import CHUNK, intersect
+    from predicates.registration.plan.inputs import validate_options
 
+    # before any work, as intersect_files does
+    validate_options(dtype, 0.0, options.get("progress", False), options.get("chunk", CHUNK))
+    if not isinstance(naive, (bool, np.bool_)):
+        raise TypeError(f"naive must be True or False, got {naive!r}")
     roles = input_roles(sim, cut)
     others = {("--plot", "plot"): plot, ("--sim-output", "mesh"): sim_output}
     check_outputs(roles, {("-o", "mesh"): part_paths(pattern, 1)[0], **others})
