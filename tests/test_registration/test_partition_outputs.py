@@ -267,3 +267,20 @@ def test_cli_files_from_the_workers_equal_the_clients(tmp_path):
              "--workers", "1", "--timeout", "0.001")
     assert r.returncode == 1 and "not finished after the timeout" in r.stderr, r.stderr
     assert list(failed.iterdir()) == []
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_owner_halos_hold_every_cell_of_an_owned_vertex(seed):
+    """owner_halos against its definition: partition r's cells are exactly the cells
+    with a vertex r owns, ascending — so r holds every cell containing a vertex it owns
+    (section 4's lemma) whatever the owners."""
+    from predicates.registration.partition.slices import owner_halos
+
+    rng = np.random.default_rng(seed)
+    sp, sc = CASES[["sphere", "circle", "plane"][seed % 3]]()[:2]
+    k = int(rng.integers(1, 9))
+    owner = rng.integers(0, k, len(sp))
+    ids, starts = owner_halos(sc, owner, k)
+    for r in range(k):
+        want = np.flatnonzero((owner[sc] == r).any(axis=1))
+        assert np.array_equal(ids[starts[r]:starts[r + 1]], want)
