@@ -7,10 +7,10 @@ workers build themselves: the client never holds them).
         [--workers 2] [--partitions 2] [--reps 2] [--rounds 1] [--json OUT]
         [--modes serial,dask,remote,files,pieces,serial_pieces] [--folder DIR]
 
-Mode ``files``: as ``remote``, with one file per partition written by each partition's
-task (``PartFiles``); ``remote`` then writes the same files on the client from the
-merged result (``write_parts``, "client_write": wall and CPU seconds); both print the
-files' SHA-256, which must be equal.
+Mode ``files`` (``pieces_files``): as ``remote`` (``pieces``), with one file per
+partition written by each partition's task (``PartFiles``); ``remote`` then writes the
+same files on the client from the merged result (``write_parts``, "client_write": wall
+and CPU seconds); both print the files' SHA-256, which must be equal.
 
 Mode ``pieces``: the mesh written once (by a separate process) as ``--partitions``
 slabs of .vtu pieces with global point ids, read by the workers in every run
@@ -114,7 +114,7 @@ def child(mode: str, n: int, sub: int, workers: int, k: int, reps: int,
     cp, cc = icosphere(sub)
     m = 6 * n ** 3
     out = {"mode": mode, "runs": [], "setup": [], "cpu": []}
-    if mode == "pieces":  # nothing: the workers read the pieces
+    if mode.startswith("pieces"):  # nothing: the workers read the pieces
         sp = sc = None
     elif mode in ("remote", "files"):  # the points only: the cells are built on the workers
         x = grid_coordinates(n)
@@ -171,13 +171,13 @@ def partitioned(mode: str, out: dict, sp, sc, cp, cc, n: int, workers: int, k: i
         out["read"] = []
         for _ in range(reps):
             t, c = time.perf_counter(), time.process_time()
-            if mode == "pieces":  # read by the workers, the client gets the points
+            if mode.startswith("pieces"):  # read by the workers, the client: the points
                 from predicates.registration.partition.pieces import read_pieces_on_workers
 
                 got = read_pieces_on_workers(sorted(Path(folder).glob("*.vtu")), client)
                 sp, sc = got.points, got.cells
                 out["read"].append(time.perf_counter() - t)
-            parts = PartFiles(f"{tmp}/hits_{{part}}.vtu", k) if mode == "files" else k
+            parts = PartFiles(f"{tmp}/hits_{{part}}.vtu", k) if mode.endswith("files") else k
             res = predicates.intersect(sp, sc, cp, cc, partitions=parts, scheduler=client,
                                        memory_limit=16 << 30)
             out["runs"].append(time.perf_counter() - t)
@@ -188,7 +188,8 @@ def partitioned(mode: str, out: dict, sp, sc, cp, cc, n: int, workers: int, k: i
             write_parts(res, k, f"{tmp}/hits_{{part}}.vtu")
             out["client_write"] = [time.perf_counter() - t, time.process_time() - c]
         record_partitions(out, res)
-    out["files_sha256"] = files_digest(tmp, k) if mode in ("remote", "files") else None
+    out["files_sha256"] = files_digest(tmp, k) if mode.endswith("files") or mode == "remote" \
+        else None
     return res
 
 
@@ -236,7 +237,7 @@ def main(argv=None):
         print(json.dumps(child(a.child, a.n, a.subdivisions, a.workers, a.partitions,
                                a.reps, a.folder)))
         return
-    if "pieces" in a.modes.split(","):
+    if {"pieces", "pieces_files"} & set(a.modes.split(",")):
         import tempfile
 
         a.folder = a.folder or tempfile.mkdtemp(prefix="fperr-pieces-")
