@@ -125,7 +125,7 @@ def owners_of(points: np.ndarray, cells, k: int, wanted: np.ndarray,
     m = int(offsets[-1])
     rows = [(p, int(o)) for p, o, size in zip(cells.rechunk({1: -1}).to_delayed().ravel(),
                                               offsets, cells.chunks[0]) if size]
-    pts = dask.delayed(np.asarray(points))  # one key: sent once, not per task
+    pts = _shared(dask, points, scheduler)
     hulls = dask.compute(*[dask.delayed(_first_hull)(p, pts) for p, _ in rows], **run)
     lo = np.min([h[0] for h in hulls], axis=0)[:, None]  # min and max: exact, any order
     hi = np.max([h[1] for h in hulls], axis=0)[:, None]
@@ -146,6 +146,15 @@ def owners_of(points: np.ndarray, cells, k: int, wanted: np.ndarray,
     out = np.full(len(points), -1, dtype=np.int64)
     out[ids] = np.where(first < m, pos * k // m, -1)
     return out
+
+
+def _shared(dask, points, scheduler):
+    """The points as one input of the tasks: on a Client scattered once to every worker
+    (not in each graph: three computes would send them three times, with distributed's
+    "large graph" warning), else one delayed key."""
+    if hasattr(scheduler, "scatter"):
+        return scheduler.scatter(np.asarray(points), broadcast=True, hash=False)
+    return dask.delayed(np.asarray(points))
 
 
 def _assign_owners(points, cells, k):
