@@ -5,7 +5,12 @@ workers build themselves: the client never holds them).
 
     python benchmarks/partition_remote_bench.py [--n 120] [--subdivisions 7]
         [--workers 2] [--partitions 2] [--reps 2] [--rounds 1] [--json OUT]
-        [--modes serial,dask,remote,pieces,serial_pieces] [--folder DIR]
+        [--modes serial,dask,remote,files,pieces,serial_pieces] [--folder DIR]
+
+Mode ``files`` (``pieces_files``): as ``remote`` (``pieces``), with one file per
+partition written by each partition's task (``PartFiles``); ``remote`` then writes the
+same files on the client from the merged result (``write_parts``, "client_write": wall
+and CPU seconds); both print the files' SHA-256, which must be equal.
 
 Mode ``pieces``: the mesh written once (by a separate process) as ``--partitions``
 slabs of .vtu pieces with global point ids, read by the workers in every run
@@ -24,6 +29,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import shutil
 import subprocess
 import sys
 import time
@@ -105,14 +111,13 @@ def child(mode: str, n: int, sub: int, workers: int, k: int, reps: int,
           folder: str | None = None) -> dict:
     import predicates
     from predicates.registration.examples import cube_grid, grid_coordinates, icosphere
-    from predicates.registration.partition.run import client_for
 
     cp, cc = icosphere(sub)
     m = 6 * n ** 3
     out = {"mode": mode, "runs": [], "setup": [], "cpu": []}
-    if mode == "pieces":  # nothing: the workers read the pieces
+    if mode.startswith("pieces"):  # nothing: the workers read the pieces
         sp = sc = None
-    elif mode == "remote":  # the points only: the cells are built on the workers
+    elif mode in ("remote", "files"):  # the points only: the cells are built on the workers
         x = grid_coordinates(n)
         Z, Y, X = np.meshgrid(x, x, x, indexing="ij")
         sp = np.stack([X.ravel(), Y.ravel(), Z.ravel()], axis=1)
@@ -131,49 +136,86 @@ def child(mode: str, n: int, sub: int, workers: int, k: int, reps: int,
             out["cpu"].append(time.process_time() - c)
             out["setup"].append(res.timings["setup"])
     else:
-        with client_for(workers) as client:
-            if mode == "remote":
-                import dask
-                import dask.array as da
-
-                cuts = np.linspace(0, m, k + 1).astype(int)
-                sc = client.persist(da.concatenate([
-                    da.from_delayed(dask.delayed(cube_cells)(n, a, b), shape=(b - a, 4),
-                                    dtype=np.int64) for a, b in zip(cuts[:-1], cuts[1:])]))
-            out["read"] = []
-            for _ in range(reps):
-                t, c = time.perf_counter(), time.process_time()
-                if mode == "pieces":  # read by the workers, the client gets the points
-                    from predicates.registration.partition.pieces import (
-                        read_pieces_on_workers)
-
-                    got = read_pieces_on_workers(sorted(Path(folder).glob("*.vtu")),
-                                                 client)
-                    sp, sc = got.points, got.cells
-                    out["read"].append(time.perf_counter() - t)
-                res = predicates.intersect(sp, sc, cp, cc, partitions=k, scheduler=client,
-                                           memory_limit=16 << 30)
-                out["runs"].append(time.perf_counter() - t)
-                out["cpu"].append(time.process_time() - c)
-                out["setup"].append(res.timings["setup"])
-            out["parts"] = [{key: p[key] for key in ("sim_cells", "cut_cells", "bytes_in",
-                                                     "bytes_out", "peak_rss_mib", "pid",
-                                                     "seconds", "cpu_s")}
-                            for p in res.timings["partitions"]]
-            # CPU seconds on the critical path (load-independent; docs/partitioned.md
-            # 5b): the client's, the plan's per-chunk passes (largest chunk each), the
-            # busiest partition's task
-            remote = res.timings.get("plan_remote") or {}
-            out["critical_cpu"] = {
-                "client": out["cpu"][-1],
-                "plan_on_workers": sum(c for _, c in remote.get("worker_cpu", [])),
-                "busiest_task": max(p["cpu_s"] for p in res.timings["partitions"])}
-            out["plan_remote"] = res.timings.get("plan_remote")
+        res = partitioned(mode, out, sp, sc, cp, cc, n, workers, k, reps, folder)
     out["timings"] = {key: round(v, 3) for key, v in res.timings.items()
                       if isinstance(v, float)}  # the last run's stages (wall, CPU)
     out["client_peak_mib"] = status("VmHWM")
     out["digest"] = digest(res)
     return out
+
+
+def partitioned(mode: str, out: dict, sp, sc, cp, cc, n: int, workers: int, k: int,
+                reps: int, folder: str | None):
+    """The partitioned runs of ``mode`` on a fresh local cluster (records in ``out``).
+    Mode ``files``: the cells on the workers and one file per partition written by
+    each task (``PartFiles``); mode ``remote`` then times the client writing the same
+    files from the merged result (``write_parts``), as before 2026-11-27. Both record
+    the files' SHA-256 (must be equal)."""
+    import tempfile
+
+    import predicates
+    from predicates.registration.partition.files import write_parts
+    from predicates.registration.partition.outputs import PartFiles
+    from predicates.registration.partition.run import client_for
+
+    m = 6 * n ** 3
+    tmp = tempfile.mkdtemp(prefix="fperr-parts-")
+    with client_for(workers) as client:
+        if mode in ("remote", "files"):
+            import dask
+            import dask.array as da
+
+            cuts = np.linspace(0, m, k + 1).astype(int)
+            sc = client.persist(da.concatenate([
+                da.from_delayed(dask.delayed(cube_cells)(n, a, b), shape=(b - a, 4),
+                                dtype=np.int64) for a, b in zip(cuts[:-1], cuts[1:])]))
+        out["read"] = []
+        for _ in range(reps):
+            t, c = time.perf_counter(), time.process_time()
+            if mode.startswith("pieces"):  # read by the workers, the client: the points
+                from predicates.registration.partition.pieces import read_pieces_on_workers
+
+                got = read_pieces_on_workers(sorted(Path(folder).glob("*.vtu")), client)
+                sp, sc = got.points, got.cells
+                out["read"].append(time.perf_counter() - t)
+            parts = PartFiles(f"{tmp}/hits_{{part}}.vtu", k) if mode.endswith("files") else k
+            res = predicates.intersect(sp, sc, cp, cc, partitions=parts, scheduler=client,
+                                       memory_limit=16 << 30)
+            out["runs"].append(time.perf_counter() - t)
+            out["cpu"].append(time.process_time() - c)
+            out["setup"].append(res.timings["setup"])
+        if mode == "remote":  # the files written by the client, from the merged result
+            t, c = time.perf_counter(), time.process_time()
+            write_parts(res, k, f"{tmp}/hits_{{part}}.vtu")
+            out["client_write"] = [time.perf_counter() - t, time.process_time() - c]
+        record_partitions(out, res)
+    out["files_sha256"] = files_digest(tmp, k) if mode.endswith("files") or mode == "remote" \
+        else None
+    shutil.rmtree(tmp)  # 40 MB per W4 file
+    return res
+
+
+def record_partitions(out: dict, res) -> None:
+    """Per partition: cells, bytes, peaks, times; the critical path's CPU seconds."""
+    out["parts"] = [{key: p.get(key) for key in (
+        "sim_cells", "cut_cells", "bytes_in", "bytes_out", "peak_rss_mib", "pid",
+        "seconds", "cpu_s", "file_bytes", "cpu_file_s")} for p in res.timings["partitions"]]
+    # CPU seconds on the critical path (load-independent; docs/partitioned.md 5b): the
+    # client's, the plan's per-chunk passes (largest chunk each), the busiest task
+    remote = res.timings.get("plan_remote") or {}
+    out["critical_cpu"] = {
+        "client": out["cpu"][-1],
+        "plan_on_workers": sum(c for _, c in remote.get("worker_cpu", [])),
+        "busiest_task": max(p["cpu_s"] for p in res.timings["partitions"])}
+    out["plan_remote"] = remote or None
+
+
+def files_digest(folder: str, k: int) -> str:
+    """SHA-256 of the k per-partition files' bytes, in order."""
+    h = hashlib.sha256()
+    for r in range(k):
+        h.update(Path(f"{folder}/hits_{r}.vtu").read_bytes())
+    return h.hexdigest()
 
 
 def main(argv=None):
@@ -197,7 +239,7 @@ def main(argv=None):
         print(json.dumps(child(a.child, a.n, a.subdivisions, a.workers, a.partitions,
                                a.reps, a.folder)))
         return
-    if "pieces" in a.modes.split(","):
+    if {"pieces", "pieces_files"} & set(a.modes.split(",")):
         import tempfile
 
         a.folder = a.folder or tempfile.mkdtemp(prefix="fperr-pieces-")

@@ -229,12 +229,18 @@ def _run_intersect(args) -> int:
                            ("--sim-output", "mesh"): args.sim_output})
 
     def work(**options):
-        res = intersect_files(sim, args.cut, **({} if per_part else outputs),
-                              naive=args.naive, **options)
+        if per_part:  # each partition's file written by its task, on the workers
+            from predicates.registration.partition.intersect_parts import intersect_files_parts
+
+            res = intersect_files_parts(sim, args.cut, args.output, plot=args.plot,
+                                        sim_output=args.sim_output, naive=args.naive,
+                                        **options)
+        else:
+            res = intersect_files(sim, args.cut, **outputs, naive=args.naive, **options)
         # the summary's cut cells, counted while the cluster is open: cells read by its
         # workers (pieces with global ids) stay there
         res.intersected_cells()
-        return res, (_write_parts(args, res) if per_part else None)
+        return res, (res.timings["partition_count"] if per_part else None)
 
     status, out = _register(args, work, check)
     if status is not None:
@@ -285,22 +291,6 @@ def _check_parts(args, dask_run: bool) -> None:
     check_outputs(input_roles(args.sim, args.cut),
                   {("-o", "mesh"): first, ("--plot", "plot"): args.plot,
                    ("--sim-output", "mesh"): args.sim_output})
-
-
-def _write_parts(args, res) -> int:
-    """Write the per-partition files (one per partition of the run) and the other
-    outputs, every path checked first (none is written if one is refused)."""
-    from predicates.registration.io.files import check_outputs, input_roles, write_results
-    from predicates.registration.partition.files import part_paths, write_parts
-
-    k = res.timings["partition_count"]
-    outs = {(f"-o (partition {r})", "mesh"): p
-            for r, p in enumerate(part_paths(args.output, k))}
-    check_outputs(input_roles(args.sim, args.cut),
-                  {**outs, ("--plot", "plot"): args.plot, ("--sim-output", "mesh"): args.sim_output})
-    write_parts(res, k, args.output)
-    write_results(res, plot=args.plot, sim_output=args.sim_output)
-    return k
 
 
 # -- cut -------------------------------------------------------------------------------

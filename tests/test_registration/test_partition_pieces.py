@@ -4,6 +4,10 @@ never pass through the client, and the result is the serial run's on the same me
 for bit, for random piece splits and on every scheduler."""
 from __future__ import annotations
 
+import json
+import os
+import sys
+
 import meshio
 import numpy as np
 import pytest
@@ -213,3 +217,113 @@ def test_cli_per_partition_files_from_pieces_on_the_workers(tmp_path):
         assert a.points.tobytes() == b.points.tobytes() and len(a.points)
         for key in a.point_data:
             assert a.point_data[key].tobytes() == b.point_data[key].tobytes(), key
+
+
+PIECES_CLIENT = """
+import json, resource, sys
+import numpy as np
+from distributed import Client
+import predicates
+from predicates.registration.examples import icosphere
+from predicates.registration.partition.pieces import read_pieces_on_workers
+
+address, headroom, mesh, result = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
+warm, paths = sys.argv[5].split(","), sys.argv[6].split(",")
+
+
+def status(field):
+    for line in open("/proc/self/status"):
+        if line.startswith(field + ":"):
+            return int(line.split()[1]) * 1024
+
+
+cp, cc = icosphere(5)
+cp = 0.5 + (cp - 0.5) * 0.25  # a small sphere: few cells can meet
+client = Client(address)
+# the code is loaded before the limit, which is on the data: small pieces, read and
+# registered the same way, import what the large run runs
+got = read_pieces_on_workers(warm, client)
+predicates.intersect(got.points, got.cells, cp, cc, partitions=2, scheduler=client)
+del got
+limit = status("VmSize") + headroom
+soft, hard = resource.getrlimit(resource.RLIMIT_AS)
+resource.setrlimit(resource.RLIMIT_AS, (limit, hard))  # soft: lifted again below
+try:  # the limit is real: the mesh does not fit
+    np.ones(mesh, dtype=np.uint8)
+    fits = True
+except MemoryError:
+    fits = False
+got = read_pieces_on_workers(paths, client)
+res = predicates.intersect(got.points, got.cells, cp, cc, partitions=4, scheduler=client)
+# the limit is on reading and registering; writing the result for the test is not
+resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
+client.close()
+np.savez(result, **{f"{k}.{f}": getattr(res[k], f) for k in res.kinds
+                    for f in ("sim", "cut", "sim_weights", "cut_weights")})
+print(json.dumps({"fits": fits, "counts": res.counts, "L": [res.L_a, res.L_b],
+                  "e": res.scale_exponent, "grew": status("VmPeak") - (limit - headroom)}))
+"""
+
+
+def _slabs(folder, name: str, sp, sc, n: int, count: int) -> tuple[list, np.ndarray]:
+    """cube_grid(n) as ``count`` slabs of cube layers with global point ids; returns the
+    paths and the cells in the pieces' order (the serial run's input)."""
+    layer = (np.arange(len(sc)) % n ** 3) // (n * n)
+    cuts = np.linspace(0, n, count + 1).astype(int)
+    paths, order = [], []
+    for r in range(count):
+        rows = np.flatnonzero((layer >= cuts[r]) & (layer < cuts[r + 1]))
+        ids, local = np.unique(sc[rows], return_inverse=True)
+        path = folder / f"{name}{r}.vtu"
+        meshio.Mesh(sp[ids], [("tetra", local.reshape(-1, 4))],
+                    point_data={GLOBAL_IDS: ids}).write(path)
+        paths.append(str(path))
+        order.append(rows)
+    return paths, sc[np.concatenate(order)]
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="RLIMIT_AS and /proc")
+def test_a_client_that_cannot_hold_the_mesh_reads_pieces(tmp_path):
+    """Pieces with global point ids read by the workers, with the client's address
+    space limited (RLIMIT_AS, after its imports, connection and a small warm-up run on
+    small pieces) to 0.75 × the simulation mesh's bytes — it cannot allocate the mesh —
+    and the workers, started outside it, unlimited: the run completes with the serial
+    result on the same mesh (every kind's pairs and weights). The client receives each
+    piece's point ids and coordinates and assembles the points (24 bytes per point, an
+    eighth of a tetrahedral mesh); the cells never reach it."""
+    import subprocess
+
+    distributed = pytest.importorskip("distributed")
+    from predicates.registration.examples import cube_grid, icosphere
+
+    n = 90  # 4.4 M tetrahedra: 140 MB of cells, 18 MB of points
+    sp, sc = cube_grid(n)
+    warm = _slabs(tmp_path, "warm", *cube_grid(4), 4, 2)[0]
+    paths, in_order = _slabs(tmp_path, "piece", sp, sc, n, 4)
+    cp, cc = icosphere(5)
+    cp = 0.5 + (cp - 0.5) * 0.25  # as in the client
+    ref = predicates.intersect(sp, in_order, cp, cc)
+    mesh = sp.nbytes + sc.nbytes
+    del sp, sc, in_order
+    script = tmp_path / "client.py"
+    script.write_text(PIECES_CLIENT)
+    headroom = int(mesh * 0.75)
+    env = dict(os.environ, MALLOC_ARENA_MAX="1", MALLOC_MMAP_THRESHOLD_="65536",
+               MALLOC_TRIM_THRESHOLD_="65536", OMP_NUM_THREADS="1")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None, memory_limit=0) as cluster:
+        r = subprocess.run([sys.executable, str(script), cluster.scheduler_address,
+                            str(headroom), str(mesh), str(tmp_path / "result.npz"),
+                            ",".join(warm), ",".join(paths)],
+                           capture_output=True, text=True, env=env, timeout=900)
+    assert r.returncode == 0, r.stderr[-3000:]
+    out = json.loads(r.stdout.strip().splitlines()[-1])
+    assert not out["fits"] and headroom < mesh
+    assert out["counts"] == ref.counts and out["L"] == [ref.L_a, ref.L_b]
+    assert out["e"] == ref.scale_exponent and ref.total > 0
+    print(f"client address space grew by {out['grew'] / mesh:.2f} x the mesh")
+    with np.load(tmp_path / "result.npz") as got:
+        for k in ref.kinds:
+            for f in ("sim", "cut", "sim_weights", "cut_weights"):
+                x, y = getattr(ref[k], f), got[f"{k}.{f}"]
+                assert x.dtype == y.dtype and x.tobytes() == y.tobytes(), (k, f)

@@ -23,7 +23,7 @@ import numpy as np
 
 from predicates.registration.spatial.boxgrid import rowwise
 from predicates.registration.spatial.broadphase import boxes_of
-from predicates.registration.partition.slices import cut_near, halos, wide
+from predicates.registration.partition.slices import cut_near, halos, owner_halos, wide
 from predicates.registration.result.intersection import KindPairs
 
 __all__ = ["Layout", "Part", "assign", "merge", "morton_order", "owned", "split"]
@@ -37,7 +37,9 @@ class Part:
     2^31 vertices), increasing
     (local order = global order, so ties in the lexicographic vertex order break the
     same way as in the serial run); ``own_vertex``: per local simulation vertex, owned
-    by this partition."""
+    by this partition. ``sim_coords`` / ``cell_ids``: for a run that writes one file
+    per partition on the workers (:mod:`.outputs`), the local vertices' coordinates as
+    given (not scaled) and each local cell's index among all simulation cells."""
 
     index: int
     P_sim: np.ndarray
@@ -48,13 +50,16 @@ class Part:
     cut_cells: np.ndarray
     cut_ids: np.ndarray
     owned_cells: int
+    sim_coords: np.ndarray | None = None
+    cell_ids: np.ndarray | None = None
 
     @property
     def nbytes(self) -> int:
         """Bytes of array data sent to the worker."""
         return sum(a.nbytes for a in (self.P_sim, self.sim_cells, self.sim_ids,
                                       self.own_vertex, self.P_cut, self.cut_cells,
-                                      self.cut_ids))
+                                      self.cut_ids, self.sim_coords, self.cell_ids)
+                   if a is not None)
 
 
 def _spread(v: np.ndarray, dim: int) -> np.ndarray:
@@ -147,12 +152,14 @@ def owners_from(pos: np.ndarray, first: np.ndarray, k: int) -> np.ndarray:
     return np.where(first < m, pos[np.minimum(first, m - 1)] * k // m, -1)
 
 
-def split(P_sim, sim_cells, P_cut, cut_cells, k: int, pad: float):
+def split(P_sim, sim_cells, P_cut, cut_cells, k: int, pad: float, owner=None,
+          write=None):
     """Yield the :class:`Part` of each non-empty partition of k (cells in Morton
     order, cut into k runs of equal size ± 1); ``pad``: the largest broad-phase reach.
     Any assignment of cells to partitions gives the serial result; Morton runs keep them
-    compact, so halos and cutting slices stay small."""
-    layout = Layout(P_sim, sim_cells, P_cut, cut_cells, k, pad)
+    compact, so halos and cutting slices stay small. ``owner``: each vertex's partition
+    given and ``write`` (per-partition files: :class:`Layout`)."""
+    layout = Layout(P_sim, sim_cells, P_cut, cut_cells, k, pad, owner, write)
     for r in range(k):
         part = layout.part(r)
         if part is not None:
@@ -164,31 +171,51 @@ class Layout:
     :mod:`~predicates.registration.partition.slices`, cutting boxes), from which
     :meth:`part` cuts any one partition — the client cuts them all, or each worker
     its own from the same arrays (the same Part, bit for bit: a pure function of the
-    arrays, k, r and pad)."""
+    arrays, k, r and pad).
 
-    def __init__(self, P_sim, sim_cells, P_cut, cut_cells, k: int, pad: float):
+    ``owner`` given (a partition per vertex: the per-partition files' owners over
+    every simulation cell, :func:`~predicates.registration.partition.files.vertex_owners`),
+    partition r receives every cell with a vertex it owns (:func:`owner_halos`): it
+    owns the pairs of its file, and section 4's lemma holds as it is stated (r holds
+    every cell containing a vertex it owns); ``owned_cells`` then counts the cells whose
+    first vertex r owns. ``write`` (the points as given, each run cell's index among
+    all cells): each Part also carries its vertices' coordinates and its cells' indices
+    (``sim_coords``, ``cell_ids``), for its file."""
+
+    def __init__(self, P_sim, sim_cells, P_cut, cut_cells, k: int, pad: float,
+                 owner: np.ndarray | None = None, write=None):
+        self.write = write
         self.P_sim, self.sim_cells, self.P_cut, self.cut_cells = (P_sim, sim_cells, P_cut,
                                                                   cut_cells)
         self.k, self.pad = k, pad
         m = len(sim_cells)
-        pos, self.owner = assign(P_sim, sim_cells, k)
-        part = pos * k // m  # cell c is owned by partition pos[c]·k // m (assign)
-        self.owned = np.bincount(part, minlength=k)
-        self.halo, self.halo_at = halos(sim_cells, part, k, len(P_sim))
+        if owner is None:
+            pos, self.owner = assign(P_sim, sim_cells, k)
+            part = pos * k // m  # cell c is owned by partition pos[c]·k // m (assign)
+            self.owned = np.bincount(part, minlength=k)
+            self.halo, self.halo_at = halos(sim_cells, part, k, len(P_sim))
+        else:
+            self.owner = owner
+            self.owned = np.bincount(owner[sim_cells[:, 0]], minlength=k)
+            self.halo, self.halo_at = owner_halos(sim_cells, owner, k)
         self.lo, self.hi = boxes_of(P_sim, sim_cells)  # once: a part takes its rows
         self.clo, self.chi = boxes_of(P_cut, cut_cells)
         self.wide = wide(self.clo, self.chi, pad)
 
     def part(self, r: int) -> Part | None:
-        """Partition r's :class:`Part` (None: it owns no cell)."""
-        if self.owned[r] == 0:
+        """Partition r's :class:`Part` (None: it holds no cell)."""
+        if self.halo_at[r + 1] == self.halo_at[r]:  # (the default: owns no cell)
             return None
         halo = self.halo[self.halo_at[r]: self.halo_at[r + 1]]  # includes own cells
         Ps, cs, sid = _local(self.P_sim, self.sim_cells, halo)
         cut_keep = cut_near(self.lo[halo], self.hi[halo], self.clo, self.chi, *self.wide,
                             self.pad)
         Pc, cc, cid = _local(self.P_cut, self.cut_cells, cut_keep)
-        return Part(r, Ps, cs, sid, self.owner[sid] == r, Pc, cc, cid, int(self.owned[r]))
+        part = Part(r, Ps, cs, sid, self.owner[sid] == r, Pc, cc, cid, int(self.owned[r]))
+        if self.write is not None:
+            points, rows = self.write
+            part.sim_coords, part.cell_ids = points[sid], rows[halo]
+        return part
 
 
 def owned(part: Part, pairs: dict) -> dict:

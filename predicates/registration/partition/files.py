@@ -6,7 +6,7 @@ import os
 
 import numpy as np
 
-__all__ = ["part_paths", "read_pieces", "vertex_owners", "write_parts"]
+__all__ = ["owners_of", "part_paths", "read_pieces", "vertex_owners", "write_parts"]
 
 
 def part_paths(pattern: str | os.PathLike, k: int) -> list[str]:
@@ -36,7 +36,7 @@ def write_parts(res, k: int, pattern: str | os.PathLike) -> list[str]:
 
     from predicates.registration.io.files import check_output
     from predicates.registration.io.write import write_meshio
-    from predicates.registration.partition.run import count_partitions
+    from predicates.registration.partition.counts import count_partitions
 
     k = count_partitions(k, None, len(res.sim_cells))
     paths = part_paths(pattern, k)
@@ -54,13 +54,15 @@ def write_parts(res, k: int, pattern: str | os.PathLike) -> list[str]:
     return paths
 
 
-def vertex_owners(points: np.ndarray, cells, k: int) -> np.ndarray:
+def vertex_owners(points: np.ndarray, cells, k: int, scheduler=None) -> np.ndarray:
     """Each vertex's owner among k partitions of all ``cells`` (the rule of
     :func:`~predicates.registration.partition.assign.assign`). ``cells`` may be a dask
     array (cells on the workers, docs/partitioned.md 6): each chunk's first vertices'
     hull, Morton codes and first cell per vertex are computed where the chunk is (the
     default Dask scheduler: a Client while one is open), and the client holds 8 bytes
-    per cell (the codes) and their order, not the cells; the same owners bit for bit."""
+    per cell (the codes) and their order, not the cells; the same owners bit for bit.
+    ``scheduler``: the run's (a Client or a local scheduler's name; None: Dask's
+    default)."""
     from predicates.registration.partition import assign as A
 
     if not hasattr(cells, "to_delayed"):
@@ -73,11 +75,12 @@ def vertex_owners(points: np.ndarray, cells, k: int) -> np.ndarray:
                                          offsets, cells.chunks[0]) if size]
     parts, offsets = [p for p, _ in rows], [o for _, o in rows]
     pts = dask.delayed(np.asarray(points))  # one key: sent once, not per task
-    hulls = dask.compute(*[dask.delayed(_first_hull)(p, pts) for p in parts])
+    run = {} if scheduler is None else {"scheduler": scheduler}
+    hulls = dask.compute(*[dask.delayed(_first_hull)(p, pts) for p in parts], **run)
     lo = np.min([h[0] for h in hulls], axis=0)[:, None]  # min and max: exact, any order
     hi = np.max([h[1] for h in hulls], axis=0)[:, None]
     got = dask.compute(*[dask.delayed(_codes_and_first)(p, pts, lo, hi, int(o), m)
-                         for p, o in zip(parts, offsets)])
+                         for p, o in zip(parts, offsets)], **run)
     first = np.full(n, m, dtype=np.int64)
     for _, f in got:
         np.minimum(first, f, out=first)
@@ -102,6 +105,99 @@ def _codes_and_first(chunk, points, lo, hi, offset: int, m: int):
     chunk = np.asarray(chunk)
     codes = morton_codes(first_vertices(points, chunk), lo, hi)
     return codes, first_cells(chunk, len(points), offset, none=m)
+
+
+def owners_of(points: np.ndarray, cells, k: int, wanted: np.ndarray,
+              scheduler=None) -> np.ndarray:
+    """:func:`vertex_owners` of the vertices ``wanted`` (a bool per point; −1 for the
+    others), for a run that writes one file per partition (:mod:`.outputs`: the run's
+    vertices only). With ``cells`` a dask array the client sorts nothing: each chunk
+    returns, per wanted vertex, its first cell there and that cell's Morton code; then,
+    per distinct first cell, how many of the chunk's cells precede it in the (code,
+    index) order — summed, its position in the Morton order of all cells. The client
+    holds 8 bytes per point and ~24 per wanted vertex, not 24 per cell."""
+    if not hasattr(cells, "to_delayed"):
+        return np.where(wanted, _assign_owners(points, cells, k), -1)
+    import dask
+
+    run = {} if scheduler is None else {"scheduler": scheduler}
+    offsets = np.concatenate([[0], np.cumsum(cells.chunks[0])]).astype(np.int64)
+    m = int(offsets[-1])
+    rows = [(p, int(o)) for p, o, size in zip(cells.rechunk({1: -1}).to_delayed().ravel(),
+                                              offsets, cells.chunks[0]) if size]
+    pts = _shared(dask, points, scheduler)
+    hulls = dask.compute(*[dask.delayed(_first_hull)(p, pts) for p, _ in rows], **run)
+    lo = np.min([h[0] for h in hulls], axis=0)[:, None]  # min and max: exact, any order
+    hi = np.max([h[1] for h in hulls], axis=0)[:, None]
+    ids = np.flatnonzero(wanted)
+    firsts = dask.compute(*[dask.delayed(_wanted_first)(p, pts, lo, hi, o, m, ids)
+                            for p, o in rows], **run)
+    first = np.full(len(ids), m, dtype=np.int64)
+    code = np.zeros(len(ids), dtype=np.uint64)
+    for f, c in firsts:  # the smallest cell index wins, with its code
+        better = f < first
+        first[better], code[better] = f[better], c[better]
+    cell, at = np.unique(first, return_inverse=True)  # (m last: wanted but in no cell)
+    cell_code = np.zeros(len(cell), dtype=np.uint64)
+    cell_code[at] = code
+    before = dask.compute(*[dask.delayed(_cells_before)(p, pts, lo, hi, o, m, cell,
+                                                        cell_code) for p, o in rows], **run)
+    pos = np.sum(before, axis=0, dtype=np.int64)[at]
+    out = np.full(len(points), -1, dtype=np.int64)
+    out[ids] = np.where(first < m, pos * k // m, -1)
+    return out
+
+
+def _shared(dask, points, scheduler):
+    """The points as one input of the tasks: on a Client scattered once to every worker
+    (not in each graph: three computes would send them three times, with distributed's
+    "large graph" warning), else one delayed key."""
+    if hasattr(scheduler, "scatter"):
+        return scheduler.scatter(np.asarray(points), broadcast=True, hash=False)
+    return dask.delayed(np.asarray(points))
+
+
+def _assign_owners(points, cells, k):
+    """assign's vertex owners (numpy cells)."""
+    from predicates.registration.partition.assign import assign
+
+    return assign(points, cells, k)[1]
+
+
+def _wanted_first(chunk, points, lo, hi, offset: int, m: int, ids):
+    """Per wanted vertex ``ids``, its smallest global cell index in this chunk (m where
+    none) and that cell's Morton code (on a worker)."""
+    from predicates.registration.partition.assign import (
+        first_cells, first_vertices, morton_codes)
+
+    chunk = np.asarray(chunk)
+    first = first_cells(chunk, len(points), offset, none=m)[ids]
+    has = first < m
+    code = np.zeros(len(ids), dtype=np.uint64)
+    rows = chunk[first[has] - offset]
+    code[has] = morton_codes(first_vertices(points, rows), lo, hi)
+    return first, code
+
+
+def _cells_before(chunk, points, lo, hi, offset: int, m: int, cell, cell_code):
+    """Per query cell (global index ``cell``, Morton code ``cell_code``), the number of
+    this chunk's cells before it in the stable Morton order of all cells — (code,
+    index) lexicographically (on a worker)."""
+    from predicates.registration.partition.assign import first_vertices, morton_codes
+
+    chunk = np.asarray(chunk)
+    codes = morton_codes(first_vertices(points, chunk), lo, hi)
+    order = np.argsort(codes, kind="stable")  # equal codes: ascending index
+    sorted_codes = codes[order]
+    # (group of equal codes, index) as one int64 key, sorted: < 2^63 for any mesh of
+    # fewer than 3·10^9 cells
+    group = np.concatenate([[0], np.cumsum(sorted_codes[1:] != sorted_codes[:-1])])
+    key = group.astype(np.int64) * m + (order.astype(np.int64) + offset)
+    left = np.searchsorted(sorted_codes, cell_code, side="left")
+    present = left < len(codes)
+    present[present] = sorted_codes[left[present]] == cell_code[present]
+    qkey = group[np.minimum(left, len(codes) - 1)].astype(np.int64) * m + cell
+    return np.where(present, np.searchsorted(key, qkey, side="left"), left)
 
 
 def read_pieces(paths) -> tuple[np.ndarray, np.ndarray]:

@@ -13,24 +13,21 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
-import resource
-import socket
 import sys
 import time
 
 import numpy as np
 
-from predicates import compiled
-from predicates.registration.levels.loop import Registration
-from predicates.registration.partition.assign import Part, merge, owned, split
-from predicates.registration.partition.memory import peak_rss_mib, rss_mib
+from predicates.registration.partition.assign import Part, merge, split
+from predicates.registration.partition.counts import (  # noqa: F401 (re-exported)
+    CELLS_PER_PART, slots, count_partitions)
+from predicates.registration.partition.outputs import PartFiles, Staged
+from predicates.registration.partition.task import run_part
 
 __all__ = ["DaskMissingError", "LOCAL_SCHEDULERS", "PartitionError", "check_timeout",
            "client_for", "connected", "run_part", "run_partitioned"]
 
 LOCAL_SCHEDULERS = ("threads", "processes", "synchronous")
-#: "auto" makes at least one partition per this many simulation cells
-CELLS_PER_PART = 1_000_000
 #: seconds before the partitions' progress bar shows (as the serial run's bar)
 PROGRESS_DELAY = 1.0
 
@@ -210,66 +207,6 @@ def _warm() -> bool:
     return True
 
 
-def _slots(client, scheduler) -> int:
-    """Partitions that can run at once: the cluster's worker threads, one for the
-    synchronous scheduler, the CPUs for the other local schedulers."""
-    if client is not None:
-        return max(1, sum(w["nthreads"] for w in client.scheduler_info()["workers"].values()))
-    return 1 if scheduler == "synchronous" else os.cpu_count() or 1
-
-
-def count_partitions(partitions, client, n_cells: int) -> int:
-    """The number of partitions a run makes: ``partitions`` checked, or "auto" (one per
-    worker slot and at least one per CELLS_PER_PART cells), never more than the cells."""
-    if isinstance(partitions, str) and partitions == "auto" or partitions is None:
-        workers = _slots(client, "threads")
-        return max(1, min(n_cells, max(workers, -(-n_cells // CELLS_PER_PART))))
-    if isinstance(partitions, (bool, np.bool_)) or not isinstance(partitions, (int, np.integer)):
-        raise TypeError(f"partitions must be a positive int or 'auto', got {partitions!r}")
-    if partitions < 1:
-        raise ValueError(f"partitions must be at least 1, got {partitions}")
-    return int(max(1, min(partitions, n_cells)))
-
-
-def run_part(part: Part, dim: int, tol, reach: dict, chunk: int,
-             accelerate: bool = False) -> tuple[dict, dict]:
-    """One Dask task: the serial levels on the partition's slice; returns its owned
-    pairs (global ids) and statistics (time, the peak RSS of the worker process's own
-    address space, ``VmHWM`` read when the task ends (:mod:`.memory`), its RSS when the
-    task began, its host and pid, bytes; for
-    the timeline and the worker's overheads: wall-clock start and end ``t_begin``,
-    ``t_end``, the process's CPU ``proc_cpu`` and the thread's voluntary and involuntary
-    context switches, minor and major page faults ``ctx``)."""
-    t, cpu, t0 = time.perf_counter(), time.thread_time(), time.time()
-    r0, p0 = resource.getrusage(resource.RUSAGE_THREAD), time.process_time()
-    rss0 = rss_mib()
-    reg = Registration(dim, part.P_sim, part.sim_cells, part.P_cut, part.cut_cells, tol,
-                       reach, chunk, accelerate=accelerate and compiled.available())
-    pairs = owned(part, reg.run(False, {}))
-    sent_back = sum(a.nbytes for p in pairs.values()
-                    for a in (p.sim, p.cut, p.sim_weights, p.cut_weights))
-    stats = {"part": part.index, "owned_cells": part.owned_cells,
-             "sim_cells": len(part.sim_cells), "cut_cells": len(part.cut_cells),
-             "bytes_in": part.nbytes, "bytes_out": sent_back,
-             "seconds": time.perf_counter() - t, "cpu_s": time.thread_time() - cpu,
-             "pid": os.getpid(), "host": socket.gethostname(), "t_begin": t0,
-             "t_end": time.time(),
-             "proc_cpu": time.process_time() - p0, "ctx": _thread_counts(r0),
-             "rss_begin_mib": rss0}
-    # the worker's own high-water mark, read now (not ru_maxrss: the client's survives
-    # fork + exec); under "threads"/"synchronous" the process is the client's
-    stats["peak_rss_mib"], stats["peak_rss_source"] = peak_rss_mib()
-    return pairs, stats
-
-
-def _thread_counts(before) -> list[int]:
-    """This thread's context switches (voluntary, involuntary) and page faults (minor,
-    major) since the ``getrusage`` record ``before``."""
-    now = resource.getrusage(resource.RUSAGE_THREAD)
-    return [getattr(now, a) - getattr(before, a)
-            for a in ("ru_nvcsw", "ru_nivcsw", "ru_minflt", "ru_majflt")]
-
-
 @contextlib.contextmanager
 def connected(scheduler):
     """``scheduler`` for a whole partitioned run: an address string (``"tcp://..."``) is
@@ -313,29 +250,51 @@ def run_partitioned(plan, partitions, scheduler, chunk: int, timings: dict,
 
 def _run(dask, client, plan, partitions, scheduler, chunk, timings, check, progress,
          timeout) -> dict:
-    k = count_partitions(partitions, client, len(plan.sim_cells))
+    files = partitions if isinstance(partitions, PartFiles) else None
+    k = count_partitions(files.partitions if files else partitions, client,
+                         len(plan.sim_cells))
     timings["partition_count"] = k  # (per-partition output: one file per partition)
     if check is not None:  # before any work
-        check(share=min(k, _slots(client, scheduler)) / k, stacklevel=5)
+        check(share=min(k, slots(client, scheduler)) / k, stacklevel=5)
+    # the files' paths checked and their owners computed, before any task
+    staged = files and Staged(files, k, plan, client or scheduler or "threads")
     with _bar(progress, k) as bar:
-        return _tasks(dask, client, plan, k, scheduler, chunk, timings, bar, timeout)
+        if staged is None:
+            return _tasks(dask, client, plan, k, scheduler, chunk, timings, bar, timeout)
+        try:
+            pairs = _tasks(dask, client, plan, k, scheduler, chunk, timings, bar, timeout,
+                           staged)
+            staged.commit(p["part"] for p in timings["partitions"])
+        except BaseException:
+            staged.discard()  # nothing written unless every partition succeeded
+            raise
+        timings["files"] = staged.paths
+        return pairs
 
 
-def _tasks(dask, client, plan, k, scheduler, chunk, timings, bar, timeout=None) -> dict:
-    """Split, the tasks, the merge (:func:`run_partitioned`)."""
+def _tasks(dask, client, plan, k, scheduler, chunk, timings, bar, timeout=None,
+           staged=None) -> dict:
+    """Split, the tasks, the merge (:func:`run_partitioned`); ``staged``: each task
+    writes its partition's file (:mod:`.outputs`)."""
     clock = _Clock(timings)
     reach = plan.scale.reach
+    owner, write = (None, None) if staged is None else (staged.owner, staged.write)
     parts = () if len(plan.cut_cells) == 0 or len(plan.sim_cells) == 0 else (
         p for p in split(plan.P_sim, plan.sim_cells, plan.P_cut, plan.cut_cells, k,
-                         max(reach.values()))
+                         max(reach.values()), owner, write)
         if len(p.cut_cells))  # no cutting cell within reach of its halo: nothing to own
     args = (plan.dim, plan.tol, reach, chunk, plan.accelerate)
+    spec = None if staged is None else staged.spec
+    path = (lambda r: None) if staged is None else (lambda r: staged.staged[r])
     if client is not None:
+        if spec is not None:  # sent once to each worker, not with every task
+            spec = client.scatter(spec, hash=False)
         # each partition's task starts as soon as its slice is cut and sent: the split
         # of the next ones overlaps the workers' tasks ("partition": split and send)
         futures, index = [], []
         for p in parts:
-            futures.append(client.submit(run_part, _payload(client, p), *args, pure=False))
+            futures.append(client.submit(run_part, _payload(client, p), *args, spec,
+                                         path(p.index), pure=False))
             index.append(p.index)
         bar.total = len(futures)  # partitions without a cutting cell in reach run none
         clock("partition")
@@ -344,7 +303,8 @@ def _tasks(dask, client, plan, k, scheduler, chunk, timings, bar, timeout=None) 
         parts = list(parts)
         bar.total = len(parts)
         clock("partition")
-        tasks = [dask.delayed(run_part, pure=False)(p, *args) for p in parts]
+        tasks = [dask.delayed(run_part, pure=False)(p, *args, spec, path(p.index))
+                 for p in parts]
         # no cells can meet: nothing to register
         with _finished(bar, {t.key for t in tasks}):
             out = dask.compute(*tasks, scheduler=scheduler or "threads") if tasks else []

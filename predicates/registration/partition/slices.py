@@ -23,7 +23,7 @@ import numpy as np
 from predicates.registration.spatial.boxgrid import colmax, colmin, enlarge, expand
 from predicates.registration.spatial.broadphase import near_flags, runs
 
-__all__ = ["cut_near", "halos", "wide"]
+__all__ = ["cut_near", "halos", "owner_halos", "wide"]
 
 
 def _unique(keys: np.ndarray) -> np.ndarray:
@@ -64,6 +64,17 @@ def halos(cells: np.ndarray, part: np.ndarray, k: int, n_points: int):
     count = np.searchsorted(vb, V[at], side="right") - first
     entry, idx = expand(first, count)
     return _grouped(np.concatenate([own, (vr[idx] % k) * m + at[entry] // width]), k, m)
+
+
+def owner_halos(cells: np.ndarray, owner: np.ndarray, k: int):
+    """(cell ids, starts): partition r's cells when the vertices' owners are given
+    (``owner``: a partition in [0, k) per vertex of ``cells``; the per-partition files'
+    rule over every simulation cell, docs/partitioned.md 6): every cell with a vertex r
+    owns, ``ids[starts[r]:starts[r + 1]]``, ascending. That is all section 4 needs:
+    r holds every cell containing a vertex it owns."""
+    m, width = cells.shape
+    rows = np.repeat(np.arange(m, dtype=np.int64), width)
+    return _grouped(owner[cells.ravel()].astype(np.int64) * m + rows, k, m)
 
 
 def wide(clo: np.ndarray, chi: np.ndarray, pad: float):
