@@ -14,12 +14,12 @@ import numpy as np
 from numba import njit
 
 from .buffers import buffer
-from .build import JIT_OPTIONS
+from .build import INLINE_OPTIONS, JIT_OPTIONS
 
 __all__ = ["owned_pairs", "pair_test"]
 
 
-@njit(**JIT_OPTIONS)
+@njit(**INLINE_OPTIONS)
 def _near(pad, lo_a, hi_a, lo_b, hi_b, a, b):
     for ax in range(lo_a.shape[0]):
         if not lo_b[ax, b] - hi_a[ax, a] <= pad:

@@ -28,7 +28,7 @@ import fperr  # noqa: E402
 import predicates  # noqa: E402
 from geometry_exact import DataSource, RngSource, Units, construct, frac, place  # noqa: E402
 from predicates import compiled  # noqa: E402
-from predicates.compiled.build import JIT_OPTIONS, source  # noqa: E402
+from predicates.compiled.build import INLINE_OPTIONS, JIT_OPTIONS, source  # noqa: E402
 from predicates.compiled.chain import run_predicate  # noqa: E402
 from predicates.registration import examples  # noqa: E402
 
@@ -115,8 +115,9 @@ def test_no_fma_no_fast_math(pred):
     """Each kernel, compiled here without the disk cache, for both dtypes: no fma or
     fmuladd intrinsic and no fast-math flag in the LLVM IR, no FMA instruction in the
     machine code (this CPU has FMA: the compiler would use it if allowed)."""
-    text = source(pred).replace(f"@njit(**{JIT_OPTIONS!r})",
-                                f"@njit(**{dict(JIT_OPTIONS, cache=False)!r})")
+    text = source(pred)
+    for opts in (JIT_OPTIONS, INLINE_OPTIONS):
+        text = text.replace(f"@njit(**{opts!r})", f"@njit(**{dict(opts, cache=False)!r})")
     ns: dict = {}
     exec(compile(text, f"<{pred.name}>", "exec"), ns)
     d, n1 = pred.dim, len(pred.sim)
@@ -128,10 +129,18 @@ def test_no_fma_no_fast_math(pred):
         I = np.zeros(1, np.int64)
         fn(P, R1, I, P, R2, I, np.zeros(8, dt), np.zeros(1, np.int64),
            np.zeros((1, max(1, len(pred.weight_names))), dt))
-        for sig in fn.signatures:
-            ir, asm = fn.inspect_llvm(sig), fn.inspect_asm(sig)
-            assert not _FMA_IR.search(ir), f"{pred.name} {dt}: {_FMA_IR.search(ir)[0]}"
-            assert not _FMA_ASM.search(asm), f"{pred.name} {dt}: {_FMA_ASM.search(asm)[0]}"
+        # the fused chain too: its box test is inlined into it (INLINE_OPTIONS)
+        fu = ns[f"fused_{np.dtype(dt).name}"]
+        one, no, w = np.zeros(1, np.int64), np.zeros(1, bool), len(pred.weight_names)
+        box = np.zeros((d, 1))
+        fu(one, one, np.zeros((1, 1), np.int64), False, 0.0, box, box, box, box, no, no,
+           False, False, P, R1, P, R2, np.zeros(8, dt), one, one,
+           np.zeros((1, max(1, w)), dt), one, one, np.zeros(3, np.int64))
+        for f in (fn, fu):
+            for sig in f.signatures:
+                ir, asm = f.inspect_llvm(sig), f.inspect_asm(sig)
+                assert not _FMA_IR.search(ir), f"{pred.name} {dt}: {_FMA_IR.search(ir)[0]}"
+                assert not _FMA_ASM.search(asm), f"{pred.name} {dt}: {_FMA_ASM.search(asm)[0]}"
 
 
 def _same(a, b):
