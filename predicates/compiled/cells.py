@@ -133,12 +133,13 @@ def _corner_sum(S, low_term, up_term):
 @njit(**JIT_OPTIONS)
 def flag_block(points, rows, origin, h, G, stride, S, has_table, i0, i1, near):
     """One block of :func:`predicates.registration.plan.lean.flag_pass`, fused: each
-    row's box (:func:`fill_boxes`), its cell range into ``i0``, ``i1``
-    (:func:`cell_index`), the cells it covers (``ncells``, summed), and with a table
-    ``S`` the flag ``near`` (:func:`look_corners`: the 2^d corners' keys from per-axis
-    terms, as gridsums._corners) and the largest box edge of the flagged rows
-    (``box_extent``: per row max over the axes of hi − lo, exact). Returns (cells
-    covered, largest edge of the flagged rows or 0.0)."""
+    row's box (:func:`fill_boxes`), its cell range (:func:`cell_index`), the cells it
+    covers (``ncells``, summed), and with a table ``S`` the flag ``near``
+    (:func:`look_corners`: the 2^d corners' keys from per-axis terms, as
+    gridsums._corners), the flagged rows' cell ranges, in order, into the first rows of
+    ``i0``, ``i1`` (no mask pass after) and their largest box edge (``box_extent``: per
+    row max over the axes of hi − lo, exact). Returns (cells covered, largest edge of
+    the flagged rows or 0.0, rows flagged)."""
     d = points.shape[1]
     lo = np.empty(d)
     hi = np.empty(d)
@@ -146,13 +147,14 @@ def flag_block(points, rows, origin, h, G, stride, S, has_table, i0, i1, near):
     up_term = np.empty(d, dtype=np.int64)
     covered = 0
     ext = 0.0
+    nf = 0  # rows flagged so far: row m's range is written at row nf, kept if flagged
     for m in range(rows.shape[0]):
         cells = 1
         for ax in range(d):
             lo[ax], hi[ax] = _box_row(points, rows, m, ax)
             j0 = _index(lo[ax], origin[ax], h, G[ax] - 1)
             j1 = _index(hi[ax], origin[ax], h, G[ax] - 1)
-            i0[m, ax], i1[m, ax] = j0, j1
+            i0[nf, ax], i1[nf, ax] = j0, j1
             low_term[ax] = np.int64(j0) * stride[ax]
             up_term[ax] = (np.int64(j1) + 1) * stride[ax]
             cells *= np.int64(j1) - j0 + 1
@@ -163,12 +165,13 @@ def flag_block(points, rows, origin, h, G, stride, S, has_table, i0, i1, near):
             _corner_loop(S, low_term, up_term)
         near[m] = count > 0
         if count > 0:
+            nf += 1
             e = hi[0] - lo[0]
             for ax in range(1, d):
                 x = hi[ax] - lo[ax]
                 e = e if (e > x) | (e != e) else x  # np.maximum(e, x)
             ext = e if e > ext else ext  # Python's max(ext, e): e only when larger
-    return covered, ext
+    return covered, ext, nf
 
 
 @njit(**JIT_OPTIONS)
