@@ -106,3 +106,50 @@ def test_packed_order_is_lexsort(data, widths, n):
     rows = [tuple(r) + (k,) for k, r in enumerate(both.tolist())]
     assert [r[-1] for r in sorted(rows)] == want.tolist()
 
+
+
+def _pair_list(parts) -> list:
+    return [(int(a), int(b)) for ia, ib in parts for a, b in zip(ia, ib)]
+
+
+@_SLOW
+@given(data=st.data(), d=st.sampled_from([2, 3]))
+def test_grid_join_pairs_are_box_pairs(data, d):
+    """box_pairs compiled (its dense-grid join, predicates.compiled.boxtest.grid_join)
+    reports exactly the pairs of the exact test (brute force), each once, as the numpy
+    path does — on adversarial boxes: signed zeros, repeated and degenerate boxes, boxes
+    many cells wide, pads 0 and positive (NaN: the grid refuses it on both paths)."""
+    from predicates.registration.spatial.broadphase import box_pairs
+
+    rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 32 - 1)))
+    na, nb = data.draw(st.integers(1, 300)), data.draw(st.integers(1, 120))
+    lo = [rng.choice(_VALUES[:5], size=(n, d)) + rng.random((n, d)) * rng.choice(
+        [0.0, 1.0], size=(n, 1)) for n in (na, nb)]
+    hi = [x + rng.choice([0.0, 2.0 ** -40, 0.01, 0.3, 1.5], size=(len(x), 1)) for x in lo]
+    pad = data.draw(st.sampled_from([0.0, 2.0 ** -30, 0.05]))
+    want = set(zip(*(x.tolist() for x in box_pairs_bruteforce(lo[0], hi[0], lo[1], hi[1],
+                                                              pad))))
+    numpy_pairs = _pair_list(box_pairs(lo[0], hi[0], lo[1], hi[1], pad))
+    got = _pair_list(box_pairs(lo[0], hi[0], lo[1], hi[1], pad, accelerate=True))
+    assert len(got) == len(set(got)), "a pair was reported twice"
+    assert set(got) == set(numpy_pairs) == want
+
+
+def test_grid_join_defers_a_crowded_grid():
+    """Past its proposal budget (tiny boxes crowded in a cell of a grid sized by large
+    ones) the compiled join returns None and box_pairs refines as on the numpy path:
+    the same pairs as brute force."""
+    from predicates.compiled.boxtest import grid_join
+    from predicates.registration.spatial.boxgrid import grid
+    from predicates.registration.spatial.broadphase import box_pairs
+
+    rng = np.random.default_rng(3)
+    la = np.concatenate([rng.uniform(0, 0.01, (1500, 3)), rng.uniform(1, 50, (50, 3))])
+    ha = la + np.concatenate([np.full((1500, 1), 1e-4), np.full((50, 1), 20.0)])
+    lb, hb = la[::-1] + 1e-5, ha[::-1] + 1e-5
+    *_, G, _, ia0, ia1, ib0, ib1 = grid(la, ha, lb, hb, 0.0)
+    cols = tuple(np.ascontiguousarray(x.T) for x in (la, ha, lb, hb))
+    assert grid_join((ia0, ia1, ib0, ib1), G, 0.0, cols, 1000) is None
+    want = set(zip(*(x.tolist() for x in box_pairs_bruteforce(la, ha, lb, hb, 0.0))))
+    got = _pair_list(box_pairs(la, ha, lb, hb, 0.0, accelerate=True))
+    assert len(got) == len(set(got)) and set(got) == want
