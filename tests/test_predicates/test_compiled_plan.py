@@ -153,3 +153,27 @@ def test_grid_join_defers_a_crowded_grid():
     want = set(zip(*(x.tolist() for x in box_pairs_bruteforce(la, ha, lb, hb, 0.0))))
     got = _pair_list(box_pairs(la, ha, lb, hb, 0.0, accelerate=True))
     assert len(got) == len(set(got)) and set(got) == want
+
+
+@settings(deadline=None)
+@given(data=st.data(), w=st.integers(1, 4), n=st.sampled_from([1, 2, 7, 1000]))
+def test_compiled_unique_rows_are_numpys(data, w, n):
+    """The complexes' unique rows by the compiled counting sort (predicates.compiled.rows)
+    equal np.unique's rows and inverse map (many repeats, ids 0 and n − 1, one row);
+    and a complex built with it is the same, array for array."""
+    from predicates.registration.levels.complex import Complex, unique_rows
+
+    rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 32 - 1)))
+    m = data.draw(st.integers(1, 400))
+    rows = rng.integers(0, n, size=(m, w)).astype(data.draw(st.sampled_from(
+        [np.int32, np.int64])))
+    rows[rng.random(m) < 0.3] = n - 1
+    want, inv = np.unique(rows, axis=0, return_inverse=True)
+    got, got_inv = unique_rows(rows, n, accelerate=True)
+    assert got.dtype == rows.dtype and np.array_equal(got, want)
+    assert np.array_equal(got_inv, inv.ravel())
+    cells = np.sort(rng.integers(0, max(n, 5), size=(m, 4)), axis=1)
+    a, b = Complex(cells, max(n, 5)), Complex(cells, max(n, 5), accelerate=True)
+    assert a.S.keys() == b.S.keys() and a.F.keys() == b.F.keys()
+    assert all(np.array_equal(a.S[k], b.S[k]) for k in a.S)
+    assert all(np.array_equal(a.F[k], b.F[k]) for k in a.F)

@@ -34,6 +34,7 @@ class Registration:
         self.dtype = P_sim.dtype
         self.sim = Side(P_sim, sim_cells)
         self.cut = Side(P_cut, cut_cells)
+        self.sim.accelerate = self.cut.accelerate = accelerate
         self.registered = {}  # (i, j) -> sorted int64 keys s * n_cut[j] + c
         self.sim_involved = {}  # i -> bool per sim i-simplex: in some registered pair
         self.cut_involved = {}
