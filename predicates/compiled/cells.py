@@ -19,8 +19,8 @@ from numba import njit
 
 from .build import INLINE_OPTIONS, JIT_OPTIONS
 
-__all__ = ["add_corners", "cell_index", "fill_boxes", "flag_block", "least_square_edge",
-           "look_corners"]
+__all__ = ["add_corners", "cell_index", "check_cells", "fill_boxes", "flag_block",
+           "least_square_edge", "look_corners"]
 
 
 @njit(**INLINE_OPTIONS)
@@ -191,3 +191,30 @@ def least_square_edge(cols, C, a, b):
                 if sq < best:
                     best = sq
     return best
+
+
+@njit(**JIT_OPTIONS)
+def check_cells(arr, top, first, used):
+    """:func:`predicates.registration.plan.inputs.first_bad` and the used-vertex mask
+    in one pass over signed integer cells ``arr`` (m, k): ``first`` (3,) gets the first
+    row with a negative id, one ≥ ``top`` (top < 0: no bound) and one repeating an id
+    (−1: none, as given on entry); ``used[v]`` is set for every id in range."""
+    k = arr.shape[1]
+    for r in range(arr.shape[0]):
+        neg = False
+        out = False
+        rep = False
+        for c in range(k):
+            v = arr[r, c]
+            neg |= v < 0
+            out |= (top >= 0) & (v >= top)
+            for e in range(c + 1, k):
+                rep |= v == arr[r, e]
+            if v >= 0 and (top < 0 or v < top) and v < used.shape[0]:
+                used[v] = True
+        if neg and first[0] < 0:
+            first[0] = r
+        if out and first[1] < 0:
+            first[1] = r
+        if rep and first[2] < 0:
+            first[2] = r

@@ -177,3 +177,44 @@ def test_compiled_unique_rows_are_numpys(data, w, n):
     assert a.S.keys() == b.S.keys() and a.F.keys() == b.F.keys()
     assert all(np.array_equal(a.S[k], b.S[k]) for k in a.S)
     assert all(np.array_equal(a.F[k], b.F[k]) for k in a.F)
+
+
+def _outcome(f):
+    """f()'s result, or its error's type and message."""
+    try:
+        return "ok", f()
+    except (ValueError, TypeError) as e:
+        return type(e).__name__, str(e)
+
+
+@_SLOW
+@given(data=st.data(), d=st.sampled_from([2, 3]))
+def test_compiled_cell_check_is_numpys(data, d):
+    """validate_mesh with the compiled cell check (first bad cell of each kind and the
+    used vertices in one pass) refuses the same cell with the same message, or returns
+    the same points (unused ones zeroed) and cells, as the numpy check — negative,
+    out-of-range and repeated ids anywhere, several in one cell, int32 and int64,
+    tiny blocks on a thread pool."""
+    from predicates.registration.plan.inputs import validate_mesh
+
+    rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 32 - 1)))
+    n, m = data.draw(st.integers(1, 40)), data.draw(st.integers(1, 200))
+    cells = np.array([rng.permutation(max(n, d + 1))[:d + 1] for _ in range(m)]) % \
+        max(n + data.draw(st.integers(0, 2)), 1)
+    for _ in range(data.draw(st.integers(0, 3))):
+        cells[rng.integers(0, m), rng.integers(0, d + 1)] = data.draw(st.sampled_from(
+            [-1, n, n + 7, 0, int(cells[0, 0])]))
+    cells = cells.astype(data.draw(st.sampled_from([np.int32, np.int64])))
+    P = rng.random((n, d))
+    with ThreadPoolExecutor(2) as pool:
+        for numpy_blocks, blocks in _blocks(pool):
+            want = _outcome(lambda: validate_mesh(P, cells, "simulation", d, np.float64,
+                                                  False, numpy_blocks))
+            got = _outcome(lambda: validate_mesh(P, cells, "simulation", d, np.float64,
+                                                 False, blocks))
+            assert want[0] == got[0]
+            if want[0] != "ok":
+                assert want[1] == got[1]
+            else:
+                assert np.array_equal(want[1].points, got[1].points)
+                assert want[1].cells is got[1].cells is cells
