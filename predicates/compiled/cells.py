@@ -20,7 +20,7 @@ from numba import njit
 from .build import INLINE_OPTIONS, JIT_OPTIONS
 
 __all__ = ["add_corners", "cell_index", "check_cells", "fill_boxes", "flag_block",
-           "least_square_edge", "look_corners"]
+           "least_square_edge", "look_corners", "narrow_sums"]
 
 
 @njit(**INLINE_OPTIONS)
@@ -218,3 +218,40 @@ def check_cells(arr, top, first, used):
             first[1] = r
         if rep and first[2] < 0:
             first[2] = r
+
+
+@njit(**JIT_OPTIONS)
+def narrow_sums(x, big, tiny, spread, split):
+    """:class:`predicates.registration.spatial.exactsum.ExactSum`'s narrow path on one
+    block ``x`` (binary64 ≥ 0 or −0.0), when it applies: status 1 — no positive value
+    (nothing to add); status 2 — (Σ high parts, Σ low parts), Veltkamp-split by ``split``
+    as ``ExactSum._narrow`` splits them, each sum exact in any order (its docstring) so
+    the same as numpy's pairwise sums; status 0 — the block needs the general path (a
+    NaN, a value ≥ ``big``, a subnormal, a positive value below ``tiny`` or more than
+    ``spread`` binades)."""
+    pmin = np.inf
+    pmax = 0.0
+    for i in range(x.shape[0]):
+        v = x[i]
+        if not v < big:  # NaN, inf or huge
+            return 0, 0.0, 0.0
+        if v > 0.0:
+            pmin = v if v < pmin else pmin
+            pmax = v if v > pmax else pmax
+    if pmax == 0.0:
+        return 1, 0.0, 0.0
+    if pmin < tiny:  # (subnormals too: tiny is normal)
+        return 0, 0.0, 0.0
+    e_lo = (np.int64(np.float64(pmin).view(np.int64)) >> 52) & 0x7FF  # frexp's exponents
+    e_hi = (np.int64(np.float64(pmax).view(np.int64)) >> 52) & 0x7FF  # + 1022, normal
+    if e_hi - e_lo > spread:
+        return 0, 0.0, 0.0
+    hs = 0.0
+    ls = 0.0
+    for i in range(x.shape[0]):
+        v = x[i] + 0.0
+        c = v * split
+        h = c - (c - v)
+        hs += h
+        ls += v - h
+    return 2, hs, ls

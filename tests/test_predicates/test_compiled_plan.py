@@ -218,3 +218,29 @@ def test_compiled_cell_check_is_numpys(data, d):
             else:
                 assert np.array_equal(want[1].points, got[1].points)
                 assert want[1].cells is got[1].cells is cells
+
+
+@settings(deadline=None)
+@given(data=st.data())
+def test_compiled_exact_sums_are_exact(data):
+    """ExactSum with its compiled narrow path (predicates.compiled.cells.narrow_sums)
+    gives the exact sum (Fraction) and numpy's mean, on blocks that take the narrow path
+    (one to ten binades), blocks that must not (subnormals, 2^-1000, wide spreads,
+    huge values, inf and NaN), zeros of both signs, blocks longer than 2^16 values."""
+    from predicates.registration.spatial.exactsum import ExactSum
+
+    rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 32 - 1)))
+    n = data.draw(st.sampled_from([1, 5, 300, (1 << 16) + 3]))
+    base = data.draw(st.sampled_from([1.0, 2.0 ** -40, 2.0 ** 40]))
+    x = rng.random(n) * base * 2.0 ** rng.integers(0, data.draw(st.integers(1, 12)), n)
+    odd = data.draw(st.lists(st.sampled_from(
+        [-0.0, 0.0, 5e-324, 2.0 ** -1000, 2.0 ** -1022, 2.0 ** 996, np.inf, np.nan,
+         1.0 + 2.0 ** -52]), max_size=4))
+    for v in odd:
+        x[rng.integers(0, n)] = v
+    ref, fast = ExactSum().add(x), ExactSum(accelerate=True).add(x)
+    assert (ref.n, fast.n) == (n, n)
+    if np.isfinite(x).all():
+        want = sum(Fraction(float(v)) for v in x)
+        assert Fraction(fast.total(), 1 << 1074) == want == Fraction(ref.total(), 1 << 1074)
+    assert np.float64(ref.mean()).tobytes() == np.float64(fast.mean()).tobytes()

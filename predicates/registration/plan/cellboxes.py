@@ -70,13 +70,14 @@ class BoxSummary:
         return max(s.mean() for s in self.sums) if self.n else 0.0
 
 
-def summarize(lo: np.ndarray, hi: np.ndarray) -> BoxSummary:
-    """:class:`BoxSummary` of the boxes ``lo``, ``hi`` (n, d)."""
+def summarize(lo: np.ndarray, hi: np.ndarray, accelerate: bool = False) -> BoxSummary:
+    """:class:`BoxSummary` of the boxes ``lo``, ``hi`` (n, d); ``accelerate``: the exact
+    sums' blocks compiled (:class:`ExactSum`, the same sums)."""
     d = lo.shape[1]
     if len(lo) == 0:
         return BoxSummary(0, np.full(d, np.inf), np.full(d, -np.inf), 0.0,
                           [ExactSum() for _ in range(d)])
-    sums = [ExactSum().add(hi[:, ax] - lo[:, ax]) for ax in range(d)]
+    sums = [ExactSum(accelerate).add(hi[:, ax] - lo[:, ax]) for ax in range(d)]
     e = box_extent(lo, hi)
     e += 0.0  # -0.0 to +0.0, as the refinement's scan counts exponents
     e_min, e_max = float(e.min()), float(e.max())
@@ -169,7 +170,7 @@ class CellBoxes:
             def span(a: int, b: int) -> BoxSummary:
                 out = summarize(*self.block(a, a))  # empty
                 for s, t in self.blocks.each(a, b):
-                    out = out.merge(summarize(*self.block(s, t)))
+                    out = out.merge(summarize(*self.block(s, t), self.blocks.accelerate))
                 return out
 
             parts = self.blocks.map(span, self.n) if self.n else [summarize(
