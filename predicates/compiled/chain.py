@@ -9,13 +9,14 @@ registration (:mod:`predicates.registration.levels.loop`) calls one or the other
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from predicates.catalogue import _split_weights
 
 from .buffers import buffer as _buffer
-from .build import kernel
+from .build import JIT_OPTIONS, kernel
 
-__all__ = ["evaluate", "fused", "run_predicate"]
+__all__ = ["evaluate", "fused", "registered_any", "run_predicate"]
 
 _TOL_CACHE: dict = {}
 
@@ -100,3 +101,42 @@ def fused(kind, sim, cut, F, C, tab, pad: float, boxes: tuple, flags, tol):
     return (ncand, (out_s[:nh].copy(), out_c[:nh].copy(), sw, cw),
             (maybe_s[:nm].copy(), maybe_c[:nm].copy()))
 
+
+
+@njit(**JIT_OPTIONS)
+def _registered_any(s, c, A, a_self, B, b_self, nb, R, hit):
+    """hit[q] |= some face pair (A's faces of s[q], B's of c[q]; the simplex itself
+    when ``*_self``) has its key fa·nb + fb in the sorted keys ``R``."""
+    ka = 1 if a_self else A.shape[1]
+    kb = 1 if b_self else B.shape[1]
+    for q in range(s.shape[0]):
+        if hit[q]:
+            continue
+        for u in range(ka):
+            fa = s[q] if a_self else A[s[q], u]
+            for v in range(kb):
+                key = fa * nb + (c[q] if b_self else B[c[q], v])
+                lo, hi = 0, R.shape[0]
+                while lo < hi:  # np.searchsorted(R, key), left
+                    mid = (lo + hi) >> 1
+                    if R[mid] < key:
+                        lo = mid + 1
+                    else:
+                        hi = mid
+                if lo < R.shape[0] and R[lo] == key:
+                    hit[q] = True
+                    break
+            if hit[q]:
+                break
+
+
+def registered_any(s: np.ndarray, c: np.ndarray, faces_a, faces_b, nb: int,
+                   keys: np.ndarray, hit: np.ndarray) -> None:
+    """:meth:`predicates.registration.levels.loop.Registration._blocked`'s look-up of
+    one lower kind, compiled: ``hit[q]`` set when a pair of the faces (tables
+    ``faces_a``, ``faces_b``, None: the simplex itself) of (s[q], c[q]) is among the
+    registered ``keys`` (sorted fa·nb + fb) — exact integers, the same answer."""
+    none = np.zeros((1, 1), dtype=np.int64)
+    _registered_any(s, c, none if faces_a is None else faces_a, faces_a is None,
+                    none if faces_b is None else faces_b, faces_b is None, np.int64(nb),
+                    keys, hit)

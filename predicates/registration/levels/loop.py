@@ -102,6 +102,15 @@ class Registration:
             return blocked
         s, c = s.take(maybe), c.take(maybe)
         hit = np.zeros(len(maybe), dtype=bool)
+        if self.accelerate:  # the same look-ups, compiled: no (pairs, faces²) keys
+            from predicates.compiled.chain import registered_any
+
+            for a, b in lower:
+                registered_any(s, c, None if a == i else self.sim.cx.face(i, a),
+                               None if b == j else self.cut.cx.face(j, b),
+                               self.cut.count(b), self.registered[a, b], hit)
+            blocked[maybe] = hit
+            return blocked
         for a, b in lower:
             A = _faces(self.sim.cx, i, a, s)
             B = _faces(self.cut.cx, j, b, c)
