@@ -68,8 +68,27 @@ def evaluate(kind, sim, cut, s: np.ndarray, c: np.ndarray, tol):
     return s.take(pos), c.take(pos), sw, cw
 
 
-_NO_TAB = np.full((1, 1), -1, dtype=np.int64)
+_NO_TAB = np.zeros(2, dtype=np.int64)
 _NO_FLAGS = np.zeros(1, dtype=bool)
+_OWNED: dict = {}  # id(owned table) -> (table, start, faces)
+
+
+def owned_lists(tab: np.ndarray) -> tuple:
+    """The owned table ``tab`` (cells × faces, −1: not owned) as lists: (start, faces),
+    cell c's owned faces ``faces[start[c]:start[c + 1]]`` in the table's column order
+    (the fused kernels then visit only owned faces: on the vertex kinds 5 in 6 slots
+    of the table are −1). Cached per table (FacePairs keeps its tables)."""
+    hit = _OWNED.get(id(tab))
+    if hit is not None and hit[0] is tab:
+        return hit[1], hit[2]
+    keep = tab >= 0
+    start = np.zeros(len(tab) + 1, dtype=np.int64)
+    np.cumsum(keep.sum(axis=1), out=start[1:])
+    faces = np.ascontiguousarray(tab[keep], dtype=np.int64)  # row-major: column order
+    if len(_OWNED) > 16:
+        _OWNED.clear()
+    _OWNED[id(tab)] = (tab, start, faces)
+    return start, faces
 
 
 def fused(kind, sim, cut, F, C, tab, pad: float, boxes: tuple, flags, tol):
@@ -92,7 +111,8 @@ def fused(kind, sim, cut, F, C, tab, pad: float, boxes: tuple, flags, tol):
     out_w = _buffer("w", n, dtype, len(pred.weight_names))
     counts = np.zeros(3, dtype=np.int64)
     fs, fc = (_NO_FLAGS, _NO_FLAGS) if flags is None else flags
-    run(F, C, _NO_TAB if tab is None else tab, tab is not None, float(pad), *boxes, fs, fc,
+    start, owned = (_NO_TAB, _NO_TAB) if tab is None else owned_lists(tab)
+    run(F, C, start, owned, tab is not None, float(pad), *boxes, fs, fc,
         flags is not None, kind.swapped, P1, R1, P2, R2, tv, out_s, out_c, out_w, maybe_s,
         maybe_c, counts)
     ncand, nh, nm = (int(x) for x in counts)

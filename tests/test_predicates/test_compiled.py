@@ -133,7 +133,7 @@ def test_no_fma_no_fast_math(pred):
         fu = ns[f"fused_{np.dtype(dt).name}"]
         one, no, w = np.zeros(1, np.int64), np.zeros(1, bool), len(pred.weight_names)
         box = np.zeros((d, 1))
-        fu(one, one, np.zeros((1, 1), np.int64), False, 0.0, box, box, box, box, no, no,
+        fu(one, one, np.zeros(2, np.int64), one, False, 0.0, box, box, box, box, no, no,
            False, False, P, R1, P, R2, np.zeros(8, dt), one, one,
            np.zeros((1, max(1, w)), dt), one, one, np.zeros(3, np.int64))
         for f in (fn, fu):
@@ -314,3 +314,20 @@ def test_shortest_edge_identical(d):
     mask = rng.random(4000) < 0.7
     a = shortest_edge(P, cells, mask)
     assert a == shortest_edge(P, cells, mask, Blocks(accelerate=True)) and a > 0
+
+
+@pytest.mark.parametrize("width", [1, 3, 6])
+def test_owned_lists_are_the_owned_table(width):
+    """The fused kernels' owned-face lists (chain.owned_lists) hold each cell's owned
+    faces of facepairs.owned_table, in its column order, and nothing else."""
+    from predicates.compiled.chain import owned_lists
+    from predicates.registration.levels.facepairs import owned_table
+
+    rng = np.random.default_rng(width)
+    F = rng.integers(0, 40, size=(60, width))
+    tab = owned_table(F, 40)
+    start, faces = owned_lists(tab)
+    assert start[0] == 0 and start[-1] == len(faces) == int((tab >= 0).sum())
+    for c, row in enumerate(tab.tolist()):
+        assert faces[start[c]:start[c + 1]].tolist() == [g for g in row if g >= 0]
+    assert owned_lists(tab)[1] is faces  # cached per table
