@@ -10,13 +10,15 @@ the proposals: only the kept pairs are written.
 """
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 from numba import njit
 
 from .buffers import buffer
 from .build import INLINE_OPTIONS, JIT_OPTIONS
 
-__all__ = ["grid_join", "join", "owned_pairs", "pair_test"]
+__all__ = ["grid_join", "join", "owned_lists", "owned_pairs", "pair_test"]
 
 
 @njit(**INLINE_OPTIONS)
@@ -55,6 +57,26 @@ def _owned(tab, A, B, faces_of_a, pad, lo_a, hi_a, lo_b, hi_b, out_a, out_b):
                 out_b[count] = b
                 count += 1
     return count
+
+
+_OWNED: dict = {}  # id(owned table) -> (weak reference to it, start, faces)
+
+
+def owned_lists(tab: np.ndarray) -> tuple:
+    """The owned table ``tab`` (cells × faces, −1: not owned) as lists: (start, faces),
+    cell c's owned faces ``faces[start[c]:start[c + 1]]`` in the table's column order
+    (the kernels then visit only owned faces: on the vertex levels most slots of the
+    table are −1). Kept while the table lives (FacePairs keeps its tables)."""
+    hit = _OWNED.get(id(tab))
+    if hit is not None and hit[0]() is tab:
+        return hit[1], hit[2]
+    keep = tab >= 0
+    start = np.zeros(len(tab) + 1, dtype=np.int64)
+    np.cumsum(keep.sum(axis=1), out=start[1:])
+    faces = np.ascontiguousarray(tab[keep], dtype=np.int64)  # row-major: column order
+    _OWNED[id(tab)] = (weakref.ref(tab), start, faces)
+    weakref.finalize(tab, _OWNED.pop, id(tab), None)
+    return start, faces
 
 
 def pair_test(pad: float, lo_a, hi_a, lo_b, hi_b, ia: np.ndarray, ib: np.ndarray):

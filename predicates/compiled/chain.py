@@ -13,6 +13,7 @@ from numba import njit
 
 from predicates.catalogue import _split_weights
 
+from .boxtest import owned_lists
 from .buffers import buffer as _buffer
 from .build import JIT_OPTIONS, kernel
 
@@ -70,27 +71,6 @@ def evaluate(kind, sim, cut, s: np.ndarray, c: np.ndarray, tol):
 
 _NO_TAB = np.zeros(2, dtype=np.int64)
 _NO_FLAGS = np.zeros(1, dtype=bool)
-_OWNED: dict = {}  # id(owned table) -> (table, start, faces)
-
-
-def owned_lists(tab: np.ndarray) -> tuple:
-    """The owned table ``tab`` (cells × faces, −1: not owned) as lists: (start, faces),
-    cell c's owned faces ``faces[start[c]:start[c + 1]]`` in the table's column order
-    (the fused kernels then visit only owned faces: on the vertex kinds 5 in 6 slots
-    of the table are −1). Cached per table (FacePairs keeps its tables)."""
-    hit = _OWNED.get(id(tab))
-    if hit is not None and hit[0] is tab:
-        return hit[1], hit[2]
-    keep = tab >= 0
-    start = np.zeros(len(tab) + 1, dtype=np.int64)
-    np.cumsum(keep.sum(axis=1), out=start[1:])
-    faces = np.ascontiguousarray(tab[keep], dtype=np.int64)  # row-major: column order
-    if len(_OWNED) > 16:
-        _OWNED.clear()
-    _OWNED[id(tab)] = (tab, start, faces)
-    return start, faces
-
-
 def fused(kind, sim, cut, F, C, tab, pad: float, boxes: tuple, flags, tol):
     """The fused per-kind chain (:func:`predicates.compiled.emit.fused_lines`) on one
     block of stage-1 pairs (F[q], C[q]): ``tab`` the cutting cells' owned j-faces (None:

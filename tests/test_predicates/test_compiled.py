@@ -318,9 +318,9 @@ def test_shortest_edge_identical(d):
 
 @pytest.mark.parametrize("width", [1, 3, 6])
 def test_owned_lists_are_the_owned_table(width):
-    """The fused kernels' owned-face lists (chain.owned_lists) hold each cell's owned
-    faces of facepairs.owned_table, in its column order, and nothing else."""
-    from predicates.compiled.chain import owned_lists
+    """The compiled kernels' owned-face lists (boxtest.owned_lists) hold each cell's
+    owned faces of facepairs.owned_table, in its column order, and nothing else."""
+    from predicates.compiled.boxtest import owned_lists
     from predicates.registration.levels.facepairs import owned_table
 
     rng = np.random.default_rng(width)
