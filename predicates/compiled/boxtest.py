@@ -10,16 +10,18 @@ the proposals: only the kept pairs are written.
 """
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 from numba import njit
 
 from .buffers import buffer
-from .build import JIT_OPTIONS
+from .build import INLINE_OPTIONS, JIT_OPTIONS
 
-__all__ = ["owned_pairs", "pair_test"]
+__all__ = ["grid_join", "join", "owned_lists", "owned_pairs", "pair_test"]
 
 
-@njit(**JIT_OPTIONS)
+@njit(**INLINE_OPTIONS)
 def _near(pad, lo_a, hi_a, lo_b, hi_b, a, b):
     for ax in range(lo_a.shape[0]):
         if not lo_b[ax, b] - hi_a[ax, a] <= pad:
@@ -55,6 +57,26 @@ def _owned(tab, A, B, faces_of_a, pad, lo_a, hi_a, lo_b, hi_b, out_a, out_b):
                 out_b[count] = b
                 count += 1
     return count
+
+
+_OWNED: dict = {}  # id(owned table) -> (weak reference to it, start, faces)
+
+
+def owned_lists(tab: np.ndarray) -> tuple:
+    """The owned table ``tab`` (cells × faces, −1: not owned) as lists: (start, faces),
+    cell c's owned faces ``faces[start[c]:start[c + 1]]`` in the table's column order
+    (the kernels then visit only owned faces: on the vertex levels most slots of the
+    table are −1). Kept while the table lives (FacePairs keeps its tables)."""
+    hit = _OWNED.get(id(tab))
+    if hit is not None and hit[0]() is tab:
+        return hit[1], hit[2]
+    keep = tab >= 0
+    start = np.zeros(len(tab) + 1, dtype=np.int64)
+    np.cumsum(keep.sum(axis=1), out=start[1:])
+    faces = np.ascontiguousarray(tab[keep], dtype=np.int64)  # row-major: column order
+    _OWNED[id(tab)] = (weakref.ref(tab), start, faces)
+    weakref.finalize(tab, _OWNED.pop, id(tab), None)
+    return start, faces
 
 
 def pair_test(pad: float, lo_a, hi_a, lo_b, hi_b, ia: np.ndarray, ib: np.ndarray):
@@ -109,3 +131,114 @@ def join(sa, ca, sb, q_cell, masks, gbox_a, gbox_b, pad: float, cols: tuple):
     k = _join(sa, ca, sb, q_cell, ma, mb, int(full), gbox_a, gbox_b, float(pad), *cols,
               out_a, out_b)
     return out_a[:k].copy(), out_b[:k].copy()
+
+
+@njit(**INLINE_OPTIONS)
+def _cell_key(i0, r, off, G):
+    """Linear key (axis 0 fastest, as broadphase._linear) of cell i0[r] + off."""
+    key = 0
+    for ax in range(i0.shape[1] - 1, -1, -1):
+        key = key * G[ax] + i0[r, ax] + off[ax]
+    return key
+
+
+@njit(**INLINE_OPTIONS)
+def _next(off, ext):
+    """Advance the odometer ``off`` over the cell range extents ``ext``; False: done."""
+    for ax in range(off.shape[0]):
+        off[ax] += 1
+        if off[ax] < ext[ax]:
+            return True
+        off[ax] = 0
+    return False
+
+
+@njit(**JIT_OPTIONS)
+def _bucket_b(ib0, ib1, G, start, ids):
+    """Counting sort of the b boxes into the dense grid's cells: ``start`` (cells + 1)
+    their CSR offsets, ``ids`` the boxes of each cell in ascending order."""
+    d = ib0.shape[1]
+    off = np.zeros(d, dtype=np.int64)
+    ext = np.empty(d, dtype=np.int64)
+    for fill in range(2):  # 0: count, 1: place
+        for b in range(ib0.shape[0]):
+            for ax in range(d):
+                ext[ax] = ib1[b, ax] - ib0[b, ax] + 1
+                off[ax] = 0
+            while True:
+                key = _cell_key(ib0, b, off, G)
+                if fill:
+                    ids[start[key]] = b
+                    start[key] += 1
+                else:
+                    start[key + 1] += 1
+                if not _next(off, ext):
+                    break
+        if not fill:
+            for k in range(1, start.shape[0]):
+                start[k] += start[k - 1]
+    for k in range(start.shape[0] - 1, 0, -1):  # placing shifted every offset by one cell
+        start[k] = start[k - 1]
+    start[0] = 0
+
+
+@njit(**JIT_OPTIONS)
+def _grid_join(ia0, ia1, ib0, G, start, ids, pad, lo_a, hi_a, lo_b, hi_b, limit,
+               out_a, out_b):
+    """Every pair (a, b) sharing a cell whose lower overlap corner max(ia0[a], ib0[b]) is
+    that cell (so once) and passing the box test, a ascending; written when ``out_a``
+    is long enough. Returns (pairs, proposals), or (-1, proposals) past ``limit``
+    proposals (the caller falls back to broadphase.box_pairs)."""
+    d = ia0.shape[1]
+    off = np.zeros(d, dtype=np.int64)
+    ext = np.empty(d, dtype=np.int64)
+    count = 0
+    proposals = 0
+    for a in range(ia0.shape[0]):
+        for ax in range(d):
+            ext[ax] = ia1[a, ax] - ia0[a, ax] + 1
+            off[ax] = 0
+        while True:
+            key = _cell_key(ia0, a, off, G)
+            proposals += start[key + 1] - start[key]
+            if proposals > limit:
+                return -1, proposals
+            for e in range(start[key], start[key + 1]):
+                b = ids[e]
+                lower = True
+                for ax in range(d):  # this cell is max(ia0[a], ib0[b]) on every axis
+                    c = ia0[a, ax] + off[ax]
+                    lower &= c == max(ia0[a, ax], ib0[b, ax])
+                if lower and _near(pad, lo_a, hi_a, lo_b, hi_b, a, b):
+                    if count < out_a.shape[0]:
+                        out_a[count] = a
+                        out_b[count] = b
+                    count += 1
+            if not _next(off, ext):
+                break
+    return count, proposals
+
+
+def grid_join(ranges: tuple, G: np.ndarray, pad: float, cols: tuple, limit: int):
+    """:func:`predicates.registration.spatial.broadphase.box_pairs`' pairs on its dense
+    top grid, compiled, without sorting: the b boxes bucketed by cell (counting sort),
+    then per a box its cells' b boxes, each pair kept in the cell of the lower corner
+    of the two ranges' overlap and when it passes the exact test. ``ranges`` = (ia0,
+    ia1, ib0, ib1) (b enlarged by pad), ``cols`` = (lo_a, hi_a, lo_b, hi_b) as (d, n)
+    columns. Returns (ia, ib), a ascending, or None past ``limit`` proposals."""
+    ia0, ia1, ib0, ib1 = ranges
+    G = np.asarray(G, dtype=np.int64)
+    start = np.zeros(int(np.prod(G)) + 1, dtype=np.int64)
+    n_entries = int((ib1.astype(np.int64) - ib0 + 1).prod(axis=1).sum()) if len(ib0) else 0
+    ids = np.empty(n_entries, dtype=np.int64)
+    _bucket_b(ib0, ib1, G, start, ids)
+    guess = max(1 << 16, 8 * (len(ia0) + len(ib0)))  # pairs: a few per box, typically
+    out_a, out_b = buffer("grid_a", guess, np.int64), buffer("grid_b", guess, np.int64)
+    while True:
+        n, _ = _grid_join(ia0, ia1, ib0, G, start, ids, float(pad), *cols, limit, out_a,
+                          out_b)
+        if n < 0:
+            return None
+        if n <= len(out_a):
+            return out_a[:n].copy(), out_b[:n].copy()
+        out_a, out_b = buffer("grid_a", n, np.int64), buffer("grid_b", n, np.int64)

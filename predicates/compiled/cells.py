@@ -17,13 +17,13 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .build import JIT_OPTIONS
+from .build import INLINE_OPTIONS, JIT_OPTIONS
 
-__all__ = ["add_corners", "cell_index", "fill_boxes", "flag_block", "least_square_edge",
-           "look_corners"]
+__all__ = ["add_corners", "cell_index", "check_cells", "fill_boxes", "flag_block",
+           "least_square_edge", "look_corners", "narrow_sums"]
 
 
-@njit(**JIT_OPTIONS)
+@njit(**INLINE_OPTIONS)
 def _box_row(points, rows, m, ax):
     """lo, hi of row m on axis ax: numpy's ``minimum``/``maximum`` fold over the
     vertices (module docstring), each coordinate converted to binary64 exactly."""
@@ -48,7 +48,7 @@ def fill_boxes(points, rows, lo, hi):
             lo[ax, m], hi[ax, m] = _box_row(points, rows, m, ax)
 
 
-@njit(**JIT_OPTIONS)
+@njit(**INLINE_OPTIONS)
 def _index(x, o, h, top):
     """``clip(floor((x − o) / h), 0, top)`` as int32 (boxgrid.cell_index's roundings)."""
     i = np.floor((x - o) / h)
@@ -65,7 +65,7 @@ def cell_index(x, origin, h, G, out):
             out[r, ax] = _index(x[r, ax], origin[ax], h, G[ax] - 1)
 
 
-@njit(**JIT_OPTIONS)
+@njit(**INLINE_OPTIONS)
 def _key(i0, i1, r, pick, stride):
     key = 0
     ups = 0
@@ -99,15 +99,47 @@ def look_corners(S, i0, i1, stride, out):
         out[r] = count > 0
 
 
+@njit(**INLINE_OPTIONS)
+def _corner_loop(S, low_term, up_term):
+    """Σ ±S[corner] over the 2^d corners of a cell range (per-axis key terms of the
+    lower and the upper corner; integers: exact)."""
+    d = low_term.shape[0]
+    count = 0
+    for pick in range(1 << d):
+        key = 0
+        ups = 0
+        for ax in range(d):
+            if pick >> ax & 1:
+                key += up_term[ax]
+                ups += 1
+            else:
+                key += low_term[ax]
+        value = np.int64(S[key])
+        count += value if (d - ups) % 2 == 0 else -value
+    return count
+
+
+@njit(**INLINE_OPTIONS)
+def _corner_sum(S, low_term, up_term):
+    """:func:`_corner_loop` for d = 3, unrolled (no per-corner branches: 2× the pass)."""
+    l0, l1, l2 = low_term[0], low_term[1], low_term[2]
+    u0, u1, u2 = up_term[0], up_term[1], up_term[2]
+    return (np.int64(S[u0 + u1 + u2]) - np.int64(S[l0 + u1 + u2])
+            - np.int64(S[u0 + l1 + u2]) - np.int64(S[u0 + u1 + l2])
+            + np.int64(S[l0 + l1 + u2]) + np.int64(S[l0 + u1 + l2])
+            + np.int64(S[u0 + l1 + l2]) - np.int64(S[l0 + l1 + l2]))
+
+
 @njit(**JIT_OPTIONS)
 def flag_block(points, rows, origin, h, G, stride, S, has_table, i0, i1, near):
     """One block of :func:`predicates.registration.plan.lean.flag_pass`, fused: each
-    row's box (:func:`fill_boxes`), its cell range into ``i0``, ``i1``
-    (:func:`cell_index`), the cells it covers (``ncells``, summed), and with a table
-    ``S`` the flag ``near`` (:func:`look_corners`: the 2^d corners' keys from per-axis
-    terms, as gridsums._corners) and the largest box edge of the flagged rows
-    (``box_extent``: per row max over the axes of hi − lo, exact). Returns (cells
-    covered, largest edge of the flagged rows or 0.0)."""
+    row's box (:func:`fill_boxes`), its cell range (:func:`cell_index`), the cells it
+    covers (``ncells``, summed), and with a table ``S`` the flag ``near``
+    (:func:`look_corners`: the 2^d corners' keys from per-axis terms, as
+    gridsums._corners), the flagged rows' cell ranges, in order, into the first rows of
+    ``i0``, ``i1`` (no mask pass after) and their largest box edge (``box_extent``: per
+    row max over the axes of hi − lo, exact). Returns (cells covered, largest edge of
+    the flagged rows or 0.0, rows flagged)."""
     d = points.shape[1]
     lo = np.empty(d)
     hi = np.empty(d)
@@ -115,39 +147,31 @@ def flag_block(points, rows, origin, h, G, stride, S, has_table, i0, i1, near):
     up_term = np.empty(d, dtype=np.int64)
     covered = 0
     ext = 0.0
+    nf = 0  # rows flagged so far: row m's range is written at row nf, kept if flagged
     for m in range(rows.shape[0]):
         cells = 1
         for ax in range(d):
             lo[ax], hi[ax] = _box_row(points, rows, m, ax)
             j0 = _index(lo[ax], origin[ax], h, G[ax] - 1)
             j1 = _index(hi[ax], origin[ax], h, G[ax] - 1)
-            i0[m, ax], i1[m, ax] = j0, j1
+            i0[nf, ax], i1[nf, ax] = j0, j1
             low_term[ax] = np.int64(j0) * stride[ax]
             up_term[ax] = (np.int64(j1) + 1) * stride[ax]
             cells *= np.int64(j1) - j0 + 1
         covered += cells
         if not has_table:
             continue
-        count = 0
-        for pick in range(1 << d):
-            key = 0
-            ups = 0
-            for ax in range(d):
-                if pick >> ax & 1:
-                    key += up_term[ax]
-                    ups += 1
-                else:
-                    key += low_term[ax]
-            value = np.int64(S[key])
-            count += value if (d - ups) % 2 == 0 else -value
+        count = _corner_sum(S, low_term, up_term) if d == 3 else \
+            _corner_loop(S, low_term, up_term)
         near[m] = count > 0
         if count > 0:
+            nf += 1
             e = hi[0] - lo[0]
             for ax in range(1, d):
                 x = hi[ax] - lo[ax]
                 e = e if (e > x) | (e != e) else x  # np.maximum(e, x)
             ext = e if e > ext else ext  # Python's max(ext, e): e only when larger
-    return covered, ext
+    return covered, ext, nf
 
 
 @njit(**JIT_OPTIONS)
@@ -167,3 +191,67 @@ def least_square_edge(cols, C, a, b):
                 if sq < best:
                     best = sq
     return best
+
+
+@njit(**JIT_OPTIONS)
+def check_cells(arr, top, first, used):
+    """:func:`predicates.registration.plan.inputs.first_bad` and the used-vertex mask
+    in one pass over signed integer cells ``arr`` (m, k): ``first`` (3,) gets the first
+    row with a negative id, one ≥ ``top`` (top < 0: no bound) and one repeating an id
+    (−1: none, as given on entry); ``used[v]`` is set for every id in range."""
+    k = arr.shape[1]
+    for r in range(arr.shape[0]):
+        neg = False
+        out = False
+        rep = False
+        for c in range(k):
+            v = arr[r, c]
+            neg |= v < 0
+            out |= (top >= 0) & (v >= top)
+            for e in range(c + 1, k):
+                rep |= v == arr[r, e]
+            if v >= 0 and (top < 0 or v < top) and v < used.shape[0]:
+                used[v] = True
+        if neg and first[0] < 0:
+            first[0] = r
+        if out and first[1] < 0:
+            first[1] = r
+        if rep and first[2] < 0:
+            first[2] = r
+
+
+@njit(**JIT_OPTIONS)
+def narrow_sums(x, big, tiny, spread, split):
+    """:class:`predicates.registration.spatial.exactsum.ExactSum`'s narrow path on one
+    block ``x`` (binary64 ≥ 0 or −0.0), when it applies: status 1 — no positive value
+    (nothing to add); status 2 — (Σ high parts, Σ low parts), Veltkamp-split by ``split``
+    as ``ExactSum._narrow`` splits them, each sum exact in any order (its docstring) so
+    the same as numpy's pairwise sums; status 0 — the block needs the general path (a
+    NaN, a value ≥ ``big``, a subnormal, a positive value below ``tiny`` or more than
+    ``spread`` binades)."""
+    pmin = np.inf
+    pmax = 0.0
+    for i in range(x.shape[0]):
+        v = x[i]
+        if not v < big:  # NaN, inf or huge
+            return 0, 0.0, 0.0
+        if v > 0.0:
+            pmin = v if v < pmin else pmin
+            pmax = v if v > pmax else pmax
+    if pmax == 0.0:
+        return 1, 0.0, 0.0
+    if pmin < tiny:  # (subnormals too: tiny is normal)
+        return 0, 0.0, 0.0
+    e_lo = (np.int64(np.float64(pmin).view(np.int64)) >> 52) & 0x7FF  # frexp's exponents
+    e_hi = (np.int64(np.float64(pmax).view(np.int64)) >> 52) & 0x7FF  # + 1022, normal
+    if e_hi - e_lo > spread:
+        return 0, 0.0, 0.0
+    hs = 0.0
+    ls = 0.0
+    for i in range(x.shape[0]):
+        v = x[i] + 0.0
+        c = v * split
+        h = c - (c - v)
+        hs += h
+        ls += v - h
+    return 2, hs, ls

@@ -9,13 +9,15 @@ registration (:mod:`predicates.registration.levels.loop`) calls one or the other
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from predicates.catalogue import _split_weights
 
+from .boxtest import owned_lists
 from .buffers import buffer as _buffer
-from .build import kernel
+from .build import JIT_OPTIONS, kernel
 
-__all__ = ["evaluate", "fused", "run_predicate"]
+__all__ = ["evaluate", "fused", "registered_any", "run_predicate"]
 
 _TOL_CACHE: dict = {}
 
@@ -67,10 +69,8 @@ def evaluate(kind, sim, cut, s: np.ndarray, c: np.ndarray, tol):
     return s.take(pos), c.take(pos), sw, cw
 
 
-_NO_TAB = np.full((1, 1), -1, dtype=np.int64)
+_NO_TAB = np.zeros(2, dtype=np.int64)
 _NO_FLAGS = np.zeros(1, dtype=bool)
-
-
 def fused(kind, sim, cut, F, C, tab, pad: float, boxes: tuple, flags, tol):
     """The fused per-kind chain (:func:`predicates.compiled.emit.fused_lines`) on one
     block of stage-1 pairs (F[q], C[q]): ``tab`` the cutting cells' owned j-faces (None:
@@ -91,7 +91,8 @@ def fused(kind, sim, cut, F, C, tab, pad: float, boxes: tuple, flags, tol):
     out_w = _buffer("w", n, dtype, len(pred.weight_names))
     counts = np.zeros(3, dtype=np.int64)
     fs, fc = (_NO_FLAGS, _NO_FLAGS) if flags is None else flags
-    run(F, C, _NO_TAB if tab is None else tab, tab is not None, float(pad), *boxes, fs, fc,
+    start, owned = (_NO_TAB, _NO_TAB) if tab is None else owned_lists(tab)
+    run(F, C, start, owned, tab is not None, float(pad), *boxes, fs, fc,
         flags is not None, kind.swapped, P1, R1, P2, R2, tv, out_s, out_c, out_w, maybe_s,
         maybe_c, counts)
     ncand, nh, nm = (int(x) for x in counts)
@@ -100,3 +101,42 @@ def fused(kind, sim, cut, F, C, tab, pad: float, boxes: tuple, flags, tol):
     return (ncand, (out_s[:nh].copy(), out_c[:nh].copy(), sw, cw),
             (maybe_s[:nm].copy(), maybe_c[:nm].copy()))
 
+
+
+@njit(**JIT_OPTIONS)
+def _registered_any(s, c, A, a_self, B, b_self, nb, R, hit):
+    """hit[q] |= some face pair (A's faces of s[q], B's of c[q]; the simplex itself
+    when ``*_self``) has its key fa·nb + fb in the sorted keys ``R``."""
+    ka = 1 if a_self else A.shape[1]
+    kb = 1 if b_self else B.shape[1]
+    for q in range(s.shape[0]):
+        if hit[q]:
+            continue
+        for u in range(ka):
+            fa = s[q] if a_self else A[s[q], u]
+            for v in range(kb):
+                key = fa * nb + (c[q] if b_self else B[c[q], v])
+                lo, hi = 0, R.shape[0]
+                while lo < hi:  # np.searchsorted(R, key), left
+                    mid = (lo + hi) >> 1
+                    if R[mid] < key:
+                        lo = mid + 1
+                    else:
+                        hi = mid
+                if lo < R.shape[0] and R[lo] == key:
+                    hit[q] = True
+                    break
+            if hit[q]:
+                break
+
+
+def registered_any(s: np.ndarray, c: np.ndarray, faces_a, faces_b, nb: int,
+                   keys: np.ndarray, hit: np.ndarray) -> None:
+    """:meth:`predicates.registration.levels.loop.Registration._blocked`'s look-up of
+    one lower kind, compiled: ``hit[q]`` set when a pair of the faces (tables
+    ``faces_a``, ``faces_b``, None: the simplex itself) of (s[q], c[q]) is among the
+    registered ``keys`` (sorted fa·nb + fb) — exact integers, the same answer."""
+    none = np.zeros((1, 1), dtype=np.int64)
+    _registered_any(s, c, none if faces_a is None else faces_a, faces_a is None,
+                    none if faces_b is None else faces_b, faces_b is None, np.int64(nb),
+                    keys, hit)

@@ -82,27 +82,26 @@ def chain_lines(prog: Program, n1: int, dt: str, opts: str) -> list[str]:
 
 
 def fused_lines(prog: Program, n1: int, dt: str, opts: str) -> list[str]:
-    """``fused_<dt>(F, Cs, tab, has_tab, pad, boxes, flags, use_flags, swapped, P1, R1,
-    P2, R2, tol, out_s, out_c, out_w, maybe_s, maybe_c, counts)`` (module docstring):
-    counts = (candidates, hits, pairs left to the suppression look-up)."""
+    """``fused_<dt>(F, Cs, start, owned, has_tab, pad, boxes, flags, use_flags, swapped,
+    P1, R1, P2, R2, tol, out_s, out_c, out_w, maybe_s, maybe_c, counts)`` (module
+    docstring): cell C's owned j-faces are ``owned[start[C]:start[C + 1]]`` (in the
+    owned table's column order: only faces it owns, no −1 slots to skip); counts =
+    (candidates, hits, pairs left to the suppression look-up)."""
     head = [f"@njit(**{opts})",
-            f"def fused_{dt}(F, Cs, tab, has_tab, pad, lo_a, hi_a, lo_b, hi_b, flag_s,",
-            "             flag_c, use_flags, swapped, P1, R1, P2, R2, tol, out_s, out_c,",
-            "             out_w, maybe_s, maybe_c, counts):",
+            f"def fused_{dt}(F, Cs, start, owned, has_tab, pad, lo_a, hi_a, lo_b, hi_b,",
+            "             flag_s, flag_c, use_flags, swapped, P1, R1, P2, R2, tol, out_s,",
+            "             out_c, out_w, maybe_s, maybe_c, counts):",
             f'    """{prog.name}: stage-1 pairs (F[q], Cs[q]) to registered pairs."""',
             "    ncand = 0",
             "    nh = 0",
             "    nm = 0",
-            "    K = tab.shape[1] if has_tab else 1",
             "    for q in range(F.shape[0]):",
             "        f = F[q]",
-            "        for k in range(K):"]
-    inner = ["if has_tab:",
-             "    g = tab[Cs[q], k]",
-             "    if g < 0:",
-             "        continue",
-             "else:",
-             "    g = Cs[q]",
+            "        c = Cs[q]",
+            "        e0 = start[c] if has_tab else 0",
+            "        e1 = start[c + 1] if has_tab else 1",
+            "        for e in range(e0, e1):"]
+    inner = ["g = owned[e] if has_tab else c",
              "if not _near(pad, lo_a, hi_a, lo_b, hi_b, f, g):",
              "    continue",
              "ncand += 1",

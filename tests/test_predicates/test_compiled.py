@@ -28,7 +28,7 @@ import fperr  # noqa: E402
 import predicates  # noqa: E402
 from geometry_exact import DataSource, RngSource, Units, construct, frac, place  # noqa: E402
 from predicates import compiled  # noqa: E402
-from predicates.compiled.build import JIT_OPTIONS, source  # noqa: E402
+from predicates.compiled.build import INLINE_OPTIONS, JIT_OPTIONS, source  # noqa: E402
 from predicates.compiled.chain import run_predicate  # noqa: E402
 from predicates.registration import examples  # noqa: E402
 
@@ -115,8 +115,9 @@ def test_no_fma_no_fast_math(pred):
     """Each kernel, compiled here without the disk cache, for both dtypes: no fma or
     fmuladd intrinsic and no fast-math flag in the LLVM IR, no FMA instruction in the
     machine code (this CPU has FMA: the compiler would use it if allowed)."""
-    text = source(pred).replace(f"@njit(**{JIT_OPTIONS!r})",
-                                f"@njit(**{dict(JIT_OPTIONS, cache=False)!r})")
+    text = source(pred)
+    for opts in (JIT_OPTIONS, INLINE_OPTIONS):
+        text = text.replace(f"@njit(**{opts!r})", f"@njit(**{dict(opts, cache=False)!r})")
     ns: dict = {}
     exec(compile(text, f"<{pred.name}>", "exec"), ns)
     d, n1 = pred.dim, len(pred.sim)
@@ -128,10 +129,18 @@ def test_no_fma_no_fast_math(pred):
         I = np.zeros(1, np.int64)
         fn(P, R1, I, P, R2, I, np.zeros(8, dt), np.zeros(1, np.int64),
            np.zeros((1, max(1, len(pred.weight_names))), dt))
-        for sig in fn.signatures:
-            ir, asm = fn.inspect_llvm(sig), fn.inspect_asm(sig)
-            assert not _FMA_IR.search(ir), f"{pred.name} {dt}: {_FMA_IR.search(ir)[0]}"
-            assert not _FMA_ASM.search(asm), f"{pred.name} {dt}: {_FMA_ASM.search(asm)[0]}"
+        # the fused chain too: its box test is inlined into it (INLINE_OPTIONS)
+        fu = ns[f"fused_{np.dtype(dt).name}"]
+        one, no, w = np.zeros(1, np.int64), np.zeros(1, bool), len(pred.weight_names)
+        box = np.zeros((d, 1))
+        fu(one, one, np.zeros(2, np.int64), one, False, 0.0, box, box, box, box, no, no,
+           False, False, P, R1, P, R2, np.zeros(8, dt), one, one,
+           np.zeros((1, max(1, w)), dt), one, one, np.zeros(3, np.int64))
+        for f in (fn, fu):
+            for sig in f.signatures:
+                ir, asm = f.inspect_llvm(sig), f.inspect_asm(sig)
+                assert not _FMA_IR.search(ir), f"{pred.name} {dt}: {_FMA_IR.search(ir)[0]}"
+                assert not _FMA_ASM.search(asm), f"{pred.name} {dt}: {_FMA_ASM.search(asm)[0]}"
 
 
 def _same(a, b):
@@ -146,10 +155,13 @@ def _same(a, b):
 
 
 @pytest.mark.parametrize("dtype", DTYPES, ids=["float64", "float32"])
-@pytest.mark.parametrize("case", ["cube-sphere", "square-circle"])
+@pytest.mark.parametrize("case", ["cube-sphere", "square-circle", "cube-plane"])
 def test_registration_identical(case, dtype):
-    sim, cut = ((examples.cube_grid(6), examples.icosphere(2)) if case == "cube-sphere"
-                else (examples.square_grid(24), examples.circle_polygon(200)))
+    """Whole registrations, array by array; the plane through grid vertices suppresses
+    thousands of pairs (the compiled suppression look-up, loop._blocked)."""
+    sim, cut = {"cube-sphere": (examples.cube_grid(6), examples.icosphere(2)),
+                "square-circle": (examples.square_grid(24), examples.circle_polygon(200)),
+                "cube-plane": (examples.cube_grid(6), examples.grid_plane(6))}[case]
     with warnings.catch_warnings():  # float32: coarse-resolution warnings
         warnings.simplefilter("ignore", fperr.ResolutionWarning)
         a = predicates.intersect(*sim, *cut, dtype=dtype, accelerate=False)
@@ -229,8 +241,9 @@ def test_fma_check_detects_fma():
 
 @pytest.mark.parametrize("seed", range(4))
 def test_box_pairs_compiled_join_identical(seed):
-    """The broad phase with compiled joins yields the same pairs in the same order,
-    crowded cells (refined grids) and multi-cell boxes included."""
+    """The broad phase compiled yields the same pairs, each once, crowded cells
+    (refined grids) and multi-cell boxes included (in another order on a dense grid:
+    its bucket-and-join pass reports them by a box; the registration sorts its output)."""
     from predicates.registration.spatial.broadphase import box_pairs
 
     rng = np.random.default_rng(seed)
@@ -244,7 +257,9 @@ def test_box_pairs_compiled_join_identical(seed):
         b = list(box_pairs(lo_a, hi_a, lo_b, hi_b, pad, chunk=1 << 12, accelerate=True))
         ia, ib = (np.concatenate([p[k] for p in a]) for k in (0, 1))
         ja, jb = (np.concatenate([p[k] for p in b]) for k in (0, 1))
-        assert np.array_equal(ia, ja) and np.array_equal(ib, jb) and len(ia) > 100
+        want, got = np.lexsort((ib, ia)), np.lexsort((jb, ja))
+        assert np.array_equal(ia[want], ja[got]) and np.array_equal(ib[want], jb[got])
+        assert len(ia) > 100 and len(set(zip(ja.tolist(), jb.tolist()))) == len(ja)
 
 
 def test_cell_passes_identical():
@@ -299,3 +314,20 @@ def test_shortest_edge_identical(d):
     mask = rng.random(4000) < 0.7
     a = shortest_edge(P, cells, mask)
     assert a == shortest_edge(P, cells, mask, Blocks(accelerate=True)) and a > 0
+
+
+@pytest.mark.parametrize("width", [1, 3, 6])
+def test_owned_lists_are_the_owned_table(width):
+    """The compiled kernels' owned-face lists (boxtest.owned_lists) hold each cell's
+    owned faces of facepairs.owned_table, in its column order, and nothing else."""
+    from predicates.compiled.boxtest import owned_lists
+    from predicates.registration.levels.facepairs import owned_table
+
+    rng = np.random.default_rng(width)
+    F = rng.integers(0, 40, size=(60, width))
+    tab = owned_table(F, 40)
+    start, faces = owned_lists(tab)
+    assert start[0] == 0 and start[-1] == len(faces) == int((tab >= 0).sum())
+    for c, row in enumerate(tab.tolist()):
+        assert faces[start[c]:start[c + 1]].tolist() == [g for g in row if g >= 0]
+    assert owned_lists(tab)[1] is faces  # cached per table

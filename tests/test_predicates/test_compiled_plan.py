@@ -106,3 +106,141 @@ def test_packed_order_is_lexsort(data, widths, n):
     rows = [tuple(r) + (k,) for k, r in enumerate(both.tolist())]
     assert [r[-1] for r in sorted(rows)] == want.tolist()
 
+
+
+def _pair_list(parts) -> list:
+    return [(int(a), int(b)) for ia, ib in parts for a, b in zip(ia, ib)]
+
+
+@_SLOW
+@given(data=st.data(), d=st.sampled_from([2, 3]))
+def test_grid_join_pairs_are_box_pairs(data, d):
+    """box_pairs compiled (its dense-grid join, predicates.compiled.boxtest.grid_join)
+    reports exactly the pairs of the exact test (brute force), each once, as the numpy
+    path does — on adversarial boxes: signed zeros, repeated and degenerate boxes, boxes
+    many cells wide, pads 0 and positive (NaN: the grid refuses it on both paths)."""
+    from predicates.registration.spatial.broadphase import box_pairs
+
+    rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 32 - 1)))
+    na, nb = data.draw(st.integers(1, 300)), data.draw(st.integers(1, 120))
+    lo = [rng.choice(_VALUES[:5], size=(n, d)) + rng.random((n, d)) * rng.choice(
+        [0.0, 1.0], size=(n, 1)) for n in (na, nb)]
+    hi = [x + rng.choice([0.0, 2.0 ** -40, 0.01, 0.3, 1.5], size=(len(x), 1)) for x in lo]
+    pad = data.draw(st.sampled_from([0.0, 2.0 ** -30, 0.05]))
+    want = set(zip(*(x.tolist() for x in box_pairs_bruteforce(lo[0], hi[0], lo[1], hi[1],
+                                                              pad))))
+    numpy_pairs = _pair_list(box_pairs(lo[0], hi[0], lo[1], hi[1], pad))
+    got = _pair_list(box_pairs(lo[0], hi[0], lo[1], hi[1], pad, accelerate=True))
+    assert len(got) == len(set(got)), "a pair was reported twice"
+    assert set(got) == set(numpy_pairs) == want
+
+
+def test_grid_join_defers_a_crowded_grid():
+    """Past its proposal budget (tiny boxes crowded in a cell of a grid sized by large
+    ones) the compiled join returns None and box_pairs refines as on the numpy path:
+    the same pairs as brute force."""
+    from predicates.compiled.boxtest import grid_join
+    from predicates.registration.spatial.boxgrid import grid
+    from predicates.registration.spatial.broadphase import box_pairs
+
+    rng = np.random.default_rng(3)
+    la = np.concatenate([rng.uniform(0, 0.01, (1500, 3)), rng.uniform(1, 50, (50, 3))])
+    ha = la + np.concatenate([np.full((1500, 1), 1e-4), np.full((50, 1), 20.0)])
+    lb, hb = la[::-1] + 1e-5, ha[::-1] + 1e-5
+    *_, G, _, ia0, ia1, ib0, ib1 = grid(la, ha, lb, hb, 0.0)
+    cols = tuple(np.ascontiguousarray(x.T) for x in (la, ha, lb, hb))
+    assert grid_join((ia0, ia1, ib0, ib1), G, 0.0, cols, 1000) is None
+    want = set(zip(*(x.tolist() for x in box_pairs_bruteforce(la, ha, lb, hb, 0.0))))
+    got = _pair_list(box_pairs(la, ha, lb, hb, 0.0, accelerate=True))
+    assert len(got) == len(set(got)) and set(got) == want
+
+
+@settings(deadline=None)
+@given(data=st.data(), w=st.integers(1, 4), n=st.sampled_from([1, 2, 7, 1000]))
+def test_compiled_unique_rows_are_numpys(data, w, n):
+    """The complexes' unique rows by the compiled counting sort (predicates.compiled.rows)
+    equal np.unique's rows and inverse map (many repeats, ids 0 and n − 1, one row);
+    and a complex built with it is the same, array for array."""
+    from predicates.registration.levels.complex import Complex, unique_rows
+
+    rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 32 - 1)))
+    m = data.draw(st.integers(1, 400))
+    rows = rng.integers(0, n, size=(m, w)).astype(data.draw(st.sampled_from(
+        [np.int32, np.int64])))
+    rows[rng.random(m) < 0.3] = n - 1
+    want, inv = np.unique(rows, axis=0, return_inverse=True)
+    got, got_inv = unique_rows(rows, n, accelerate=True)
+    assert got.dtype == rows.dtype and np.array_equal(got, want)
+    assert np.array_equal(got_inv, inv.ravel())
+    cells = np.sort(rng.integers(0, max(n, 5), size=(m, 4)), axis=1)
+    a, b = Complex(cells, max(n, 5)), Complex(cells, max(n, 5), accelerate=True)
+    assert a.S.keys() == b.S.keys() and a.F.keys() == b.F.keys()
+    assert all(np.array_equal(a.S[k], b.S[k]) for k in a.S)
+    assert all(np.array_equal(a.F[k], b.F[k]) for k in a.F)
+
+
+def _outcome(f):
+    """f()'s result, or its error's type and message."""
+    try:
+        return "ok", f()
+    except (ValueError, TypeError) as e:
+        return type(e).__name__, str(e)
+
+
+@_SLOW
+@given(data=st.data(), d=st.sampled_from([2, 3]))
+def test_compiled_cell_check_is_numpys(data, d):
+    """validate_mesh with the compiled cell check (first bad cell of each kind and the
+    used vertices in one pass) refuses the same cell with the same message, or returns
+    the same points (unused ones zeroed) and cells, as the numpy check — negative,
+    out-of-range and repeated ids anywhere, several in one cell, int32 and int64,
+    tiny blocks on a thread pool."""
+    from predicates.registration.plan.inputs import validate_mesh
+
+    rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 32 - 1)))
+    n, m = data.draw(st.integers(1, 40)), data.draw(st.integers(1, 200))
+    cells = np.array([rng.permutation(max(n, d + 1))[:d + 1] for _ in range(m)]) % \
+        max(n + data.draw(st.integers(0, 2)), 1)
+    for _ in range(data.draw(st.integers(0, 3))):
+        cells[rng.integers(0, m), rng.integers(0, d + 1)] = data.draw(st.sampled_from(
+            [-1, n, n + 7, 0, int(cells[0, 0])]))
+    cells = cells.astype(data.draw(st.sampled_from([np.int32, np.int64])))
+    P = rng.random((n, d))
+    with ThreadPoolExecutor(2) as pool:
+        for numpy_blocks, blocks in _blocks(pool):
+            want = _outcome(lambda: validate_mesh(P, cells, "simulation", d, np.float64,
+                                                  False, numpy_blocks))
+            got = _outcome(lambda: validate_mesh(P, cells, "simulation", d, np.float64,
+                                                 False, blocks))
+            assert want[0] == got[0]
+            if want[0] != "ok":
+                assert want[1] == got[1]
+            else:
+                assert np.array_equal(want[1].points, got[1].points)
+                assert want[1].cells is got[1].cells is cells
+
+
+@settings(deadline=None)
+@given(data=st.data())
+def test_compiled_exact_sums_are_exact(data):
+    """ExactSum with its compiled narrow path (predicates.compiled.cells.narrow_sums)
+    gives the exact sum (Fraction) and numpy's mean, on blocks that take the narrow path
+    (one to ten binades), blocks that must not (subnormals, 2^-1000, wide spreads,
+    huge values, inf and NaN), zeros of both signs, blocks longer than 2^16 values."""
+    from predicates.registration.spatial.exactsum import ExactSum
+
+    rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 32 - 1)))
+    n = data.draw(st.sampled_from([1, 5, 300, (1 << 16) + 3]))
+    base = data.draw(st.sampled_from([1.0, 2.0 ** -40, 2.0 ** 40]))
+    x = rng.random(n) * base * 2.0 ** rng.integers(0, data.draw(st.integers(1, 12)), n)
+    odd = data.draw(st.lists(st.sampled_from(
+        [-0.0, 0.0, 5e-324, 2.0 ** -1000, 2.0 ** -1022, 2.0 ** 996, np.inf, np.nan,
+         1.0 + 2.0 ** -52]), max_size=4))
+    for v in odd:
+        x[rng.integers(0, n)] = v
+    ref, fast = ExactSum().add(x), ExactSum(accelerate=True).add(x)
+    assert (ref.n, fast.n) == (n, n)
+    if np.isfinite(x).all():
+        want = sum(Fraction(float(v)) for v in x)
+        assert Fraction(fast.total(), 1 << 1074) == want == Fraction(ref.total(), 1 << 1074)
+    assert np.float64(ref.mean()).tobytes() == np.float64(fast.mean()).tobytes()

@@ -50,8 +50,14 @@ def lex_order(keys: list) -> np.ndarray:
     return np.argsort(keys[0], kind="stable") if len(keys) == 1 else np.lexsort(keys[::-1])
 
 
-def unique_rows(rows: np.ndarray, n: int):
-    """Unique rows (sorted lexicographically) and the inverse map, for ids < n."""
+def unique_rows(rows: np.ndarray, n: int, accelerate: bool = False):
+    """Unique rows (sorted lexicographically) and the inverse map, for ids < n.
+    ``accelerate``: by the compiled counting sort (:mod:`predicates.compiled.rows`; the
+    same rows and map) when the id range is not much larger than the rows."""
+    if accelerate and len(rows) and n <= 4 * len(rows) + (1 << 16):
+        from predicates.compiled.rows import unique_rows as compiled_unique
+
+        return compiled_unique(rows, n)
     return _unique_keys(packed_keys(rows, n), rows)
 
 
@@ -78,18 +84,19 @@ class Complex:
     (n_k, C(k+1, j+1)): indices into ``S[j]`` of the j-faces of each k-simplex.
     """
 
-    def __init__(self, cells: np.ndarray, n: int, unique: bool = False):
+    def __init__(self, cells: np.ndarray, n: int, unique: bool = False,
+                 accelerate: bool = False):
         self.top = cells.shape[1] - 1
         top = self.top
         self.S = {}
         self.F = {}
         # unique: the caller's cells are already unique_rows' output
-        self.S[top] = cells if unique else unique_rows(cells, n)[0]
+        self.S[top] = cells if unique else unique_rows(cells, n, accelerate)[0]
         for k in range(top, 0, -1):
             rows = self.S[k]
             combos = list(itertools.combinations(range(k + 1), k))
             sub = rows[:, combos].reshape(-1, k)
-            self.S[k - 1], inv = unique_rows(sub, n)
+            self.S[k - 1], inv = unique_rows(sub, n, accelerate)
             self.F[k, k - 1] = inv.reshape(len(rows), k + 1)
         # vertices: a rank -> vertex id table (rows ascend, so do their ids): no sort
         vid = np.zeros(n, dtype=np.int64)
@@ -124,6 +131,7 @@ class Side:
         self.cells = rank[cells]
         self.cells.sort(axis=1)
         self.cx = None
+        self.accelerate = False  # complexes by the compiled unique_rows (same rows)
 
     def build(self, mask):
         """The complex of the cells selected by ``mask`` (all their faces)."""
@@ -131,12 +139,12 @@ class Side:
 
     def unique_cells(self, mask):
         """The distinct cells selected by ``mask``, sorted (rows of ranks)."""
-        return unique_rows(self.cells[mask], len(self.P))[0]
+        return unique_rows(self.cells[mask], len(self.P), self.accelerate)[0]
 
     def build_unique(self, cells):
         """The complex of ``cells``, rows of :meth:`unique_cells` (the top simplices
         are then exactly these rows, in this order)."""
-        self.cx = Complex(cells, len(self.P), unique=True)
+        self.cx = Complex(cells, len(self.P), unique=True, accelerate=self.accelerate)
 
     def count(self, k):
         return len(self.cx.S[k])

@@ -34,6 +34,7 @@ class Registration:
         self.dtype = P_sim.dtype
         self.sim = Side(P_sim, sim_cells)
         self.cut = Side(P_cut, cut_cells)
+        self.sim.accelerate = self.cut.accelerate = accelerate
         self.registered = {}  # (i, j) -> sorted int64 keys s * n_cut[j] + c
         self.sim_involved = {}  # i -> bool per sim i-simplex: in some registered pair
         self.cut_involved = {}
@@ -101,6 +102,15 @@ class Registration:
             return blocked
         s, c = s.take(maybe), c.take(maybe)
         hit = np.zeros(len(maybe), dtype=bool)
+        if self.accelerate:  # the same look-ups, compiled: no (pairs, faces²) keys
+            from predicates.compiled.chain import registered_any
+
+            for a, b in lower:
+                registered_any(s, c, None if a == i else self.sim.cx.face(i, a),
+                               None if b == j else self.cut.cx.face(j, b),
+                               self.cut.count(b), self.registered[a, b], hit)
+            blocked[maybe] = hit
+            return blocked
         for a, b in lower:
             A = _faces(self.sim.cx, i, a, s)
             B = _faces(self.cut.cx, j, b, c)
@@ -225,7 +235,9 @@ class Registration:
         keys = (packed_keys(np.sort(sid, axis=1), len(self.sim.order))
                 + packed_keys(np.sort(cid, axis=1), len(self.cut.order)))
         order = lex_order(keys) if len(sid) else np.zeros(0, dtype=np.int64)
-        return KindPairs(kind, sid[order], cid[order], sw[order], cw[order],
+        # take: rows gathered ~3× faster than fancy indexing, the same values
+        return KindPairs(kind, sid.take(order, axis=0), cid.take(order, axis=0),
+                         sw.take(order, axis=0), cw.take(order, axis=0),
                          candidates=ncand, suppressed=nsup)
 
 

@@ -70,13 +70,14 @@ class BoxSummary:
         return max(s.mean() for s in self.sums) if self.n else 0.0
 
 
-def summarize(lo: np.ndarray, hi: np.ndarray) -> BoxSummary:
-    """:class:`BoxSummary` of the boxes ``lo``, ``hi`` (n, d)."""
+def summarize(lo: np.ndarray, hi: np.ndarray, accelerate: bool = False) -> BoxSummary:
+    """:class:`BoxSummary` of the boxes ``lo``, ``hi`` (n, d); ``accelerate``: the exact
+    sums' blocks compiled (:class:`ExactSum`, the same sums)."""
     d = lo.shape[1]
     if len(lo) == 0:
         return BoxSummary(0, np.full(d, np.inf), np.full(d, -np.inf), 0.0,
                           [ExactSum() for _ in range(d)])
-    sums = [ExactSum().add(hi[:, ax] - lo[:, ax]) for ax in range(d)]
+    sums = [ExactSum(accelerate).add(hi[:, ax] - lo[:, ax]) for ax in range(d)]
     e = box_extent(lo, hi)
     e += 0.0  # -0.0 to +0.0, as the refinement's scan counts exponents
     e_min, e_max = float(e.min()), float(e.max())
@@ -95,8 +96,9 @@ class CellBoxes:
     def __init__(self, points: np.ndarray, cells: np.ndarray, blocks: Blocks = SERIAL):
         self.points, self.cells, self.blocks = points, cells, blocks
         self.n, self.d = len(cells), points.shape[1]
-        self.cols = np.ascontiguousarray(points.T, dtype=np.float64)
+        self.cols = None  # the points by axis in binary64, made by the numpy blocks
         self._summary = None
+        self._points_c = None  # the points C-contiguous, when a compiled pass asks
         self._kept = None  # (ids, lo, hi) of the last subset gathered
         self._local = threading.local()  # the last block computed, per thread
         self.lo, self.hi = _Side(self, 0), _Side(self, 1)
@@ -117,11 +119,22 @@ class CellBoxes:
         if last is not None and last[0] == a and last[1] == b:
             return last[2], last[3]
         lo, hi = np.empty((self.d, b - a)), np.empty((self.d, b - a))
-        # numpy even when accelerated: its per-axis takes over the transposed points
-        # beat the compiled per-row loop here (benchmarks/README.md, "Speed, part 2")
-        fill_boxes(self.cols, np.ascontiguousarray(self.cells[a:b].T), lo, hi)
+        if self.blocks.accelerate:  # the same boxes, compiled: points and rows as given
+            from predicates.compiled.cells import fill_boxes as kernel
+
+            kernel(self._given(), self.cells[a:b], lo, hi)
+        else:
+            if self.cols is None:  # (a race of two threads makes two equal copies)
+                self.cols = np.ascontiguousarray(self.points.T, dtype=np.float64)
+            fill_boxes(self.cols, np.ascontiguousarray(self.cells[a:b].T), lo, hi)
         self._local.last = (a, b, lo.T, hi.T)
         return lo.T, hi.T
+
+    def _given(self) -> np.ndarray:
+        """The points as given, C-contiguous (the compiled kernels read them)."""
+        if self._points_c is None:
+            self._points_c = np.ascontiguousarray(self.points)
+        return self._points_c
 
     def rows(self, sel):
         """(lo, hi) of the rows ``sel`` (a boolean mask of n or ascending ids), in
@@ -157,7 +170,7 @@ class CellBoxes:
             def span(a: int, b: int) -> BoxSummary:
                 out = summarize(*self.block(a, a))  # empty
                 for s, t in self.blocks.each(a, b):
-                    out = out.merge(summarize(*self.block(s, t)))
+                    out = out.merge(summarize(*self.block(s, t), self.blocks.accelerate))
                 return out
 
             parts = self.blocks.map(span, self.n) if self.n else [summarize(

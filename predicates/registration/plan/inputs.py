@@ -73,10 +73,12 @@ def _points(arr, used, role, dtype):
     return out, rounded
 
 
-def _cells(cells, role, width, n_points, what, blocks: Blocks = SERIAL):
+def _cells(cells, role, width, n_points, what, blocks: Blocks = SERIAL, used=None):
     """The cells as given when they are an integer array (no copy, the dtype kept; int64
     for an empty or non-array input), checked block by block: negative, out-of-range
-    and repeated vertex ids are refused at their first cell, in that order."""
+    and repeated vertex ids are refused at their first cell, in that order. ``used``
+    (n_points bools, compiled blocks): also marked with the vertices the cells use, in
+    the same pass; returned as None when not marked."""
     name = f"{role} cells"
     try:
         arr = np.asarray(cells)
@@ -88,11 +90,33 @@ def _cells(cells, role, width, n_points, what, blocks: Blocks = SERIAL):
         raise MeshTypeError(f"{name} must be integer vertex indices, got dtype {arr.dtype}")
     if arr.ndim != 2 or arr.shape[1] != width:
         raise ValueError(f"{name} must have shape (M, {width}) ({what}), got {arr.shape}")
-    found = first_bad(arr, width, n_points, blocks)
+    if used is not None and blocks.accelerate and arr.dtype.kind == "i" and arr.size:
+        found = _checked_and_used(arr, n_points, blocks, used)
+    else:
+        found, used = first_bad(arr, width, n_points, blocks), None
     for t in range(3):  # the checks in this order, each at its first cell
         if found[t] is not None:
             raise cell_error(role, t, found[t], arr[found[t]].tolist(), n_points)
-    return arr
+    return arr, used
+
+
+def _checked_and_used(arr: np.ndarray, n_points: int, blocks: Blocks, used) -> list:
+    """:func:`first_bad` by the compiled pass (:func:`predicates.compiled.cells.
+    check_cells`, the same rows), marking ``used`` as it reads the ids."""
+    from predicates.compiled.cells import check_cells
+
+    top = n_points if n_points <= np.iinfo(arr.dtype).max else -1
+
+    def span(a: int, b: int) -> list:
+        first = np.full(3, -1, dtype=np.int64)
+        for lo, hi in blocks.each(a, b):
+            got = np.full(3, -1, dtype=np.int64)
+            check_cells(arr[lo:hi], top, got, used)  # used: only True written, any order
+            first = np.where((first < 0) & (got >= 0), got + lo, first)
+        return [int(f) if f >= 0 else None for f in first]
+
+    found = blocks.map(span, len(arr))
+    return [min((f[t] for f in found if f[t] is not None), default=None) for t in range(3)]
 
 
 def first_bad(arr: np.ndarray, width: int, n_points: int,
@@ -143,12 +167,14 @@ def validate_mesh(points, cells, role, dim, dtype, allow_empty, blocks: Blocks =
     k = dim + 1 if role == "simulation" else dim
     what = {(2, 3): "triangles", (2, 2): "segments", (3, 4): "tetrahedra",
             (3, 3): "triangles"}[dim, k]
-    c = _cells(cells, role, k, len(arr), f"{what} of a {dim}D {role} mesh", blocks)
+    c, used = _cells(cells, role, k, len(arr), f"{what} of a {dim}D {role} mesh", blocks,
+                     np.zeros(len(arr), dtype=bool))
     if len(c) == 0 and not allow_empty:
         raise ValueError(f"the {role} mesh is empty (0 cells)")
-    used = np.zeros(len(arr), dtype=bool)
-    for col in range(c.shape[1]):  # column by column: no copy of the cells
-        used[c[:, col]] = True
+    if used is None:  # not marked by the compiled check
+        used = np.zeros(len(arr), dtype=bool)
+        for col in range(c.shape[1]):  # column by column: no copy of the cells
+            used[c[:, col]] = True
     pts, rounded = _points(arr, used, role, dtype)
     return MeshInput(pts, c, role, rounded)
 

@@ -115,8 +115,8 @@ def _gathered(parts, table, near, d):
 
 def _compiled_span(boxes, origin, h, G, table, near):
     """:func:`flag_pass`'s span, each block one call of the fused kernel
-    (:func:`predicates.compiled.cells.flag_block`); the cell ranges go to reused
-    per-thread buffers, only the flagged rows' are kept."""
+    (:func:`predicates.compiled.cells.flag_block`); the flagged rows' cell ranges go
+    to reused per-thread buffers, compacted, and are copied out."""
     from predicates.compiled.buffers import buffer
     from predicates.compiled.cells import flag_block
 
@@ -131,14 +131,13 @@ def _compiled_span(boxes, origin, h, G, table, near):
         for s, t in boxes.blocks.each(a, b):
             i0 = buffer("flag_i0", t - s, np.int32, len(G))
             i1 = buffer("flag_i1", t - s, np.int32, len(G))
-            n, e = flag_block(P, boxes.cells[s:t], o, float(h), G_, stride, S,
-                              table is not None, i0, i1, flags[s:t] if near is not None
-                              else flags)
+            n, e, nf = flag_block(P, boxes.cells[s:t], o, float(h), G_, stride, S,
+                                  table is not None, i0, i1, flags[s:t] if near is not None
+                                  else flags)
             count += int(n)
-            if near is not None and near[s:t].any():
-                f = near[s:t]
-                r0.append(i0[f])
-                r1.append(i1[f])
+            if nf:  # the flagged rows' ranges, compacted by the kernel
+                r0.append(i0[:nf].copy())
+                r1.append(i1[:nf].copy())
                 ext = max(ext, float(e))
         return count, r0, r1, ext
 

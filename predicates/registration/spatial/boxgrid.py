@@ -112,7 +112,7 @@ def extent_sums(lo, hi, cap=np.inf, blocks: Blocks = SERIAL) -> list:
     d = lo.shape[1]
 
     def span(a: int, b: int) -> list:
-        sums = [ExactSum() for _ in range(d)]
+        sums = [ExactSum(blocks.accelerate) for _ in range(d)]
         for s, t in blocks.each(a, b):
             for ax in range(d):
                 sums[ax].add(np.minimum(hi[s:t, ax] - lo[s:t, ax], cap))

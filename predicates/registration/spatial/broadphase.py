@@ -44,6 +44,8 @@ _CROWDED, _CROWD_RATIO = 1 << 12, 16
 _MAX_DEPTH = 8
 _DENSE = 1 << 26  # grids up to this many cells use dense occupancy arrays, when
 _DENSE_PER_ENTRY = 8  # they have at most this many cells per box entry (or 2^16)
+#: the compiled grid join's proposals per box before it defers to the refining join
+_GRID_JOIN_PER_BOX = 64
 
 
 def _dense(G, entries):
@@ -185,8 +187,9 @@ def box_pairs(lo_a, hi_a, lo_b, hi_b, pad: float, chunk: int = 1 << 22,
               accelerate: bool = False):
     """Yield (ia, ib) index arrays, together every pair of boxes a, b within ``pad``
     (see module docstring), each pair exactly once. Boxes are (n, d) arrays.
-    ``accelerate``: the cells' joins compiled (:mod:`predicates.compiled.boxtest`), the
-    same pairs in the same order."""
+    ``accelerate``: compiled (:mod:`predicates.compiled.boxtest`): on a dense grid one
+    bucketing and join pass (the same pairs, a ascending, in one part), else the
+    cells' joins below (the same pairs in the same order)."""
     lo_a, hi_a, lo_b, hi_b = (np.asarray(x, dtype=np.float64) for x in (lo_a, hi_a, lo_b, hi_b))
     if len(lo_a) == 0 or len(lo_b) == 0:
         return
@@ -195,6 +198,17 @@ def box_pairs(lo_a, hi_a, lo_b, hi_b, pad: float, chunk: int = 1 << 22,
     lo_bx, hi_bx, origin, G, h, ia0, ia1, ib0, ib1 = _grid(lo_a, hi_a, lo_b, hi_b, pad, blocks)
     cols = tuple(np.ascontiguousarray(x.T) for x in (lo_a, hi_a, lo_b, hi_b))
     boxes_ = (lo_a, hi_a, lo_b, hi_b, lo_bx, hi_bx, pad, cols, accelerate)
+    if accelerate and _dense(G + 1, len(lo_a) + len(lo_b)):
+        from predicates.compiled.boxtest import grid_join
+
+        # the same pairs on the same grid (a ascending), bucketed and joined in one
+        # compiled pass; None: a crowded grid, left to the refining join below
+        got = grid_join((ia0, ia1, ib0, ib1), G, pad, cols,
+                        _GRID_JOIN_PER_BOX * (len(lo_a) + len(lo_b)) + (1 << 22))
+        if got is not None:
+            if len(got[0]):
+                yield got
+            return
     ids_a, ids_b = np.arange(len(lo_a)), np.arange(len(lo_b))
     if _dense(G + 1, len(lo_a) + len(lo_b)):
         # boxes sharing no grid cell with the other side: dropped before any expansion

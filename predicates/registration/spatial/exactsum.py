@@ -34,7 +34,10 @@ class ExactSum:
     """Σ of non-negative binary64 values (−0.0 counts as 0), exactly, and their count.
     Infinities and NaN are kept apart: the sum is then inf or NaN, as a float sum."""
 
-    def __init__(self):
+    def __init__(self, accelerate: bool = False):
+        #: blocks that fit the narrow path checked and summed by one compiled kernel
+        #: (predicates.compiled.cells.narrow_sums: the same exact sums)
+        self.accelerate = accelerate
         self.units = 0  # Σ in units of 2^-1074 (flushed part)
         self.acc = np.zeros((2, _BINS))  # per-binade float sums of high and low parts
         self.pending = 0  # values in ``acc`` since the last flush
@@ -45,9 +48,25 @@ class ExactSum:
         """Add the values of ``x`` (1D binary64, ≥ 0 or −0.0)."""
         x = np.asarray(x, dtype=np.float64)
         self.n += len(x)
+        if self.accelerate:
+            from predicates.compiled.cells import narrow_sums
+
+            x = np.ascontiguousarray(x)
         for a in range(0, len(x), 1 << 16):
+            if self.accelerate:
+                status, *sums = narrow_sums(x[a:a + (1 << 16)], _BIG, _TINY, _SPREAD, _SPLIT)
+                if status == 2:
+                    self._add_floats(sums)
+                if status:
+                    continue
             self._block(x[a:a + (1 << 16)] + 0.0)  # + 0.0: −0.0 becomes +0.0
         return self
+
+    def _add_floats(self, values) -> None:
+        """Add binary64 values that are multiples of 2^-1074 (exact sums), exactly."""
+        for v in values:
+            num, den = float(v).as_integer_ratio()
+            self.units += num * ((1 << 1074) // den)
 
     def _block(self, x: np.ndarray) -> None:
         if len(x) == 0:
@@ -97,9 +116,7 @@ class ExactSum:
             return False
         c = x * _SPLIT
         hi = c - (c - x)
-        for v in (float(hi.sum()), float((x - hi).sum())):
-            num, den = v.as_integer_ratio()
-            self.units += num * ((1 << 1074) // den)
+        self._add_floats((float(hi.sum()), float((x - hi).sum())))
         return True
 
     def _bits(self, x: np.ndarray) -> None:
