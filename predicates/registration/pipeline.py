@@ -376,17 +376,18 @@ def _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts,
     ms, mc = sc_.masks
     pairs = work.submit(estimate_cell_pairs, sim_box[0][ms], sim_box[1][ms], cut_box[0][mc],
                         cut_box[1][mc], sc_.pad)
-    # near the cut: the cells that can meet (flagged by the broad phase's grid at the
-    # final pad, or a larger one: a superset of the cells within σ+, the run's cells);
-    # flagged at the pad if no round was kept (the masks are then all cells)
-    if len(sc_.history) == 1:
-        ms, mc = near_cells(sim_box, cut_box, sc_.pad, sc_.masks, work.flags)
+    # near the cut: the run's cells (flagged at the final pad or a larger one: a superset
+    # of the cells within σ+); flagged at the pad if no round was kept (masks: all cells)
+    if len(sc_.history) == 1:  # round one's flags were at this pad: not computed again
+        ms, mc = sc_.first or near_cells(sim_box, cut_box, sc_.pad, sc_.masks, work.flags)
     h_cut = work.submit(shortest_edge, cut.points, cut.cells, mc)
-    run = sim_box.cells_of(ms)  # the same cells in the same order as sim.cells[ms]
-    h_sim = shortest_edge(sim.points, run, np.ones(len(run), dtype=bool), work.blocks)
+    h_sim = getattr(sim_box, "shortest_edge", lambda _: None)(ms)  # workers' summaries
+    if h_sim is None:  # here, on the same cells in the same order as sim.cells[ms]
+        run = sim_box.cells_of(ms)
+        h_sim = (shortest_edge(sim.points, run, np.ones(len(run), bool), work.blocks),)
     ref = None if refinement is None else (refinement.input_cells, len(refinement.cells),
                                            refinement.rounds)
-    return Resolution(dim, dtype.name, t_plus(dim, sc_), h_sim, h_cut.result(), sc_.L_a,
+    return Resolution(dim, dtype.name, t_plus(dim, sc_), h_sim[0], h_cut.result(), sc_.L_a,
                       sc_.L_b, sc_.history[0], len(sc_.history) - 1, ref, pairs.result(), ts)
 
 

@@ -205,3 +205,38 @@ def test_a_client_that_cannot_hold_the_mesh_gets_the_serial_result(tmp_path):
             for f in ("sim", "cut", "sim_weights", "cut_weights"):
                 x, y = getattr(ref[k], f), got[f"{k}.{f}"]
                 assert x.dtype == y.dtype and x.tobytes() == y.tobytes(), (k, f)
+
+
+@pytest.mark.parametrize("parts, offset, path", [(1, 0.0, "workers"), (6, 0.0, "workers"),
+                                                (6, -0.5, "client")])
+def test_the_report_from_the_workers_chunks_is_the_serial_one(parts, offset, path):
+    """The report's shortest simulation edge near the cut comes from the workers'
+    per-chunk summaries of the flag pass (docs/partitioned.md 5a) when every chunk's
+    flagged cells scale by the same power of two, else from the client (offset -0.5:
+    these chunks' largest coordinates fall in different binades); both give every
+    field of the serial report exactly (the path is asserted so both are exercised)."""
+    sp, sc, cp, cc = _case("sphere", 7, angle=2, subdivisions=2)
+    sp, cp = sp + offset, cp + offset
+    ref = predicates.intersect(sp, sc, cp, cc)
+    cells = _chunked(sc, np.random.default_rng(parts), parts)
+    res = predicates.intersect(sp, cells, cp, cc, partitions=2, scheduler="threads")
+    assert res.timings["plan_remote"]["report_edge"] == path
+    assert res.resolution.to_dict() == ref.resolution.to_dict()
+    assert res.resolution.h_sim == ref.resolution.h_sim is not None
+    assert_identical(ref, res)
+
+
+def test_meshes_that_cannot_meet_cost_one_flag_pass():
+    """No round of L is kept when nothing can meet; the report then reuses round one's
+    flags (at the same pad) instead of a second flag pass over every chunk: the
+    serial report and result, with one flag task per chunk."""
+    sp, sc, cp, cc = _case("sphere", 5, subdivisions=1)
+    cp = cp + 10.0  # far from every simulation cell
+    ref = predicates.intersect(sp, sc, cp, cc)
+    assert ref.resolution.rounds == 0 and ref.resolution.h_sim is None
+    cells = _chunked(sc, np.random.default_rng(3), 3)
+    res = predicates.intersect(sp, cells, cp, cc, partitions=2, scheduler="threads")
+    assert res.resolution.to_dict() == ref.resolution.to_dict()
+    assert_identical(ref, res)
+    remote = res.timings["plan_remote"]
+    assert [name for name, _ in remote["worker_cpu"]].count("flags") == 1

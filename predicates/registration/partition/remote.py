@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from predicates.registration.plan.cellboxes import CellBoxes, _Side
+from predicates.registration.plan.edges import edge_from, edge_shift, edge_summary
 from predicates.registration.plan.inputs import (
     MeshInput, MeshTypeError, _array, _points, cell_error, first_bad)
 from predicates.registration.spatial.blocks import SERIAL, Blocks
@@ -52,16 +53,25 @@ def _check(chunk, points, n_points: int):
     return bad, np.packbits(used), CellBoxes(points, chunk).summary()
 
 
-def _flags(chunk, points, origin, h, G, table):
+def _flags(chunk, points, origin, h, G, table, accelerate: bool = False):
     """A chunk's first-round flags (:func:`~predicates.registration.plan.lean.flag_pass`)
-    as (count, flagged rows, their ranges i0, i1, largest edge, their vertex ids)."""
+    as (count, flagged rows, their ranges i0, i1, largest edge, their vertex ids, the
+    flagged cells' :func:`~predicates.registration.plan.edges.edge_summary` or None):
+    the report's shortest edge of the run's cells rides on this task, as those cells
+    are round one's flags unless a later round shrinks them. ``accelerate``: the
+    compiled pass, as the plan's (the same values: :mod:`predicates.compiled`)."""
+    from predicates import compiled
+
+    blocks = Blocks(accelerate=accelerate and compiled.available())
     chunk = np.asarray(chunk)
-    count, got = CellBoxes(points, chunk).flag_pass(origin, h, G, table)
+    count, got = CellBoxes(points, chunk, blocks).flag_pass(origin, h, G, table)
     if got is None:
         return count, None
     near, i0, i1, ext = got
     ids = np.flatnonzero(near)
-    return count, (ids, i0, i1, ext, chunk[ids])
+    cells = chunk[ids]
+    edge = edge_summary(points, cells, blocks) if len(ids) else None
+    return count, (ids, i0, i1, ext, cells, edge)
 
 
 def _near_scan(chunk, points, grid, centres: bool):
@@ -108,6 +118,7 @@ class RemoteCells(CellBoxes):
         self.cols = None  # boxes here come from boxes_of on the kept or fetched rows
         self._pts = self._share(points)
         self._summary, self._kept, self._kept_cells = None, None, None
+        self._edges = None  # (the flag pass's kept ids, its chunks' edge summaries)
         import threading
 
         self._local = threading.local()
@@ -154,7 +165,8 @@ class RemoteCells(CellBoxes):
     def flag_pass(self, origin, h, G, table):
         """:func:`~predicates.registration.plan.lean.flag_pass` per chunk on the workers;
         the flagged cells (vertex ids, boxes) are kept here."""
-        got = self._map(_flags, origin, h, G, None if table is None else self._share(table))
+        got = self._map(_flags, origin, h, G, None if table is None else self._share(table),
+                        self.blocks.accelerate)
         count = sum(g[0] for g in got)
         if table is None:
             return count, None
@@ -162,10 +174,11 @@ class RemoteCells(CellBoxes):
         ids = np.concatenate([o + g[1][0] for o, g in zip(self.offsets, got)])
         near[ids] = True
         cells = np.concatenate([g[1][4] for g in got])
-        self.stats["bytes_back"] += sum(sum(a.nbytes for a in g[1][:3] + g[1][4:])
+        self.stats["bytes_back"] += sum(sum(a.nbytes for a in g[1][:3] + g[1][4:5])
                                         for g in got)
         lo, hi = boxes_of(self.points, cells)
         self._kept, self._kept_cells = (ids, lo, hi), cells
+        self._edges = (ids, [g[1][5] for g in got if g[1][5] is not None])
         i0 = np.concatenate([g[1][1] for g in got])
         i1 = np.concatenate([g[1][2] for g in got])
         return count, (near, i0, i1, max(g[1][3] for g in got))
@@ -181,6 +194,29 @@ class RemoteCells(CellBoxes):
         got = self._map(_near_scan, self._share(grid), True)
         return np.concatenate([o + g for o, g in zip(self.offsets, got)])
 
+    def shortest_edge(self, sel):
+        """``(shortest edge of the cells sel,)`` (None inside if none) combined from the
+        flag pass's per-chunk summaries when ``sel`` is its flagged cells and every
+        chunk scaled by the global shift (then the serial value exactly: a minimum of
+        the same squares); None when it cannot (the caller computes it)."""
+        self.stats["report_edge"] = "client"
+        if self._edges is None or not self._is_kept(sel, self._edges[0]):
+            return None
+        parts = self._edges[1]
+        shift = edge_shift(max(p[0] for p in parts)) if parts else 0
+        if any(p[1] != shift for p in parts):  # another scaling: not provably the same
+            return None
+        self.stats["report_edge"] = "workers"
+        return (edge_from(min(p[2] for p in parts), shift) if parts else None,)
+
+    @staticmethod
+    def _is_kept(sel, kept: np.ndarray) -> bool:
+        """Does ``sel`` (a mask or ascending ids) select exactly the rows ``kept``?"""
+        sel = np.asarray(sel)
+        if sel.dtype == bool:
+            return int(np.count_nonzero(sel)) == len(kept) and bool(sel[kept].all())
+        return np.array_equal(sel, kept)
+
     def _fetch(self, ids: np.ndarray) -> np.ndarray:
         """The vertex ids of the rows ``ids`` (ascending) from the workers."""
         if len(ids) == 0:
@@ -188,6 +224,8 @@ class RemoteCells(CellBoxes):
         return np.asarray(self.cells_da[ids].compute(scheduler=self.scheduler))
 
     def cells_of(self, sel) -> np.ndarray:
+        if self._kept is not None and self._is_kept(sel, self._kept[0]):
+            return self._kept_cells  # the run's cells: no search, no gather
         ids = np.flatnonzero(sel) if np.asarray(sel).dtype == bool else np.asarray(sel)
         if self._kept is not None:
             kept = self._kept[0]
@@ -197,6 +235,8 @@ class RemoteCells(CellBoxes):
         return self._fetch(ids)
 
     def rows(self, sel):
+        if self._kept is not None and self._is_kept(sel, self._kept[0]):
+            return self._kept[1], self._kept[2]
         ids = np.flatnonzero(sel) if np.asarray(sel).dtype == bool else np.asarray(sel)
         if self._kept is not None:
             kept, lo, hi = self._kept

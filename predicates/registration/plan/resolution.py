@@ -28,7 +28,7 @@ import numpy as np
 
 from predicates.catalogue import kinds as catalogue_kinds
 from predicates.tolerances import tolerances as compute_tolerances
-from predicates.registration.plan.inputs import times_pow2
+from predicates.registration.plan.edges import shortest_edge  # noqa: F401 (re-exported)
 from predicates.registration.plan.lean import near_all
 from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.boxes import box_extent, boxes_of
@@ -70,7 +70,8 @@ class Scale:
     of the exact scaling (L_a + L_b)·2^-e ∈ [1/2, 1), the tolerances and per-kind reach
     for the scaled coordinates, ``pad``: max reach in input units; ``masks``: the cells
     of each mesh L_a, L_b were taken over (they contain every cell within ``pad`` of
-    the other mesh); ``history``: L_a + L_b per round, the paper's global one first."""
+    the other mesh); ``history``: L_a + L_b per round, the paper's global one first;
+    ``first``: round one's masks, which the report reuses when no round was kept."""
 
     L_a: float
     L_b: float
@@ -80,6 +81,7 @@ class Scale:
     pad: float
     masks: tuple = ()
     history: list = field(default_factory=list)
+    first: tuple = ()  # round one's flags (at the first pad, over every cell)
 
 
 def _ldexp_up(x: float, e: int) -> float:
@@ -174,9 +176,10 @@ def consistent_scale(dim: int, sim_box, cut_box, dtype, max_rounds: int = MAX_RO
         L_a = _max_edge(box_extent(*sim_box), masks[0])
     L_b = _max_edge(ext_c, masks[1])
     cur = scale_for(dim, L_a, L_b, dtype, table)
-    cur.masks, history = masks, [L_a + L_b]
+    cur.masks, history, first = masks, [L_a + L_b], ()
     for _ in range(max_rounds):
         *nxt_masks, ext_s = _near(sim_box, cut_box, cur.pad, cur.masks, flags)
+        first = first or tuple(nxt_masks)
         La, Lb = _up(ext_s), _max_edge(ext_c, nxt_masks[1])
         if La + Lb == 0:  # nothing can meet: keep the last sound scale
             break
@@ -189,7 +192,7 @@ def consistent_scale(dim: int, sim_box, cut_box, dtype, max_rounds: int = MAX_RO
         cur = nxt
         if not shrunk:
             break
-    cur.history = history
+    cur.history, cur.first = history, first if len(history) == 1 else ()  # (memory)
     return cur
 
 
@@ -281,55 +284,6 @@ def memory_limit() -> int:
         return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE") // 2
     except (ValueError, OSError, AttributeError):
         return 4 << 30
-
-
-def shortest_edge(points: np.ndarray, cells: np.ndarray, mask,
-                  blocks: Blocks = SERIAL) -> float | None:
-    """Shortest edge (binary64 length) of the selected cells, None if none; block by
-    block (the minimum of the blocks' minima: exact). Computed on the coordinates scaled
-    exactly by a power of two to magnitude ≤ 1, so that no square overflows or
-    underflows (a mesh at 1e±300 has the same edges, scaled)."""
-    if not mask.any():
-        return None
-    C = np.ascontiguousarray(cells[mask].T)
-    used = np.zeros(len(points), dtype=bool)  # the vertices of the selected cells
-    for row in C:  # (a mask, not np.unique: its hash or sort costs seconds at 10^7)
-        used[row] = True
-    ids = np.flatnonzero(used)  # only these points: renumbered, the same coordinates
-    local = np.zeros(len(points), dtype=np.int64)
-    local[ids] = np.arange(len(ids))
-    C = local[C]
-    P = points[ids]
-    top = float(np.abs(P).max()) if C.size else 0.0
-    shift = int(np.frexp(top)[1]) if top > 0 and np.isfinite(top) else 0
-    cols = times_pow2(np.ascontiguousarray(P.T, dtype=np.float64), -shift)
-    k, dim = cells.shape[1], points.shape[1]
-
-    def span(a: int, b: int) -> float:
-        if blocks.accelerate:  # the same sums, compiled (GIL-free)
-            from predicates.compiled.cells import least_square_edge
-
-            return float(least_square_edge(cols, C, a, b))
-        best = np.inf
-        for lo, hi in blocks.each(a, b):
-            # per axis 1D takes (no (n, k, d) gather); the squares summed axis by axis
-            # from the left, as an (n, d) array's .sum(1) adds them (same values); the
-            # square root of the least sum (sqrt is monotone and correctly rounded: the
-            # least root)
-            X = [[cols[ax].take(C[v, lo:hi]) for ax in range(dim)] for v in range(k)]
-            sq, t = np.empty(hi - lo), np.empty(hi - lo)
-            for u in range(k):
-                for v in range(u + 1, k):
-                    for ax in range(dim):
-                        np.subtract(X[u][ax], X[v][ax], out=t)
-                        if ax == 0:
-                            np.multiply(t, t, out=sq)
-                        else:
-                            sq += np.multiply(t, t, out=t)
-                    best = min(best, float(sq.min()))
-        return best
-
-    return float(np.ldexp(np.sqrt(min(blocks.map(span, C.shape[1]))), shift))
 
 
 @dataclass

@@ -1,0 +1,88 @@
+"""The shortest edge of a set of cells, exactly, and its per-chunk summaries (the
+resolution report's h_sim and h_cut: docs/resolution.md; combined from the workers'
+chunks in a partitioned run: docs/partitioned.md 5a)."""
+from __future__ import annotations
+
+import numpy as np
+
+from predicates.registration.plan.inputs import times_pow2
+from predicates.registration.spatial.blocks import SERIAL, Blocks
+
+__all__ = ["edge_from", "edge_shift", "edge_summary", "shortest_edge"]
+
+
+def shortest_edge(points: np.ndarray, cells: np.ndarray, mask,
+                  blocks: Blocks = SERIAL) -> float | None:
+    """Shortest edge (binary64 length) of the selected cells, None if none; block by
+    block (the minimum of the blocks' minima: exact). Computed on the coordinates scaled
+    exactly by a power of two to magnitude ≤ 1, so that no square overflows or
+    underflows (a mesh at 1e±300 has the same edges, scaled)."""
+    if not mask.any():
+        return None
+    top, shift, least = edge_summary(points, cells[mask], blocks)
+    return edge_from(least, shift)
+
+
+def edge_from(least: float, shift: int) -> float:
+    """The shortest edge from the least squared edge at scale 2^-shift
+    (:func:`edge_summary`): sqrt is monotone and correctly rounded, the scaling exact."""
+    return float(np.ldexp(np.sqrt(least), shift))
+
+
+def edge_shift(top: float) -> int:
+    """The exponent that scales coordinates of magnitude ≤ ``top`` to ≤ 1."""
+    return int(np.frexp(top)[1]) if top > 0 and np.isfinite(top) else 0
+
+
+def edge_summary(points: np.ndarray, cells: np.ndarray, blocks: Blocks = SERIAL,
+                 shift: int | None = None):
+    """(top, shift, least): the largest |coordinate| of the vertices ``cells`` use, the
+    exponent :func:`edge_shift` of it (or ``shift`` if given) and the least squared
+    edge of ``cells`` (≥ 1 row) in the coordinates scaled by 2^-shift. The minimum over
+    chunks of cells with one shift is the whole's (min is exact), so per-chunk
+    summaries on the workers combine to :func:`shortest_edge`'s value when their
+    shifts agree (docs/partitioned.md 5a)."""
+    C = np.ascontiguousarray(np.asarray(cells).T)
+    used = np.zeros(len(points), dtype=bool)  # the vertices of the selected cells
+    for row in C:  # (a mask, not np.unique: its hash or sort costs seconds at 10^7)
+        used[row] = True
+    ids = np.flatnonzero(used)  # only these points: renumbered, the same coordinates
+    local = np.zeros(len(points), dtype=np.int64)
+    local[ids] = np.arange(len(ids))
+    C = local[C]
+    P = points[ids]
+    top = float(np.abs(P).max()) if C.size else 0.0
+    shift = edge_shift(top) if shift is None else shift
+    cols = times_pow2(np.ascontiguousarray(P.T, dtype=np.float64), -shift)
+    return top, shift, _least_square(cols, C, blocks)
+
+
+def _least_square(cols: np.ndarray, C: np.ndarray, blocks: Blocks) -> float:
+    """The least squared edge of the cells ``C`` ((k, n) local ids into ``cols``)."""
+    k, dim = C.shape[0], cols.shape[0]
+
+    def span(a: int, b: int) -> float:
+        if blocks.accelerate:  # the same sums, compiled (GIL-free)
+            from predicates.compiled.cells import least_square_edge
+
+            return float(least_square_edge(cols, C, a, b))
+        best = np.inf
+        for lo, hi in blocks.each(a, b):
+            # per axis 1D takes (no (n, k, d) gather); the squares summed axis by axis
+            # from the left, as an (n, d) array's .sum(1) adds them (same values); the
+            # square root of the least sum (sqrt is monotone and correctly rounded: the
+            # least root)
+            X = [[cols[ax].take(C[v, lo:hi]) for ax in range(dim)] for v in range(k)]
+            sq, t = np.empty(hi - lo), np.empty(hi - lo)
+            for u in range(k):
+                for v in range(u + 1, k):
+                    for ax in range(dim):
+                        np.subtract(X[u][ax], X[v][ax], out=t)
+                        if ax == 0:
+                            np.multiply(t, t, out=sq)
+                        else:
+                            sq += np.multiply(t, t, out=t)
+                    best = min(best, float(sq.min()))
+        return best
+
+    return min(blocks.map(span, C.shape[1]))
