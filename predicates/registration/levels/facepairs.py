@@ -93,7 +93,7 @@ class FacePairs:
         self.top_s, self.top_c = sim.cx.top, cut.cx.top
         self._boxes = {}  # (side, level) -> (lo, hi) columns
         self._tables = {}  # (side, level) -> owned table
-        self._stage1 = {}  # sim level i -> [(f, C) pieces]
+        self._stage1 = {}  # sim level i -> (f, C)
         self._pending = {}  # sim level i -> kinds still to ask for it
         for k in kinds:
             self._pending[k.i] = self._pending.get(k.i, 0) + 1
@@ -133,15 +133,13 @@ class FacePairs:
         return owned_pairs(tab, side, A, B, pad, self._box("sim", i), self._box("cut", j_box))
 
     def _first(self, i):
-        """Stage 1 for simulation level i: pieces (f, C) in order, f an i-face owned by
-        T, (T, C) a cell pair, f's box within the level's largest reach of C's box. Kept
-        as pieces, not concatenated: one copy of every pair less (W4: 184 MB of fresh
-        pages, 0.23 s; benchmarks/README.md, "Part 2, fourth pass")."""
+        """Stage 1 for simulation level i: (f, C), f an i-face owned by T, (T, C) a
+        cell pair, f's box within the level's largest reach of C's box."""
         if i == self.top_s:  # the cell itself: the cell pairs, tested in stage 2
-            return [(self.T, self.C)]
+            return self.T, self.C
         tab = self._table("sim", i)
         step = max(1, self.chunk // tab.shape[1])
-        pieces = []
+        fs, cs = [], []
         for lo in range(0, len(self.T), step):
             T, C = self.T[lo: lo + step], self.C[lo: lo + step]
             if self.accelerate:  # the same pairs, in the same order, compiled
@@ -149,9 +147,11 @@ class FacePairs:
             else:
                 f, rows = _owned(tab, T)
                 f, C = self._test(self._level_reach[i], i, self.top_c, f, C.take(rows))
-            if len(f):
-                pieces.append((f, C))
-        return pieces
+            fs.append(f)
+            cs.append(C)
+        if not fs:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        return np.concatenate(fs), np.concatenate(cs)
 
     def blocks(self, kind: str, i: int, j: int):
         """Yield (f, C, tab, pad): blocks of the stage-1 pairs of level i (f an i-face,
@@ -160,7 +160,7 @@ class FacePairs:
         (the compiled chain does it fused, predicates.compiled.chain.fused)."""
         if i not in self._stage1:
             self._stage1[i] = self._first(i)
-        pieces = self._stage1[i]
+        f_all, C_all = self._stage1[i]
         self._pending[i] -= 1
         if self._pending[i] == 0:  # the last kind of this simulation level
             del self._stage1[i]
@@ -170,9 +170,8 @@ class FacePairs:
         else:
             tab = self._table("cut", j)
             step = max(1, self.chunk // tab.shape[1])
-        for f_all, C_all in pieces:  # the same pairs in the same order as one array
-            for lo in range(0, len(f_all), step):
-                yield f_all[lo: lo + step], C_all[lo: lo + step], tab, pad
+        for lo in range(0, len(f_all), step):
+            yield f_all[lo: lo + step], C_all[lo: lo + step], tab, pad
 
     def boxes(self, i: int, j: int) -> tuple:
         """(lo_a, hi_a, lo_b, hi_b): the boxes of the simulation i-simplices and the
