@@ -288,3 +288,27 @@ def test_the_plan_passes_its_accelerate_to_the_refinement(monkeypatch):
         for name in ("sim", "cut", "sim_weights", "cut_weights"):
             a, b = getattr(res[0][kind], name), getattr(res[1][kind], name)
             assert a.dtype == b.dtype and a.tobytes() == b.tobytes(), (kind, name)
+
+
+@pytest.mark.parametrize("d", [1, 2, 3, 4])
+def test_compiled_corner_sums_are_numpys(d):
+    """The summed-area tables' corners compiled (d = 2, 3 written out, other d by the
+    generic loop): coverage equals a brute-force count of the boxes covering each cell,
+    and the look-ups equal numpy's, in int64 and int32."""
+    import itertools
+
+    from predicates.registration.spatial import gridsums
+
+    rng = np.random.default_rng(d)
+    G = rng.integers(1, 6, size=d).astype(np.int64)
+    i0 = rng.integers(0, G, size=(300, d))
+    i1 = np.minimum(i0 + rng.integers(0, 3, size=(300, d)), G - 1)
+    fast = Blocks(accelerate=True)
+    for dtype in (np.int64, np.int32):
+        cov = gridsums.coverage(i0, i1, G, fast, dtype)
+        for cell in itertools.product(*(range(g) for g in G)):
+            inside = np.all((i0 <= cell) & (np.asarray(cell) <= i1), axis=1)
+            assert cov[tuple(cell[::-1])] == inside.sum()
+        occ = gridsums.occupancy(i0[:40], i1[:40], G)
+        assert np.array_equal(gridsums.any_in(occ, i0, i1, G),
+                              gridsums.any_in(occ, i0, i1, G, fast))
