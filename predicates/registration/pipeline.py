@@ -81,6 +81,7 @@ from predicates.registration.plan.resolution import (
     Resolution, consistent_scale, estimate_cell_pairs, memory_error, near_cells,
     shortest_edge, t_plus)
 from predicates.registration.result.intersection import IntersectionResult
+from predicates.registration.spatial.blocks import Blocks
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike, DTypeLike
@@ -337,10 +338,10 @@ def _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts,
     ``work``: its independent parts run concurrently on a threaded plan's pool."""
     work = plan_threads.Work() if work is None else work
     ms, mc = sc_.masks
-    # its occupancy counts on numpy: compiled they were slower on W4's near cells
-    # (benchmarks/README.md, "Part 2, fourth pass")
+    # its occupancy counts compiled as the plan's passes, serially: a pool thread
+    # waiting on spans submitted to its own pool could starve it
     pairs = work.submit(estimate_cell_pairs, sim_box[0][ms], sim_box[1][ms], cut_box[0][mc],
-                        cut_box[1][mc], sc_.pad)
+                        cut_box[1][mc], sc_.pad, Blocks(accelerate=work.blocks.accelerate))
     # near the cut: the run's cells (flagged at the final pad or a larger one: a superset
     # of the cells within σ+); flagged at the pad if no round was kept (masks: all cells)
     if len(sc_.history) == 1:  # round one's flags were at this pad: not computed again

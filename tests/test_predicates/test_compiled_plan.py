@@ -267,22 +267,25 @@ def test_compiled_refinement_is_numpys(d):
         assert a.dtype == b.dtype and a.tobytes() == b.tobytes(), name
 
 
-def test_the_plan_passes_its_accelerate_to_the_refinement(monkeypatch):
-    """intersect(accelerate=True) runs the refinement's unique rows compiled (and =False
-    on numpy), with the same pairs and weights."""
+def test_the_plan_passes_its_accelerate_to_refinement_and_estimate(monkeypatch):
+    """intersect(accelerate=True) runs the refinement's unique rows and the pair
+    estimate's occupancy counts compiled (and =False on numpy), with the same result."""
     import predicates
     from predicates.registration import pipeline
     from predicates.registration.examples import cube_grid
 
     seen = []
-    refine = pipeline.refine
+    refine, estimate = pipeline.refine, pipeline.estimate_cell_pairs
     monkeypatch.setattr(pipeline, "refine", lambda *a, **k: (
         seen.append(("refine", k["accelerate"])), refine(*a, **k))[1])
+    monkeypatch.setattr(pipeline, "estimate_cell_pairs", lambda *a: (
+        seen.append(("estimate", a[-1].accelerate)), estimate(*a))[1])
     sp, sc = cube_grid(6)
     cp = np.array([[-0.2, -0.1, 0.31], [1.3, 0.0, 0.52], [0.3, 1.4, 0.44]])
     res = [predicates.intersect((sp, sc), (cp, np.array([[0, 1, 2]])), accelerate=a)
            for a in (False, True)]
-    assert seen == [("refine", False), ("refine", True)]
+    assert seen == [("refine", False), ("estimate", False), ("refine", True),
+                    ("estimate", True)]
     assert res[0].kinds == res[1].kinds and sum(len(res[0][k]) for k in res[0].kinds) > 0
     for kind in res[0].kinds:
         for name in ("sim", "cut", "sim_weights", "cut_weights"):
