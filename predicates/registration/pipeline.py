@@ -73,7 +73,7 @@ from predicates.registration.plan import threads as plan_threads
 from predicates.registration.plan import resolution
 from predicates.registration.plan.cellboxes import CellBoxes
 from predicates.registration.plan.inputs import (
-    mesh_arrays, scale_points, validate_options, validate_pair)
+    check_extent, mesh_arrays, scale_points, validate_options, validate_pair)
 from predicates.registration.levels.loop import Registration
 from predicates.registration.partition import remote  # the plan on the workers, no Dask
 from predicates.registration.plan.refine import refine
@@ -81,8 +81,7 @@ from predicates.registration.plan.resolution import (
     Resolution, consistent_scale, estimate_cell_pairs, memory_error, near_cells,
     shortest_edge, t_plus)
 from predicates.registration.result.intersection import IntersectionResult
-from predicates.registration.spatial.boxes import boxes_of
-from predicates.registration.spatial.boxgrid import colmax, colmin
+from predicates.registration.spatial.blocks import Blocks
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike, DTypeLike
@@ -277,15 +276,13 @@ def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, 
         sim_box = CellBoxes(sim.points, sim.cells, work.blocks)
     clock("plan_validate")
     S = sim_box.summary()
-    for name, mesh, given, hull in (("simulation", sim, sp, (S.lo_min, S.hi_max)),
-                                    ("cutting", cut, cp, None)):
-        if len(mesh.cells) and _one_point(mesh, hull):
-            raise ValueError(_collapse_reason(name, given, mesh, dtype))
+    check_extent("simulation", sim, sp, dtype, (S.lo_min, S.hi_max))
+    check_extent("cutting", cut, cp, dtype)
     clock("plan_boxes")
     refinement = None
     if refine_cut and len(cut.cells):
         refinement = refine(cut.points, cut.cells, sim_box.lo, sim_box.hi,
-                            sim_stats=S.scan_stats())
+                            sim_stats=S.scan_stats(), accelerate=work.blocks.accelerate)
         cut.points, cut.cells = refinement.points, refinement.cells
         clock("refine")
     cut_box = work.boxes(cut.points, cut.cells)
@@ -325,39 +322,6 @@ class _Stages:
         self.timings[stage], self.t = t - self.t, t
 
 
-def _one_point(mesh, hull=None) -> bool:
-    """Every vertex of the mesh's cells is the same point (in the working dtype): the
-    hull of the cells' boxes (``hull`` = (lo_min, hi_max), or computed) is one point —
-    it is the hull of the vertices the cells use; exact, no sort of the cells' ids."""
-    if hull is None:
-        lo, hi = boxes_of(mesh.points, mesh.cells)
-        hull = colmin(lo), colmax(hi)
-    return bool(np.array_equal(*hull))
-
-
-def _collapse_reason(name: str, given, mesh, dtype) -> str:
-    """Why every vertex of a mesh is one point, and what to do: the input's vertices are
-    one point, or they differ by less than the working format's spacing at their
-    magnitude (a large offset), or they underflow in float32."""
-    used = np.unique(np.asarray(mesh.cells))
-    G = np.asarray(given, dtype=np.float64)[used] if np.asarray(given).dtype.kind == "f" \
-        else np.asarray(given)[used].astype(np.float64)
-    mag = float(np.abs(G).max())
-    head = f"every vertex of the {name} mesh is the same point"
-    if (G == G[0]).all():
-        far = "" if mag < 2.0 ** 20 else (
-            f"; at magnitude {mag:.3g} float64 numbers are {float(np.spacing(mag)):.3g} "
-            "apart: a mesh translated this far from the origin collapses, translate it back")
-        return f"{head} ({', '.join(f'{x:.6g}' for x in G[0])}): a mesh needs extent{far}"
-    if dtype == np.float32 and mag < float(np.finfo(np.float32).tiny) * 2 ** 23:
-        return (f"{head} in float32: its coordinates (magnitude {mag:.3g}) underflow to "
-                "zero or subnormals; use float64 (--dtype float64) or scale the meshes")
-    ext = float((G.max(axis=0) - G.min(axis=0)).max())
-    return (f"{head} in {dtype.name}: its coordinates span {ext:.3g} at magnitude {mag:.3g}, "
-            f"less than {dtype.name}'s spacing there ({float(np.spacing(dtype.type(mag))):.3g}); "
-            "translate the meshes near the origin before registering")
-
-
 def _register(plan: Plan, chunk: int, progress: bool, timings: dict) -> dict:
     """Rank space, broad phase and levels on the cells that can meet (they hold every
     pair within reach, docs/resolution.md): {kind: KindPairs}."""
@@ -374,8 +338,10 @@ def _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts,
     ``work``: its independent parts run concurrently on a threaded plan's pool."""
     work = plan_threads.Work() if work is None else work
     ms, mc = sc_.masks
+    # its occupancy counts compiled as the plan's passes, serially: a pool thread
+    # waiting on spans submitted to its own pool could starve it
     pairs = work.submit(estimate_cell_pairs, sim_box[0][ms], sim_box[1][ms], cut_box[0][mc],
-                        cut_box[1][mc], sc_.pad)
+                        cut_box[1][mc], sc_.pad, Blocks(accelerate=work.blocks.accelerate))
     # near the cut: the run's cells (flagged at the final pad or a larger one: a superset
     # of the cells within σ+); flagged at the pad if no round was kept (masks: all cells)
     if len(sc_.history) == 1:  # round one's flags were at this pad: not computed again

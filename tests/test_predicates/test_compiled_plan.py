@@ -244,3 +244,74 @@ def test_compiled_exact_sums_are_exact(data):
         want = sum(Fraction(float(v)) for v in x)
         assert Fraction(fast.total(), 1 << 1074) == want == Fraction(ref.total(), 1 << 1074)
     assert np.float64(ref.mean()).tobytes() == np.float64(fast.mean()).tobytes()
+
+
+@pytest.mark.parametrize("d", [2, 3])
+def test_compiled_refinement_is_numpys(d):
+    """The refinement's edges by the compiled unique rows: the same refined mesh, bit for
+    bit, on a cutting cell far coarser than the grid (several rounds of splits)."""
+    from predicates.registration.examples import cube_grid, square_grid
+    from predicates.registration.plan.refine import refine
+    from predicates.registration.spatial.boxes import boxes_of
+
+    sp, sc = (square_grid(24) if d == 2 else cube_grid(8))
+    lo, hi = boxes_of(sp, sc)
+    k = d  # the cutting mesh: one coarse segment (2D) or triangle (3D) across the grid
+    cp = np.array([[0.1, 0.3], [0.9, 0.55]] if d == 2
+                  else [[0.1, 0.2, 0.3], [0.9, 0.25, 0.6], [0.4, 0.95, 0.45]])
+    cc = np.arange(k)[None, :]
+    got = [refine(cp, cc, lo, hi, accelerate=a) for a in (False, True)]
+    assert got[0].rounds > 0 and len(got[0].cells) > 1
+    for name in ("points", "cells", "cut_origin", "bary"):
+        a, b = getattr(got[0], name), getattr(got[1], name)
+        assert a.dtype == b.dtype and a.tobytes() == b.tobytes(), name
+
+
+def test_the_plan_passes_its_accelerate_to_refinement_and_estimate(monkeypatch):
+    """intersect(accelerate=True) runs the refinement's unique rows and the pair
+    estimate's occupancy counts compiled (and =False on numpy), with the same result."""
+    import predicates
+    from predicates.registration import pipeline
+    from predicates.registration.examples import cube_grid
+
+    seen = []
+    refine, estimate = pipeline.refine, pipeline.estimate_cell_pairs
+    monkeypatch.setattr(pipeline, "refine", lambda *a, **k: (
+        seen.append(("refine", k["accelerate"])), refine(*a, **k))[1])
+    monkeypatch.setattr(pipeline, "estimate_cell_pairs", lambda *a: (
+        seen.append(("estimate", a[-1].accelerate)), estimate(*a))[1])
+    sp, sc = cube_grid(6)
+    cp = np.array([[-0.2, -0.1, 0.31], [1.3, 0.0, 0.52], [0.3, 1.4, 0.44]])
+    res = [predicates.intersect((sp, sc), (cp, np.array([[0, 1, 2]])), accelerate=a)
+           for a in (False, True)]
+    assert seen == [("refine", False), ("estimate", False), ("refine", True),
+                    ("estimate", True)]
+    assert res[0].kinds == res[1].kinds and sum(len(res[0][k]) for k in res[0].kinds) > 0
+    for kind in res[0].kinds:
+        for name in ("sim", "cut", "sim_weights", "cut_weights"):
+            a, b = getattr(res[0][kind], name), getattr(res[1][kind], name)
+            assert a.dtype == b.dtype and a.tobytes() == b.tobytes(), (kind, name)
+
+
+@pytest.mark.parametrize("d", [1, 2, 3, 4])
+def test_compiled_corner_sums_are_numpys(d):
+    """The summed-area tables' corners compiled (d = 2, 3 written out, other d by the
+    generic loop): coverage equals a brute-force count of the boxes covering each cell,
+    and the look-ups equal numpy's, in int64 and int32."""
+    import itertools
+
+    from predicates.registration.spatial import gridsums
+
+    rng = np.random.default_rng(d)
+    G = rng.integers(1, 6, size=d).astype(np.int64)
+    i0 = rng.integers(0, G, size=(300, d))
+    i1 = np.minimum(i0 + rng.integers(0, 3, size=(300, d)), G - 1)
+    fast = Blocks(accelerate=True)
+    for dtype in (np.int64, np.int32):
+        cov = gridsums.coverage(i0, i1, G, fast, dtype)
+        for cell in itertools.product(*(range(g) for g in G)):
+            inside = np.all((i0 <= cell) & (np.asarray(cell) <= i1), axis=1)
+            assert cov[tuple(cell[::-1])] == inside.sum()
+        occ = gridsums.occupancy(i0[:40], i1[:40], G)
+        assert np.array_equal(gridsums.any_in(occ, i0, i1, G),
+                              gridsums.any_in(occ, i0, i1, G, fast))

@@ -267,3 +267,62 @@ def test_cli_warns_on_stderr_and_strict_exits_1(tmp_path, plane):
                cwd=tmp_path)
     assert r.returncode == 0 and r.stderr == "" and (tmp_path / "hits.vtu").exists()
     assert "cutting mesh refined" in r.stdout
+
+
+# -- the memory guard's pair estimate: exact integers, no BLAS (docs/design.md) ------------
+def _no_blas(monkeypatch):
+    def refuse(*a, **k):
+        raise AssertionError("BLAS called by the pair estimate")
+
+    for name in ("dot", "matmul", "inner", "vdot", "einsum", "tensordot"):
+        monkeypatch.setattr(np, name, refuse)
+
+
+def _overlap_count(ia0, ia1, ib0, ib1) -> int:
+    """Brute force: Σ over every (a, b) pair of the grid cells both cover, Python ints."""
+    total = 0
+    for a0, a1 in zip(ia0.tolist(), ia1.tolist()):
+        for b0, b1 in zip(ib0.tolist(), ib1.tolist()):
+            n = 1
+            for x0, x1, y0, y1 in zip(a0, a1, b0, b1):
+                n *= max(0, int(min(x1, y1)) - int(max(x0, y0)) + 1)
+            total += n
+    return total
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_pair_estimate_is_the_exact_overlap_count_without_blas(seed, monkeypatch):
+    """Dense and keyed counts both equal Σ over pairs of shared grid cells, with every
+    BLAS entry point refusing (the estimate decides refusals: no BLAS, docs/design.md)."""
+    from predicates.registration.plan import resolution as R
+    from predicates.registration.spatial.blocks import Blocks
+
+    rng = np.random.default_rng(seed)
+    dim, sc_ = 2 + seed % 2, 10.0 ** rng.uniform(-3, 3)
+    boxes = []
+    for n in rng.integers(1, 60, size=2):
+        lo = rng.uniform(-1, 1, size=(n, dim)) * sc_
+        boxes += [lo, lo + rng.uniform(0, 1, size=(n, dim)) * sc_ * rng.choice([0.01, 0.3])]
+    pad = sc_ * rng.choice([0.0, 1e-3, 0.2])
+    expected = _overlap_count(*R._estimate_grid(*boxes, pad)[:4])
+    _no_blas(monkeypatch)
+    assert R.estimate_cell_pairs(*boxes, pad) == expected
+    from predicates import compiled
+
+    if compiled.available():  # the compiled occupancy counts: the same integer
+        assert R.estimate_cell_pairs(*boxes, pad, Blocks(accelerate=True)) == expected
+    monkeypatch.setattr(R, "_dense_pair_count", lambda *a: None)  # the keyed count
+    assert R.estimate_cell_pairs(*boxes, pad) == expected
+
+
+def test_pair_count_dot_is_exact_beyond_int64_and_float53(monkeypatch):
+    """Σ x·y whose partial sums exceed 2^63 (Python integers) or 2^53 (int64): exact."""
+    from predicates.registration.plan import resolution as R
+
+    _no_blas(monkeypatch)
+    rng = np.random.default_rng(5)
+    for hi in (2 ** 27, 2 ** 33):  # sums ~2^60 (int64 path), ~2^72 (Python ints)
+        x, y = rng.integers(0, hi, size=300), rng.integers(0, hi, size=300)
+        exact = sum(int(a) * int(b) for a, b in zip(x, y))
+        assert exact > 2 ** 53 and R._count_dot(x, y) == exact
+    assert R._count_dot(np.zeros(0, np.int64), np.zeros(0, np.int64)) == 0

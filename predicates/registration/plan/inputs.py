@@ -12,9 +12,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from predicates.registration.spatial.blocks import SERIAL, Blocks
+from predicates.registration.spatial.boxgrid import colmax, colmin
 from predicates.registration.spatial.broadphase import boxes_of
 
-__all__ = ["Arrays", "MeshInput", "MeshTypeError", "from_meshio", "max_box_edge", "mesh_arrays",
+__all__ = ["Arrays", "MeshInput", "check_extent", "MeshTypeError", "from_meshio", "max_box_edge", "mesh_arrays",
            "scale_points", "times_pow2", "cell_error", "first_bad", "validate_mesh", "validate_options", "validate_pair"]
 
 
@@ -337,3 +338,44 @@ def times_pow2(x: np.ndarray, k: int) -> np.ndarray:
     if fi.minexp < k < fi.maxexp:
         return x * x.dtype.type(2.0 ** k)
     return np.ldexp(x, k)
+
+
+def check_extent(name: str, mesh: MeshInput, given, dtype, hull=None) -> None:
+    """Refuse a mesh whose cells' vertices are all one point in the working dtype
+    (ValueError saying why and what to do); ``given``: its points as the caller gave
+    them; ``hull``: (lo_min, hi_max) of its cells' boxes if known."""
+    if len(mesh.cells) and _one_point(mesh, hull):
+        raise ValueError(_collapse_reason(name, given, mesh, dtype))
+
+
+def _one_point(mesh, hull=None) -> bool:
+    """Every vertex of the mesh's cells is the same point (in the working dtype): the
+    hull of the cells' boxes (``hull`` = (lo_min, hi_max), or computed) is one point —
+    it is the hull of the vertices the cells use; exact, no sort of the cells' ids."""
+    if hull is None:
+        lo, hi = boxes_of(mesh.points, mesh.cells)
+        hull = colmin(lo), colmax(hi)
+    return bool(np.array_equal(*hull))
+
+
+def _collapse_reason(name: str, given, mesh, dtype) -> str:
+    """Why every vertex of a mesh is one point, and what to do: the input's vertices are
+    one point, or they differ by less than the working format's spacing at their
+    magnitude (a large offset), or they underflow in float32."""
+    used = np.unique(np.asarray(mesh.cells))
+    G = np.asarray(given, dtype=np.float64)[used] if np.asarray(given).dtype.kind == "f" \
+        else np.asarray(given)[used].astype(np.float64)
+    mag = float(np.abs(G).max())
+    head = f"every vertex of the {name} mesh is the same point"
+    if (G == G[0]).all():
+        far = "" if mag < 2.0 ** 20 else (
+            f"; at magnitude {mag:.3g} float64 numbers are {float(np.spacing(mag)):.3g} "
+            "apart: a mesh translated this far from the origin collapses, translate it back")
+        return f"{head} ({', '.join(f'{x:.6g}' for x in G[0])}): a mesh needs extent{far}"
+    if dtype == np.float32 and mag < float(np.finfo(np.float32).tiny) * 2 ** 23:
+        return (f"{head} in float32: its coordinates (magnitude {mag:.3g}) underflow to "
+                "zero or subnormals; use float64 (--dtype float64) or scale the meshes")
+    ext = float((G.max(axis=0) - G.min(axis=0)).max())
+    return (f"{head} in {dtype.name}: its coordinates span {ext:.3g} at magnitude {mag:.3g}, "
+            f"less than {dtype.name}'s spacing there ({float(np.spacing(dtype.type(mag))):.3g}); "
+            "translate the meshes near the origin before registering")

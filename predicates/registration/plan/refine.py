@@ -107,11 +107,13 @@ class Refinement:
 
 
 def refine(points: np.ndarray, cells: np.ndarray, sim_lo: np.ndarray, sim_hi: np.ndarray,
-           max_cells: int = MAX_CELLS, sim_stats=None) -> Refinement:
+           max_cells: int = MAX_CELLS, sim_stats=None, accelerate: bool = False
+           ) -> Refinement:
     """Refine the cutting mesh (``points`` in the working dtype, ``cells`` (M, k)) where
     its edges are longer than the simulation cells they meet (boxes ``sim_lo``,
     ``sim_hi`` in binary64; ``sim_stats``: their box-edge statistics if known,
-    :func:`~.refine_scan.stats_from`). See the module docstring."""
+    :func:`~.refine_scan.stats_from`). ``accelerate``: the edges' unique rows by the
+    compiled counting sort (the same rows and map). See the module docstring."""
     k = cells.shape[1]
     P = points.copy()
     C = cells.astype(np.int64, copy=True)
@@ -121,7 +123,7 @@ def refine(points: np.ndarray, cells: np.ndarray, sim_lo: np.ndarray, sim_hi: np
     known = np.zeros(0, dtype=np.int64)  # keys of edges already tested (unmarked)
     rounds = 0
     while len(C):
-        E, slot_edge = _edges(C, k)
+        E, slot_edge = _edges(C, k, accelerate)
         keys = E[:, 0] * (1 << 31) + E[:, 1]
         marked = np.zeros(len(E), dtype=bool)
         new = ~np.isin(keys, known)
@@ -148,13 +150,14 @@ def refine(points: np.ndarray, cells: np.ndarray, sim_lo: np.ndarray, sim_hi: np
     return Refinement(P, C, origin, B, rounds, len(cells), len(points))
 
 
-def _edges(C, k):
-    """Unique edges (sorted vertex pairs) and, per cell, the edge id of each slot."""
+def _edges(C, k, accelerate: bool = False):
+    """Unique edges (sorted vertex pairs) and, per cell, the edge id of each slot
+    (``accelerate``: :func:`~predicates.registration.levels.complex.unique_rows`')."""
     slots = _SLOTS[k]
     pairs = np.stack([C[:, list(s)] for s in slots], axis=1).reshape(-1, 2)
     pairs = np.sort(pairs, axis=1)
     n = int(C.max()) + 1 if C.size else 1
-    E, inv = unique_rows(pairs, n)
+    E, inv = unique_rows(pairs, n, accelerate)
     return E, inv.reshape(len(C), len(slots))
 
 

@@ -196,12 +196,29 @@ def consistent_scale(dim: int, sim_box, cut_box, dtype, max_rounds: int = MAX_RO
     return cur
 
 
-def estimate_cell_pairs(lo_a, hi_a, lo_b, hi_b, pad: float) -> int:
+def estimate_cell_pairs(lo_a, hi_a, lo_b, hi_b, pad: float, blocks: Blocks = SERIAL) -> int:
     """Rough count of cell pairs within ``pad`` (per-grid-cell occupancy products on a
     grid of about the pad or the boxes' median size): the memory guard's input. Our own
-    cheap count, independent of the broad phase's grid."""
+    cheap count, independent of the broad phase's grid; exact integer arithmetic (no
+    BLAS: the count decides refusals, docs/design.md). ``blocks``: the occupancy
+    counts' passes (compiled or threaded: the same integers)."""
     if len(lo_a) == 0 or len(lo_b) == 0:
         return 0
+    ia0, ia1, ib0, ib1, budget = _estimate_grid(lo_a, hi_a, lo_b, hi_b, pad)
+    fast = _dense_pair_count(ia0, ia1, ib0, ib1, budget, blocks)
+    if fast is not None:
+        return fast
+    ka, kb = _cell_keys(ia0, ia1), _cell_keys(ib0, ib1)
+    ua, ca = np.unique(ka, return_counts=True)
+    ub, cb = np.unique(kb, return_counts=True)
+    _, ja, jb = np.intersect1d(ua, ub, assume_unique=True, return_indices=True)
+    return _count_dot(ca[ja], cb[jb])
+
+
+def _estimate_grid(lo_a, hi_a, lo_b, hi_b, pad: float):
+    """Grid indices (float arrays of integers: first and last cell per axis) of both
+    meshes' boxes enlarged by ``pad``/2, on the estimate's grid, and the budget of
+    covered cells the grid was coarsened to."""
     h = 0.5 * pad
     A0, A1, B0, B1 = lo_a - h, hi_a + h, lo_b - h, hi_b + h
     # reductions along the short rows column by column (numpy's are ~10x slower on
@@ -218,26 +235,30 @@ def estimate_cell_pairs(lo_a, hi_a, lo_b, hi_b, pad: float) -> int:
         ib0, ib1 = np.floor((B0 - origin) / g), np.floor((B1 - origin) / g)
         na, nb = rowwise(np.multiply, ia1 - ia0 + 1), rowwise(np.multiply, ib1 - ib0 + 1)
         if na.sum() + nb.sum() <= budget:
-            break
+            return ia0, ia1, ib0, ib1, budget
         g *= 2
-    fast = _dense_pair_count(ia0, ia1, ib0, ib1, budget)
-    if fast is not None:
-        return fast
-    ka, kb = _cell_keys(ia0, ia1), _cell_keys(ib0, ib1)
-    ua, ca = np.unique(ka, return_counts=True)
-    ub, cb = np.unique(kb, return_counts=True)
-    _, ja, jb = np.intersect1d(ua, ub, assume_unique=True, return_indices=True)
-    # integers: every partial sum below 2^53 is exact, so BLAS's order cannot matter
-    return int(np.dot(ca[ja].astype(np.float64), cb[jb].astype(np.float64)))
 
 
-def _dense_pair_count(ia0, ia1, ib0, ib1, budget: int):
+def _count_dot(x: np.ndarray, y: np.ndarray) -> int:
+    """Σ x·y of two non-negative integer arrays, exactly: int64 products summed in int64
+    when Σx · max y (a bound on every partial sum) is below 2^63 — integer sums are
+    exact in any order — else Python integers."""
+    if x.size == 0:
+        return 0
+    x, y = x.astype(np.int64, copy=False), y.astype(np.int64, copy=False)
+    if int(x.sum(dtype=np.int64)) * int(y.max()) < 2 ** 63:
+        return int(np.multiply(x, y).sum(dtype=np.int64))
+    nz = np.flatnonzero(x)
+    return sum(a * b for a, b in zip(x[nz].tolist(), y[nz].tolist()))
+
+
+def _dense_pair_count(ia0, ia1, ib0, ib1, budget: int, blocks: Blocks = SERIAL):
     """Σ over grid cells of (a boxes covering it) × (b boxes covering it) from two
     count grids (:func:`~predicates.registration.spatial.gridsums.coverage`),
     without expanding the boxes into cells — the same integer as the keyed count when
     :func:`_cell_keys` is injective on the grid (every index < its radix, no int64
-    overflow) and the float64 dot of the keyed count is exact (< 2^53); None otherwise
-    (or when the grid has more than ``budget`` cells), and the caller counts by keys."""
+    overflow); None otherwise (or when the grid has more than ``budget`` cells), and
+    the caller counts by keys."""
     i0 = np.concatenate([ia0, ib0]).astype(np.int64)
     i1 = np.concatenate([ia1, ib1]).astype(np.int64)
     G = colmax(i1) + 1
@@ -247,10 +268,8 @@ def _dense_pair_count(ia0, ia1, ib0, ib1, budget: int):
     if np.any(G[1:] > _KEY_RADIX) or top >= 2.0 ** 62 or float(np.prod(G + 1.0)) > budget:
         return None
     na = len(ia0)
-    # integer-valued: every partial sum below 2^53 is exact, so BLAS's order cannot matter
-    total = int(np.dot(coverage(i0[:na], i1[:na], G).ravel(),
-                       coverage(i0[na:], i1[na:], G).ravel()))
-    return total if total < 2 ** 53 else None
+    return _count_dot(coverage(i0[:na], i1[:na], G, blocks).ravel(),
+                      coverage(i0[na:], i1[na:], G, blocks).ravel())
 
 
 _KEY_RADIX = 1_000_003  # the per-axis radix of _cell_keys
