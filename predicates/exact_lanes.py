@@ -170,21 +170,9 @@ class ExactLanesContext(fperr.Context):
             raise TypeError(f"one exact dyadic value expected, got {x!r}")
         return x.fraction()
 
-    def reject(self, cond, line=None) -> bool:
-        self.active &= ~np.asarray(cond, dtype=bool)
-        return not self.active.any()
-
-    def any(self, *conds):
-        out = np.zeros(self.active.shape, dtype=bool)
-        for c in conds:
-            out |= np.asarray(c, dtype=bool)
-        return out
-
-    def same_sign(self, x, y):
-        return (x > 0) == (y > 0)
-
-    def differ_sign(self, x, y):
-        return (x > 0) != (y > 0)
+    # lane masks exactly as the numpy batches keep them
+    reject, any = fperr.NumpyContext.reject, fperr.NumpyContext.any
+    same_sign, differ_sign = fperr.NumpyContext.same_sign, fperr.NumpyContext.differ_sign
 
     def hit(self, weights):
         return self.active.copy(), None

@@ -274,7 +274,7 @@ class FilteredPredicate:
         (:mod:`predicates.exact_lanes`) when the source needs no quotient or root, else
         lane by lane in Fractions (an irrational sqrt is refused)."""
         if lanes.size and self._dyadic:
-            run = ExactLanesContext(lanes.size).fresh(len(self.pred.weight_names), lanes.size)
+            run = ExactLanesContext().fresh(len(self.pred.weight_names), lanes.size)
             try:
                 tol_values = _NoTolerances(self.pred) if tol is None else \
                     self.pred._tolerances_for(tol, run)
