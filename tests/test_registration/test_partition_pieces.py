@@ -4,8 +4,6 @@ never pass through the client, and the result is the serial run's on the same me
 for bit, for random piece splits and on every scheduler."""
 from __future__ import annotations
 
-import json
-import os
 import sys
 
 import meshio
@@ -16,6 +14,7 @@ import predicates
 from predicates.registration.io.read import MeshFileError
 from predicates.registration.partition.pieces import GLOBAL_IDS, read_pieces_on_workers
 
+from limited_client import assert_pairs_equal_saved, run_client
 from same_result import assert_identical, rotated_case as _case
 
 pytest.importorskip("dask.array")
@@ -291,9 +290,8 @@ def test_a_client_that_cannot_hold_the_mesh_reads_pieces(tmp_path):
     result on the same mesh (every kind's pairs and weights). The client receives each
     piece's point ids and coordinates and assembles the points (24 bytes per point, an
     eighth of a tetrahedral mesh); the cells never reach it."""
-    import subprocess
 
-    distributed = pytest.importorskip("distributed")
+    pytest.importorskip("distributed")
     from predicates.registration.examples import cube_grid, icosphere
 
     n = 90  # 4.4 M tetrahedra: 140 MB of cells, 18 MB of points
@@ -305,25 +303,12 @@ def test_a_client_that_cannot_hold_the_mesh_reads_pieces(tmp_path):
     ref = predicates.intersect(sp, in_order, cp, cc)
     mesh = sp.nbytes + sc.nbytes
     del sp, sc, in_order
-    script = tmp_path / "client.py"
-    script.write_text(PIECES_CLIENT)
     headroom = int(mesh * 0.75)
-    env = dict(os.environ, MALLOC_ARENA_MAX="1", MALLOC_MMAP_THRESHOLD_="65536",
-               MALLOC_TRIM_THRESHOLD_="65536", OMP_NUM_THREADS="1")
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None, memory_limit=0) as cluster:
-        r = subprocess.run([sys.executable, str(script), cluster.scheduler_address,
-                            str(headroom), str(mesh), str(tmp_path / "result.npz"),
-                            ",".join(warm), ",".join(paths)],
-                           capture_output=True, text=True, env=env, timeout=900)
-    assert r.returncode == 0, r.stderr[-3000:]
-    out = json.loads(r.stdout.strip().splitlines()[-1])
+    result = tmp_path / "result.npz"
+    out = run_client(PIECES_CLIENT, tmp_path, lambda address: [
+        address, str(headroom), str(mesh), str(result), ",".join(warm), ",".join(paths)])
     assert not out["fits"] and headroom < mesh
     assert out["counts"] == ref.counts and out["L"] == [ref.L_a, ref.L_b]
     assert out["e"] == ref.scale_exponent and ref.total > 0
     print(f"client address space grew by {out['grew'] / mesh:.2f} x the mesh")
-    with np.load(tmp_path / "result.npz") as got:
-        for k in ref.kinds:
-            for f in ("sim", "cut", "sim_weights", "cut_weights"):
-                x, y = getattr(ref[k], f), got[f"{k}.{f}"]
-                assert x.dtype == y.dtype and x.tobytes() == y.tobytes(), (k, f)
+    assert_pairs_equal_saved(ref, result)

@@ -5,9 +5,6 @@ for bit for any chunking and scheduler, also when the client process cannot hold
 mesh at all."""
 from __future__ import annotations
 
-import json
-import os
-import subprocess
 import sys
 import textwrap
 
@@ -16,6 +13,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 import predicates
+from limited_client import assert_pairs_equal_saved, run_client
 from same_result import assert_identical, rotated_case as _case
 
 da = pytest.importorskip("dask.array")
@@ -172,7 +170,7 @@ def test_a_client_that_cannot_hold_the_mesh_gets_the_serial_result(tmp_path):
     mesh with a sphere of radius 0.37 (most of it proportional to the cells that can
     meet: survivors, split, payloads, merge); with radius 0.185, 0.40 x the mesh with
     or without FPERR_ACCELERATE=1 (0.74 x when the JIT loaded under the limit)."""
-    distributed = pytest.importorskip("distributed")
+    pytest.importorskip("distributed")
     from predicates.registration.examples import cube_grid, icosphere
 
     n = 140  # 16.5 M tetrahedra: 527 MB of cells, 66 MB of points
@@ -182,29 +180,14 @@ def test_a_client_that_cannot_hold_the_mesh_gets_the_serial_result(tmp_path):
     ref = predicates.intersect(sp, sc, cp, cc)
     mesh = sp.nbytes + sc.nbytes
     del sp, sc
-    script = tmp_path / "client.py"
-    script.write_text(CLIENT)
     headroom = int(mesh * 0.75)
-    # one malloc arena, big blocks mapped and unmapped (not kept as heap): the address
-    # space then follows what the client holds
-    env = dict(os.environ, MALLOC_ARENA_MAX="1", MALLOC_MMAP_THRESHOLD_="65536",
-               MALLOC_TRIM_THRESHOLD_="65536", OMP_NUM_THREADS="1")
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None, memory_limit=0) as cluster:
-        r = subprocess.run([sys.executable, str(script), str(n), cluster.scheduler_address,
-                            str(headroom), str(tmp_path / "result.npz")],
-                           capture_output=True, text=True, env=env,
-                           timeout=900)
-    assert r.returncode == 0, r.stderr[-3000:]
-    out = json.loads(r.stdout.strip().splitlines()[-1])
+    result = tmp_path / "result.npz"
+    out = run_client(CLIENT, tmp_path, lambda address: [
+        str(n), address, str(headroom), str(result)])
     assert not out["fits"] and out["headroom"] < out["mesh"]
     assert out["counts"] == ref.counts and out["L"] == [ref.L_a, ref.L_b]
     assert out["e"] == ref.scale_exponent
-    with np.load(tmp_path / "result.npz") as got:
-        for k in ref.kinds:
-            for f in ("sim", "cut", "sim_weights", "cut_weights"):
-                x, y = getattr(ref[k], f), got[f"{k}.{f}"]
-                assert x.dtype == y.dtype and x.tobytes() == y.tobytes(), (k, f)
+    assert_pairs_equal_saved(ref, result)
 
 
 @pytest.mark.parametrize("parts, offset, path", [(1, 0.0, "workers"), (6, 0.0, "workers"),
