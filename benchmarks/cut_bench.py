@@ -22,7 +22,6 @@ import sys
 import tempfile
 import time
 
-import numpy as np
 from timing import best  # benchmarks/timing.py (this script's folder)
 
 from predicates import intersect

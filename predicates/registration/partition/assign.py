@@ -130,7 +130,7 @@ def assign(P_sim: np.ndarray, sim_cells: np.ndarray, k: int):
     """(position of every cell in Morton order, owner partition of every vertex): cell
     c is owned by partition pos[c]·k // m; a vertex by the partition owning the
     smallest-index cell that contains it (−1: in no cell)."""
-    m, n = len(sim_cells), len(P_sim)
+    n = len(P_sim)
     pos = morton_order(P_sim, sim_cells)
     return pos, owners_from(pos, first_cells(sim_cells, n), k)
 
