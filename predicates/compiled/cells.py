@@ -19,7 +19,8 @@ from numba import njit
 
 from .build import INLINE_OPTIONS, JIT_OPTIONS
 
-__all__ = ["add_corners", "cell_index", "check_cells", "fill_boxes", "flag_block",
+__all__ = ["add_corners", "box_summary", "cell_index", "check_cells", "fill_boxes", "flag_block",
+           "flag_block_indexed", "point_index",
            "least_square_edge", "look_corners", "narrow_sums"]
 
 
@@ -222,6 +223,60 @@ def flag_block(points, rows, origin, h, G, stride, S, has_table, i0, i1, near):
 
 
 @njit(**JIT_OPTIONS)
+def point_index(points, origin, h, G, out):
+    """Each point's grid cell per axis, ``out`` (N, d) int32: :func:`_index` of its
+    binary64 coordinate (:func:`flag_block_indexed` reads the cells' ranges from it)."""
+    for r in range(points.shape[0]):
+        for ax in range(points.shape[1]):
+            out[r, ax] = _index(np.float64(points[r, ax]), origin[ax], h, G[ax] - 1)
+
+
+@njit(**JIT_OPTIONS)
+def flag_block_indexed(points, index, rows, stride, S, has_table, i0, i1, near):
+    """:func:`flag_block` from the vertices' grid cells ``index`` (:func:`point_index`)
+    instead of each row's box: the same values, because the index
+    ``clip(floor((x − o)/h), 0, G − 1)`` is a non-decreasing function of x (each
+    rounding is monotone), so the index of the box's lo (the vertices' min) is the
+    vertices' least index and that of hi their largest — no division per row, and the
+    float box only for the flagged rows (their largest edge). Returns as flag_block."""
+    d = points.shape[1]
+    k = rows.shape[1]
+    low_term = np.empty(d, dtype=np.int64)
+    up_term = np.empty(d, dtype=np.int64)
+    covered = 0
+    ext = 0.0
+    nf = 0  # rows flagged so far: row m's range is written at row nf, kept if flagged
+    for m in range(rows.shape[0]):
+        cells = 1
+        for ax in range(d):
+            j0 = index[rows[m, 0], ax]
+            j1 = j0
+            for v in range(1, k):
+                j = index[rows[m, v], ax]
+                j0 = j if j < j0 else j0
+                j1 = j if j > j1 else j1
+            i0[nf, ax], i1[nf, ax] = j0, j1
+            low_term[ax] = np.int64(j0) * stride[ax]
+            up_term[ax] = (np.int64(j1) + 1) * stride[ax]
+            cells *= np.int64(j1) - j0 + 1
+        covered += cells
+        if not has_table:
+            continue
+        count = _corner_sum(S, low_term, up_term) if d == 3 else \
+            _corner_loop(S, low_term, up_term)
+        near[m] = count > 0
+        if count > 0:
+            nf += 1
+            e = 0.0
+            for ax in range(d):  # box_extent of the row: np.maximum over the axes
+                a, b = _box_row(points, rows, m, ax)
+                x = b - a
+                e = x if ax == 0 else (e if (e > x) | (e != e) else x)
+            ext = e if e > ext else ext  # Python's max(ext, e): e only when larger
+    return covered, ext, nf
+
+
+@njit(**JIT_OPTIONS)
 def least_square_edge(cols, C, a, b):
     """min over cells a … b − 1 (columns of ``C``, (k, m) vertex ids) and their vertex
     pairs u < v of Σ_ax (x_u − x_v)², summed from axis 0 as
@@ -265,6 +320,42 @@ def check_cells(arr, top, first, used):
             first[1] = r
         if rep and first[2] < 0:
             first[2] = r
+
+
+@njit(**JIT_OPTIONS)
+def box_summary(lo, hi, ext, lo_min, hi_max, hist):
+    """One block of :func:`predicates.registration.plan.cellboxes.summarize` on the
+    boxes ``lo``, ``hi`` (d, m): the hull ``lo_min``/``hi_max`` (d,) updated (numpy's
+    NaN-propagating min/max), the per-axis extents hi − lo into ``ext`` (d, m) (for the
+    exact sums), and the largest extent of each box (``box_extent``: np.maximum over
+    the axes, then + 0.0) counted in ``hist`` by its biased exponent (finite ones: a
+    non-finite one drops the histogram). Returns (least, largest) of those extents,
+    the largest propagating NaN as numpy's max."""
+    d, m = lo.shape
+    for ax in range(d):  # axis by axis: contiguous rows, the hull in registers
+        a = lo_min[ax]
+        b = hi_max[ax]
+        for r in range(m):
+            x = lo[ax, r]
+            y = hi[ax, r]
+            a = x if (x < a) | (x != x) | (a != a) else a
+            b = y if (y > b) | (y != y) | (b != b) else b
+            ext[ax, r] = y - x
+        lo_min[ax] = a
+        hi_max[ax] = b
+    e_min = np.inf
+    e_max = -np.inf
+    for r in range(m):
+        big = ext[0, r]
+        for ax in range(1, d):
+            x = ext[ax, r]
+            big = big if (big > x) | (big != big) else x  # np.maximum(big, x)
+        big = big + 0.0  # −0.0 to +0.0, as summarize counts exponents
+        e_min = big if big < e_min else e_min
+        e_max = big if (big > e_max) | (big != big) | (e_max != e_max) else e_max
+        if big < np.inf:  # finite (not NaN): counted
+            hist[(np.int64(np.float64(big).view(np.int64)) >> 52) & 0x7FF] += 1
+    return e_min, e_max
 
 
 @njit(**JIT_OPTIONS)
