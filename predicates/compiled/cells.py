@@ -232,13 +232,15 @@ def point_index(points, origin, h, G, out):
 
 
 @njit(**JIT_OPTIONS)
-def flag_block_indexed(points, index, rows, stride, S, has_table, i0, i1, near):
+def flag_block_indexed(points, index, rows, stride, S, has_table, i0, i1, near, flo, fhi):
     """:func:`flag_block` from the vertices' grid cells ``index`` (:func:`point_index`)
     instead of each row's box: the same values, because the index
     ``clip(floor((x − o)/h), 0, G − 1)`` is a non-decreasing function of x (each
     rounding is monotone), so the index of the box's lo (the vertices' min) is the
     vertices' least index and that of hi their largest — no division per row, and the
-    float box only for the flagged rows (their largest edge). Returns as flag_block."""
+    float box only for the flagged rows: their largest edge, and their boxes into the
+    first rows of ``flo``, ``fhi`` (m, d) (kept for the later rounds and the report).
+    Returns as flag_block."""
     d = points.shape[1]
     k = rows.shape[1]
     low_term = np.empty(d, dtype=np.int64)
@@ -270,6 +272,7 @@ def flag_block_indexed(points, index, rows, stride, S, has_table, i0, i1, near):
             e = 0.0
             for ax in range(d):  # box_extent of the row: np.maximum over the axes
                 a, b = _box_row(points, rows, m, ax)
+                flo[nf - 1, ax], fhi[nf - 1, ax] = a, b
                 x = b - a
                 e = x if ax == 0 else (e if (e > x) | (e != e) else x)
             ext = e if e > ext else ext  # Python's max(ext, e): e only when larger

@@ -75,9 +75,12 @@ def test_flag_pass_identical(data, d):
                 assert all(x.tobytes() == y.tobytes()
                            for x, y in zip(ref_box.block(a, b), box.block(a, b)))
             S, T = ref_box.summary(), box.summary()
-            assert S.lo_min.tobytes() == T.lo_min.tobytes()
-            assert S.hi_max.tobytes() == T.hi_max.tobytes()
-            assert (S.ext_max, S.mean_extent()) == (T.ext_max, T.mean_extent())
+            assert np.array_equal(S.lo_min, T.lo_min) and np.array_equal(S.hi_max, T.hi_max)
+            assert (S.ext_max, S.ext_min, S.mean_extent()) == \
+                (T.ext_max, T.ext_min, T.mean_extent())
+            assert (S.hist is None) == (T.hist is None)
+            assert S.hist is None or np.array_equal(S.hist, T.hist)
+            assert [x.units for x in S.sums] == [x.units for x in T.sums]
             want, got = near_all(ref_box, lo_b, hi_b, pad), near_all(box, lo_b, hi_b, pad)
             assert np.array_equal(want[0], ref[0]) and np.array_equal(want[1], ref[1])
             assert np.array_equal(want[0], got[0]) and np.array_equal(want[1], got[1])
@@ -315,3 +318,61 @@ def test_compiled_corner_sums_are_numpys(d):
         occ = gridsums.occupancy(i0[:40], i1[:40], G)
         assert np.array_equal(gridsums.any_in(occ, i0, i1, G),
                               gridsums.any_in(occ, i0, i1, G, fast))
+
+
+@_SLOW
+@given(data=st.data(), d=st.sampled_from([2, 3]),
+       h=st.sampled_from([0.25, 0.1, 1 / 3, 1.0 + 2.0 ** -52, 2.0 ** -30]))
+def test_indexed_flag_block_is_the_per_row_block(data, d, h):
+    """flag_block_indexed (the rows' cell ranges from the points' grid cells) gives
+    flag_block's counts, flags, ranges and largest edge, on points drawn on and next to
+    grid lines (the floor's boundary cases), grids clipped on both sides; the flagged
+    rows' boxes it keeps are fill_boxes' boxes of those rows."""
+    from predicates.compiled.cells import (
+        fill_boxes, flag_block, flag_block_indexed, point_index)
+    from predicates.registration.spatial.gridsums import _stride
+
+    P, cells, rng = _mesh(data, d)
+    if data.draw(st.booleans()):  # coordinates on grid lines and one ulp either side
+        k = rng.integers(-3, 12, size=P.shape).astype(np.float64) * h
+        P = np.nextafter(k, k + rng.choice([-1.0, 0.0, 1.0], size=P.shape)).astype(P.dtype)
+    origin = np.full(d, float(np.min(P)) + data.draw(st.sampled_from([0.0, 0.5])))
+    G = rng.integers(1, 9, size=d).astype(np.int64)  # small: indices clipped at G − 1
+    stride = _stride(G)
+    S = rng.integers(0, 3, size=int(np.prod(G + 1))).astype(np.int32)
+    S = np.cumsum(S).astype(np.int32)  # any table: both kernels read the same corners
+    m = len(cells)
+    out = [[np.zeros((m, d), np.int32), np.zeros((m, d), np.int32), np.zeros(m, bool)]
+           for _ in range(2)]
+    ref = flag_block(P, cells, origin, h, G, stride, S, True, *out[0])
+    index = np.empty(P.shape, np.int32)
+    point_index(P, origin, h, G, index)
+    flo, fhi = np.empty((m, d)), np.empty((m, d))
+    got = flag_block_indexed(P, index, cells, stride, S, True, *out[1], flo, fhi)
+    assert ref[0] == got[0] and ref[2] == got[2]
+    assert np.float64(ref[1]).tobytes() == np.float64(got[1]).tobytes()
+    nf = ref[2]
+    assert np.array_equal(out[0][2], out[1][2])
+    assert np.array_equal(out[0][0][:nf], out[1][0][:nf])
+    assert np.array_equal(out[0][1][:nf], out[1][1][:nf])
+    lo, hi = np.empty((d, m)), np.empty((d, m))
+    fill_boxes(P, cells, lo, hi)
+    rows = np.flatnonzero(out[0][2])
+    assert flo[:nf].tobytes() == np.ascontiguousarray(lo.T[rows]).tobytes()
+    assert fhi[:nf].tobytes() == np.ascontiguousarray(hi.T[rows]).tobytes()
+    # the points' grid cells are numpy's cell_index of the binary64 coordinates
+    from predicates.registration.spatial.boxgrid import cell_index
+
+    assert np.array_equal(index, cell_index(P.astype(np.float64), origin, h, G))
+
+
+def test_the_run_cells_are_gathered_once():
+    """CellBoxes.cells_of returns the kept cells for the same selection (the report
+    and the plan ask with one mask) and the right cells for another one."""
+    P, C = np.random.default_rng(0).random((40, 3)), np.arange(120).reshape(30, 4) % 40
+    box = CellBoxes(P, C, Blocks(accelerate=True))
+    sel = np.arange(30) % 3 == 0
+    first = box.cells_of(sel)
+    assert box.cells_of(sel) is first and np.array_equal(first, C[sel])
+    other = ~sel
+    assert np.array_equal(box.cells_of(other), C[other])

@@ -100,6 +100,7 @@ class CellBoxes:
         self._summary = None
         self._points_c = None  # the points C-contiguous, when a compiled pass asks
         self._kept = None  # (ids, lo, hi) of the last subset gathered
+        self._cells_sel = None  # (selection, its cells) of the last cells_of
         self._local = threading.local()  # the last block computed, per thread
         self.lo, self.hi = _Side(self, 0), _Side(self, 1)
 
@@ -153,9 +154,22 @@ class CellBoxes:
         self._kept = (ids, lo, hi)
         return lo, hi
 
+    def keep(self, ids: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> None:
+        """Keep the boxes ``lo``, ``hi`` of the rows ``ids`` (ascending), computed by a
+        pass that had them (the first round's flagged cells): :meth:`rows` of them, or
+        of a subset, then gathers nothing."""
+        self._kept = (ids, lo, hi)
+
     def cells_of(self, sel) -> np.ndarray:
-        """The cells (vertex ids) of the rows ``sel`` (a mask or ascending ids)."""
-        return self.cells[sel]
+        """The cells (vertex ids) of the rows ``sel`` (a mask or ascending ids); the
+        last selection's are kept (the report and the plan ask for the run's cells with
+        the same mask: one gather over every cell, not two)."""
+        last = self._cells_sel
+        if last is not None and last[0] is sel:
+            return last[1]
+        out = self.cells[sel]
+        self._cells_sel = (sel, out)
+        return out
 
     def flag_pass(self, origin, h, G, table):
         """:func:`~.lean.flag_pass` over these cells (the first round of the cells that

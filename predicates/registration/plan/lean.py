@@ -82,6 +82,10 @@ def flag_pass(boxes, origin, h, G, table):
     if boxes.blocks.accelerate:  # the same values, one compiled GIL-free loop per block
         span = _compiled_span(boxes, origin, h, G, table, near)
         parts = boxes.blocks.map(span, len(boxes))
+        if table is not None and parts and parts[0][4] is not None:
+            kept = [np.concatenate([b for p in parts for b in p[4 + s]] or
+                                   [np.zeros((0, d))]) for s in (0, 1)]
+            boxes.keep(np.flatnonzero(near), *kept)  # the flagged rows' boxes
         return _gathered(parts, table, near, d)
 
     def span(a: int, b: int):
@@ -133,26 +137,32 @@ def _compiled_span(boxes, origin, h, G, table, near):
         boxes.blocks.rows(lambda a, b: point_index(P[a:b], o, float(h), G_, index[a:b]),
                           len(P))
 
-    def block(s: int, t: int, i0, i1):
+    def block(s: int, t: int, i0, i1, flo, fhi):
         out = flags[s:t] if near is not None else flags
         if index is not None:
             return flag_block_indexed(P, index, boxes.cells[s:t], stride, S,
-                                      table is not None, i0, i1, out)
+                                      table is not None, i0, i1, out, flo, fhi)
         return flag_block(P, boxes.cells[s:t], o, float(h), G_, stride, S,
                           table is not None, i0, i1, out)
 
     def span(a: int, b: int):
         count, ext, r0, r1 = 0, 0.0, [], []
+        b0, b1 = ([], []) if index is not None else (None, None)
         for s, t in boxes.blocks.each(a, b):
             i0 = buffer("flag_i0", t - s, np.int32, len(G))
             i1 = buffer("flag_i1", t - s, np.int32, len(G))
-            n, e, nf = block(s, t, i0, i1)
+            flo = buffer("flag_lo", t - s, np.float64, len(G))
+            fhi = buffer("flag_hi", t - s, np.float64, len(G))
+            n, e, nf = block(s, t, i0, i1, flo, fhi)
             count += int(n)
-            if nf:  # the flagged rows' ranges, compacted by the kernel
+            if nf:  # the flagged rows' ranges (and boxes), compacted by the kernel
                 r0.append(i0[:nf].copy())
                 r1.append(i1[:nf].copy())
                 ext = max(ext, float(e))
-        return count, r0, r1, ext
+                if b0 is not None:
+                    b0.append(flo[:nf].copy())
+                    b1.append(fhi[:nf].copy())
+        return count, r0, r1, ext, b0, b1
 
     return span
 

@@ -154,8 +154,11 @@ def _edges(C, k, accelerate: bool = False):
     """Unique edges (sorted vertex pairs) and, per cell, the edge id of each slot
     (``accelerate``: :func:`~predicates.registration.levels.complex.unique_rows`')."""
     slots = _SLOTS[k]
-    pairs = np.stack([C[:, list(s)] for s in slots], axis=1).reshape(-1, 2)
-    pairs = np.sort(pairs, axis=1)
+    pairs = np.empty((len(C), len(slots), 2), dtype=C.dtype)
+    for j, (a, b) in enumerate(slots):  # each pair sorted: min, max (no row sort)
+        np.minimum(C[:, a], C[:, b], out=pairs[:, j, 0])
+        np.maximum(C[:, a], C[:, b], out=pairs[:, j, 1])
+    pairs = pairs.reshape(-1, 2)
     n = int(C.max()) + 1 if C.size else 1
     E, inv = unique_rows(pairs, n, accelerate)
     return E, inv.reshape(len(C), len(slots))
