@@ -340,8 +340,10 @@ def _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts,
     ms, mc = sc_.masks
     # its occupancy counts compiled as the plan's passes, serially: a pool thread
     # waiting on spans submitted to its own pool could starve it
-    pairs = work.submit(estimate_cell_pairs, sim_box[0][ms], sim_box[1][ms], cut_box[0][mc],
-                        cut_box[1][mc], sc_.pad, Blocks(accelerate=work.blocks.accelerate))
+    run_box = sim_box.rows(ms) if hasattr(sim_box, "rows") else (sim_box[0][ms],
+                                                                   sim_box[1][ms])
+    pairs = work.submit(estimate_cell_pairs, *run_box, cut_box[0][mc], cut_box[1][mc],
+                        sc_.pad, Blocks(accelerate=work.blocks.accelerate))
     # near the cut: the run's cells (flagged at the final pad or a larger one: a superset
     # of the cells within σ+); flagged at the pad if no round was kept (masks: all cells)
     if len(sc_.history) == 1:  # round one's flags were at this pad: not computed again

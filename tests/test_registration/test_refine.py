@@ -114,6 +114,35 @@ def test_2d_segments_and_untouched_inputs():
     assert mid.any() and ext[mid].max() <= 0.125
 
 
+@pytest.mark.parametrize("scale", [0.5, 1.0, 3.0])
+def test_no_edge_list_when_every_cutting_cell_is_finer(monkeypatch, scale):
+    """When no cutting cell's box edge exceeds the smallest simulation cell's, refine
+    skips the edge list and the queries (refine._can_mark): the same result as the
+    rounds run to their first, empty, marking; a coarser cutting mesh still refines."""
+    from predicates.registration.plan import refine as R
+    from predicates.registration.examples import icosphere
+
+    sp, sc = cube_grid(6)
+    cp, cc = icosphere(4 if scale <= 1 else 1)
+    cp = 0.5 + 0.3 * scale * cp
+    boxes = cell_boxes(sp, sc)
+    calls = []
+    monkeypatch.setattr(R, "_can_mark", lambda sim: calls.append(1) or True)
+    want = refine(cp, cc, *boxes)
+    monkeypatch.undo()
+    got = refine(cp, cc, *boxes)
+    for name in ("points", "cells", "cut_origin", "bary"):
+        a, b = getattr(want, name), getattr(got, name)
+        assert a.dtype == b.dtype and a.tobytes() == b.tobytes(), name
+    assert (want.rounds, want.input_cells) == (got.rounds, got.input_cells)
+    cut_ext = (cell_boxes(cp, cc)[1] - cell_boxes(cp, cc)[0]).max(1).max()
+    sim_ext = (boxes[1] - boxes[0]).max(1).min()
+    if scale <= 1:  # the shortcut's case: every cutting cell finer, nothing refined
+        assert cut_ext <= sim_ext and got.rounds == 0
+    if scale == 3.0:
+        assert got.rounds > 0  # coarse: refined as before
+
+
 def test_cell_budget_refuses_with_a_clear_error():
     sp, sc = cube_grid(6)
     cp = np.array([[-1e6, -1e6, 0.51], [1e6, -1e6, 0.51], [0, 1e6, 0.51]])

@@ -144,6 +144,8 @@ class CellBoxes:
         ids = np.flatnonzero(sel) if np.asarray(sel).dtype == bool else np.asarray(sel)
         if self._kept is not None:
             kept, lo, hi = self._kept
+            if len(ids) == len(kept) and np.array_equal(kept, ids):
+                return lo, hi  # the kept rows themselves (no copies)
             pos = np.searchsorted(kept, ids)
             if len(ids) == 0 or (pos.max() < len(kept) and np.array_equal(kept[pos], ids)):
                 return lo[pos], hi[pos]

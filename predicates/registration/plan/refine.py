@@ -122,7 +122,7 @@ def refine(points: np.ndarray, cells: np.ndarray, sim_lo: np.ndarray, sim_hi: np
     sim = _SimScale(sim_lo, sim_hi, *_reach(P, C), sim_stats) if len(C) else None
     known = np.zeros(0, dtype=np.int64)  # keys of edges already tested (unmarked)
     rounds = 0
-    while len(C):
+    while len(C) and (rounds or _can_mark(sim)):
         E, slot_edge = _edges(C, k, accelerate)
         keys = E[:, 0] * (1 << 31) + E[:, 1]
         marked = np.zeros(len(E), dtype=bool)
@@ -148,6 +148,14 @@ def refine(points: np.ndarray, cells: np.ndarray, sim_lo: np.ndarray, sim_hi: np
                 "simulation mesh over a large area; refine it yourself near the simulation "
                 "mesh, or pass refine_cut=False (the result will then warn)")
     return Refinement(P, C, origin, B, rounds, len(cells), len(points))
+
+
+def _can_mark(sim) -> bool:
+    """Can round one mark an edge? Not when no input cutting cell's box edge exceeds
+    the smallest simulation cell box edge: an edge's box lies in its cell's box, so
+    its box edge is at most the cell's (monotone rounding), and :func:`_too_long`
+    marks only edges longer than that smallest edge — no edge list, no queries."""
+    return sim.n > 0 and bool(float(sim.cut_ext.max()) > sim.scan.ext_min)
 
 
 def _edges(C, k, accelerate: bool = False):
