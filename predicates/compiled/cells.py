@@ -20,7 +20,7 @@ from numba import njit
 from .build import INLINE_OPTIONS, JIT_OPTIONS
 
 __all__ = ["add_corners", "box_summary", "cell_index", "check_cells", "fill_boxes", "flag_block",
-           "flag_block_indexed", "point_index",
+           "flag_block_indexed", "pair_bits", "point_index",
            "least_square_edge", "look_corners", "narrow_sums"]
 
 
@@ -232,7 +232,40 @@ def point_index(points, origin, h, G, out):
 
 
 @njit(**JIT_OPTIONS)
-def flag_block_indexed(points, index, rows, stride, S, has_table, i0, i1, near, flo, fhi):
+def pair_bits(S, G, stride, bits):
+    """Per cell c of the (G + 1)-grid with c + 1 inside it on every axis: is any cell of
+    the 2^d block [c, c + 1] occupied (its corner sum in the summed-area table ``S``
+    > 0)? As bits of ``bits`` (uint8, little-endian bit order, key = the linear key of
+    c). :func:`flag_block_indexed` decides a row whose range spans at most two cells
+    per axis from one bit (a range inside the block: no occupied cell in the block,
+    none in the range — the corner sum is a count of occupied cells)."""
+    d = G.shape[0]
+    low = np.empty(d, dtype=np.int64)
+    up = np.empty(d, dtype=np.int64)
+    c = np.zeros(d, dtype=np.int64)  # the cell, axis 0 fastest (as the keys)
+    total = 1
+    for ax in range(d):
+        total *= G[ax]
+    for _ in range(total):  # every cell c ≤ G − 1: c + 1 ≤ G is on the (G + 1)-grid
+        key = 0
+        for ax in range(d):
+            low[ax] = c[ax] * stride[ax]
+            # the block's far corner c + 2, or G: the grid's last row holds no cell
+            up[ax] = min(c[ax] + 2, G[ax]) * stride[ax]
+            key += low[ax]
+        count = _corner_sum(S, low, up) if d == 3 else _corner_loop(S, low, up)
+        if count > 0:
+            bits[key >> 3] |= np.uint8(1 << (key & 7))
+        for ax in range(d):  # next cell
+            c[ax] += 1
+            if c[ax] < G[ax]:
+                break
+            c[ax] = 0
+
+
+@njit(**JIT_OPTIONS)
+def flag_block_indexed(points, index, rows, stride, S, has_table, i0, i1, near, flo, fhi,
+                       bits):
     """:func:`flag_block` from the vertices' grid cells ``index`` (:func:`point_index`)
     instead of each row's box: the same values, because the index
     ``clip(floor((x − o)/h), 0, G − 1)`` is a non-decreasing function of x (each
@@ -240,7 +273,8 @@ def flag_block_indexed(points, index, rows, stride, S, has_table, i0, i1, near, 
     vertices' least index and that of hi their largest — no division per row, and the
     float box only for the flagged rows: their largest edge, and their boxes into the
     first rows of ``flo``, ``fhi`` (m, d) (kept for the later rounds and the report).
-    Returns as flag_block."""
+    ``bits`` (:func:`pair_bits`, or empty: not used) decides rows spanning at most two
+    cells per axis without the table's 2^d scattered look-ups. Returns as flag_block."""
     d = points.shape[1]
     k = rows.shape[1]
     low_term = np.empty(d, dtype=np.int64)
@@ -248,8 +282,11 @@ def flag_block_indexed(points, index, rows, stride, S, has_table, i0, i1, near, 
     covered = 0
     ext = 0.0
     nf = 0  # rows flagged so far: row m's range is written at row nf, kept if flagged
+    use_bits = bits.shape[0] > 0
     for m in range(rows.shape[0]):
         cells = 1
+        key = 0
+        small = True  # at most two cells per axis
         for ax in range(d):
             j0 = index[rows[m, 0], ax]
             j1 = j0
@@ -260,9 +297,14 @@ def flag_block_indexed(points, index, rows, stride, S, has_table, i0, i1, near, 
             i0[nf, ax], i1[nf, ax] = j0, j1
             low_term[ax] = np.int64(j0) * stride[ax]
             up_term[ax] = (np.int64(j1) + 1) * stride[ax]
+            key += low_term[ax]
+            small &= j1 - j0 <= 1
             cells *= np.int64(j1) - j0 + 1
         covered += cells
         if not has_table:
+            continue
+        if use_bits and small and (bits[key >> 3] >> (key & 7)) & 1 == 0:
+            near[m] = False  # nothing occupied in the 2^d block holding the range
             continue
         count = _corner_sum(S, low_term, up_term) if d == 3 else \
             _corner_loop(S, low_term, up_term)

@@ -329,7 +329,7 @@ def test_indexed_flag_block_is_the_per_row_block(data, d, h):
     grid lines (the floor's boundary cases), grids clipped on both sides; the flagged
     rows' boxes it keeps are fill_boxes' boxes of those rows."""
     from predicates.compiled.cells import (
-        fill_boxes, flag_block, flag_block_indexed, point_index)
+        fill_boxes, flag_block, flag_block_indexed, pair_bits, point_index)
     from predicates.registration.spatial.gridsums import _stride
 
     P, cells, rng = _mesh(data, d)
@@ -339,8 +339,14 @@ def test_indexed_flag_block_is_the_per_row_block(data, d, h):
     origin = np.full(d, float(np.min(P)) + data.draw(st.sampled_from([0.0, 0.5])))
     G = rng.integers(1, 9, size=d).astype(np.int64)  # small: indices clipped at G − 1
     stride = _stride(G)
-    S = rng.integers(0, 3, size=int(np.prod(G + 1))).astype(np.int32)
-    S = np.cumsum(S).astype(np.int32)  # any table: both kernels read the same corners
+    occ = np.zeros(tuple((G + 1)[::-1]), np.int32)  # a summed-area table of occupancy
+    occ[tuple(slice(None, -1) for _ in range(d))] = rng.random(tuple(G[::-1])) < \
+        data.draw(st.sampled_from([0.0, 0.05, 0.5]))
+    S = np.zeros_like(occ)
+    S[tuple(slice(1, None) for _ in range(d))] = occ[tuple(slice(None, -1) for _ in range(d))]
+    for ax in range(d):
+        np.cumsum(S, axis=ax, out=S)
+    S = S.ravel()
     m = len(cells)
     out = [[np.zeros((m, d), np.int32), np.zeros((m, d), np.int32), np.zeros(m, bool)]
            for _ in range(2)]
@@ -348,7 +354,11 @@ def test_indexed_flag_block_is_the_per_row_block(data, d, h):
     index = np.empty(P.shape, np.int32)
     point_index(P, origin, h, G, index)
     flo, fhi = np.empty((m, d)), np.empty((m, d))
-    got = flag_block_indexed(P, index, cells, stride, S, True, *out[1], flo, fhi)
+    bits = np.zeros(0, np.uint8)
+    if data.draw(st.booleans()):  # the 2^d blocks' bits decide the small ranges
+        bits = np.zeros(len(S) // 8 + 1, np.uint8)
+        pair_bits(S, G, stride, bits)
+    got = flag_block_indexed(P, index, cells, stride, S, True, *out[1], flo, fhi, bits)
     assert ref[0] == got[0] and ref[2] == got[2]
     assert np.float64(ref[1]).tobytes() == np.float64(got[1]).tobytes()
     nf = ref[2]

@@ -55,9 +55,10 @@ def near_all(boxes, lo_b: np.ndarray, hi_b: np.ndarray, pad: float, flags=near_f
     budget = 16 * (na + nb) + (1 << 20)
     while True:
         G = (np.floor((top - origin) / h).astype(np.int64) + 1).clip(1, (1 << BITS) + 1)
-        ib0, ib1 = cell_index(lo_bx, origin, h, G), cell_index(hi_bx, origin, h, G)
+        # the cutting side's passes compiled too when the plan's are (the same values)
+        ib0, ib1 = (cell_index(x, origin, h, G, boxes.blocks) for x in (lo_bx, hi_bx))
         dense = _dense(G + 1, na + nb)
-        table = _table(occupancy(ib0, ib1, G)) if dense else None
+        table = _table(occupancy(ib0, ib1, G, boxes.blocks)) if dense else None
         covered, got = boxes.flag_pass(origin, h, G, table)
         if covered + ncells(ib0, ib1).sum() <= budget or np.all(G == 1):
             break
@@ -69,7 +70,7 @@ def near_all(boxes, lo_b: np.ndarray, hi_b: np.ndarray, pad: float, flags=near_f
         return near_a, near_b, ext
     near_a, i0f, i1f, ext = got
     # the flagged cells' coverage: the same integer counts as near_flags's occupancy
-    return near_a, any_in(occupancy(i0f, i1f, G), ib0, ib1, G), ext
+    return near_a, any_in(occupancy(i0f, i1f, G, boxes.blocks), ib0, ib1, G, boxes.blocks), ext
 
 
 def flag_pass(boxes, origin, h, G, table):
@@ -124,24 +125,28 @@ def _compiled_span(boxes, origin, h, G, table, near):
     cells as points, the points' grid cells are computed first, once (N·d divisions
     instead of 2·d per cell; ``flag_block_indexed``: the same values)."""
     from predicates.compiled.buffers import buffer
-    from predicates.compiled.cells import flag_block, flag_block_indexed, point_index
+    from predicates.compiled.cells import (
+        flag_block, flag_block_indexed, pair_bits, point_index)
 
     P = np.ascontiguousarray(boxes.points)
     o, G_ = np.asarray(origin, dtype=np.float64), np.asarray(G, dtype=np.int64)
     S = np.zeros(1, dtype=np.int32) if table is None else table
     stride = _stride(G)
     flags = np.zeros(1, dtype=bool) if near is None else near
-    index = None
+    index, bits = None, np.zeros(0, dtype=np.uint8)
     if len(boxes) >= len(P):  # (a worker's small chunk: per row, not all points)
         index = np.empty(P.shape, dtype=np.int32)
         boxes.blocks.rows(lambda a, b: point_index(P[a:b], o, float(h), G_, index[a:b]),
                           len(P))
+        if table is not None and len(boxes) >= len(table) // 8:  # a pass over the grid
+            bits = np.zeros(len(table) // 8 + 1, dtype=np.uint8)
+            pair_bits(S, G_, stride, bits)
 
     def block(s: int, t: int, i0, i1, flo, fhi):
         out = flags[s:t] if near is not None else flags
         if index is not None:
             return flag_block_indexed(P, index, boxes.cells[s:t], stride, S,
-                                      table is not None, i0, i1, out, flo, fhi)
+                                      table is not None, i0, i1, out, flo, fhi, bits)
         return flag_block(P, boxes.cells[s:t], o, float(h), G_, stride, S,
                           table is not None, i0, i1, out)
 
