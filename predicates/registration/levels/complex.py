@@ -116,19 +116,26 @@ class Complex:
 
 
 class Side:
-    """One mesh in rank space: coordinates by rank, the cells (rows of increasing
-    rank), the simplicial complex of the cells that matter (built by :meth:`build`), and
-    the map back to the input's vertex ids."""
+    """One mesh in rank space: coordinates by rank (of the vertices the cells use),
+    the cells (rows of increasing rank), the simplicial complex of the cells that
+    matter (built by :meth:`build`), and the map back to the input's vertex ids."""
 
     def __init__(self, P: np.ndarray, cells: np.ndarray):
-        n = len(P)
-        order = np.lexsort(P.T[::-1])  # x primary; ties (equal points) keep id order
+        # rank only the vertices the cells use (the plan's cells near the cut: a small
+        # share of a large mesh's vertices); their relative order is that of ranking
+        # all of them, so every complex, simplex order and result is the same
+        used = np.zeros(len(P), dtype=bool)
+        used[cells.ravel()] = True
+        vids = np.flatnonzero(used)
+        order = vids.take(np.lexsort(P.take(vids, axis=0).T[::-1]))  # x primary; ties: ids
+        n = len(order)
         # int32 ranks when they fit: the cells in rank space take half the memory
-        rank = np.empty(n, dtype=np.int32 if n < 2 ** 31 else np.int64)
+        rank = np.zeros(len(P), dtype=np.int32 if n < 2 ** 31 else np.int64)
         rank[order] = np.arange(n, dtype=rank.dtype)
-        self.order = order
-        self.P = np.ascontiguousarray(P[order])
-        self.cells = rank[cells]
+        self.order = order  # rank -> input vertex id
+        self.n_input = len(P)  # input ids are < n_input (the output's packed keys)
+        self.P = np.ascontiguousarray(P.take(order, axis=0))
+        self.cells = rank.take(cells)
         self.cells.sort(axis=1)
         self.cx = None
         self.accelerate = False  # complexes by the compiled unique_rows (same rows)

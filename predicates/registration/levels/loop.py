@@ -232,8 +232,8 @@ class Registration:
         cid = self.cut.ids(j, c).reshape(len(c), j + 1)
         # lexicographic on (sorted sim ids, sorted cut ids): packed into few int64 keys
         # (order-preserving; the same stable order as a lexsort of the 2 + i + j columns)
-        keys = (packed_keys(np.sort(sid, axis=1), len(self.sim.order))
-                + packed_keys(np.sort(cid, axis=1), len(self.cut.order)))
+        keys = (packed_keys(np.sort(sid, axis=1), self.sim.n_input)
+                + packed_keys(np.sort(cid, axis=1), self.cut.n_input))
         order = lex_order(keys) if len(sid) else np.zeros(0, dtype=np.int64)
         # take: rows gathered ~3× faster than fancy indexing, the same values
         return KindPairs(kind, sid.take(order, axis=0), cid.take(order, axis=0),
