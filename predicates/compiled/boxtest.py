@@ -154,9 +154,10 @@ def _next(off, ext):
 
 
 @njit(**JIT_OPTIONS)
-def _bucket_b(ib0, ib1, G, start, ids):
+def _bucket_b(ib0, ib1, G, start, ids, first):
     """Counting sort of the b boxes into the dense grid's cells: ``start`` (cells + 1)
-    their CSR offsets, ``ids`` the boxes of each cell in ascending order."""
+    their CSR offsets, ``ids`` the boxes of each cell in ascending order, ``first``
+    per entry the axes on which the cell is its box's first (bit ax)."""
     d = ib0.shape[1]
     off = np.zeros(d, dtype=np.int64)
     ext = np.empty(d, dtype=np.int64)
@@ -168,7 +169,12 @@ def _bucket_b(ib0, ib1, G, start, ids):
             while True:
                 key = _cell_key(ib0, b, off, G)
                 if fill:
+                    bits = 0
+                    for ax in range(d):
+                        if off[ax] == 0:
+                            bits |= 1 << ax
                     ids[start[key]] = b
+                    first[start[key]] = bits
                     start[key] += 1
                 else:
                     start[key + 1] += 1
@@ -183,13 +189,16 @@ def _bucket_b(ib0, ib1, G, start, ids):
 
 
 @njit(**JIT_OPTIONS)
-def _grid_join(ia0, ia1, ib0, G, start, ids, pad, lo_a, hi_a, lo_b, hi_b, limit,
+def _grid_join(ia0, ia1, G, start, ids, first, pad, lo_a, hi_a, lo_b, hi_b, limit,
                out_a, out_b):
     """Every pair (a, b) sharing a cell whose lower overlap corner max(ia0[a], ib0[b]) is
     that cell (so once) and passing the box test, a ascending; written when ``out_a``
-    is long enough. Returns (pairs, proposals), or (-1, proposals) past ``limit``
-    proposals (the caller falls back to broadphase.box_pairs)."""
+    is long enough. The cell lies in both ranges, so it is that corner when on every
+    axis it is a's first or b's first (``first``: b's, per entry): no read of b's
+    range. Returns (pairs, proposals), or (-1, proposals) past ``limit`` proposals (the
+    caller falls back to broadphase.box_pairs)."""
     d = ia0.shape[1]
+    full = (1 << d) - 1
     off = np.zeros(d, dtype=np.int64)
     ext = np.empty(d, dtype=np.int64)
     count = 0
@@ -203,13 +212,15 @@ def _grid_join(ia0, ia1, ib0, G, start, ids, pad, lo_a, hi_a, lo_b, hi_b, limit,
             proposals += start[key + 1] - start[key]
             if proposals > limit:
                 return -1, proposals
+            bits = 0
+            for ax in range(d):
+                if off[ax] == 0:
+                    bits |= 1 << ax
             for e in range(start[key], start[key + 1]):
+                if (bits | first[e]) != full:
+                    continue
                 b = ids[e]
-                lower = True
-                for ax in range(d):  # this cell is max(ia0[a], ib0[b]) on every axis
-                    c = ia0[a, ax] + off[ax]
-                    lower &= c == max(ia0[a, ax], ib0[b, ax])
-                if lower and _near(pad, lo_a, hi_a, lo_b, hi_b, a, b):
+                if _near(pad, lo_a, hi_a, lo_b, hi_b, a, b):
                     if count < out_a.shape[0]:
                         out_a[count] = a
                         out_b[count] = b
@@ -231,11 +242,12 @@ def grid_join(ranges: tuple, G: np.ndarray, pad: float, cols: tuple, limit: int)
     start = np.zeros(int(np.prod(G)) + 1, dtype=np.int64)
     n_entries = int((ib1.astype(np.int64) - ib0 + 1).prod(axis=1).sum()) if len(ib0) else 0
     ids = np.empty(n_entries, dtype=np.int64)
-    _bucket_b(ib0, ib1, G, start, ids)
+    first = np.empty(n_entries, dtype=np.uint8)
+    _bucket_b(ib0, ib1, G, start, ids, first)
     guess = max(1 << 16, 8 * (len(ia0) + len(ib0)))  # pairs: a few per box, typically
     out_a, out_b = buffer("grid_a", guess, np.int64), buffer("grid_b", guess, np.int64)
     while True:
-        n, _ = _grid_join(ia0, ia1, ib0, G, start, ids, float(pad), *cols, limit, out_a,
+        n, _ = _grid_join(ia0, ia1, G, start, ids, first, float(pad), *cols, limit, out_a,
                           out_b)
         if n < 0:
             return None
