@@ -1,5 +1,7 @@
 """Sorted unique rows of vertex ids (the simplicial complexes' faces,
-:func:`predicates.registration.levels.complex.unique_rows`), compiled: a stable
+:func:`predicates.registration.levels.complex.unique_rows`) and the registered pairs'
+final order (:func:`~predicates.registration.levels.complex.distinct_lex_order`),
+compiled. The unique rows: a stable
 least-significant-column counting sort (radix n, the number of vertices: no comparison
 sort) and one pass marking each row that differs from the previous. The unique rows
 come out sorted lexicographically with the same inverse map as numpy's argsort of the
@@ -12,7 +14,7 @@ from numba import njit
 
 from .build import JIT_OPTIONS
 
-__all__ = ["unique_rows"]
+__all__ = ["distinct_lex_order", "unique_rows"]
 
 
 @njit(**JIT_OPTIONS)
@@ -69,3 +71,52 @@ def unique_rows(rows: np.ndarray, n: int):
     inv = np.empty(len(rows), dtype=np.int64)
     nu = _mark(rows, order, first, inv)
     return rows.take(first[:nu], axis=0), inv
+
+
+@njit(**JIT_OPTIONS)
+def _before(keys, x, y):
+    """Row x's keys 1… lexicographically before row y's."""
+    for k in range(1, keys.shape[0]):
+        if keys[k, x] != keys[k, y]:
+            return keys[k, x] < keys[k, y]
+    return False
+
+
+@njit(**JIT_OPTIONS)
+def _sort_runs(order, keys):
+    """``order`` sorted by keys[0]: every run of equal keys[0] sorted by keys[1], …
+    (insertion for short runs; long ones by stable passes from the last key)."""
+    n = order.shape[0]
+    i = 0
+    while i < n:
+        j = i + 1
+        while j < n and keys[0, order[j]] == keys[0, order[i]]:
+            j += 1
+        if j - i <= 32:
+            for u in range(i + 1, j):
+                x = order[u]
+                v = u
+                while v > i and _before(keys, x, order[v - 1]):
+                    order[v] = order[v - 1]
+                    v -= 1
+                order[v] = x
+        else:
+            run = order[i:j].copy()
+            vals = np.empty(j - i, dtype=np.int64)
+            for k in range(keys.shape[0] - 1, 0, -1):
+                for m in range(j - i):
+                    vals[m] = keys[k, run[m]]
+                run = run[np.argsort(vals, kind="mergesort")]
+            order[i:j] = run
+        i = j
+
+
+def distinct_lex_order(keys: list) -> np.ndarray:
+    """:func:`predicates.registration.levels.complex.distinct_lex_order` (the order of
+    np.lexsort with the first key most significant, for distinct rows), compiled: one
+    argsort of the first key, then each run of equal first keys sorted in place by the
+    others — runs of a kind's hits are a few rows (one face met by a few others)."""
+    order = np.argsort(keys[0])
+    if len(keys) > 1 and len(order) > 1:
+        _sort_runs(order, np.stack(keys))
+    return order

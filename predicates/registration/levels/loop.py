@@ -17,7 +17,8 @@ import numpy as np
 from predicates.catalogue import kinds as catalogue_kinds
 from predicates.registration.spatial.blocks import Blocks
 from predicates.registration.spatial.broadphase import boxes_of, tighten_flags
-from predicates.registration.levels.complex import Side, any_flagged, lex_order, packed_keys
+from predicates.registration.levels.complex import (
+    Side, any_flagged, distinct_lex_order, packed_keys, sorted_rows)
 from predicates.registration.levels.facepairs import FacePairs, cell_pairs
 from predicates.registration.result.intersection import KindPairs
 
@@ -231,10 +232,15 @@ class Registration:
         sid = self.sim.ids(i, s).reshape(len(s), i + 1)
         cid = self.cut.ids(j, c).reshape(len(c), j + 1)
         # lexicographic on (sorted sim ids, sorted cut ids): packed into few int64 keys
-        # (order-preserving; the same stable order as a lexsort of the 2 + i + j columns)
-        keys = (packed_keys(np.sort(sid, axis=1), self.sim.n_input)
-                + packed_keys(np.sort(cid, axis=1), self.cut.n_input))
-        order = lex_order(keys) if len(sid) else np.zeros(0, dtype=np.int64)
+        # (order-preserving; the order of a lexsort of the 2 + i + j columns, whose
+        # rows are distinct: each pair is registered once)
+        keys = (packed_keys(sorted_rows(sid), self.sim.n_input)
+                + packed_keys(sorted_rows(cid), self.cut.n_input))
+        if self.accelerate and len(sid):  # the same permutation, ties fixed compiled
+            from predicates.compiled.rows import distinct_lex_order as lex
+        else:
+            lex = distinct_lex_order
+        order = lex(keys) if len(sid) else np.zeros(0, dtype=np.int64)
         # take: rows gathered ~3× faster than fancy indexing, the same values
         return KindPairs(kind, sid.take(order, axis=0), cid.take(order, axis=0),
                          sw.take(order, axis=0), cw.take(order, axis=0),
