@@ -18,7 +18,7 @@ from numba import njit
 from .buffers import buffer
 from .build import INLINE_OPTIONS, JIT_OPTIONS
 
-__all__ = ["grid_join", "join", "owned_lists", "owned_pairs", "pair_test"]
+__all__ = ["grid_join", "join", "owned_levels", "owned_lists", "owned_pairs", "pair_test"]
 
 
 @njit(**INLINE_OPTIONS)
@@ -57,6 +57,62 @@ def _owned(tab, A, B, faces_of_a, pad, lo_a, hi_a, lo_b, hi_b, out_a, out_b):
                 out_b[count] = b
                 count += 1
     return count
+
+
+_NO_FACES = np.zeros(1, dtype=np.int64)
+
+
+@njit(**INLINE_OPTIONS)
+def _owned_level(t, c, start, faces, pad, lo, hi, lo_c, hi_c, out_f, out_c, n):
+    """Append (f, c) for each face f cell t owns within ``pad`` of cell c's box."""
+    for e in range(start[t], start[t + 1]):
+        f = faces[e]
+        if _near(pad, lo, hi, lo_c, hi_c, f, c):
+            out_f[n] = f
+            out_c[n] = c
+            n += 1
+    return n
+
+
+@njit(**JIT_OPTIONS)
+def _owned_levels(T, C, lo_c, hi_c, levels, s0, f0, pad0, lo0, hi0, o0, p0, s1, f1, pad1,
+                  lo1, hi1, o1, p1, s2, f2, pad2, lo2, hi2, o2, p2, counts):
+    """Stage 1 of the first ``levels`` (1–3) levels given, per cell pair (T[q], C[q])."""
+    n0 = n1 = n2 = 0
+    for q in range(T.shape[0]):
+        t, c = T[q], C[q]
+        n0 = _owned_level(t, c, s0, f0, pad0, lo0, hi0, lo_c, hi_c, o0, p0, n0)
+        if levels > 1:
+            n1 = _owned_level(t, c, s1, f1, pad1, lo1, hi1, lo_c, hi_c, o1, p1, n1)
+        if levels > 2:
+            n2 = _owned_level(t, c, s2, f2, pad2, lo2, hi2, lo_c, hi_c, o2, p2, n2)
+    counts[0], counts[1], counts[2] = n0, n1, n2
+
+
+def owned_levels(T: np.ndarray, C: np.ndarray, boxes_c: tuple, levels: list) -> list:
+    """Stage 1 of :mod:`predicates.registration.levels.facepairs` for up to three
+    simulation levels in one pass over the cell pairs (T[q], C[q]): per level
+    ``(start, faces, pad, (lo, hi))`` (the cells' owned-face lists, the level's reach,
+    the faces' boxes as (d, n) columns), the pairs (f, C[q]) of every face f that T[q]
+    owns whose box is within pad of C[q]'s (``boxes_c``) — the pairs and order of
+    :func:`owned_pairs` ("a") on the owned table. Returns [(f, C)] per level."""
+    if not 1 <= len(levels) <= 3:
+        raise ValueError(f"owned_levels takes 1 to 3 levels, got {len(levels)}")
+    args, outs = [], []
+    for k in range(3):  # the slots past len(levels) are never read
+        if k < len(levels):
+            start, faces, pad, (lo, hi) = levels[k]
+            n = int(np.diff(start).take(T).sum()) if len(T) else 0  # at most these
+        else:
+            start, faces, pad, lo, hi, n = _NO_FACES, _NO_FACES, 0.0, *boxes_c, 0
+        out = (np.empty(max(n, 1), dtype=np.int64), np.empty(max(n, 1), dtype=np.int64))
+        outs.append(out)
+        args += [start, faces, float(pad), lo, hi, *out]
+    counts = np.zeros(3, dtype=np.int64)
+    if len(T):
+        _owned_levels(T, C, *boxes_c, len(levels), *args, counts)
+    # views: the pages past the count were never written (np.empty touches none)
+    return [(f[:m], c[:m]) for (f, c), m in zip(outs[:len(levels)], counts)]
 
 
 _OWNED: dict = {}  # id(owned table) -> (weak reference to it, start, faces)

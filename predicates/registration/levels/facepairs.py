@@ -137,21 +137,34 @@ class FacePairs:
         cell pair, f's box within the level's largest reach of C's box."""
         if i == self.top_s:  # the cell itself: the cell pairs, tested in stage 2
             return self.T, self.C
+        if self.accelerate:  # every level still to come in one compiled pass
+            self._stage1.update(self._first_levels(sorted(
+                k for k, left in self._pending.items()
+                if left and k != self.top_s and k not in self._stage1)))
+            return self._stage1[i]
         tab = self._table("sim", i)
         step = max(1, self.chunk // tab.shape[1])
         fs, cs = [], []
         for lo in range(0, len(self.T), step):
             T, C = self.T[lo: lo + step], self.C[lo: lo + step]
-            if self.accelerate:  # the same pairs, in the same order, compiled
-                f, C = self._owned_test(tab, "a", T, C, self._level_reach[i], i, self.top_c)
-            else:
-                f, rows = _owned(tab, T)
-                f, C = self._test(self._level_reach[i], i, self.top_c, f, C.take(rows))
+            f, rows = _owned(tab, T)
+            f, C = self._test(self._level_reach[i], i, self.top_c, f, C.take(rows))
             fs.append(f)
             cs.append(C)
         if not fs:
             return np.zeros(0, np.int64), np.zeros(0, np.int64)
         return np.concatenate(fs), np.concatenate(cs)
+
+    def _first_levels(self, levels: list) -> dict:
+        """Stage 1 of the simulation ``levels`` in one compiled pass over the cell pairs
+        (:func:`predicates.compiled.boxtest.owned_levels`: the same pairs in the same
+        order as the blocks of :meth:`_first`, no concatenation): {level: (f, C)}."""
+        from predicates.compiled.boxtest import owned_levels, owned_lists
+
+        spec = [owned_lists(self._table("sim", i)) + (self._level_reach[i], self._box("sim", i))
+                for i in levels]
+        got = owned_levels(self.T, self.C, self._box("cut", self.top_c), spec)
+        return dict(zip(levels, got))
 
     def blocks(self, kind: str, i: int, j: int):
         """Yield (f, C, tab, pad): blocks of the stage-1 pairs of level i (f an i-face,
