@@ -191,9 +191,10 @@ class Side:
         """The complex of the cells selected by ``mask`` (all their faces)."""
         self.cx = Complex(self.cells[mask], len(self.P))
 
-    def unique_cells(self, mask):
-        """The distinct cells selected by ``mask``, sorted (rows of ranks)."""
-        return unique_rows(self.cells[mask], len(self.P), self.accelerate)[0]
+    def unique_cells(self, mask: np.ndarray | None = None):
+        """The distinct cells selected by ``mask`` (None: all), sorted (rows of ranks)."""
+        cells = self.cells if mask is None else self.cells[mask]
+        return unique_rows(cells, len(self.P), self.accelerate)[0]
 
     def build_unique(self, cells):
         """The complex of ``cells``, rows of :meth:`unique_cells` (the top simplices
