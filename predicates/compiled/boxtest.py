@@ -18,7 +18,8 @@ from numba import njit
 from .buffers import buffer
 from .build import INLINE_OPTIONS, JIT_OPTIONS
 
-__all__ = ["grid_join", "join", "owned_levels", "owned_lists", "owned_pairs", "pair_test"]
+__all__ = ["grid_join", "join", "owned_levels", "owned_lists", "owned_lists_of", "owned_pairs",
+           "pair_test"]
 
 
 @njit(**INLINE_OPTIONS)
@@ -133,6 +134,38 @@ def owned_lists(tab: np.ndarray) -> tuple:
     _OWNED[id(tab)] = (weakref.ref(tab), start, faces)
     weakref.finalize(tab, _OWNED.pop, id(tab), None)
     return start, faces
+
+
+@njit(**JIT_OPTIONS)
+def _owned_lists_of(F, owner, start, faces):
+    """owner[g]: the last cell (in row order) holding face g; then each cell's faces
+    it owns, in column order. Returns the number of faces written."""
+    n, m = F.shape
+    for r in range(n):
+        for k in range(m):
+            owner[F[r, k]] = r
+    count = 0
+    for r in range(n):
+        for k in range(m):
+            if owner[F[r, k]] == r:
+                faces[count] = F[r, k]
+                count += 1
+        start[r + 1] = count
+    return count
+
+
+def owned_lists_of(F: np.ndarray, n_faces: int) -> tuple:
+    """``owned_lists(owned_table(F, n_faces))`` in two compiled passes over ``F``
+    (n_cells, m; the face ids of each cell), without the table or its temporaries: the
+    same owner (the last cell holding the face in row order, numpy's fancy assignment)
+    and the same lists. Returns (start, faces, the most faces one cell owns)."""
+    F = np.ascontiguousarray(F)
+    owner = np.empty(n_faces, dtype=np.int64)
+    start = np.zeros(len(F) + 1, dtype=np.int64)
+    faces = np.empty(F.size, dtype=np.int64)  # pages past the count never touched
+    n = _owned_lists_of(F, owner, start, faces) if F.size else 0
+    widest = int(np.diff(start).max()) if len(F) else 0
+    return start, faces[:n], widest
 
 
 def pair_test(pad: float, lo_a, hi_a, lo_b, hi_b, ia: np.ndarray, ib: np.ndarray):

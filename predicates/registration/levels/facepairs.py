@@ -114,6 +114,17 @@ class FacePairs:
             self._tables[side, k] = owned_table(s.cx.face(s.cx.top, k), s.count(k))
         return self._tables[side, k]
 
+    def _lists(self, side, k):
+        """The compiled kernels' form of :meth:`_table`: (start, faces, widest)
+        (:func:`predicates.compiled.boxtest.owned_lists_of`, the same owners)."""
+        if (side, k, "lists") not in self._tables:
+            from predicates.compiled.boxtest import owned_lists_of
+
+            s = self.sim if side == "sim" else self.cut
+            self._tables[side, k, "lists"] = owned_lists_of(s.cx.face(s.cx.top, k),
+                                                            s.count(k))
+        return self._tables[side, k, "lists"]
+
     def _test(self, pad, i, j_box, f, g):
         """(f, g) pairs kept by the box test at ``pad``: simulation i-faces ``f`` against
         cutting boxes ``j_box`` = (side level) ``g``."""
@@ -159,18 +170,19 @@ class FacePairs:
         """Stage 1 of the simulation ``levels`` in one compiled pass over the cell pairs
         (:func:`predicates.compiled.boxtest.owned_levels`: the same pairs in the same
         order as the blocks of :meth:`_first`, no concatenation): {level: (f, C)}."""
-        from predicates.compiled.boxtest import owned_levels, owned_lists
+        from predicates.compiled.boxtest import owned_levels
 
-        spec = [owned_lists(self._table("sim", i)) + (self._level_reach[i], self._box("sim", i))
+        spec = [self._lists("sim", i)[:2] + (self._level_reach[i], self._box("sim", i))
                 for i in levels]
         got = owned_levels(self.T, self.C, self._box("cut", self.top_c), spec)
         return dict(zip(levels, got))
 
-    def blocks(self, kind: str, i: int, j: int):
+    def blocks(self, kind: str, i: int, j: int, lists: bool = False):
         """Yield (f, C, tab, pad): blocks of the stage-1 pairs of level i (f an i-face,
         C a cutting cell), the owned table of the cutting j-faces (None: the cells
-        themselves) and the kind's reach; :meth:`candidates` expands and tests them
-        (the compiled chain does it fused, predicates.compiled.chain.fused)."""
+        themselves; ``lists``: as :meth:`_lists`, for the compiled fused chain,
+        predicates.compiled.chain.fused) and the kind's reach; :meth:`candidates`
+        expands and tests them."""
         if i not in self._stage1:
             self._stage1[i] = self._first(i)
         f_all, C_all = self._stage1[i]
@@ -181,8 +193,8 @@ class FacePairs:
         if j == self.top_c:  # the cutting cell itself
             tab, step = None, self.chunk
         else:
-            tab = self._table("cut", j)
-            step = max(1, self.chunk // tab.shape[1])
+            tab = self._lists("cut", j) if lists else self._table("cut", j)
+            step = max(1, self.chunk // (max(1, tab[2]) if lists else tab.shape[1]))
         for lo in range(0, len(f_all), step):
             yield f_all[lo: lo + step], C_all[lo: lo + step], tab, pad
 

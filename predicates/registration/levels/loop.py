@@ -197,8 +197,8 @@ class Registration:
         flags = None if suspects is None else suspects[1:]
         boxes = self.faces.boxes(k.i, k.j)
         ncand = nsup = 0
-        for f, C, tab, pad in self.faces.blocks(k.name, k.i, k.j):
-            n, hits, (ms, mc) = fused(k, self.sim, self.cut, f, C, tab, pad, boxes, flags,
+        for f, C, owned, pad in self.faces.blocks(k.name, k.i, k.j, lists=True):
+            n, hits, (ms, mc) = fused(k, self.sim, self.cut, f, C, owned, pad, boxes, flags,
                                       self.tol)
             ncand += n
             if len(ms):
