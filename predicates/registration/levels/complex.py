@@ -151,10 +151,24 @@ class Complex:
         for k in range(2, top + 1):
             self.F[k, 0] = vid.take(self.S[k])
             for j in range(k - 2, 0, -1):
-                g = self.F[k - 1, j][self.F[k, k - 1]].reshape(len(self.S[k]), -1)
-                g.sort(axis=1)
-                self.F[k, j] = np.ascontiguousarray(g[:, :: k - j])
+                self.F[k, j] = self._faces_via(k, j)
                 assert self.F[k, j].shape[1] == comb(k + 1, j + 1)
+
+    def _faces_via(self, k: int, j: int) -> np.ndarray:
+        """F[k, j] from F[k, k−1] and F[k−1, j]: the j-faces of each k-simplex, ascending.
+        A row's vertices ascend and S[j] is sorted lexicographically, so its j-faces'
+        ids ascend in the order of ``combinations(range(k + 1), j + 1)``; each is
+        looked up in one (k−1)-face holding it (the one without its largest missing
+        vertex): gathers of columns, no sort."""
+        faces_k = list(itertools.combinations(range(k + 1), k))
+        sub_j = list(itertools.combinations(range(k), j + 1))
+        cols = []
+        for P in itertools.combinations(range(k + 1), j + 1):
+            out = max(set(range(k + 1)) - set(P))
+            face = tuple(v for v in range(k + 1) if v != out)
+            local = sub_j.index(tuple(face.index(v) for v in P))
+            cols.append(self.F[k - 1, j][:, local].take(self.F[k, k - 1][:, faces_k.index(face)]))
+        return np.stack(cols, axis=1)
 
     def face(self, k: int, j: int) -> np.ndarray:
         if j == k:
