@@ -44,12 +44,16 @@ def cell_pairs(P_sim, sim_cells, P_cut, cut_cells, pad: float, chunk: int,
     lo_s, hi_s = boxes_of(P_sim, sim_cells, blocks)
     lo_c, hi_c = boxes_of(P_cut, cut_cells, blocks)
     parts = list(box_pairs(lo_s, hi_s, lo_c, hi_c, pad, chunk=chunk, accelerate=accelerate))
-    T = np.concatenate([p[0] for p in parts]) if parts else np.zeros(0, np.int64)
-    C = np.concatenate([p[1] for p in parts]) if parts else np.zeros(0, np.int64)
+    if len(parts) == 1:  # the compiled dense-grid join's one part: not copied again
+        T, C = parts[0]
+    else:
+        T = np.concatenate([p[0] for p in parts]) if parts else np.zeros(0, np.int64)
+        C = np.concatenate([p[1] for p in parts]) if parts else np.zeros(0, np.int64)
     keep_s, keep_c = np.zeros(len(sim_cells), bool), np.zeros(len(cut_cells), bool)
     keep_s[T] = True
     keep_c[C] = True
-    return ((np.cumsum(keep_s) - 1)[T], (np.cumsum(keep_c) - 1)[C], keep_s, keep_c)
+    # take: the same values as fancy indexing, faster
+    return ((np.cumsum(keep_s) - 1).take(T), (np.cumsum(keep_c) - 1).take(C), keep_s, keep_c)
 
 
 def owned_table(F: np.ndarray, n_faces: int) -> np.ndarray:
