@@ -52,8 +52,12 @@ def cell_pairs(P_sim, sim_cells, P_cut, cut_cells, pad: float, chunk: int,
     keep_s, keep_c = np.zeros(len(sim_cells), bool), np.zeros(len(cut_cells), bool)
     keep_s[T] = True
     keep_c[C] = True
-    # take: the same values as fancy indexing, faster
-    return ((np.cumsum(keep_s) - 1).take(T), (np.cumsum(keep_c) - 1).take(C), keep_s, keep_c)
+    # take: the same values as fancy indexing, faster; compiled: int32 ids when they
+    # fit (the kernels take either; half the fresh memory of the largest arrays)
+    ids = [np.int32 if accelerate and len(x) < 2 ** 31 else np.int64
+           for x in (sim_cells, cut_cells)]
+    return ((np.cumsum(keep_s, dtype=ids[0]) - 1).take(T),
+            (np.cumsum(keep_c, dtype=ids[1]) - 1).take(C), keep_s, keep_c)
 
 
 def owned_table(F: np.ndarray, n_faces: int) -> np.ndarray:
