@@ -14,7 +14,7 @@ from numba import njit
 
 from .build import JIT_OPTIONS
 
-__all__ = ["distinct_lex_order", "unique_rows"]
+__all__ = ["distinct_lex_order", "hits_in_order", "unique_rows"]
 
 
 @njit(**JIT_OPTIONS)
@@ -116,7 +116,80 @@ def distinct_lex_order(keys: list) -> np.ndarray:
     np.lexsort with the first key most significant, for distinct rows), compiled: one
     argsort of the first key, then each run of equal first keys sorted in place by the
     others — runs of a kind's hits are a few rows (one face met by a few others)."""
+    return _order_of(np.stack(keys))
+
+
+def _order_of(keys: np.ndarray) -> np.ndarray:
+    """:func:`distinct_lex_order` of the keys as rows of a (keys, n) array."""
     order = np.argsort(keys[0])
     if len(keys) > 1 and len(order) > 1:
-        _sort_runs(order, np.stack(keys))
+        _sort_runs(order, keys)
     return order
+
+
+@njit(**JIT_OPTIONS)
+def _pack_row(S, ids, r, n, per, keys, k0, q):
+    """keys[k0…, q]: the input ids of simplex row r (``ids[S[r]]``), sorted, packed as
+    :func:`~predicates.registration.levels.complex.packed_keys` packs them. Returns the
+    next key row."""
+    w = S.shape[1]
+    row = np.empty(w, dtype=np.int64)
+    for p in range(w):  # insertion sort of a few ids
+        v = ids[S[r, p]]
+        u = p
+        while u > 0 and row[u - 1] > v:
+            row[u] = row[u - 1]
+            u -= 1
+        row[u] = v
+    k = k0
+    for start in range(0, w, per):
+        key = row[start]
+        for col in range(start + 1, min(w, start + per)):
+            key = key * n + row[col]
+        keys[k, q] = key
+        k += 1
+    return k
+
+
+@njit(**JIT_OPTIONS)
+def _hit_keys(S1, ids1, s, n1, per1, S2, ids2, c, n2, per2, keys):
+    for q in range(s.shape[0]):
+        k = _pack_row(S1, ids1, s[q], n1, per1, keys, 0, q)
+        _pack_row(S2, ids2, c[q], n2, per2, keys, k, q)
+
+
+@njit(**JIT_OPTIONS)
+def _ids_in_order(S, ids, s, order, out):
+    for q in range(order.shape[0]):
+        r = s[order[q]]
+        for p in range(S.shape[1]):
+            out[q, p] = ids[S[r, p]]
+
+
+def _per_key(n: int, w: int) -> int:
+    """Columns per int64 key (complex.packed_keys' rule: n^per < 2^62)."""
+    per = 1
+    while per < w and n ** (per + 1) < 2 ** 62:
+        per += 1
+    return per
+
+
+def hits_in_order(first: tuple, second: tuple) -> tuple:
+    """A kind's registered pairs in their final order (loop._output), compiled: per
+    side ``(S, ids, s, n)`` (the simplices' rank rows, rank -> input id, the pairs'
+    simplices, the input id bound). Returns (order, the first side's input id rows,
+    the second's) in that order — the keys of packed_keys(sorted rows) and
+    :func:`distinct_lex_order`'s permutation, without the unordered id rows, their
+    sorted copies or the key list (a large kind's hits: ~4x their size in fresh
+    memory less)."""
+    (S1, ids1, s, n1), (S2, ids2, c, n2) = first, second
+    per1, per2 = _per_key(n1, S1.shape[1]), _per_key(n2, S2.shape[1])
+    nk = -(-S1.shape[1] // per1) - (-S2.shape[1] // per2)
+    keys = np.empty((nk, len(s)), dtype=np.int64)
+    _hit_keys(S1, ids1, s, np.int64(n1), per1, S2, ids2, c, np.int64(n2), per2, keys)
+    order = _order_of(keys)
+    out1 = np.empty((len(s), S1.shape[1]), dtype=np.int64)
+    out2 = np.empty((len(s), S2.shape[1]), dtype=np.int64)
+    _ids_in_order(S1, ids1, s, order, out1)
+    _ids_in_order(S2, ids2, c, order, out2)
+    return order, out1, out2

@@ -345,3 +345,35 @@ def test_compiled_corner_sums_are_numpys(d):
         occ = gridsums.occupancy(i0[:40], i1[:40], G)
         assert np.array_equal(gridsums.any_in(occ, i0, i1, G),
                               gridsums.any_in(occ, i0, i1, G, fast))
+
+
+@settings(deadline=None)
+@given(data=st.data(), widths=st.tuples(st.integers(1, 4), st.integers(1, 4)),
+       n=st.sampled_from([41, 1000, 2 ** 20 + 1, 2 ** 40]))
+def test_hits_in_order_is_the_numpy_output(data, widths, n):
+    """loop._output compiled (rows.hits_in_order: keys packed from each simplex's input
+    ids, order, id rows gathered in order) is the numpy path's: ids through the rank
+    map, sorted_rows, packed_keys, distinct_lex_order, take."""
+    from predicates.compiled.rows import hits_in_order
+    from predicates.registration.levels.complex import (
+        distinct_lex_order, packed_keys, sorted_rows)
+
+    rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 32 - 1)))
+    sides = []
+    for w in widths:  # simplices: distinct rows of ranks; ranks -> input ids < n
+        ranks = 40
+        S = np.unique(np.sort(rng.integers(0, ranks, (60, w)), axis=1), axis=0)
+        ids = rng.choice(min(n, 10 ** 6), ranks, replace=False) + (n - min(n, 10 ** 6))
+        sides.append((S, ids.astype(np.int64)))
+    m = data.draw(st.integers(1, 300))
+    pairs = np.unique(np.stack([rng.integers(0, len(sides[0][0]), m),
+                                rng.integers(0, len(sides[1][0]), m)], axis=1), axis=0)
+    pairs = pairs[rng.permutation(len(pairs))]  # distinct pairs, in no order
+    s, c = pairs[:, 0], pairs[:, 1]
+    (S1, ids1), (S2, ids2) = sides
+    sid, cid = ids1[S1[s]], ids2[S2[c]]
+    want = distinct_lex_order(packed_keys(sorted_rows(sid), n)
+                              + packed_keys(sorted_rows(cid), n))
+    order, got1, got2 = hits_in_order((S1, ids1, s, n), (S2, ids2, c, n))
+    assert np.array_equal(order, want)
+    assert np.array_equal(got1, sid[want]) and np.array_equal(got2, cid[want])

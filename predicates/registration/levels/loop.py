@@ -238,21 +238,24 @@ class Registration:
         if self.empty:
             return KindPairs(kind, np.zeros((0, i + 1), np.int64), np.zeros((0, j + 1), np.int64),
                              np.zeros((0, i + 1), self.dtype), np.zeros((0, j + 1), self.dtype))
-        sid = self.sim.ids(i, s).reshape(len(s), i + 1)
-        cid = self.cut.ids(j, c).reshape(len(c), j + 1)
-        # lexicographic on (sorted sim ids, sorted cut ids): packed into few int64 keys
-        # (order-preserving; the order of a lexsort of the 2 + i + j columns, whose
-        # rows are distinct: each pair is registered once)
-        keys = (packed_keys(sorted_rows(sid), self.sim.n_input)
-                + packed_keys(sorted_rows(cid), self.cut.n_input))
-        if self.accelerate and len(sid):  # the same permutation, ties fixed compiled
-            from predicates.compiled.rows import distinct_lex_order as lex
+        if self.accelerate and len(s):  # the same order and ids, compiled
+            from predicates.compiled.rows import hits_in_order
+
+            sim, cut = self.sim, self.cut
+            order, sid, cid = hits_in_order((sim.cx.S[i], sim.order, s, sim.n_input),
+                                            (cut.cx.S[j], cut.order, c, cut.n_input))
         else:
-            lex = distinct_lex_order
-        order = lex(keys) if len(sid) else np.zeros(0, dtype=np.int64)
-        # take: rows gathered ~3× faster than fancy indexing, the same values
-        return KindPairs(kind, sid.take(order, axis=0), cid.take(order, axis=0),
-                         sw.take(order, axis=0), cw.take(order, axis=0),
+            sid = self.sim.ids(i, s).reshape(len(s), i + 1)
+            cid = self.cut.ids(j, c).reshape(len(c), j + 1)
+            # lexicographic on (sorted sim ids, sorted cut ids): packed into few int64
+            # keys (order-preserving; the order of a lexsort of the 2 + i + j columns,
+            # whose rows are distinct: each pair is registered once)
+            keys = (packed_keys(sorted_rows(sid), self.sim.n_input)
+                    + packed_keys(sorted_rows(cid), self.cut.n_input))
+            order = distinct_lex_order(keys) if len(sid) else np.zeros(0, dtype=np.int64)
+            # take: rows gathered ~3× faster than fancy indexing, the same values
+            sid, cid = sid.take(order, axis=0), cid.take(order, axis=0)
+        return KindPairs(kind, sid, cid, sw.take(order, axis=0), cw.take(order, axis=0),
                          candidates=ncand, suppressed=nsup)
 
 
