@@ -196,8 +196,7 @@ class Side:
         self.order = order  # rank -> input vertex id
         self.n_input = len(P)  # input ids are < n_input (the output's packed keys)
         self.P = np.ascontiguousarray(P.take(order, axis=0))
-        self.cells = rank.take(cells)
-        self.cells.sort(axis=1)
+        self.cells = sorted_rows(rank.take(cells))  # np.sort(axis=1), ~5x faster
         self.cx = None
         self.accelerate = False  # complexes by the compiled unique_rows (same rows)
 
