@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .build import JIT_OPTIONS
+from .build import INLINE_OPTIONS, JIT_OPTIONS
 
 __all__ = ["distinct_lex_order", "hits_in_order", "unique_rows"]
 
@@ -83,16 +83,22 @@ def _before(keys, x, y):
 
 
 @njit(**JIT_OPTIONS)
-def _sort_runs(order, keys):
-    """``order`` sorted by keys[0]: every run of equal keys[0] sorted by keys[1], …
-    (insertion for short runs; long ones by stable passes from the last key)."""
+def _sort_runs(order, keys, long_runs):
+    """``order`` sorted by keys[0]: every run of equal keys[0] of up to 32 rows sorted
+    by keys[1], … in place (insertion); longer runs' (start, end) written to
+    ``long_runs`` for the caller. Returns their number."""
     n = order.shape[0]
+    nl = 0
     i = 0
     while i < n:
         j = i + 1
         while j < n and keys[0, order[j]] == keys[0, order[i]]:
             j += 1
-        if j - i <= 32:
+        if j - i > 32:
+            long_runs[nl, 0] = i
+            long_runs[nl, 1] = j
+            nl += 1
+        else:
             for u in range(i + 1, j):
                 x = order[u]
                 v = u
@@ -100,15 +106,8 @@ def _sort_runs(order, keys):
                     order[v] = order[v - 1]
                     v -= 1
                 order[v] = x
-        else:
-            run = order[i:j].copy()
-            vals = np.empty(j - i, dtype=np.int64)
-            for k in range(keys.shape[0] - 1, 0, -1):
-                for m in range(j - i):
-                    vals[m] = keys[k, run[m]]
-                run = run[np.argsort(vals, kind="mergesort")]
-            order[i:j] = run
         i = j
+    return nl
 
 
 def distinct_lex_order(keys: list) -> np.ndarray:
@@ -120,20 +119,24 @@ def distinct_lex_order(keys: list) -> np.ndarray:
 
 
 def _order_of(keys: np.ndarray) -> np.ndarray:
-    """:func:`distinct_lex_order` of the keys as rows of a (keys, n) array."""
+    """:func:`distinct_lex_order` of the keys as rows of a (keys, n) array: short runs
+    compiled, the long ones (a face met by many others) by np.lexsort in place."""
     order = np.argsort(keys[0])
     if len(keys) > 1 and len(order) > 1:
-        _sort_runs(order, keys)
+        long_runs = np.empty((len(order) // 33 + 1, 2), dtype=np.int64)
+        for i, j in long_runs[:_sort_runs(order, keys, long_runs)].tolist():
+            run = order[i:j]
+            run[:] = run.take(np.lexsort(keys[:0:-1].take(run, axis=1)))
     return order
 
 
-@njit(**JIT_OPTIONS)
-def _pack_row(S, ids, r, n, per, keys, k0, q):
-    """keys[k0…, q]: the input ids of simplex row r (``ids[S[r]]``), sorted, packed as
+@njit(**INLINE_OPTIONS)
+def _pack_row(S, ids, r, n, per, keys, k0, q, row):
+    """keys[k0…, q]: the input ids of simplex row r (``ids[S[r]]``), sorted (in the
+    scratch ``row``), packed as
     :func:`~predicates.registration.levels.complex.packed_keys` packs them. Returns the
     next key row."""
     w = S.shape[1]
-    row = np.empty(w, dtype=np.int64)
     for p in range(w):  # insertion sort of a few ids
         v = ids[S[r, p]]
         u = p
@@ -153,9 +156,10 @@ def _pack_row(S, ids, r, n, per, keys, k0, q):
 
 @njit(**JIT_OPTIONS)
 def _hit_keys(S1, ids1, s, n1, per1, S2, ids2, c, n2, per2, keys):
+    row = np.empty(S1.shape[1] + S2.shape[1], dtype=np.int64)
     for q in range(s.shape[0]):
-        k = _pack_row(S1, ids1, s[q], n1, per1, keys, 0, q)
-        _pack_row(S2, ids2, c[q], n2, per2, keys, k, q)
+        k = _pack_row(S1, ids1, s[q], n1, per1, keys, 0, q, row)
+        _pack_row(S2, ids2, c[q], n2, per2, keys, k, q, row)
 
 
 @njit(**JIT_OPTIONS)
