@@ -129,7 +129,7 @@ def test_no_fma_no_fast_math(pred):
         I = np.zeros(1, np.int64)
         fn(P, R1, I, P, R2, I, np.zeros(8, dt), np.zeros(1, np.int64),
            np.zeros((1, max(1, len(pred.weight_names))), dt))
-        # the fused chain too: its box test is inlined into it (INLINE_OPTIONS)
+        # the fused chain too, with its box test written out in it (emit.fused_lines)
         fu = ns[f"fused_{np.dtype(dt).name}"]
         one, no, w = np.zeros(1, np.int64), np.zeros(1, bool), len(pred.weight_names)
         box = np.zeros((d, 1))
