@@ -26,7 +26,7 @@ import tempfile
 import threading
 from pathlib import Path
 
-from .emit import NEAR, chain_lines, fused_lines
+from .emit import chain_lines, fused_lines
 from .trace import trace
 
 __all__ = ["INLINE_OPTIONS", "JIT_OPTIONS", "cache_dir", "kernel", "source"]
@@ -58,7 +58,7 @@ def source(pred, n_first: int | None = None) -> str:
     prog = trace(pred)
     n1 = len(pred.sim) if n_first is None else n_first
     opts = repr(JIT_OPTIONS)
-    text = [_HEAD.format(dim=prog.dim, name=prog.name), NEAR.format(opts=repr(INLINE_OPTIONS))]
+    text = [_HEAD.format(dim=prog.dim, name=prog.name)]
     for dt in DTYPES:
         text.append("\n".join(chain_lines(prog, n1, dt, opts)))
         text.append("\n".join(fused_lines(prog, n1, dt, opts)))

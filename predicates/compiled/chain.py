@@ -13,7 +13,6 @@ from numba import njit
 
 from predicates.catalogue import _split_weights
 
-from .boxtest import owned_lists
 from .buffers import buffer as _buffer
 from .build import JIT_OPTIONS, kernel
 
@@ -71,10 +70,11 @@ def evaluate(kind, sim, cut, s: np.ndarray, c: np.ndarray, tol):
 
 _NO_TAB = np.zeros(2, dtype=np.int64)
 _NO_FLAGS = np.zeros(1, dtype=bool)
-def fused(kind, sim, cut, F, C, tab, pad: float, boxes: tuple, flags, tol):
+def fused(kind, sim, cut, F, C, owned, pad: float, boxes: tuple, flags, tol):
     """The fused per-kind chain (:func:`predicates.compiled.emit.fused_lines`) on one
-    block of stage-1 pairs (F[q], C[q]): ``tab`` the cutting cells' owned j-faces (None:
-    the cells themselves), ``boxes`` = (lo_a, hi_a, lo_b, hi_b) as (d, n) columns of the
+    block of stage-1 pairs (F[q], C[q]): ``owned`` the cutting cells' owned j-faces as
+    (start, faces, the most one cell owns) (:func:`~.boxtest.owned_lists_of`; None: the
+    cells themselves), ``boxes`` = (lo_a, hi_a, lo_b, hi_b) as (d, n) columns of the
     sides' i- and j-simplices, ``flags`` = (flag_s, flag_c) of the suppression
     pre-filter or None. Returns (candidates, (s, c, sim weights, cut weights) of the
     registered pairs, (s, c) of the pairs to look up before evaluating them)."""
@@ -86,13 +86,13 @@ def fused(kind, sim, cut, F, C, tab, pad: float, boxes: tuple, flags, tol):
     a = (sim.P, sim.cx.S[kind.i])
     b = (cut.P, cut.cx.S[kind.j])
     (P1, R1), (P2, R2) = (b, a) if kind.swapped else (a, b)
-    n = len(F) * (1 if tab is None else tab.shape[1])
+    n = len(F) * (1 if owned is None else max(1, owned[2]))  # at most this many tested
     out_s, out_c, maybe_s, maybe_c = (_buffer(name, n, np.int64) for name in "scSC")
     out_w = _buffer("w", n, dtype, len(pred.weight_names))
     counts = np.zeros(3, dtype=np.int64)
     fs, fc = (_NO_FLAGS, _NO_FLAGS) if flags is None else flags
-    start, owned = (_NO_TAB, _NO_TAB) if tab is None else owned_lists(tab)
-    run(F, C, start, owned, tab is not None, float(pad), *boxes, fs, fc,
+    start, faces = (_NO_TAB, _NO_TAB) if owned is None else owned[:2]
+    run(F, C, start, faces, owned is not None, float(pad), *boxes, fs, fc,
         flags is not None, kind.swapped, P1, R1, P2, R2, tv, out_s, out_c, out_w, maybe_s,
         maybe_c, counts)
     ncand, nh, nm = (int(x) for x in counts)

@@ -12,29 +12,17 @@ Two kernels per predicate and dtype:
   lower pair goes out to the exact numpy look-up, unevaluated), gather, predicate,
   output — no array of candidates at all.
 
-The box test's text is emitted into the module (not imported), so the module's hash —
-its file name, and with it numba's on-disk cache — covers every line it runs.
+The box test is written out in the module per axis (not imported: the module's hash —
+its file name, and with it numba's on-disk cache — covers every line it runs): the
+broad phase's exact test (:func:`predicates.registration.spatial.broadphase.pair_test`),
+F[lo_b − hi_a] ≤ pad and F[lo_a − hi_b] ≤ pad per axis, a NaN failing, with f's box
+read once per stage-1 pair.
 """
 from __future__ import annotations
 
 from .trace import Program
 
-__all__ = ["chain_lines", "fused_lines", "NEAR"]
-
-#: the broad phase's box test (predicates.registration.spatial.broadphase.pair_test):
-#: F[lo_b − hi_a] ≤ pad and F[lo_a − hi_b] ≤ pad per axis, a NaN failing
-NEAR = '''@njit(**{opts})
-def _near(pad, lo_a, hi_a, lo_b, hi_b, a, b):
-    for ax in range(lo_a.shape[0]):
-        if not lo_b[ax, b] - hi_a[ax, a] <= pad:
-            return False
-        if not lo_a[ax, a] - hi_b[ax, b] <= pad:
-            return False
-    return True
-
-
-'''
-
+__all__ = ["chain_lines", "fused_lines"]
 
 def gather(var: str, rows: str, points: str, first: int, count: int, dim: int) -> list[str]:
     """Statements loading ``count`` points of the simplex ``var`` (rows of ``rows``)."""
@@ -99,10 +87,15 @@ def fused_lines(prog: Program, n1: int, dt: str, opts: str) -> list[str]:
             "        f = F[q]",
             "        c = Cs[q]",
             "        e0 = start[c] if has_tab else 0",
-            "        e1 = start[c + 1] if has_tab else 1",
-            "        for e in range(e0, e1):"]
+            "        e1 = start[c + 1] if has_tab else 1"]
+    # f's box read once per stage-1 pair, the test written out per axis (one
+    # subtraction and comparison each, as the numpy test; module docstring)
+    head += [f"        fl{a} = lo_a[{a}, f]\n        fh{a} = hi_a[{a}, f]" for a in range(prog.dim)]
+    head += ["        for e in range(e0, e1):"]
+    test = " and ".join(f"lo_b[{a}, g] - fh{a} <= pad and fl{a} - hi_b[{a}, g] <= pad"
+                        for a in range(prog.dim))
     inner = ["g = owned[e] if has_tab else c",
-             "if not _near(pad, lo_a, hi_a, lo_b, hi_b, f, g):",
+             f"if not ({test}):",
              "    continue",
              "ncand += 1",
              "if use_flags and flag_s[f] and flag_c[g]:  # maybe suppressed: look up",

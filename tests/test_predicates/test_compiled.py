@@ -129,7 +129,7 @@ def test_no_fma_no_fast_math(pred):
         I = np.zeros(1, np.int64)
         fn(P, R1, I, P, R2, I, np.zeros(8, dt), np.zeros(1, np.int64),
            np.zeros((1, max(1, len(pred.weight_names))), dt))
-        # the fused chain too: its box test is inlined into it (INLINE_OPTIONS)
+        # the fused chain too, with its box test written out in it (emit.fused_lines)
         fu = ns[f"fused_{np.dtype(dt).name}"]
         one, no, w = np.zeros(1, np.int64), np.zeros(1, bool), len(pred.weight_names)
         box = np.zeros((d, 1))
@@ -318,9 +318,10 @@ def test_shortest_edge_identical(d):
 
 @pytest.mark.parametrize("width", [1, 3, 6])
 def test_owned_lists_are_the_owned_table(width):
-    """The compiled kernels' owned-face lists (boxtest.owned_lists) hold each cell's
-    owned faces of facepairs.owned_table, in its column order, and nothing else."""
-    from predicates.compiled.boxtest import owned_lists
+    """The compiled kernels' owned-face lists (boxtest.owned_lists, and owned_lists_of
+    from the face map directly) hold each cell's owned faces of facepairs.owned_table,
+    in its column order, and nothing else."""
+    from predicates.compiled.boxtest import owned_lists, owned_lists_of
     from predicates.registration.levels.facepairs import owned_table
 
     rng = np.random.default_rng(width)
@@ -331,3 +332,7 @@ def test_owned_lists_are_the_owned_table(width):
     for c, row in enumerate(tab.tolist()):
         assert faces[start[c]:start[c + 1]].tolist() == [g for g in row if g >= 0]
     assert owned_lists(tab)[1] is faces  # cached per table
+    # straight from the face map, no table: the same owners and lists
+    start2, faces2, widest = owned_lists_of(F, 40)
+    assert np.array_equal(start2, start) and np.array_equal(faces2, faces)
+    assert widest == int(np.diff(start).max())

@@ -110,6 +110,36 @@ def test_packed_order_is_lexsort(data, widths, n):
     assert [r[-1] for r in sorted(rows)] == want.tolist()
 
 
+@settings(deadline=None)
+@given(data=st.data(), widths=st.tuples(st.integers(1, 4), st.integers(1, 4)),
+       n=st.sampled_from([2, 5, 1000, 2 ** 20 + 1, 2 ** 40]), long_runs=st.booleans())
+def test_distinct_order_is_lexsort(data, widths, n, long_runs):
+    """loop._output's order of a kind's hits (distinct rows: each pair registered
+    once): sorted_rows is np.sort per row, and distinct_lex_order — numpy's and the
+    compiled one (short runs by insertion, runs over 32 rows by stable passes) — is
+    np.lexsort's permutation over the 2 + i + j sorted id columns."""
+    from predicates.compiled.rows import distinct_lex_order as compiled_order
+    from predicates.registration.levels.complex import (
+        distinct_lex_order, packed_keys, sorted_rows)
+
+    rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 32 - 1)))
+    m = data.draw(st.integers(0, 400))
+    a = rng.integers(0, n, size=(m, widths[0]))
+    if long_runs and m:  # one first row shared by many: a face met by many others
+        a[: m // 2] = a[0]
+    b = rng.integers(0, n, size=(m, widths[1]))
+    rows = np.concatenate([np.sort(a, axis=1), np.sort(b, axis=1)], axis=1)
+    keep = np.sort(np.unique(rows, axis=0, return_index=True)[1]) if m else np.zeros(0, int)
+    a, b = a[keep], b[keep]  # distinct rows (as sorted ids), in their drawn order
+    sa, sb = sorted_rows(a), sorted_rows(b)
+    assert np.array_equal(sa, np.sort(a, axis=1)) and np.array_equal(sb, np.sort(b, axis=1))
+    want = np.lexsort(np.concatenate([sa, sb], axis=1).T[::-1])
+    keys = packed_keys(sa, n) + packed_keys(sb, n)
+    assert np.array_equal(distinct_lex_order(keys), want)
+    if len(a):
+        assert np.array_equal(compiled_order(keys), want)
+
+
 
 def _pair_list(parts) -> list:
     return [(int(a), int(b)) for ia, ib in parts for a, b in zip(ia, ib)]
@@ -386,3 +416,35 @@ def test_the_run_cells_are_gathered_once():
     assert box.cells_of(sel) is first and np.array_equal(first, C[sel])
     other = ~sel
     assert np.array_equal(box.cells_of(other), C[other])
+
+
+@settings(deadline=None)
+@given(data=st.data(), widths=st.tuples(st.integers(1, 4), st.integers(1, 4)),
+       n=st.sampled_from([41, 1000, 2 ** 20 + 1, 2 ** 40]))
+def test_hits_in_order_is_the_numpy_output(data, widths, n):
+    """loop._output compiled (rows.hits_in_order: keys packed from each simplex's input
+    ids, order, id rows gathered in order) is the numpy path's: ids through the rank
+    map, sorted_rows, packed_keys, distinct_lex_order, take."""
+    from predicates.compiled.rows import hits_in_order
+    from predicates.registration.levels.complex import (
+        distinct_lex_order, packed_keys, sorted_rows)
+
+    rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 32 - 1)))
+    sides = []
+    for w in widths:  # simplices: distinct rows of ranks; ranks -> input ids < n
+        ranks = 40
+        S = np.unique(np.sort(rng.integers(0, ranks, (60, w)), axis=1), axis=0)
+        ids = rng.choice(min(n, 10 ** 6), ranks, replace=False) + (n - min(n, 10 ** 6))
+        sides.append((S, ids.astype(np.int64)))
+    m = data.draw(st.integers(1, 300))
+    pairs = np.unique(np.stack([rng.integers(0, len(sides[0][0]), m),
+                                rng.integers(0, len(sides[1][0]), m)], axis=1), axis=0)
+    pairs = pairs[rng.permutation(len(pairs))]  # distinct pairs, in no order
+    s, c = pairs[:, 0], pairs[:, 1]
+    (S1, ids1), (S2, ids2) = sides
+    sid, cid = ids1[S1[s]], ids2[S2[c]]
+    want = distinct_lex_order(packed_keys(sorted_rows(sid), n)
+                              + packed_keys(sorted_rows(cid), n))
+    order, got1, got2 = hits_in_order((S1, ids1, s, n), (S2, ids2, c, n))
+    assert np.array_equal(order, want)
+    assert np.array_equal(got1, sid[want]) and np.array_equal(got2, cid[want])

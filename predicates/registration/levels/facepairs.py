@@ -44,12 +44,20 @@ def cell_pairs(P_sim, sim_cells, P_cut, cut_cells, pad: float, chunk: int,
     lo_s, hi_s = boxes_of(P_sim, sim_cells, blocks)
     lo_c, hi_c = boxes_of(P_cut, cut_cells, blocks)
     parts = list(box_pairs(lo_s, hi_s, lo_c, hi_c, pad, chunk=chunk, accelerate=accelerate))
-    T = np.concatenate([p[0] for p in parts]) if parts else np.zeros(0, np.int64)
-    C = np.concatenate([p[1] for p in parts]) if parts else np.zeros(0, np.int64)
+    if len(parts) == 1:  # the compiled dense-grid join's one part: not copied again
+        T, C = parts[0]
+    else:
+        T = np.concatenate([p[0] for p in parts]) if parts else np.zeros(0, np.int64)
+        C = np.concatenate([p[1] for p in parts]) if parts else np.zeros(0, np.int64)
     keep_s, keep_c = np.zeros(len(sim_cells), bool), np.zeros(len(cut_cells), bool)
     keep_s[T] = True
     keep_c[C] = True
-    return ((np.cumsum(keep_s) - 1)[T], (np.cumsum(keep_c) - 1)[C], keep_s, keep_c)
+    # take: the same values as fancy indexing, faster; compiled: int32 ids when they
+    # fit (the kernels take either; half the fresh memory of the largest arrays)
+    ids = [np.int32 if accelerate and len(x) < 2 ** 31 else np.int64
+           for x in (sim_cells, cut_cells)]
+    return ((np.cumsum(keep_s, dtype=ids[0]) - 1).take(T),
+            (np.cumsum(keep_c, dtype=ids[1]) - 1).take(C), keep_s, keep_c)
 
 
 def owned_table(F: np.ndarray, n_faces: int) -> np.ndarray:
@@ -114,6 +122,17 @@ class FacePairs:
             self._tables[side, k] = owned_table(s.cx.face(s.cx.top, k), s.count(k))
         return self._tables[side, k]
 
+    def _lists(self, side, k):
+        """The compiled kernels' form of :meth:`_table`: (start, faces, widest)
+        (:func:`predicates.compiled.boxtest.owned_lists_of`, the same owners)."""
+        if (side, k, "lists") not in self._tables:
+            from predicates.compiled.boxtest import owned_lists_of
+
+            s = self.sim if side == "sim" else self.cut
+            self._tables[side, k, "lists"] = owned_lists_of(s.cx.face(s.cx.top, k),
+                                                            s.count(k))
+        return self._tables[side, k, "lists"]
+
     def _test(self, pad, i, j_box, f, g):
         """(f, g) pairs kept by the box test at ``pad``: simulation i-faces ``f`` against
         cutting boxes ``j_box`` = (side level) ``g``."""
@@ -137,27 +156,41 @@ class FacePairs:
         cell pair, f's box within the level's largest reach of C's box."""
         if i == self.top_s:  # the cell itself: the cell pairs, tested in stage 2
             return self.T, self.C
+        if self.accelerate:  # every level still to come in one compiled pass
+            self._stage1.update(self._first_levels(sorted(
+                k for k, left in self._pending.items()
+                if left and k != self.top_s and k not in self._stage1)))
+            return self._stage1[i]
         tab = self._table("sim", i)
         step = max(1, self.chunk // tab.shape[1])
         fs, cs = [], []
         for lo in range(0, len(self.T), step):
             T, C = self.T[lo: lo + step], self.C[lo: lo + step]
-            if self.accelerate:  # the same pairs, in the same order, compiled
-                f, C = self._owned_test(tab, "a", T, C, self._level_reach[i], i, self.top_c)
-            else:
-                f, rows = _owned(tab, T)
-                f, C = self._test(self._level_reach[i], i, self.top_c, f, C.take(rows))
+            f, rows = _owned(tab, T)
+            f, C = self._test(self._level_reach[i], i, self.top_c, f, C.take(rows))
             fs.append(f)
             cs.append(C)
         if not fs:
             return np.zeros(0, np.int64), np.zeros(0, np.int64)
         return np.concatenate(fs), np.concatenate(cs)
 
-    def blocks(self, kind: str, i: int, j: int):
+    def _first_levels(self, levels: list) -> dict:
+        """Stage 1 of the simulation ``levels`` in one compiled pass over the cell pairs
+        (:func:`predicates.compiled.boxtest.owned_levels`: the same pairs in the same
+        order as the blocks of :meth:`_first`, no concatenation): {level: (f, C)}."""
+        from predicates.compiled.boxtest import owned_levels
+
+        spec = [self._lists("sim", i)[:2] + (self._level_reach[i], self._box("sim", i))
+                for i in levels]
+        got = owned_levels(self.T, self.C, self._box("cut", self.top_c), spec)
+        return dict(zip(levels, got))
+
+    def blocks(self, kind: str, i: int, j: int, lists: bool = False):
         """Yield (f, C, tab, pad): blocks of the stage-1 pairs of level i (f an i-face,
         C a cutting cell), the owned table of the cutting j-faces (None: the cells
-        themselves) and the kind's reach; :meth:`candidates` expands and tests them
-        (the compiled chain does it fused, predicates.compiled.chain.fused)."""
+        themselves; ``lists``: as :meth:`_lists`, for the compiled fused chain,
+        predicates.compiled.chain.fused) and the kind's reach; :meth:`candidates`
+        expands and tests them."""
         if i not in self._stage1:
             self._stage1[i] = self._first(i)
         f_all, C_all = self._stage1[i]
@@ -168,8 +201,8 @@ class FacePairs:
         if j == self.top_c:  # the cutting cell itself
             tab, step = None, self.chunk
         else:
-            tab = self._table("cut", j)
-            step = max(1, self.chunk // tab.shape[1])
+            tab = self._lists("cut", j) if lists else self._table("cut", j)
+            step = max(1, self.chunk // (max(1, tab[2]) if lists else tab.shape[1]))
         for lo in range(0, len(f_all), step):
             yield f_all[lo: lo + step], C_all[lo: lo + step], tab, pad
 

@@ -17,7 +17,8 @@ import numpy as np
 from predicates.catalogue import kinds as catalogue_kinds
 from predicates.registration.spatial.blocks import Blocks
 from predicates.registration.spatial.broadphase import boxes_of, tighten_flags
-from predicates.registration.levels.complex import Side, any_flagged, lex_order, packed_keys
+from predicates.registration.levels.complex import (
+    Side, any_flagged, distinct_lex_order, packed_keys, sorted_rows)
 from predicates.registration.levels.facepairs import FacePairs, cell_pairs
 from predicates.registration.result.intersection import KindPairs
 
@@ -44,7 +45,8 @@ class Registration:
     def _near(self):
         """Keep only the cells of each mesh that share a grid cell with a cell of the
         other mesh enlarged by σ+ (``tighten_flags``: a superset of the cells within σ+
-        of the other mesh; the plan's masks already dropped the far ones), find the
+        of the other mesh; the plan's masks already dropped the far ones; not on the
+        compiled path, whose join does without), find the
         pairs of those cells within σ+ (every candidate pair of every kind is made of
         their faces), and build the simplicial complexes of the cells in some pair only
         (:mod:`~predicates.registration.levels.facepairs`)."""
@@ -52,13 +54,21 @@ class Registration:
         if len(sim.cells) == 0 or len(cut.cells) == 0:
             return
         pad = max(self.reach.values())
-        blocks = Blocks(accelerate=self.accelerate)
-        near_s, near_c = tighten_flags(*boxes_of(sim.P, sim.cells, blocks),
-                                       *boxes_of(cut.P, cut.cells, blocks), pad, blocks=blocks)
-        if not (near_s.any() and near_c.any()):
-            return
-        # the pairs of distinct cells within σ+; complexes of the cells in some pair only
-        tops_s, tops_c = sim.unique_cells(near_s), cut.unique_cells(near_c)
+        if self.accelerate:
+            # no pre-filter: the compiled join visits a far cell's few grid cells and
+            # tests every proposal exactly; cell_pairs keeps the cells in some pair —
+            # the same cells and pairs, cheaper than tighten_flags' pass (W1 cell
+            # broad phase 56 -> 35 ms, W4 667 -> 423 ms; benchmarks/README.md)
+            tops_s, tops_c = sim.unique_cells(), cut.unique_cells()
+        else:
+            blocks = Blocks(accelerate=False)
+            near_s, near_c = tighten_flags(*boxes_of(sim.P, sim.cells, blocks),
+                                           *boxes_of(cut.P, cut.cells, blocks), pad,
+                                           blocks=blocks)
+            if not (near_s.any() and near_c.any()):
+                return
+            # the pairs of distinct cells within σ+; complexes of the cells in some pair
+            tops_s, tops_c = sim.unique_cells(near_s), cut.unique_cells(near_c)
         T, C, keep_s, keep_c = cell_pairs(sim.P, tops_s, cut.P, tops_c, pad, 2 * self.chunk,
                                           self.accelerate)
         if len(T) == 0:
@@ -187,8 +197,8 @@ class Registration:
         flags = None if suspects is None else suspects[1:]
         boxes = self.faces.boxes(k.i, k.j)
         ncand = nsup = 0
-        for f, C, tab, pad in self.faces.blocks(k.name, k.i, k.j):
-            n, hits, (ms, mc) = fused(k, self.sim, self.cut, f, C, tab, pad, boxes, flags,
+        for f, C, owned, pad in self.faces.blocks(k.name, k.i, k.j, lists=True):
+            n, hits, (ms, mc) = fused(k, self.sim, self.cut, f, C, owned, pad, boxes, flags,
                                       self.tol)
             ncand += n
             if len(ms):
@@ -228,16 +238,24 @@ class Registration:
         if self.empty:
             return KindPairs(kind, np.zeros((0, i + 1), np.int64), np.zeros((0, j + 1), np.int64),
                              np.zeros((0, i + 1), self.dtype), np.zeros((0, j + 1), self.dtype))
-        sid = self.sim.ids(i, s).reshape(len(s), i + 1)
-        cid = self.cut.ids(j, c).reshape(len(c), j + 1)
-        # lexicographic on (sorted sim ids, sorted cut ids): packed into few int64 keys
-        # (order-preserving; the same stable order as a lexsort of the 2 + i + j columns)
-        keys = (packed_keys(np.sort(sid, axis=1), len(self.sim.order))
-                + packed_keys(np.sort(cid, axis=1), len(self.cut.order)))
-        order = lex_order(keys) if len(sid) else np.zeros(0, dtype=np.int64)
-        # take: rows gathered ~3× faster than fancy indexing, the same values
-        return KindPairs(kind, sid.take(order, axis=0), cid.take(order, axis=0),
-                         sw.take(order, axis=0), cw.take(order, axis=0),
+        if self.accelerate and len(s):  # the same order and ids, compiled
+            from predicates.compiled.rows import hits_in_order
+
+            sim, cut = self.sim, self.cut
+            order, sid, cid = hits_in_order((sim.cx.S[i], sim.order, s, sim.n_input),
+                                            (cut.cx.S[j], cut.order, c, cut.n_input))
+        else:
+            sid = self.sim.ids(i, s).reshape(len(s), i + 1)
+            cid = self.cut.ids(j, c).reshape(len(c), j + 1)
+            # lexicographic on (sorted sim ids, sorted cut ids): packed into few int64
+            # keys (order-preserving; the order of a lexsort of the 2 + i + j columns,
+            # whose rows are distinct: each pair is registered once)
+            keys = (packed_keys(sorted_rows(sid), self.sim.n_input)
+                    + packed_keys(sorted_rows(cid), self.cut.n_input))
+            order = distinct_lex_order(keys) if len(sid) else np.zeros(0, dtype=np.int64)
+            # take: rows gathered ~3× faster than fancy indexing, the same values
+            sid, cid = sid.take(order, axis=0), cid.take(order, axis=0)
+        return KindPairs(kind, sid, cid, sw.take(order, axis=0), cw.take(order, axis=0),
                          candidates=ncand, suppressed=nsup)
 
 
