@@ -838,6 +838,33 @@ def test_cutting_slices_cut_in_the_tasks_are_the_clients(seed, k, pad, dim):
             assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
 
 
+def test_parts_far_from_the_cut_run_no_task_on_a_client():
+    """Partitions of every simulation cell with a cut in one corner (as
+    test_partitions_without_cutting_cells_are_skipped): on a Client those whose halo
+    misses the cutting cells' wide hull are left out before any task, the others cut
+    their slices in the task; the merged pairs are the serial ones."""
+    from predicates.registration import pipeline
+    from predicates.registration.partition.run import client_for, run_partitioned
+
+    sp, sc, cp, cc = _corner_cut()
+    ref = predicates.intersect(sp, sc, cp, cc)
+    plan = pipeline._plan((sp, sc, cp, cc), np.float64, 1.0, False, pipeline.CHUNK, True,
+                          {}, None, None)
+    plan = plan._replace(sim_cells=sc)  # every cell, not only those that can meet
+    pad = max(plan.scale.reach.values())
+    k = 16
+    sent = [p.cut_pending for p in split(plan.P_sim, sc, plan.P_cut, plan.cut_cells, k, pad,
+                                         cut_in_task=True)]
+    assert any(sent) and not all(sent)
+    with client_for(2) as client:
+        timings = {}
+        pairs = run_partitioned(plan, k, client, pipeline.CHUNK, timings)
+    assert len(timings["partitions"]) == sum(sent)  # a task for each part sent
+    for kind in ref.kinds:
+        for name in ("sim", "cut", "sim_weights", "cut_weights"):
+            assert getattr(pairs[kind], name).tobytes() == getattr(ref[kind], name).tobytes()
+
+
 def test_cli_per_partition_files(tmp_path):
     """fperr intersect --workers N -o 'hits_{part}.vtu': one file per partition of the
     run, together the serial run's points with every data array and each with the kind

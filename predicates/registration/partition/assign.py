@@ -21,7 +21,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from predicates.registration.spatial.boxgrid import rowwise
+from predicates.registration.spatial.boxgrid import colmax, colmin, rowwise
 from predicates.registration.spatial.broadphase import boxes_of
 from predicates.registration.partition.slices import cut_near, halos, owner_halos, wide
 from predicates.registration.result.intersection import KindPairs
@@ -223,8 +223,8 @@ class Layout:
     all cells): each Part also carries its vertices' coordinates and its cells' indices
     (``sim_coords``, ``cell_ids``), for its file. ``cut_in_task``: the parts leave their
     cutting slices to the task (``cut_pending``: :func:`cut_slice` with a
-    :class:`CutSide` sent once per worker); a part whose halo's bounding box meets no
-    cutting cell's wide box is still cut here (empty: no task)."""
+    :class:`CutSide` sent once per worker); a part whose halo's bounding box misses the
+    hull of the cutting cells' wide boxes is still cut here (empty: no task)."""
 
     def __init__(self, P_sim, sim_cells, P_cut, cut_cells, k: int, pad: float,
                  owner: np.ndarray | None = None, write=None, cut_in_task: bool = False):
@@ -243,8 +243,13 @@ class Layout:
             self.owned = np.bincount(owner[sim_cells[:, 0]], minlength=k)
             self.halo, self.halo_at = owner_halos(sim_cells, owner, k)
         self.lo = self.hi = None  # the run cells' boxes, once, when a part is cut here
-        self.clo, self.chi = boxes_of(P_cut, cut_cells)
-        self.wide = wide(self.clo, self.chi, pad)
+        if cut_in_task:  # only the hull of the cutting cells' wide boxes
+            used = P_cut[cut_cells.ravel()] if len(cut_cells) else P_cut[:0]
+            self.hull = None if len(used) == 0 else wide(colmin(used)[None], colmax(used)[None],
+                                                         pad)
+        else:
+            self.clo, self.chi = boxes_of(P_cut, cut_cells)
+            self.wide = wide(self.clo, self.chi, pad)
 
     def part(self, r: int) -> Part | None:
         """Partition r's :class:`Part` (None: it holds no cell)."""
@@ -252,35 +257,32 @@ class Layout:
             return None
         halo = self.halo[self.halo_at[r]: self.halo_at[r + 1]]  # includes own cells
         Ps, cs, sid = _local(self.P_sim, self.sim_cells, halo)
-        if self.cut_in_task and self._meets_wide(Ps):
-            none = np.zeros(0, dtype=sid.dtype)
-            part = Part(r, Ps, cs, sid, self.owner[sid] == r, self.P_cut[:0],
-                        self.cut_cells[:0], none, int(self.owned[r]), cut_pending=True)
+        pending = self.cut_in_task and self._meets_hull(Ps)
+        if self.cut_in_task:  # the task cuts it, or it is empty (no wide box meets it)
+            cut_keep = np.zeros(0, dtype=np.int64)
         else:
             if self.lo is None:
                 self.lo, self.hi = boxes_of(self.P_sim, self.sim_cells)
             cut_keep = cut_near(self.lo[halo], self.hi[halo], self.clo, self.chi,
                                 *self.wide, self.pad)
-            Pc, cc, cid = _local(self.P_cut, self.cut_cells, cut_keep)
-            part = Part(r, Ps, cs, sid, self.owner[sid] == r, Pc, cc, cid,
-                        int(self.owned[r]))
+        Pc, cc, cid = _local(self.P_cut, self.cut_cells, cut_keep)
+        part = Part(r, Ps, cs, sid, self.owner[sid] == r, Pc, cc, cid, int(self.owned[r]),
+                    cut_pending=pending)
         if self.write is not None:
             points, rows = self.write
             part.sim_coords, part.cell_ids = points[sid], rows[halo]
         return part
 
 
-    def _meets_wide(self, points: np.ndarray) -> bool:
-        """Some cutting cell's wide box meets the bounding box of ``points`` (a halo's
-        vertices: the hull of its cells' boxes), :func:`.slices.cut_near`'s first test."""
-        if len(points) == 0 or len(self.clo) == 0:
+    def _meets_hull(self, points: np.ndarray) -> bool:
+        """The bounding box of ``points`` (a halo's vertices: the hull of its cells'
+        boxes) meets the hull of the cutting cells' wide boxes — a superset of
+        :func:`.slices.cut_near`'s first test (each wide box lies in the hull: rounding
+        is monotone), so a part that fails it has an empty cutting slice."""
+        if len(points) == 0 or self.hull is None:
             return False
-        meets = np.ones(len(self.clo), dtype=bool)
-        for ax in range(points.shape[1]):
-            column = points[:, ax]
-            meets &= self.wide[0][:, ax] <= column.max()
-            meets &= self.wide[1][:, ax] >= column.min()
-        return bool(meets.any())
+        lo, hi = colmin(points), colmax(points)
+        return bool(np.all(self.hull[0][0] <= hi) and np.all(self.hull[1][0] >= lo))
 
 
 def owned(part: Part, pairs: dict) -> dict:
