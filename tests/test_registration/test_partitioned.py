@@ -860,6 +860,8 @@ def test_parts_far_from_the_cut_run_no_task_on_a_client():
         timings = {}
         pairs = run_partitioned(plan, k, client, pipeline.CHUNK, timings)
     assert len(timings["partitions"]) == sum(sent)  # a task for each part sent
+    # the cutting mesh went to the workers once, its ids as int32
+    assert timings["cut_side_bytes"] == plan.P_cut.nbytes + 4 * plan.cut_cells.size
     for kind in ref.kinds:
         for name in ("sim", "cut", "sim_weights", "cut_weights"):
             assert getattr(pairs[kind], name).tobytes() == getattr(ref[kind], name).tobytes()

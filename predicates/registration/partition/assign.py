@@ -161,8 +161,15 @@ class CutSide:
     where they are first needed and kept with the object (a worker's tasks share it)."""
 
     def __init__(self, P_cut: np.ndarray, cut_cells: np.ndarray, pad: float):
+        if len(P_cut) < 2 ** 31:  # int32 ids: half the bytes sent (the slices the same)
+            cut_cells = cut_cells.astype(np.int32, copy=False)
         self.P_cut, self.cut_cells, self.pad = P_cut, cut_cells, pad
         self._boxes = None
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes of array data sent to each worker."""
+        return self.P_cut.nbytes + self.cut_cells.nbytes
 
     def __getstate__(self):
         return {"P_cut": self.P_cut, "cut_cells": self.cut_cells, "pad": self.pad}

@@ -291,8 +291,9 @@ def _tasks(dask, client, plan, k, scheduler, chunk, timings, bar, timeout=None,
     if client is not None:
         # sent once to each worker, not with every task
         spec = None if spec is None else client.scatter(spec, hash=False)
-        side = client.scatter(CutSide(plan.P_cut, plan.cut_cells, pad), hash=False,
-                              broadcast=True)
+        side = CutSide(plan.P_cut, plan.cut_cells, pad)
+        timings["cut_side_bytes"] = side.nbytes  # to each worker, once
+        side = client.scatter(side, hash=False, broadcast=True)
         # each partition's task starts as soon as its slice is cut and sent: the split
         # of the next ones overlaps the workers' tasks ("partition": split and send)
         futures, index = [], []
