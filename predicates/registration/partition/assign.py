@@ -252,8 +252,8 @@ class Layout:
         self.lo = self.hi = None  # the run cells' boxes, once, when a part is cut here
         if cut_in_task:  # only the hull of the cutting cells' wide boxes
             used = P_cut[cut_cells.ravel()] if len(cut_cells) else P_cut[:0]
-            self.hull = None if len(used) == 0 else wide(colmin(used)[None], colmax(used)[None],
-                                                         pad)
+            self.hull = None if len(used) == 0 else wide(colmin(used)[None],
+                                                         colmax(used)[None], pad)
         else:
             self.clo, self.chi = boxes_of(P_cut, cut_cells)
             self.wide = wide(self.clo, self.chi, pad)

@@ -81,8 +81,10 @@ def read_piece(path: str | os.PathLike, region=None) -> Piece:
         bad = cells.min() if cells.min() < 0 else cells.max()
         raise MeshFileError(path, f"a cell refers to point {bad} of a piece with "
                                   f"{len(ids)} points")
+    # its own numbering as int32 when it fits: half the bytes kept beside the global ids
+    local = cells.astype(np.int32) if len(ids) < 2 ** 31 else cells
     return Piece(ids, np.asarray(conv.points, dtype=np.float64), ids[cells], dim,
-                 conv.plane, conv.notes, cells)
+                 conv.plane, conv.notes, local)
 
 
 def _head(piece: Piece):
