@@ -6,6 +6,17 @@ workers build themselves: the client never holds them).
     python benchmarks/partition_remote_bench.py [--n 120] [--subdivisions 7]
         [--workers 2] [--partitions 2] [--reps 2] [--rounds 1] [--json OUT]
         [--modes serial,dask,remote,files,pieces,serial_pieces] [--folder DIR]
+        [--cluster spawned|local]
+
+``--cluster spawned`` (the default): the scheduler and each single-threaded worker are
+processes of their own (``dask scheduler``, ``dask worker --no-nanny``, started by the
+child), so the client's CPU is the client's alone — a ``LocalCluster`` (``local``) runs
+its scheduler on the client's event-loop thread, whose CPU the client's figure then
+includes. The scheduler's and the workers' CPU are read from /proc per run. Every child
+runs with ``FPERR_ACCELERATE=1`` (the compiled chain, serial and partitioned alike).
+With ``--rounds R`` the modes alternate R times; the summary gives per round the
+critical-path CPU speed-up of each partitioned mode against the serial run of the same
+round, then the median and range over the rounds.
 
 Mode ``files`` (``pieces_files``): as ``remote`` (``pieces``), with one file per
 partition written by each partition's task (``PartFiles``); ``remote`` then writes the
@@ -27,8 +38,10 @@ pair and weight array (must equal the serial run's).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import hashlib
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -107,8 +120,58 @@ def pieces_order(n: int, k: int) -> np.ndarray:
                            for r in range(k)])
 
 
+def proc_cpu(pid: int) -> float:
+    """CPU seconds (user + system) of process ``pid`` so far (/proc/PID/stat)."""
+    with open(f"/proc/{pid}/stat") as f:
+        fields = f.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+@contextlib.contextmanager
+def spawned_cluster(workers: int):
+    """(Client, scheduler pid, worker pids): a ``dask scheduler`` and ``workers``
+    ``dask worker --nthreads 1 --no-nanny`` processes, each its own process with the
+    environment of ``client_for``'s workers (WORKER_ENV, no profiler); the workers
+    import the registration first. Stopped (by their own pids) on exit."""
+    import tempfile
+
+    from distributed import Client
+
+    from predicates.registration.partition.run import WORKER_ENV, _warm
+
+    dask_exe = str(Path(sys.executable).parent / "dask")
+    env = dict(os.environ, **WORKER_ENV, DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED="False")
+    folder = tempfile.mkdtemp(prefix="fperr-cluster-")
+    sfile = f"{folder}/scheduler.json"
+    quiet = dict(env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    procs = [subprocess.Popen([dask_exe, "scheduler", "--host", "127.0.0.1", "--port", "0",
+                               "--no-dashboard", "--scheduler-file", sfile], **quiet)]
+    try:
+        for _ in range(600):
+            if Path(sfile).exists() and Path(sfile).stat().st_size:
+                break
+            time.sleep(0.05)
+        procs += [subprocess.Popen([dask_exe, "worker", "--scheduler-file", sfile,
+                                    "--nthreads", "1", "--no-nanny", "--no-dashboard",
+                                    "--memory-limit", "0"], **quiet)
+                  for _ in range(workers)]
+        with Client(scheduler_file=sfile) as client:
+            client.wait_for_workers(workers, timeout=120)
+            client.run(_warm)
+            yield client, procs[0].pid, [p.pid for p in procs[1:]]
+    finally:
+        for p in reversed(procs):  # the workers first, then the scheduler
+            p.terminate()
+            try:
+                p.wait(timeout=10)
+            except subprocess.TimeoutExpired:  # a worker still closing its comms
+                p.kill()
+                p.wait()
+        shutil.rmtree(folder, ignore_errors=True)
+
+
 def child(mode: str, n: int, sub: int, workers: int, k: int, reps: int,
-          folder: str | None = None) -> dict:
+          folder: str | None = None, cluster: str = "spawned") -> dict:
     import predicates
     from predicates.registration.examples import cube_grid, grid_coordinates, icosphere
 
@@ -136,7 +199,7 @@ def child(mode: str, n: int, sub: int, workers: int, k: int, reps: int,
             out["cpu"].append(time.process_time() - c)
             out["setup"].append(res.timings["setup"])
     else:
-        res = partitioned(mode, out, sp, sc, cp, cc, n, workers, k, reps, folder)
+        res = partitioned(mode, out, sp, sc, cp, cc, n, workers, k, reps, folder, cluster)
     out["timings"] = {key: round(v, 3) for key, v in res.timings.items()
                       if isinstance(v, float)}  # the last run's stages (wall, CPU)
     out["client_peak_mib"] = status("VmHWM")
@@ -145,7 +208,7 @@ def child(mode: str, n: int, sub: int, workers: int, k: int, reps: int,
 
 
 def partitioned(mode: str, out: dict, sp, sc, cp, cc, n: int, workers: int, k: int,
-                reps: int, folder: str | None):
+                reps: int, folder: str | None, cluster: str = "spawned"):
     """The partitioned runs of ``mode`` on a fresh local cluster (records in ``out``).
     Mode ``files``: the cells on the workers and one file per partition written by
     each task (``PartFiles``); mode ``remote`` then times the client writing the same
@@ -160,7 +223,14 @@ def partitioned(mode: str, out: dict, sp, sc, cp, cc, n: int, workers: int, k: i
 
     m = 6 * n ** 3
     tmp = tempfile.mkdtemp(prefix="fperr-parts-")
-    with client_for(workers) as client:
+    if cluster == "spawned":
+        started = spawned_cluster(workers)
+    else:  # the scheduler on the client's event-loop thread: no pids of its own
+        started = contextlib.nullcontext()
+    with started as spawned, (client_for(workers) if spawned is None
+                              else contextlib.nullcontext(spawned[0])) as client:
+        pids = [] if spawned is None else [spawned[1], *spawned[2]]
+        out["scheduler_cpu"], out["workers_cpu"], out["thread_cpu"] = [], [], []
         if mode in ("remote", "files"):
             import dask
             import dask.array as da
@@ -171,7 +241,9 @@ def partitioned(mode: str, out: dict, sp, sc, cp, cc, n: int, workers: int, k: i
                                 dtype=np.int64) for a, b in zip(cuts[:-1], cuts[1:])]))
         out["read"] = []
         for _ in range(reps):
+            before = [proc_cpu(pid) for pid in pids]
             t, c = time.perf_counter(), time.process_time()
+            main = time.thread_time()
             if mode.startswith("pieces"):  # read by the workers, the client: the points
                 from predicates.registration.partition.pieces import read_pieces_on_workers
 
@@ -183,7 +255,12 @@ def partitioned(mode: str, out: dict, sp, sc, cp, cc, n: int, workers: int, k: i
                                        memory_limit=16 << 30)
             out["runs"].append(time.perf_counter() - t)
             out["cpu"].append(time.process_time() - c)
+            out["thread_cpu"].append(time.thread_time() - main)  # the main thread's
             out["setup"].append(res.timings["setup"])
+            if pids:  # the scheduler's own CPU, the workers' (all their threads)
+                spent = [proc_cpu(pid) - b for pid, b in zip(pids, before)]
+                out["scheduler_cpu"].append(spent[0])
+                out["workers_cpu"].append(spent[1:])
         if mode == "remote":  # the files written by the client, from the merged result
             t, c = time.perf_counter(), time.process_time()
             write_parts(res, k, f"{tmp}/hits_{{part}}.vtu")
@@ -210,6 +287,25 @@ def record_partitions(out: dict, res) -> None:
     out["plan_remote"] = remote or None
 
 
+def summarise(got: dict) -> None:
+    """Per round, each partitioned mode's critical-path CPU against the serial run of the
+    same round (``serial_pieces`` for the pieces modes); median and range over rounds."""
+    for mode, recs in got.items():
+        base = got.get("serial_pieces" if mode.startswith("pieces") else "serial")
+        if mode.startswith("serial") or not base:
+            continue
+        ratios, crit = [], []
+        for rec, ref in zip(recs, base):
+            c = rec["critical_cpu"]
+            crit.append(c["client"] + c["plan_on_workers"] + c["busiest_task"])
+            ratios.append(ref["cpu"][-1] / crit[-1])
+        print(f"{mode}: critical CPU {np.median(crit):.2f} s (range {min(crit):.2f}–"
+              f"{max(crit):.2f}), serial {np.median([r['cpu'][-1] for r in base]):.2f} s; "
+              f"speed-up median {np.median(ratios):.2f}× (range {min(ratios):.2f}–"
+              f"{max(ratios):.2f}×, {len(ratios)} rounds: "
+              f"{', '.join(f'{x:.2f}' for x in ratios)})", flush=True)
+
+
 def files_digest(folder: str, k: int) -> str:
     """SHA-256 of the k per-partition files' bytes, in order."""
     h = hashlib.sha256()
@@ -231,13 +327,16 @@ def main(argv=None):
     ap.add_argument("--json")
     ap.add_argument("--child")
     ap.add_argument("--folder", help="the pieces' folder (mode pieces: written once)")
+    ap.add_argument("--cluster", choices=("spawned", "local"), default="spawned",
+                    help="spawned: scheduler and workers in processes of their own; "
+                         "local: a LocalCluster (its scheduler in the client's process)")
     a = ap.parse_args(argv)
     if a.child == "write":
         write_pieces(a.n, a.partitions, a.folder)
         return
     if a.child:
         print(json.dumps(child(a.child, a.n, a.subdivisions, a.workers, a.partitions,
-                               a.reps, a.folder)))
+                               a.reps, a.folder, a.cluster)))
         return
     if {"pieces", "pieces_files"} & set(a.modes.split(",")):
         import tempfile
@@ -248,16 +347,26 @@ def main(argv=None):
             subprocess.run([sys.executable, __file__, "--child", "write", "--n", str(a.n),
                             "--partitions", str(a.partitions), "--folder", a.folder],
                            check=True)
+    if a.n > 24:  # numba's on-disk cache first (a fresh tree compiles every kernel:
+        # seconds that would land on whichever run came first), on a small mesh
+        for mode in dict.fromkeys(m for m in a.modes.split(",")
+                                  if m in ("serial", "remote", "dask")):
+            subprocess.run([sys.executable, __file__, "--child", mode, "--n", "24",
+                            "--subdivisions", "4", "--workers", str(a.workers),
+                            "--partitions", str(a.partitions), "--reps", "1",
+                            "--cluster", a.cluster], capture_output=True, check=True,
+                           env=dict(os.environ, FPERR_ACCELERATE="1"))
     got = {}
     for _ in range(a.rounds):
         for mode in a.modes.split(","):
             cmd = [sys.executable, __file__, "--child", mode, "--n", str(a.n),
                    "--subdivisions", str(a.subdivisions), "--workers", str(a.workers),
-                   "--partitions", str(a.partitions), "--reps", str(a.reps)] + (
-                       ["--folder", a.folder] if a.folder else [])
+                   "--partitions", str(a.partitions), "--reps", str(a.reps),
+                   "--cluster", a.cluster] + (["--folder", a.folder] if a.folder else [])
             with open("/proc/loadavg") as f:
                 load = float(f.read().split()[0])
-            r = subprocess.run(cmd, capture_output=True, text=True)
+            r = subprocess.run(cmd, capture_output=True, text=True,
+                               env=dict(os.environ, FPERR_ACCELERATE="1"))
             if r.returncode:
                 raise SystemExit(f"{mode} failed:\n{r.stderr[-3000:]}")
             rec = json.loads(r.stdout.strip().splitlines()[-1])
@@ -270,6 +379,7 @@ def main(argv=None):
     # the pieces hold the cells in another order: their baseline is serial_pieces
     digests = {r["digest"] for recs in got.values() for r in recs}
     print("identical results:", len(digests) == 1, "(digests:", len(digests), ")")
+    summarise(got)
     if a.json:
         Path(a.json).write_text(json.dumps(got, indent=1))
 

@@ -67,6 +67,8 @@ def test_pieces_read_by_the_workers_give_the_serial_result(tmp_path, case, seed,
                                scheduler=sched)
     assert_identical(ref, res)
     assert res.timings["plan_remote"]["tasks"] >= 2 * count  # the plan ran per piece
+    # on each piece's own points: the points were not sent back to the workers
+    assert res.timings["plan_remote"]["points_sent"] == "pieces"
     # the result's cell queries scan the cells where they are, with the serial answers
     assert np.array_equal(res.intersected_cells(), ref.intersected_cells())
     for kind in ref.kinds:
@@ -90,6 +92,34 @@ def test_pieces_on_a_distributed_cluster(tmp_path):
                                     scheduler=cluster.scheduler_address)
     assert_identical(ref, res)
     assert_identical(ref, res2)
+    assert res.timings["plan_remote"]["points_sent"] == "pieces"
+
+
+def test_pieces_own_points_in_float32_and_a_repeated_vertex(tmp_path):
+    """The per-piece passes cast each piece's own points as the client casts every
+    point (float32: the serial float32 result bit for bit), and a cell repeating a
+    vertex in the last piece is refused with the serial message (global cell number)."""
+    sp, sc, cp, cc = _case("sphere", 6, angle=2, subdivisions=2)
+    paths, cells = write_pieces(tmp_path, sp, sc, np.random.default_rng(3), 3)
+    ref = predicates.intersect(sp, cells, cp, cc, dtype=np.float32)
+    got = read_pieces_on_workers(paths, "threads")
+    res = predicates.intersect(got.points, got.cells, cp, cc, dtype=np.float32,
+                               partitions=3, scheduler="threads")
+    assert res.timings["plan_remote"]["points_sent"] == "pieces"
+    assert_identical(ref, res)
+    last = meshio.read(paths[-1])
+    tets = last.cells_dict["tetra"].copy()
+    tets[-1, 1] = tets[-1, 0]  # the mesh's last cell repeats a vertex
+    meshio.Mesh(last.points, [("tetra", tets)], point_data=last.point_data).write(paths[-1])
+    bad = cells.copy()
+    bad[-1, 1] = bad[-1, 0]
+    with pytest.raises(ValueError) as serial:
+        predicates.intersect(sp, bad, cp, cc)
+    got = read_pieces_on_workers(paths, "synchronous")
+    with pytest.raises(ValueError) as pieces:
+        predicates.intersect(got.points, got.cells, cp, cc, partitions=2,
+                             scheduler="synchronous")
+    assert str(pieces.value) == str(serial.value) and f"cell {len(bad) - 1}" in str(serial.value)
 
 
 def _pieces(tmp_path, sp, sc, count=3, seed=0):

@@ -810,6 +810,63 @@ def test_every_partition_gets_the_cutting_cells_within_reach(seed, k, pad):
         assert np.all(np.diff(p.cut_ids) > 0) and np.all(np.diff(p.sim_ids) > 0)
 
 
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 10**6), k=st.integers(1, 40), pad=st.sampled_from([0.0, 0.02, 0.3]),
+       dim=st.sampled_from([2, 3]))
+def test_cutting_slices_cut_in_the_tasks_are_the_clients(seed, k, pad, dim):
+    """On a Client the tasks cut their own cutting slices from the cutting mesh sent
+    once (CutSide, pickled as it travels to a worker): every Part equals, array by
+    array, the one the client cuts; the parts the client leaves whole (no cutting
+    cell's wide box meets the halo's bounding box) are exactly empty slices."""
+    import pickle
+
+    from predicates.registration.partition.assign import CutSide, cut_slice
+
+    sp, sc, cp, cc = CASES["sphere" if dim == 3 else "circle"](seed)
+    side = pickle.loads(pickle.dumps(CutSide(cp, cc, pad)))
+    want = list(split(sp, sc, cp, cc, k, pad=pad))
+    got = list(split(sp, sc, cp, cc, k, pad=pad, cut_in_task=True))
+    assert [p.index for p in got] == [p.index for p in want]
+    for p, q in zip(got, want):
+        if not p.cut_pending:
+            assert len(q.cut_cells) == 0 and len(p.cut_cells) == 0
+        p = cut_slice(p, side)
+        assert not p.cut_pending
+        for name in ("P_sim", "sim_cells", "sim_ids", "own_vertex", "P_cut", "cut_cells",
+                     "cut_ids"):
+            a, b = getattr(p, name), getattr(q, name)
+            assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+
+
+def test_parts_far_from_the_cut_run_no_task_on_a_client():
+    """Partitions of every simulation cell with a cut in one corner (as
+    test_partitions_without_cutting_cells_are_skipped): on a Client those whose halo
+    misses the cutting cells' wide hull are left out before any task, the others cut
+    their slices in the task; the merged pairs are the serial ones."""
+    from predicates.registration import pipeline
+    from predicates.registration.partition.run import client_for, run_partitioned
+
+    sp, sc, cp, cc = _corner_cut()
+    ref = predicates.intersect(sp, sc, cp, cc)
+    plan = pipeline._plan((sp, sc, cp, cc), np.float64, 1.0, False, pipeline.CHUNK, True,
+                          {}, None, None)
+    plan = plan._replace(sim_cells=sc)  # every cell, not only those that can meet
+    pad = max(plan.scale.reach.values())
+    k = 16
+    sent = [p.cut_pending for p in split(plan.P_sim, sc, plan.P_cut, plan.cut_cells, k, pad,
+                                         cut_in_task=True)]
+    assert any(sent) and not all(sent)
+    with client_for(2) as client:
+        timings = {}
+        pairs = run_partitioned(plan, k, client, pipeline.CHUNK, timings)
+    assert len(timings["partitions"]) == sum(sent)  # a task for each part sent
+    # the cutting mesh went to the workers once, its ids as int32
+    assert timings["cut_side_bytes"] == plan.P_cut.nbytes + 4 * plan.cut_cells.size
+    for kind in ref.kinds:
+        for name in ("sim", "cut", "sim_weights", "cut_weights"):
+            assert getattr(pairs[kind], name).tobytes() == getattr(ref[kind], name).tobytes()
+
+
 def test_cli_per_partition_files(tmp_path):
     """fperr intersect --workers N -o 'hits_{part}.vtu': one file per partition of the
     run, together the serial run's points with every data array and each with the kind

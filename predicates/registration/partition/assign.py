@@ -17,16 +17,17 @@ result is the serial one is docs/partitioned.md.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from predicates.registration.spatial.boxgrid import rowwise
+from predicates.registration.spatial.boxgrid import colmax, colmin, rowwise
 from predicates.registration.spatial.broadphase import boxes_of
 from predicates.registration.partition.slices import cut_near, halos, owner_halos, wide
 from predicates.registration.result.intersection import KindPairs
 
-__all__ = ["Layout", "Part", "assign", "merge", "morton_order", "owned", "split"]
+__all__ = ["CutSide", "Layout", "Part", "assign", "cut_slice", "merge", "morton_order",
+           "owned", "split"]
 
 
 @dataclass
@@ -52,6 +53,7 @@ class Part:
     owned_cells: int
     sim_coords: np.ndarray | None = None
     cell_ids: np.ndarray | None = None
+    cut_pending: bool = False  # its cutting slice is cut in the task (:func:`cut_slice`)
 
     @property
     def nbytes(self) -> int:
@@ -152,14 +154,60 @@ def owners_from(pos: np.ndarray, first: np.ndarray, k: int) -> np.ndarray:
     return np.where(first < m, pos[np.minimum(first, m - 1)] * k // m, -1)
 
 
+class CutSide:
+    """The run's cutting mesh (scaled points, cells) and the pad, sent once to each
+    worker: each task cuts its own slice from it (:func:`cut_slice`) instead of the
+    client cutting every partition's (docs/partitioned.md 3). The boxes are computed
+    where they are first needed and kept with the object (a worker's tasks share it)."""
+
+    def __init__(self, P_cut: np.ndarray, cut_cells: np.ndarray, pad: float):
+        if len(P_cut) < 2 ** 31:  # int32 ids: half the bytes sent (the slices the same)
+            cut_cells = cut_cells.astype(np.int32, copy=False)
+        self.P_cut, self.cut_cells, self.pad = P_cut, cut_cells, pad
+        self._boxes = None
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes of array data sent to each worker."""
+        return self.P_cut.nbytes + self.cut_cells.nbytes
+
+    def __getstate__(self):
+        return {"P_cut": self.P_cut, "cut_cells": self.cut_cells, "pad": self.pad}
+
+    def __setstate__(self, state):
+        self.__init__(state["P_cut"], state["cut_cells"], state["pad"])
+
+    def boxes(self):
+        """(lo, hi, wide lo, wide hi) of every cutting cell (:func:`.slices.wide`)."""
+        if self._boxes is None:  # exact (min, max) and elementwise: the client's values
+            clo, chi = boxes_of(self.P_cut, self.cut_cells)
+            self._boxes = (clo, chi, *wide(clo, chi, self.pad))
+        return self._boxes
+
+
+def cut_slice(part: Part, side: CutSide) -> Part:
+    """``part`` with its cutting slice (the cells :func:`.slices.cut_near` keeps for its
+    halo, renumbered) taken from ``side``: the same slice the client's
+    :meth:`Layout.part` cuts — the halo's boxes are exact functions of its cells'
+    coordinates, which renumbering does not change, in the same order."""
+    if not part.cut_pending:
+        return part
+    lo, hi = boxes_of(part.P_sim, part.sim_cells)
+    keep = cut_near(lo, hi, *side.boxes(), side.pad)
+    Pc, cc, cid = _local(side.P_cut, side.cut_cells, keep)
+    # a new Part: the one received may be a scattered object the worker keeps
+    return replace(part, P_cut=Pc, cut_cells=cc, cut_ids=cid, cut_pending=False)
+
+
 def split(P_sim, sim_cells, P_cut, cut_cells, k: int, pad: float, owner=None,
-          write=None):
+          write=None, cut_in_task: bool = False):
     """Yield the :class:`Part` of each non-empty partition of k (cells in Morton
     order, cut into k runs of equal size ± 1); ``pad``: the largest broad-phase reach.
     Any assignment of cells to partitions gives the serial result; Morton runs keep them
     compact, so halos and cutting slices stay small. ``owner``: each vertex's partition
-    given and ``write`` (per-partition files: :class:`Layout`)."""
-    layout = Layout(P_sim, sim_cells, P_cut, cut_cells, k, pad, owner, write)
+    given and ``write`` (per-partition files), ``cut_in_task`` (the cutting slices cut
+    by the tasks): :class:`Layout`."""
+    layout = Layout(P_sim, sim_cells, P_cut, cut_cells, k, pad, owner, write, cut_in_task)
     for r in range(k):
         part = layout.part(r)
         if part is not None:
@@ -180,11 +228,14 @@ class Layout:
     every cell containing a vertex it owns); ``owned_cells`` then counts the cells whose
     first vertex r owns. ``write`` (the points as given, each run cell's index among
     all cells): each Part also carries its vertices' coordinates and its cells' indices
-    (``sim_coords``, ``cell_ids``), for its file."""
+    (``sim_coords``, ``cell_ids``), for its file. ``cut_in_task``: the parts leave their
+    cutting slices to the task (``cut_pending``: :func:`cut_slice` with a
+    :class:`CutSide` sent once per worker); a part whose halo's bounding box misses the
+    hull of the cutting cells' wide boxes is still cut here (empty: no task)."""
 
     def __init__(self, P_sim, sim_cells, P_cut, cut_cells, k: int, pad: float,
-                 owner: np.ndarray | None = None, write=None):
-        self.write = write
+                 owner: np.ndarray | None = None, write=None, cut_in_task: bool = False):
+        self.write, self.cut_in_task = write, cut_in_task
         self.P_sim, self.sim_cells, self.P_cut, self.cut_cells = (P_sim, sim_cells, P_cut,
                                                                   cut_cells)
         self.k, self.pad = k, pad
@@ -198,9 +249,14 @@ class Layout:
             self.owner = owner
             self.owned = np.bincount(owner[sim_cells[:, 0]], minlength=k)
             self.halo, self.halo_at = owner_halos(sim_cells, owner, k)
-        self.lo, self.hi = boxes_of(P_sim, sim_cells)  # once: a part takes its rows
-        self.clo, self.chi = boxes_of(P_cut, cut_cells)
-        self.wide = wide(self.clo, self.chi, pad)
+        self.lo = self.hi = None  # the run cells' boxes, once, when a part is cut here
+        if cut_in_task:  # only the hull of the cutting cells' wide boxes
+            used = P_cut[cut_cells.ravel()] if len(cut_cells) else P_cut[:0]
+            self.hull = None if len(used) == 0 else wide(colmin(used)[None],
+                                                         colmax(used)[None], pad)
+        else:
+            self.clo, self.chi = boxes_of(P_cut, cut_cells)
+            self.wide = wide(self.clo, self.chi, pad)
 
     def part(self, r: int) -> Part | None:
         """Partition r's :class:`Part` (None: it holds no cell)."""
@@ -208,14 +264,32 @@ class Layout:
             return None
         halo = self.halo[self.halo_at[r]: self.halo_at[r + 1]]  # includes own cells
         Ps, cs, sid = _local(self.P_sim, self.sim_cells, halo)
-        cut_keep = cut_near(self.lo[halo], self.hi[halo], self.clo, self.chi, *self.wide,
-                            self.pad)
+        pending = self.cut_in_task and self._meets_hull(Ps)
+        if self.cut_in_task:  # the task cuts it, or it is empty (no wide box meets it)
+            cut_keep = np.zeros(0, dtype=np.int64)
+        else:
+            if self.lo is None:
+                self.lo, self.hi = boxes_of(self.P_sim, self.sim_cells)
+            cut_keep = cut_near(self.lo[halo], self.hi[halo], self.clo, self.chi,
+                                *self.wide, self.pad)
         Pc, cc, cid = _local(self.P_cut, self.cut_cells, cut_keep)
-        part = Part(r, Ps, cs, sid, self.owner[sid] == r, Pc, cc, cid, int(self.owned[r]))
+        part = Part(r, Ps, cs, sid, self.owner[sid] == r, Pc, cc, cid, int(self.owned[r]),
+                    cut_pending=pending)
         if self.write is not None:
             points, rows = self.write
             part.sim_coords, part.cell_ids = points[sid], rows[halo]
         return part
+
+
+    def _meets_hull(self, points: np.ndarray) -> bool:
+        """The bounding box of ``points`` (a halo's vertices: the hull of its cells'
+        boxes) meets the hull of the cutting cells' wide boxes — a superset of
+        :func:`.slices.cut_near`'s first test (each wide box lies in the hull: rounding
+        is monotone), so a part that fails it has an empty cutting slice."""
+        if len(points) == 0 or self.hull is None:
+            return False
+        lo, hi = colmin(points), colmax(points)
+        return bool(np.all(self.hull[0][0] <= hi) and np.all(self.hull[1][0] >= lo))
 
 
 def owned(part: Part, pairs: dict) -> dict:

@@ -13,7 +13,8 @@ in the order the pieces are given, each piece's in its file's order, in global i
 Each worker reads its pieces once; the client receives per piece its point ids and
 coordinates (the plan scales the points: docs/partitioned.md section 6) and a few
 numbers; the cells stay on the workers as the chunks of a dask array, which the plan's
-per-chunk passes (:mod:`.remote`) and the split's gather of the cells that can meet use.
+per-chunk passes (:mod:`.remote`, on each piece's own points: the points are not sent
+back to the workers) and the split's gather of the cells that can meet use.
 """
 from __future__ import annotations
 
@@ -38,7 +39,9 @@ class NoGlobalIds(MeshFileError):
 
 class Piece(NamedTuple):
     """One piece as read on a worker: its points' global ids and coordinates, its cells
-    in global ids (int64), the mesh's dimension, its plane (2D stored with z) and notes."""
+    in global ids (int64), the mesh's dimension, its plane (2D stored with z), notes
+    and its cells in its own point numbering (``local``: the plan's per-chunk box
+    passes read the piece's own coordinates, :mod:`.remote`)."""
 
     ids: np.ndarray
     points: np.ndarray
@@ -46,6 +49,7 @@ class Piece(NamedTuple):
     dim: int
     plane: float | None
     notes: list
+    local: np.ndarray | None = None
 
 
 def read_piece(path: str | os.PathLike, region=None) -> Piece:
@@ -77,8 +81,10 @@ def read_piece(path: str | os.PathLike, region=None) -> Piece:
         bad = cells.min() if cells.min() < 0 else cells.max()
         raise MeshFileError(path, f"a cell refers to point {bad} of a piece with "
                                   f"{len(ids)} points")
+    # its own numbering as int32 when it fits: half the bytes kept beside the global ids
+    local = cells.astype(np.int32) if len(ids) < 2 ** 31 else cells
     return Piece(ids, np.asarray(conv.points, dtype=np.float64), ids[cells], dim,
-                 conv.plane, conv.notes)
+                 conv.plane, conv.notes, local)
 
 
 def _head(piece: Piece):
@@ -89,6 +95,12 @@ def _head(piece: Piece):
 
 def _cells(piece: Piece) -> np.ndarray:
     return piece.cells
+
+
+def _own(piece: Piece):
+    """The piece's own points and cells: (coordinates, cells in local ids, cells in
+    global ids) — what the plan's per-chunk passes read instead of every point."""
+    return piece.points, piece.local, piece.cells
 
 
 def read_pieces_on_workers(paths, scheduler, region=None):
@@ -119,8 +131,14 @@ def read_pieces_on_workers(paths, scheduler, region=None):
                               dtype=np.int64) for r, h in zip(read, heads) if h[2]]
     # no cells at all: the plan refuses the empty mesh
     cells = da.concatenate(chunks) if chunks else da.zeros((0, dim + 1), dtype=np.int64)
+    own = [r for r, h in zip(read, heads) if h[2]]  # one per chunk, in the chunks' order
     if client is not None:  # the array holds its chunks' futures (the reads' are dropped)
         cells = client.persist(cells)
+        own = client.map(_own, own, pure=False)  # views of what the workers read
+    else:
+        own = [dask.delayed(_own, pure=True)(r) for r in own]
+    # the plan's per-chunk passes take each piece's own points from these (remote.py)
+    cells.fperr_pieces = own
     return Converted(points, cells, notes, plane)
 
 

@@ -40,9 +40,10 @@ def is_remote(cells, scheduler) -> bool:
     return "Client" in type(scheduler).__name__ and hasattr(scheduler, "scatter")
 
 
-def _check(chunk, points, n_points: int):
+def _check(chunk, points, n_points: int, local=None):
     """A chunk's validation and summary: (first bad rows per check, the vertices it
-    uses as packed bits, its BoxSummary — None when a check failed)."""
+    uses as packed bits, its BoxSummary — None when a check failed). ``local``: the
+    chunk's rows in the numbering of ``points`` (a piece's own), else ``chunk``."""
     chunk = np.asarray(chunk)
     bad = first_bad(chunk, chunk.shape[1], n_points)
     used = np.zeros(n_points, dtype=bool)
@@ -50,7 +51,8 @@ def _check(chunk, points, n_points: int):
         return bad, np.packbits(used), None
     for col in range(chunk.shape[1]):
         used[chunk[:, col]] = True
-    return bad, np.packbits(used), CellBoxes(points, chunk).summary()
+    return bad, np.packbits(used), CellBoxes(points, chunk if local is None else
+                                              local).summary()
 
 
 def _flags(chunk, points, origin, h, G, table, accelerate: bool = False):
@@ -88,6 +90,26 @@ def _near_scan(chunk, points, grid, centres: bool):
     return cat
 
 
+def _on_piece(f, own, dtype, *args):
+    """``f``'s per-chunk pass on a piece read by a worker (:mod:`.pieces`), with the
+    piece's own points (cast to the plan's ``dtype`` as the client casts every point:
+    the same values) and cells in its own numbering for the boxes; what ``f`` returns
+    in vertex ids (validation's used vertices, the flagged cells) is in global ids, and
+    validation runs on the global cells (the serial checks and messages)."""
+    points, local, cells = own
+    with np.errstate(all="ignore"):  # as validate_remote: unused rows are never read
+        pts = points.astype(dtype, copy=False)
+    if f is _check:
+        return _check(cells, pts, *args, local=local)
+    if f is _flags:
+        count, got = _flags(local, pts, *args)
+        if got is None:
+            return count, None
+        ids, i0, i1, ext, _, edge = got
+        return count, (ids, i0, i1, ext, cells[ids], edge)
+    return f(local, pts, *args)  # _near_scan: row ids only
+
+
 def _cpu_timed(f, *args):
     """``(f(*args), the thread CPU seconds it took)`` (on a worker)."""
     import time
@@ -107,6 +129,8 @@ class RemoteCells(CellBoxes):
 
         self.dask, self.scheduler = dask, scheduler
         self.client = None if isinstance(scheduler, str) else scheduler
+        # pieces read by the workers: each chunk's own points and cells (pieces.py)
+        self.pieces = getattr(cells, "fperr_pieces", None)
         cells = cells.rechunk({1: -1})
         if self.client is not None:
             cells = self.client.persist(cells)  # computed once, kept on the workers
@@ -116,14 +140,18 @@ class RemoteCells(CellBoxes):
         self.points, self.blocks = points, blocks
         self.n, self.d = int(cells.shape[0]), points.shape[1]
         self.cols = None  # boxes here come from boxes_of on the kept or fetched rows
-        self._pts = self._share(points)
+        if self.pieces is not None and len(self.pieces) != len(cells.chunks[0]):
+            self.pieces = None  # (not one per chunk: the points are sent instead)
+        # every point to every worker, unless each chunk is a piece with its own
+        self._pts = None if self.pieces is not None else self._share(points)
         self._summary, self._kept, self._kept_cells = None, None, None
         self._edges = None  # (the flag pass's kept ids, its chunks' edge summaries)
         import threading
 
         self._local = threading.local()
         self.lo, self.hi = _Side(self, 0), _Side(self, 1)
-        self.stats = {"tasks": 0, "bytes_back": 0}
+        self.stats = {"tasks": 0, "bytes_back": 0,
+                      "points_sent": "pieces" if self.pieces is not None else "broadcast"}
 
     def _share(self, x):
         """``x`` for the tasks: on a distributed Client scattered once to every worker."""
@@ -136,7 +164,11 @@ class RemoteCells(CellBoxes):
         ``stats["worker_cpu"]`` gets, per pass, the largest chunk's thread CPU seconds
         (the pass's share of the run's critical path when the chunks run side by side)."""
         d = self.dask.delayed
-        tasks = [d(_cpu_timed, pure=False)(f, p, self._pts, *args) for p in self.parts]
+        if self.pieces is not None:  # each piece's own points, where it was read
+            tasks = [d(_cpu_timed, pure=False)(_on_piece, f, own, self.points.dtype, *args)
+                     for own in self.pieces]
+        else:
+            tasks = [d(_cpu_timed, pure=False)(f, p, self._pts, *args) for p in self.parts]
         out = self.dask.compute(*tasks, scheduler=self.scheduler)
         self.stats["tasks"] += len(tasks)
         self.stats.setdefault("worker_cpu", []).append(

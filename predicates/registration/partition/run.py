@@ -18,7 +18,7 @@ import time
 
 import numpy as np
 
-from predicates.registration.partition.assign import Part, merge, split
+from predicates.registration.partition.assign import CutSide, Part, merge, split
 from predicates.registration.partition.counts import (  # noqa: F401 (re-exported)
     CELLS_PER_PART, slots, count_partitions)
 from predicates.registration.partition.outputs import PartFiles, Staged
@@ -278,23 +278,28 @@ def _tasks(dask, client, plan, k, scheduler, chunk, timings, bar, timeout=None,
     writes its partition's file (:mod:`.outputs`)."""
     clock = _Clock(timings)
     reach = plan.scale.reach
+    pad = max(reach.values())
     owner, write = (None, None) if staged is None else (staged.owner, staged.write)
+    # on a Client the tasks cut their own cutting slices (the mesh sent once per worker)
     parts = () if len(plan.cut_cells) == 0 or len(plan.sim_cells) == 0 else (
-        p for p in split(plan.P_sim, plan.sim_cells, plan.P_cut, plan.cut_cells, k,
-                         max(reach.values()), owner, write)
-        if len(p.cut_cells))  # no cutting cell within reach of its halo: nothing to own
+        p for p in split(plan.P_sim, plan.sim_cells, plan.P_cut, plan.cut_cells, k, pad,
+                         owner, write, cut_in_task=client is not None)
+        if p.cut_pending or len(p.cut_cells))  # none within reach: nothing to own
     args = (plan.dim, plan.tol, reach, chunk, plan.accelerate)
     spec = None if staged is None else staged.spec
     path = (lambda r: None) if staged is None else (lambda r: staged.staged[r])
     if client is not None:
-        if spec is not None:  # sent once to each worker, not with every task
-            spec = client.scatter(spec, hash=False)
+        # sent once to each worker, not with every task
+        spec = None if spec is None else client.scatter(spec, hash=False)
+        side = CutSide(plan.P_cut, plan.cut_cells, pad)
+        timings["cut_side_bytes"] = side.nbytes  # to each worker, once
+        side = client.scatter(side, hash=False, broadcast=True)
         # each partition's task starts as soon as its slice is cut and sent: the split
         # of the next ones overlaps the workers' tasks ("partition": split and send)
         futures, index = [], []
         for p in parts:
             futures.append(client.submit(run_part, _payload(client, p), *args, spec,
-                                         path(p.index), pure=False))
+                                         path(p.index), side, pure=False))
             index.append(p.index)
         bar.total = len(futures)  # partitions without a cutting cell in reach run none
         clock("partition")

@@ -10,7 +10,7 @@ import time
 
 from predicates import compiled
 from predicates.registration.levels.loop import Registration
-from predicates.registration.partition.assign import Part, owned
+from predicates.registration.partition.assign import CutSide, Part, cut_slice, owned
 from predicates.registration.partition.memory import peak_rss_mib, rss_mib
 
 __all__ = ["run_part"]
@@ -18,7 +18,8 @@ __all__ = ["run_part"]
 
 def run_part(part: Part, dim: int, tol, reach: dict, chunk: int,
              accelerate: bool = False, file_spec=None,
-             file_path: str | None = None) -> tuple[dict, dict]:
+             file_path: str | None = None,
+             cut_side: CutSide | None = None) -> tuple[dict, dict]:
     """One Dask task: the serial levels on the partition's slice; returns its owned
     pairs (global ids) and statistics (time, the peak RSS of the worker process's own
     address space, ``VmHWM`` read when the task ends (:mod:`.memory`), its RSS when the
@@ -28,19 +29,28 @@ def run_part(part: Part, dim: int, tol, reach: dict, chunk: int,
     context switches, minor and major page faults ``ctx``). ``file_spec`` and
     ``file_path``: write the partition's file there (a staged name the client renames
     once every partition succeeded: :class:`~.outputs.Staged`); "file_bytes" and
-    "cpu_file_s" in the statistics."""
+    "cpu_file_s" in the statistics. ``cut_side``: the run's cutting mesh (sent once per
+    worker), from which a part sent without its cutting slice (``part.cut_pending``)
+    takes it here (:func:`~.assign.cut_slice`: the client's slice, bit for bit); an empty
+    slice registers nothing."""
     t, cpu, t0 = time.perf_counter(), time.thread_time(), time.time()
     r0, p0 = resource.getrusage(resource.RUSAGE_THREAD), time.process_time()
     rss0 = rss_mib()
-    reg = Registration(dim, part.P_sim, part.sim_cells, part.P_cut, part.cut_cells, tol,
-                       reach, chunk, accelerate=accelerate and compiled.available())
-    local = reg.run(False, {})
+    bytes_in = part.nbytes  # as sent (the slice cut here is not)
+    if part.cut_pending:
+        part = cut_slice(part, cut_side)
+    if len(part.cut_cells):
+        reg = Registration(dim, part.P_sim, part.sim_cells, part.P_cut, part.cut_cells,
+                           tol, reach, chunk, accelerate=accelerate and compiled.available())
+        local = reg.run(False, {})
+    else:  # no cutting cell within reach of the halo: it owns no pair
+        local = {}
     pairs = owned(part, local)
     sent_back = sum(a.nbytes for p in pairs.values()
                     for a in (p.sim, p.cut, p.sim_weights, p.cut_weights))
     stats = {"part": part.index, "owned_cells": part.owned_cells,
              "sim_cells": len(part.sim_cells), "cut_cells": len(part.cut_cells),
-             "bytes_in": part.nbytes, "bytes_out": sent_back}
+             "bytes_in": bytes_in, "bytes_out": sent_back}
     if file_path is not None:
         from predicates.registration.partition.outputs import write_part
 
