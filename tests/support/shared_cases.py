@@ -49,7 +49,9 @@ from predicates import catalogue
 from predicates.registration.examples import cube_grid
 from predicates.portable import rotate, rotation, unit_rows
 from proofs.tables import TABLES, sympy_spec
-from geometry_exact import Units, construct, frac, place
+from geometry_cases import Units, place
+from geometry_constructions import construct
+from geometry_exact import frac
 
 KIND_DIMS = {2: {"vertex_vertex": (0, 0), "vertex_edge": (0, 1), "edge_vertex": (1, 0),
                  "edge_edge": (1, 1), "triangle_vertex": (2, 0)},

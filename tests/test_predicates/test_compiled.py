@@ -1,7 +1,7 @@
 """The compiled candidate chain (predicates.compiled) is bit-identical to numpy batch mode.
 
 * lane by lane, every predicate, float64 and float32, on adversarial near-degenerate
-  configurations (tests/support/geometry_exact.construct: probes at the tolerances'
+  configurations (tests/support/geometry_constructions.construct: probes at the tolerances'
   thresholds, collinear / coplanar / coincident points) drawn by hypothesis, with the
   robust tolerances and with zero tolerances (the naive baseline's exact sign tests):
   the same hits and bitwise-equal weights;
@@ -26,7 +26,9 @@ pytest.importorskip("numba")
 
 import fperr  # noqa: E402
 import predicates  # noqa: E402
-from geometry_exact import DataSource, RngSource, Units, construct, frac, place  # noqa: E402
+from geometry_cases import DataSource, RngSource, Units, place  # noqa: E402
+from geometry_constructions import construct  # noqa: E402
+from geometry_exact import frac  # noqa: E402
 from predicates import compiled  # noqa: E402
 from predicates.compiled.build import INLINE_OPTIONS, JIT_OPTIONS, source  # noqa: E402
 from predicates.compiled.chain import run_predicate  # noqa: E402

@@ -3,7 +3,7 @@
 For each predicate of ``predicates.ALL`` and each number system — binary64 (Python
 floats, and numpy float64 batches), binary32 (numpy float32 batches) and mpmath at 17 bits
 (``fperr.MpContext(17)``, the paper's worst case ε = 2^-17) — on random and adversarial
-configurations (:func:`geometry_exact.construct`: points within 0.1–10 tolerances of
+configurations (:func:`geometry_constructions.construct`: points within 0.1–10 tolerances of
 edges, faces and each other, on the edges of the T−/T+ bands, coplanar and collinear
 configurations, tiny elements just above σ̂ and long ones spanning L):
 
@@ -24,7 +24,7 @@ configurations, tiny elements just above σ̂ and long ones spanning L):
 * every returned weight lies in [0, 1] and is within the guaranteed error of the exact
   weight: |ŵ − w| ≤ (1 + ε)(E[N] + w·E[D])/(|D| − E[D]) + ε·w for ŵ = F[N]/F[D], with
   E[·] the bounds derived by the instrumented run (≈ (E[â] + E[m])/m for the edge-vertex
-  weight â/m); see :func:`geometry_exact.weight_error_bounds` for the derivation.
+  weight â/m); see :func:`geometry_weights.weight_error_bounds` for the derivation.
 
 Every configuration's coordinates are exact in its format and all its coordinate
 differences are ≤ L (the configuration lives in a box of side ``tol.L``, at offsets from
@@ -59,8 +59,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import predicates
-from geometry_exact import (DataSource, RngSource, exact_eval, frac, max_difference,
-                            weight_error_bounds)
+from geometry_cases import DataSource, RngSource
+from geometry_exact import exact_eval, frac, max_difference
+from geometry_weights import weight_error_bounds
 from shared_cases import FORMATS, OFFSETS, PREDICATES, SCALES, Format, build
 
 LONG = os.environ.get("FPERR_LONG") == "1"
@@ -306,7 +307,7 @@ def test_exact_reference_matches_first_principles(pred):
     """The paper's formulas for the weights and distances (as evaluated exactly by
     geometry_exact.exact_eval) equal the geometric definitions: intersection points,
     projections and closest points solved for with exact linear algebra."""
-    from geometry_exact import first_principles
+    from geometry_reference import first_principles
     fmt = FORMATS["f64"]
     src = RngSource(np.random.default_rng(5))
     tol = fmt.tolerances(pred.dim, 1.0, 1.0)

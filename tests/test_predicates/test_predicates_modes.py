@@ -31,7 +31,9 @@ from hypothesis import strategies as st
 
 import fperr
 import predicates
-from geometry_exact import DataSource, RngSource, Units, construct, frac, place
+from geometry_cases import DataSource, RngSource, Units, place
+from geometry_constructions import construct
+from geometry_exact import frac
 from predicates.core import Predicate
 
 PREDICATES = [p for d in (2, 3) for p in predicates.ALL[d]]
