@@ -1,4 +1,4 @@
-"""Where a partitioned W1 run's time goes, and what each part bounds (issue 13).
+"""Where a partitioned W1 run's time goes, and what each part bounds (docs/partitioned.md 5b).
 
     python benchmarks/partition_floor.py [--n 48] [--subdivisions 5] [--reps 9]
                                          [--json OUT.json]
@@ -86,7 +86,8 @@ def _lean(plan):
 
     return SimpleNamespace(dim=plan.dim, P_sim=plan.P_sim, sim_cells=plan.sim_cells,
                            P_cut=plan.P_cut, cut_cells=plan.cut_cells, tol=plan.tol,
-                           scale=SimpleNamespace(reach=plan.scale.reach))
+                           scale=SimpleNamespace(reach=plan.scale.reach),
+                           accelerate=plan.accelerate)
 
 
 def _stats(ts: list) -> dict:
@@ -94,31 +95,16 @@ def _stats(ts: list) -> dict:
     return {"best": s[0], "median": s[len(s) // 2]}
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--n", type=int, default=48)
-    ap.add_argument("--subdivisions", type=int, default=5)
-    ap.add_argument("--reps", type=int, default=9)
-    ap.add_argument("--json")
-    args = ap.parse_args(argv)
-
+def _steps(client, meshes, pl, inside: dict) -> dict:
+    """The quantities timed in alternation (module docstring), as name -> callable."""
     import predicates
-    from predicates.registration.partition import assign as partition
     from predicates.registration import pipeline
+    from predicates.registration.partition import assign as partition
+    from predicates.registration.partition.run import _gather, run_part, run_partitioned
     from predicates.registration.spatial.boxes import boxes_of
-    from predicates.registration.examples import cube_grid, icosphere
-    from predicates.registration.partition.run import (
-        _gather, client_for, run_part, run_partitioned)
 
-    sp, sc = cube_grid(args.n)
-    cp, cc = icosphere(args.subdivisions)
-    f64 = np.dtype(np.float64)
-
-    def plan(threads: int = 1):
-        return pipeline._plan((sp, sc, cp, cc), f64, 1.0, False, pipeline.CHUNK, True, {},
-                              None, None, threads=threads)
-
-    pl = plan()
+    sp, sc, cp, cc = meshes
+    workers = list(client.scheduler_info()["workers"])
     reach = pl.scale.reach
     pad = max(reach.values())
     task_args = (pl.dim, pl.tol, reach, pipeline.CHUNK)
@@ -126,67 +112,49 @@ def main(argv=None) -> int:
     P = np.ascontiguousarray(pl.sim.points)
     clo, chi = boxes_of(pl.cut.points, pl.cut.cells)
     halves = np.array_split(pl.sim.cells.astype(np.int32), 2)
-    times: dict[str, list] = {}
+    lean = client.scatter(_lean(pl), broadcast=True, hash=False)
 
-    def timed(name, f):
-        t = time.perf_counter()
-        f()
-        times.setdefault(name, []).append(time.perf_counter() - t)
+    def on(ws, name):
+        fs = [client.submit(register_task, lean, pipeline.CHUNK, pure=False,
+                            workers=[w], allow_other_workers=False) for w in ws]
+        inside.setdefault(name, []).append(max(client.gather(fs)))
 
-    with client_for(2) as client:
-        workers = list(client.scheduler_info()["workers"])
-        time.sleep(2)  # the workers' imports (client_for warms them) are not timed
-        lean = client.scatter(_lean(pl), broadcast=True, hash=False)
-        inside: dict[str, list] = {}
+    def presplit():
+        out = _gather([client.submit(run_part, p, *task_args, pure=False) for p in parts])
+        partition.merge(pl.kinds, [o[0] for o in out], pl.dtype)
 
-        def on(ws, name):
-            fs = [client.submit(register_task, lean, pipeline.CHUNK, pure=False,
-                                workers=[w], allow_other_workers=False) for w in ws]
-            inside.setdefault(name, []).append(max(client.gather(fs)))
+    def pinned(f, *args_of_worker):
+        return [client.submit(f, *a, pure=False, workers=[w], allow_other_workers=False)
+                for a, w in zip(args_of_worker, workers)]
 
-        def round_trip():
-            client.gather([client.submit(int, 0, pure=False, workers=[w],
-                                         allow_other_workers=False) for w in workers])
+    return {
+        "serial": lambda: predicates.intersect(sp, sc, cp, cc),
+        "plan": lambda: _plan(meshes),
+        "plan_threaded": lambda: _plan(meshes, 2),
+        "register": lambda: pipeline._register(pl, pipeline.CHUNK, False, {}),
+        "partitioned": lambda: predicates.intersect(sp, sc, cp, cc, partitions=2,
+                                                    scheduler=client),
+        "post_plan": lambda: run_partitioned(pl, 2, client, pipeline.CHUNK, {}),
+        "post_plan_presplit": presplit,
+        "plan_cells_client": lambda: plan_cells(P, pl.sim.cells, clo, chi, pad),
+        "plan_cells_hop": lambda: client.gather(pinned(
+            plan_cells, *[(P, h, clo, chi, pad) for h in halves])),
+        "register_one": lambda: on(workers[:1], "register_one"),
+        "register_pair": lambda: on(workers, "register_pair"),
+        "dask_round_trip": lambda: client.gather(pinned(int, *[(0,)] * len(workers))),
+    }
 
-        def presplit():
-            out = _gather([client.submit(run_part, p, *task_args, pure=False)
-                           for p in parts])
-            partition.merge(pl.kinds, [o[0] for o in out], pl.dtype)
 
-        def hop():
-            fs = [client.submit(plan_cells, P, h, clo, chi, pad, pure=False,
-                                workers=[w], allow_other_workers=False)
-                  for h, w in zip(halves, workers)]
-            client.gather(fs)
+def _plan(meshes, threads: int = 1):
+    from predicates.registration import pipeline
 
-        steps = {
-            "serial": lambda: predicates.intersect(sp, sc, cp, cc),
-            "plan": plan,
-            "plan_threaded": lambda: plan(2),
-            "register": lambda: pipeline._register(pl, pipeline.CHUNK, False, {}),
-            "partitioned": lambda: predicates.intersect(sp, sc, cp, cc, partitions=2,
-                                                        scheduler=client),
-            "post_plan": lambda: run_partitioned(pl, 2, client, pipeline.CHUNK, {}),
-            "post_plan_presplit": presplit,
-            "plan_cells_client": lambda: plan_cells(P, pl.sim.cells, clo, chi, pad),
-            "plan_cells_hop": hop,
-            "register_one": lambda: on(workers[:1], "register_one"),
-            "register_pair": lambda: on(workers, "register_pair"),
-            "dask_round_trip": round_trip,
-        }
-        for name, f in steps.items():  # warm-up
-            f()
-        for _ in range(args.reps):
-            for name, f in steps.items():
-                timed(name, f)
-    for name in ("register_one", "register_pair"):  # the tasks' own times, not Dask's
-        times[name] = inside[name][1:]  # (the first was the warm-up)
-    st = {k: _stats(v) for k, v in times.items()}
-    best = {k: v["best"] for k, v in st.items()}
-    c = 2 * best["register_one"] / best["register_pair"]
-    one_thread = best["plan"]
-    best["plan"] = min(best["plan"], best["plan_threaded"])  # what a partitioned run uses
-    bounds = {
+    return pipeline._plan(meshes, np.dtype(np.float64), 1.0, False, pipeline.CHUNK, True,
+                          {}, None, None, threads=threads)
+
+
+def _bounds(best: dict, one_thread: float) -> dict:
+    """Upper bounds on the partitioned run's speed-up (module docstring)."""
+    return {
         "free split": best["serial"] / (best["plan"] + best["post_plan_presplit"]),
         "per-cell plan on the workers": best["serial"] / (
             best["plan"] - best["plan_cells_client"] + best["plan_cells_hop"]
@@ -197,7 +165,16 @@ def main(argv=None) -> int:
         "the registration alone (register / post_plan_presplit)": (
             best["register"] / best["post_plan_presplit"]),
     }
-    print(f"W1: cube n = {args.n} ({len(sc):,} tetrahedra) x icosphere {len(cc):,} "
+
+
+def _report(st: dict, args, n_cells: int, n_tris: int) -> dict:
+    """Print the table, the bounds and the 1.6× budget; returns the JSON record."""
+    best = {k: v["best"] for k, v in st.items()}
+    c = 2 * best["register_one"] / best["register_pair"]
+    one_thread = best["plan"]
+    best["plan"] = min(best["plan"], best["plan_threaded"])  # what a partitioned run uses
+    bounds = _bounds(best, one_thread)
+    print(f"W1: cube n = {args.n} ({n_cells:,} tetrahedra) x icosphere {n_tris:,} "
           f"triangles; 2 workers; {args.reps} reps, alternating")
     print("\n| step | best (ms) | median (ms) |\n|---|---:|---:|")
     for k, v in st.items():
@@ -205,24 +182,53 @@ def main(argv=None) -> int:
     print(f"\nmeasured speed-up (best/best): {best['serial'] / best['partitioned']:.2f}x")
     for k, v in bounds.items():
         print(f"bound, {k}: {v:.2f}x")
-    plan2 = best["plan"]
     work = best["register"] / c
-    budget = best["serial"] / 1.6 - plan2 - work
+    budget = best["serial"] / 1.6 - best["plan"] - work
     added = best["post_plan"] - work
     print(f"\nconcurrency of the registration on the 2 workers: c = 2 x "
           f"{best['register_one'] * 1e3:.1f} / {best['register_pair'] * 1e3:.1f} ms = "
           f"{c:.2f}")
     print(f"1.6x = {best['serial'] / 1.6 * 1e3:.1f} ms = plan on 2 threads "
-          f"{plan2 * 1e3:.1f} + registration at c {work * 1e3:.1f} + at most "
+          f"{best['plan'] * 1e3:.1f} + registration at c {work * 1e3:.1f} + at most "
           f"{budget * 1e3:.1f} ms for split, Dask, halo, imbalance and merge; this run "
           f"adds {added * 1e3:.1f} ms (post_plan - register / c); Dask's bare round trip "
           f"{best['dask_round_trip'] * 1e3:.1f} ms")
     print(f"with the plan perfectly parallel ({one_thread / 2 * 1e3:.1f} ms) the budget "
           f"is {(best['serial'] / 1.6 - one_thread / 2 - work) * 1e3:.1f} ms")
+    return {"steps": st, "bounds": bounds, "c": c, "budget_s": budget, "added_s": added}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--n", type=int, default=48)
+    ap.add_argument("--subdivisions", type=int, default=5)
+    ap.add_argument("--reps", type=int, default=9)
+    ap.add_argument("--json")
+    args = ap.parse_args(argv)
+
+    from predicates.registration.examples import cube_grid, icosphere
+    from predicates.registration.partition.run import client_for
+
+    meshes = (*cube_grid(args.n), *icosphere(args.subdivisions))
+    pl = _plan(meshes)
+    times: dict[str, list] = {}
+    inside: dict[str, list] = {}
+    with client_for(2) as client:
+        time.sleep(2)  # the workers' imports (client_for warms them) are not timed
+        steps = _steps(client, meshes, pl, inside)
+        for f in steps.values():  # warm-up
+            f()
+        for _ in range(args.reps):
+            for name, f in steps.items():
+                t = time.perf_counter()
+                f()
+                times.setdefault(name, []).append(time.perf_counter() - t)
+    for name in ("register_one", "register_pair"):  # the tasks' own times, not Dask's
+        times[name] = inside[name][1:]  # (the first was the warm-up)
+    record = _report({k: _stats(v) for k, v in times.items()}, args, len(meshes[1]),
+                     len(meshes[3]))
     if args.json:
-        Path(args.json).write_text(json.dumps({"steps": st, "bounds": bounds, "c": c,
-                                               "budget_s": budget, "added_s": added},
-                                              indent=1))
+        Path(args.json).write_text(json.dumps(record, indent=1))
     return 0
 
 
