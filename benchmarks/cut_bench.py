@@ -1,6 +1,7 @@
-"""The cut beside the registration, timed in the same run (issue 25's targets; figures
-in README.md, "The cut"): W1 (cube_grid(48), 663,552 tetrahedra × icosphere(5), 20,480
-triangles) and the 2D square grid n = 512 × a circle polygon of 4,096 segments.
+"""The cut beside the registration, timed in the same run (figures and targets in
+benchmarks/README.md, "The cut"; docs/split.md): W1 (cube_grid(48), 663,552
+tetrahedra × icosphere(5), 20,480 triangles) and the 2D square grid n = 512 × a circle
+polygon of 4,096 segments.
 
 Per case: the registration (``predicates.intersect``), the split (``res.split()``),
 ``res.intersected_cells()`` and ``res.sim_mesh()`` each on a fresh result (nothing

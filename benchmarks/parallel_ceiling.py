@@ -1,4 +1,4 @@
-"""What two workers can give on this machine (issue 13): the throughput of 2 concurrent
+"""What two workers can give on this machine (docs/partitioned.md 5b): the throughput of 2 concurrent
 processes against 1, for the same work, timed in the same run.
 
     python benchmarks/parallel_ceiling.py [--n 48] [--rounds 3] [--json OUT.json]

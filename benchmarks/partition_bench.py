@@ -1,4 +1,4 @@
-"""Partitioned registration on Dask (issue 13): serial vs a LocalCluster of W worker
+"""Partitioned registration on Dask (docs/partitioned.md 5b): serial vs a LocalCluster of W worker
 processes, on the cube grid × icosphere cases (W1: n = 48 × 20,480 triangles; W4:
 n = 120, 10.4 M tetrahedra × 327,680 triangles).
 

@@ -1,4 +1,4 @@
-"""The client's split of a partitioned run against the number of partitions (issue 13):
+"""The client's split of a partitioned run against the number of partitions (docs/partitioned.md 5b):
 does cutting k partitions stay proportional to the mesh, not to k × the mesh?
 
     python benchmarks/partition_split.py [--n 48] [--subdivisions 5] [--ks 2,8,32,128]

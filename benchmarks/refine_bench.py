@@ -1,6 +1,7 @@
 """Refinement of a coarse cutting mesh (predicates.registration.plan.refine): process CPU
 time against the number of cutting cells it creates, the time per created cell, and the
-fitted exponent k of time ~ created^k (issue 10: linear, k <= 1.15).
+fitted exponent k of time ~ created^k (target: linear, k <= 1.15;
+benchmarks/README.md, "Refinement").
 
 Case: a slab of n×n×1 Kuhn cubes (6n² tetrahedra of size 1/n) cut by a tilted plane
 given as two triangles of half-width 1e4, so every cutting edge starts long. The plane
@@ -14,7 +15,7 @@ shared: the steadier figure) and wall, best of ``--repeat``; k fitted over every
 
     PYTHONPATH=. python3 benchmarks/refine_bench.py [--sizes 32 64 128 256] [--repeat 3]
 
-``--w1 48 96`` instead times refine on issue 12's W1 (cube_grid(n) × icosphere(5)), one
+``--w1 48 96`` instead times refine on W1 (benchmarks/README.md) (cube_grid(n) × icosphere(5)), one
 fresh process per n: the first call (cold: fresh pages) and two warm ones, CPU time
 split into user and system (page faults) with the load average.
 """

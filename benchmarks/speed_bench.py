@@ -1,4 +1,4 @@
-"""Issue 12: end-to-end registration speed and memory against the cost of the predicates.
+"""End-to-end registration speed and memory against the cost of the predicates.
 
     python benchmarks/speed_bench.py [--cases w1,w2,w4,w5,scaling] [--w5-sizes 500,1000,2000,4000]
                                      [--no-naive] [--json OUT.json] [--md OUT.md]

@@ -1,4 +1,4 @@
-"""Split time against registration time (issue 15): the virtual-node split
+"""Split time against registration time (docs/split.md, "Implementation"): the virtual-node split
 (``res.split()``, predicates.registration.split.mesh) beside the robust registration
 (``predicates.intersect``) on the cube grid n³ × 6 Kuhn tetrahedra cut by an icosphere,
 and the square grid n² × 2 cut by a circle polygon, several n; the fitted exponent of

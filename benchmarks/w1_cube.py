@@ -6,7 +6,7 @@ edges then lie in the grid's faces) and by icospheres of 5,120 and 20,480 triang
     python benchmarks/w1_cube.py [--sizes 16,32,48] [--cuts plane,sphere4,sphere5]
                                  [--no-compare] [--json OUT.json] [--md OUT.md]
 
-Each case runs in its own subprocess (see intersect_bench.py). Targets (issue 6): at
+Each case runs in its own subprocess (see intersect_bench.py). Targets (benchmarks/README.md, "W1"): at
 n = 32 with the 20,480-triangle sphere, registration ≤ 10 s and peak memory ≤ 2 GiB;
 time close to linear in the candidate pair count from n = 16 to 48 (the exponent is
 printed).

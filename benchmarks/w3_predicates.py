@@ -35,7 +35,7 @@ import predicates  # noqa: E402
 from exact_context import FractionContext, exact_tolerances  # noqa: E402
 from intersect_bench import load, machine  # noqa: E402
 
-#: The issue's targets.
+#: The targets of benchmarks/README.md, "W3: predicate throughput".
 TARGET_BATCH64 = 10e6          # pairs/s, 3D triangle_edge and tetrahedron_vertex
 TARGET_BATCH_OVER_SCALAR = 100
 
