@@ -1,0 +1,61 @@
+"""The benchmarks still run (benchmarks/README.md, "Smoke run"): CI does not run them, so
+the cheapest ones run here at their tiny sizes, each as a subprocess, checked for exit
+code 0 and a line of their report (benchmarks/smoke.py's ``TINY``: a regular expression
+with a property that holds at any size, e.g. the robust registration's 0 inconsistencies).
+The whole file takes ~25 s on the shared 2-core machine (CI's budget: ≤ 60 s).
+
+Not run here (each takes 10 s to minutes even at its tiny size: Dask clusters, numba's
+cold compile, the conforming cut, a subprocess per case): synth_compare.py,
+analysis_scale.py, cut_cells_scaling.py, conform_cases_bench.py, speed_bench.py, accelerate_bench.py, parallel_ceiling.py,
+partition_split.py, partition_floor.py, partition_bench.py, partition_remote_bench.py and
+intersect_bench.py (the W1/W2 runner, exercised through w1_cube.py and w2_square.py).
+Smoke-run them all with
+
+    python benchmarks/smoke.py
+"""
+from __future__ import annotations
+
+import importlib.util
+import pathlib
+
+import pytest
+
+BENCH = pathlib.Path(__file__).resolve().parents[2] / "benchmarks"
+
+
+def _smoke():
+    spec = importlib.util.spec_from_file_location("benchmarks_smoke", BENCH / "smoke.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+SMOKE = _smoke()
+
+
+def test_every_benchmark_has_a_tiny_run():
+    """A new script in benchmarks/ needs its tiny run in smoke.py, or nothing runs it."""
+    scripts = {p.name for p in BENCH.glob("*.py")} - {"smoke.py"}
+    assert scripts == set(SMOKE.TINY), (scripts ^ set(SMOKE.TINY))
+    assert set(SMOKE.CHEAP) < set(SMOKE.TINY)
+
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize("script", SMOKE.CHEAP)
+def test_cheap_benchmark_runs(script):
+    ok, info, _ = SMOKE.run(script, timeout=50.0)
+    assert ok, f"benchmarks/{script} at its tiny size: {info}"
+
+
+def test_smoke_reports_a_failure(tmp_path):
+    """The runner is not vacuous: a script that exits 1, and one whose report lacks the
+    expected line, both fail."""
+    for code, args in (("raise SystemExit(1)", ["-c", "raise SystemExit(1)"]),
+                       ("print('nothing')", ["-c", "print('nothing')"])):
+        SMOKE.TINY["_probe.py"] = (args, r"^something$")
+        try:
+            ok, info, _ = SMOKE.run("_probe.py", timeout=30.0)
+        finally:
+            del SMOKE.TINY["_probe.py"]
+        assert not ok, code
+        assert ("exit 1" in info) == (code.startswith("raise")), info
