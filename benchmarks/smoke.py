@@ -53,7 +53,7 @@ TINY: dict[str, tuple[list[str], str]] = {
                               r"^  fperr half 1: 192 tets, 0 zero-volume, 0 open edges$"),
     "conform_cases_bench.py": (["--n", "4", "--no-gmsh"], r'rotated icosphere\(2\)".*"pieces": 2'),
     "speed_bench.py": (["--cases", "w5", "--w5-sizes", "100", "--no-naive"],
-                       r"\| W5 N=100 \| 3,100 \| 3,100 \(\d+\) \| [\d,]+ \|"),
+                       r"\| W5 N=100 \| 3,100 \| 3,100 \([\d,]+\) \| [\d,]+ \|"),
     "accelerate_bench.py": (["--cases", "w1", "--repeat", "1"],
                             r"W1 numpy: [\d.]+ s CPU[\s\S]*W1 compiled: [\d.]+ s CPU"),
     "parallel_ceiling.py": (["--n", "8", "--rounds", "1"],
