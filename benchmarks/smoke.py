@@ -74,21 +74,23 @@ TINY: dict[str, tuple[list[str], str]] = {
 #: The scripts cheap enough for CI (a few seconds each at their tiny size).
 CHEAP = ("timing.py", "exact_context.py", "w3_predicates.py", "w1_cube.py", "w2_square.py",
          "filtered_bench.py", "refine_bench.py", "split_bench.py", "cut_bench.py",
-         "plan_memory.py", "conform_clip_bench.py")
+         "plan_memory.py", "conform_clip_bench.py", "partition_split.py", "intersect_bench.py")
 
 
 def command(script: str) -> list[str]:
     """The tiny run of ``script`` as an argv (helpers through ``python -c``)."""
     args, _ = TINY[script]
-    return [sys.executable, *args] if args[0] == "-c" else [sys.executable, str(HERE / script), *args]
+    if args[0] == "-c":
+        return [sys.executable, *args]
+    return [sys.executable, str(HERE / script), *args]
 
 
 def run(script: str, timeout: float) -> tuple[bool, str, float]:
     """(passed, why or the output's tail, wall seconds) of one tiny run, in a scratch folder
     (some scripts write files) with benchmarks/ and the repository on the path."""
     _, pattern = TINY[script]
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
-        [str(HERE), str(ROOT), os.environ.get("PYTHONPATH", "")]))
+    paths = [str(HERE), str(ROOT), os.environ.get("PYTHONPATH", "")]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in paths if p))
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
         try:
