@@ -86,8 +86,8 @@ from predicates.registration.spatial.blocks import Blocks
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike, DTypeLike
 
-__all__ = ["CHUNK", "MeshLike", "PLAN_STAGES", "PlanMemoryError", "intersect",
-           "intersect_files"]
+__all__ = ["CHUNK", "MeshLike", "PLAN_STAGES", "PlanMemoryError",
+           "RegistrationMemoryError", "intersect", "intersect_files"]
 
 #: Pairs per predicate batch (bounds the gathered coordinates and temporaries).
 CHUNK = 1 << 17
@@ -169,7 +169,7 @@ def intersect(sim: MeshLike | ArrayLike, cut: MeshLike | ArrayLike,
         check = partial(_check, plan.report, strict, memory_limit, plan.dim)
         if serial:
             check()
-            pairs = _register(plan, chunk, progress, timings)
+            pairs = _register(plan, chunk, progress, timings, _mib(args))
         else:
             from predicates.registration.partition.run import run_partitioned
 
@@ -202,13 +202,23 @@ class PlanMemoryError(MemoryError):
 def _too_large(args, timings: dict, serial: bool, err: MemoryError) -> str:
     """The message of :class:`PlanMemoryError`: the stage reached, the meshes' bytes."""
     stage = next((s for s in PLAN_STAGES if s not in timings), "plan_report")
-    size = sum(getattr(a, "nbytes", 0) for a in args if a is not None)
     what = "" if serial else " (in a partitioned run the plan runs on the client)"
     return (f"not enough memory for the plan ({stage.replace('plan_', '')}) of meshes "
-            f"of {size / 2**20:.0f} MiB{what}: besides the meshes themselves it needs "
+            f"of {_mib(args):.0f} MiB{what}: besides the meshes themselves it needs "
             f"about as many bytes again as the simulation mesh (W4: 1.04x, "
             f"docs/partitioned.md); free memory or run on a machine with more "
             f"({type(err).__name__}: {err or 'no detail'})")
+
+
+def _mib(args) -> float:
+    """The meshes' bytes (MiB) as given to :func:`intersect` (arrays; else 0)."""
+    return sum(getattr(a, "nbytes", 0) for a in args if a is not None) / 2**20
+
+
+class RegistrationMemoryError(MemoryError):
+    """The serial registration after the plan (rank space, broad phase, levels) ran out
+    of memory: the message names the stage, the cells near the cut and what to do
+    (partition the run: docs/partitioned.md)."""
 
 
 class Plan(NamedTuple):
@@ -322,14 +332,29 @@ class _Stages:
         self.timings[stage], self.t = t - self.t, t
 
 
-def _register(plan: Plan, chunk: int, progress: bool, timings: dict) -> dict:
+def _register(plan: Plan, chunk: int, progress: bool, timings: dict,
+              mib: float = 0.0) -> dict:
     """Rank space, broad phase and levels on the cells that can meet (they hold every
-    pair within reach, docs/resolution.md): {kind: KindPairs}."""
+    pair within reach, docs/resolution.md): {kind: KindPairs}. Out of memory:
+    :class:`RegistrationMemoryError` naming the stage (``mib``: the meshes' size)."""
     t = time.perf_counter()
-    reg = Registration(plan.dim, plan.P_sim, plan.sim_cells, plan.P_cut, plan.cut_cells,
-                       plan.tol, plan.scale.reach, chunk, accelerate=plan.accelerate)
-    timings["ranks"] = time.perf_counter() - t
-    return reg.run(progress, timings)
+    try:
+        reg = Registration(plan.dim, plan.P_sim, plan.sim_cells, plan.P_cut,
+                           plan.cut_cells, plan.tol, plan.scale.reach, chunk,
+                           accelerate=plan.accelerate)
+        timings["ranks"] = time.perf_counter() - t
+        return reg.run(progress, timings)
+    except MemoryError as e:  # a refusal that says where and what to do, not a bare one
+        stage = next((k.name for k in plan.kinds if k.name not in timings),
+                     "output") if "broadphase_cells" in timings else (
+                     "broad phase" if "ranks" in timings else "rank space")
+        raise RegistrationMemoryError(
+            f"not enough memory for the registration ({stage}) of meshes of {mib:.0f} MiB, "
+            f"{len(plan.sim_cells)} simulation and {len(plan.cut_cells)} cutting cells near "
+            f"the cut: partition the run (partitions=/scheduler=; fperr intersect "
+            f"--workers N --partitions K: each partition holds less, docs/partitioned.md) "
+            f"or run on a machine with more memory ({type(e).__name__}: "
+            f"{str(e) or 'no detail'})") from e
 
 
 def _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts,
