@@ -56,6 +56,7 @@ differs in the predicates.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import os
 import time
 import warnings
@@ -74,7 +75,8 @@ from predicates.registration.plan import resolution
 from predicates.registration.plan.cellboxes import CellBoxes
 from predicates.registration.plan.inputs import (
     check_extent, mesh_arrays, scale_points, validate_options, validate_pair)
-from predicates.registration.levels.loop import Registration
+from predicates.registration.levels.loop import (
+    Registration, RegistrationMemoryError, out_of_memory)
 from predicates.registration.partition import remote  # the plan on the workers, no Dask
 from predicates.registration.plan.refine import refine
 from predicates.registration.plan.resolution import (
@@ -169,7 +171,12 @@ def intersect(sim: MeshLike | ArrayLike, cut: MeshLike | ArrayLike,
         check = partial(_check, plan.report, strict, memory_limit, plan.dim)
         if serial:
             check()
-            pairs = _register(plan, chunk, progress, timings, _mib(args))
+            near = len(plan.sim_cells), len(plan.cut_cells)
+            with out_of_memory(plan.kinds, near, timings, _mib(args)):
+                reg = _ranked(plan, chunk, timings)
+                plan = _lean(plan)  # the run's arrays are reg's now: not held twice
+                pairs = reg.run(progress, timings)
+                del reg  # its complexes and boxes, before the result
         else:
             from predicates.registration.partition.run import run_partitioned
 
@@ -213,12 +220,6 @@ def _too_large(args, timings: dict, serial: bool, err: MemoryError) -> str:
 def _mib(args) -> float:
     """The meshes' bytes (MiB) as given to :func:`intersect` (arrays; else 0)."""
     return sum(getattr(a, "nbytes", 0) for a in args if a is not None) / 2**20
-
-
-class RegistrationMemoryError(MemoryError):
-    """The serial registration after the plan (rank space, broad phase, levels) ran out
-    of memory: the message names the stage, the cells near the cut and what to do
-    (partition the run: docs/partitioned.md)."""
 
 
 class Plan(NamedTuple):
@@ -332,29 +333,26 @@ class _Stages:
         self.timings[stage], self.t = t - self.t, t
 
 
-def _register(plan: Plan, chunk: int, progress: bool, timings: dict,
-              mib: float = 0.0) -> dict:
-    """Rank space, broad phase and levels on the cells that can meet (they hold every
-    pair within reach, docs/resolution.md): {kind: KindPairs}. Out of memory:
-    :class:`RegistrationMemoryError` naming the stage (``mib``: the meshes' size)."""
+def _ranked(plan: Plan, chunk: int, timings: dict) -> Registration:
+    """Rank space of the cells that can meet (they hold every pair within reach,
+    docs/resolution.md): the registration, whose ``run()`` gives {kind: KindPairs}."""
     t = time.perf_counter()
-    try:
-        reg = Registration(plan.dim, plan.P_sim, plan.sim_cells, plan.P_cut,
-                           plan.cut_cells, plan.tol, plan.scale.reach, chunk,
-                           accelerate=plan.accelerate)
-        timings["ranks"] = time.perf_counter() - t
-        return reg.run(progress, timings)
-    except MemoryError as e:  # a refusal that says where and what to do, not a bare one
-        stage = next((k.name for k in plan.kinds if k.name not in timings),
-                     "output") if "broadphase_cells" in timings else (
-                     "broad phase" if "ranks" in timings else "rank space")
-        raise RegistrationMemoryError(
-            f"not enough memory for the registration ({stage}) of meshes of {mib:.0f} MiB, "
-            f"{len(plan.sim_cells)} simulation and {len(plan.cut_cells)} cutting cells near "
-            f"the cut: partition the run (partitions=/scheduler=; fperr intersect "
-            f"--workers N --partitions K: each partition holds less, docs/partitioned.md) "
-            f"or run on a machine with more memory ({type(e).__name__}: "
-            f"{str(e) or 'no detail'})") from e
+    reg = Registration(plan.dim, plan.P_sim, plan.sim_cells, plan.P_cut, plan.cut_cells,
+                       plan.tol, plan.scale.reach, chunk, accelerate=plan.accelerate)
+    timings["ranks"] = time.perf_counter() - t
+    return reg
+
+
+def _register(plan: Plan, chunk: int, progress: bool, timings: dict) -> dict:
+    """:func:`_ranked`, then the levels: {kind: KindPairs} (benchmarks/partition_split.py)."""
+    return _ranked(plan, chunk, timings).run(progress, timings)
+
+
+def _lean(plan: Plan) -> Plan:
+    """The plan without what only the rank space read (the scaled points, the run's
+    cells, the masks): the result's fields, a serial run's peak lower by their bytes."""
+    return plan._replace(P_sim=None, P_cut=None, sim_cells=None, cut_cells=None,
+                         scale=dataclasses.replace(plan.scale, masks=(), first=()))
 
 
 def _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts,

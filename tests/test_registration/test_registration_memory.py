@@ -1,5 +1,5 @@
 """Out of memory in the serial registration after the plan (rank space, broad phase,
-levels: :func:`predicates.registration.pipeline._register`) is a clear refusal naming
+levels, after :func:`predicates.registration.pipeline._ranked`) is a clear refusal naming
 the stage and what to do, not a bare MemoryError (docs/partitioned.md, section 2)."""
 from __future__ import annotations
 

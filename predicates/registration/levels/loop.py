@@ -9,6 +9,7 @@ is a vectorised ``searchsorted``.
 """
 from __future__ import annotations
 
+import contextlib
 import sys
 import time
 
@@ -22,7 +23,31 @@ from predicates.registration.levels.complex import (
 from predicates.registration.levels.facepairs import FacePairs, cell_pairs
 from predicates.registration.result.intersection import KindPairs
 
-__all__ = ["Registration"]
+__all__ = ["Registration", "RegistrationMemoryError", "out_of_memory"]
+
+
+class RegistrationMemoryError(MemoryError):
+    """The serial registration after the plan (rank space, broad phase, levels) ran out
+    of memory: the message names the stage, the cells near the cut and what to do
+    (partition the run: docs/partitioned.md, section 2)."""
+
+
+@contextlib.contextmanager
+def out_of_memory(kinds, near: tuple, timings: dict, mib: float):
+    """A MemoryError of the serial registration as :class:`RegistrationMemoryError`
+    naming the stage reached, the cells near the cut (``near``) and what to do."""
+    try:
+        yield
+    except MemoryError as e:  # a refusal that says where and what to do, not a bare one
+        stage = next((k.name for k in kinds if k.name not in timings),
+                     "output") if "broadphase_cells" in timings else (
+                     "broad phase" if "ranks" in timings else "rank space")
+        raise RegistrationMemoryError(
+            f"not enough memory for the registration ({stage}) of meshes of {mib:.0f} MiB, "
+            f"{near[0]} simulation and {near[1]} cutting cells near the cut: partition the "
+            f"run (partitions=/scheduler=; fperr intersect --workers N --partitions K: "
+            f"each partition holds less, docs/partitioned.md) or run on a machine with "
+            f"more memory ({type(e).__name__}: {str(e) or 'no detail'})") from e
 
 
 class Registration:
