@@ -9,6 +9,7 @@ import re
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
@@ -84,3 +85,55 @@ def test_out_of_memory_names_the_stage_of_the_registration(monkeypatch, where, s
                              r"simulation and 32 cutting cells near the cut: .*"
                              r"\(MemoryError: no detail\)$"):
         predicates.intersect(*cube_grid(4), *grid_plane(4, k=2), accelerate=False)
+
+
+@pytest.mark.parametrize("accelerate", [False, True])
+def test_the_levels_release_what_no_later_kind_reads(monkeypatch, accelerate):
+    """After each kind the face pairs keep only the boxes of the levels a later kind
+    reads (and the cutting cells' while a simulation level's stage 1 is still to come)
+    and no simulation owned table once no stage 1 is left; the kinds' pairs are those
+    of a run that releases nothing, and no box is computed twice (none was dropped
+    while a later kind needed it)."""
+    from predicates import compiled
+    from predicates.catalogue import kinds
+    from predicates.registration.examples import cube_grid, icosphere
+    from predicates.registration.levels import facepairs, loop
+    from predicates.registration.pipeline import intersect
+
+    if accelerate and not compiled.available():
+        pytest.skip("the compiled chain is not installed")
+    mesh = (*cube_grid(6), *icosphere(2))
+    with monkeypatch.context() as m:
+        m.setattr(facepairs.FacePairs, "_release", lambda self: None)
+        kept = intersect(*mesh, accelerate=accelerate)
+    seen, computed = [], []
+    real_box = facepairs.FacePairs._box
+
+    def box(self, side, k):
+        if (side, k) not in self._boxes:
+            computed.append((side, k))
+        return real_box(self, side, k)
+    real_level = loop.Registration._level
+
+    def level(self, k):
+        out = real_level(self, k)
+        left = [q for q in kinds(3)][[q.name for q in kinds(3)].index(k.name) + 1:]
+        f = self.faces
+        sim_levels = {q.i for q in left}
+        stage1_left = {q.i for q in left if q.i != 3 and q.i not in f._first_done}
+        cut_levels = {q.j for q in left} | ({2} if stage1_left else set())
+        assert {lv for side, lv in f._boxes if side == "sim"} <= sim_levels, k.name
+        assert {lv for side, lv in f._boxes if side == "cut"} <= cut_levels, k.name
+        assert {key[1] for key in f._tables if key[0] == "sim"} <= stage1_left, k.name
+        seen.append((k.name, len(f._boxes), len(f._tables)))
+        return out
+
+    monkeypatch.setattr(loop.Registration, "_level", level)
+    monkeypatch.setattr(facepairs.FacePairs, "_box", box)
+    released = intersect(*mesh, accelerate=accelerate)
+    assert [s[0] for s in seen] == [k.name for k in kinds(3)]
+    assert seen[-1][1:] == (0, 0)  # nothing left after the last kind
+    assert len(computed) == len(set(computed)), computed  # none dropped while needed
+    for k in kept.kinds:
+        for name in ("sim", "cut", "sim_weights", "cut_weights"):
+            assert np.array_equal(getattr(kept[k], name), getattr(released[k], name)), k

@@ -100,6 +100,7 @@ class Registration:
             return
         sim.build_unique(tops_s[keep_s])
         cut.build_unique(tops_c[keep_c])
+        sim.cells = cut.cells = None  # the complexes hold what the levels read
         self.faces = FacePairs(sim, cut, T, C, self.reach, catalogue_kinds(self.dim),
                                2 * self.chunk, self.accelerate)
         self.empty = False
@@ -204,10 +205,10 @@ class Registration:
                     c_all.append(cc)
                     sw_all.append(sw)
                     cw_all.append(cw)
-        s = np.concatenate(s_all) if s_all else np.zeros(0, dtype=np.int64)
-        c = np.concatenate(c_all) if c_all else np.zeros(0, dtype=np.int64)
-        sw = np.concatenate(sw_all) if sw_all else np.zeros((0, i + 1), dtype=dt)
-        cw = np.concatenate(cw_all) if cw_all else np.zeros((0, j + 1), dtype=dt)
+        s = _joined(s_all, np.zeros(0, dtype=np.int64))
+        c = _joined(c_all, np.zeros(0, dtype=np.int64))
+        sw = _joined(sw_all, np.zeros((0, i + 1), dtype=dt))
+        cw = _joined(cw_all, np.zeros((0, j + 1), dtype=dt))
         self._register(i, j, s, c)
         return self._output(kind, i, j, s, c, sw, cw, ncand, nsup)
 
@@ -282,6 +283,14 @@ class Registration:
             sid, cid = sid.take(order, axis=0), cid.take(order, axis=0)
         return KindPairs(kind, sid, cid, sw.take(order, axis=0), cw.take(order, axis=0),
                          candidates=ncand, suppressed=nsup)
+
+
+def _joined(parts: list, empty: np.ndarray) -> np.ndarray:
+    """The blocks ``parts`` concatenated (``empty`` if none), the list emptied: a kind's
+    hits are not held twice while they are registered and ordered."""
+    out = np.concatenate(parts) if parts else empty
+    parts.clear()
+    return out
 
 
 def _faces(cx, k, j, idx):
