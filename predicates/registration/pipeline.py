@@ -76,7 +76,7 @@ from predicates.registration.plan.cellboxes import CellBoxes
 from predicates.registration.plan.inputs import (
     check_extent, mesh_arrays, scale_points, validate_options, validate_pair)
 from predicates.registration.levels.loop import (
-    Registration, RegistrationMemoryError, out_of_memory)
+    Registration, RegistrationMemoryError, give_back, out_of_memory)
 from predicates.registration.partition import remote  # the plan on the workers, no Dask
 from predicates.registration.plan.refine import refine
 from predicates.registration.plan.resolution import (
@@ -175,6 +175,7 @@ def intersect(sim: MeshLike | ArrayLike, cut: MeshLike | ArrayLike,
             with out_of_memory(plan.kinds, near, timings, _mib(args)):
                 reg = _ranked(plan, chunk, timings)
                 plan = _lean(plan)  # the run's arrays are reg's now: not held twice
+                give_back()  # what the plan freed, before the levels' peak
                 pairs = reg.run(progress, timings)
                 del reg  # its complexes and boxes, before the result
         else:

@@ -137,3 +137,21 @@ def test_the_levels_release_what_no_later_kind_reads(monkeypatch, accelerate):
     for k in kept.kinds:
         for name in ("sim", "cut", "sim_weights", "cut_weights"):
             assert np.array_equal(getattr(kept[k], name), getattr(released[k], name)), k
+
+
+def test_joined_is_concatenate_without_holding_the_blocks_twice():
+    """The same values, dtype and shape as np.concatenate (also for blocks of mixed
+    dtypes, 2D and empty blocks), the list emptied; ``empty`` when there is none."""
+    from predicates.registration.levels.facepairs import joined
+
+    rng = np.random.default_rng(7)
+    cases = [[rng.integers(-9, 9, size=n) for n in (3, 0, 5)],
+             [rng.integers(0, 5, size=4).astype(np.int32), rng.integers(0, 5, size=2)],
+             [rng.random((n, 3)) for n in (2, 4, 1)]]
+    for parts in cases:
+        want = np.concatenate(parts)
+        got = joined(list_ := list(parts), np.zeros(0))
+        assert got.dtype == want.dtype and got.shape == want.shape
+        assert np.array_equal(got, want) and list_ == []
+    empty = np.zeros((0, 2))
+    assert joined([], empty) is empty

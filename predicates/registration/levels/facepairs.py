@@ -32,7 +32,7 @@ import numpy as np
 from predicates.registration.spatial.blocks import Blocks
 from predicates.registration.spatial.broadphase import box_pairs, boxes_of, pair_test
 
-__all__ = ["FacePairs", "cell_pairs", "owned_table"]
+__all__ = ["FacePairs", "cell_pairs", "joined", "owned_table"]
 
 
 def cell_pairs(P_sim, sim_cells, P_cut, cut_cells, pad: float, chunk: int,
@@ -58,6 +58,23 @@ def cell_pairs(P_sim, sim_cells, P_cut, cut_cells, pad: float, chunk: int,
            for x in (sim_cells, cut_cells)]
     return ((np.cumsum(keep_s, dtype=ids[0]) - 1).take(T),
             (np.cumsum(keep_c, dtype=ids[1]) - 1).take(C), keep_s, keep_c)
+
+
+def joined(parts: list, empty: np.ndarray) -> np.ndarray:
+    """``np.concatenate(parts)`` (``empty`` if none; the same values and dtype), each
+    part released once copied and the list emptied: the blocks and the whole are not
+    held at once (the output's pages are touched as they are written)."""
+    if not parts:
+        return empty
+    out = np.empty((sum(len(p) for p in parts),) + parts[0].shape[1:],
+                   np.result_type(*parts))
+    at = 0
+    parts.reverse()
+    while parts:
+        part = parts.pop()
+        out[at: at + len(part)] = part
+        at += len(part)
+    return out
 
 
 def owned_table(F: np.ndarray, n_faces: int) -> np.ndarray:
@@ -187,9 +204,7 @@ class FacePairs:
             fs.append(f)
             cs.append(C)
         self._first_done.add(i)
-        if not fs:
-            return np.zeros(0, np.int64), np.zeros(0, np.int64)
-        return np.concatenate(fs), np.concatenate(cs)
+        return joined(fs, np.zeros(0, np.int64)), joined(cs, np.zeros(0, np.int64))
 
     def _first_levels(self, levels: list) -> dict:
         """Stage 1 of the simulation ``levels`` in one compiled pass over the cell pairs

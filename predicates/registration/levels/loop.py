@@ -10,6 +10,8 @@ is a vectorised ``searchsorted``.
 from __future__ import annotations
 
 import contextlib
+import ctypes
+import gc
 import sys
 import time
 
@@ -20,10 +22,10 @@ from predicates.registration.spatial.blocks import Blocks
 from predicates.registration.spatial.broadphase import boxes_of, tighten_flags
 from predicates.registration.levels.complex import (
     Side, any_flagged, distinct_lex_order, packed_keys, sorted_rows)
-from predicates.registration.levels.facepairs import FacePairs, cell_pairs
+from predicates.registration.levels.facepairs import FacePairs, cell_pairs, joined
 from predicates.registration.result.intersection import KindPairs
 
-__all__ = ["Registration", "RegistrationMemoryError", "out_of_memory"]
+__all__ = ["Registration", "RegistrationMemoryError", "give_back", "out_of_memory"]
 
 
 class RegistrationMemoryError(MemoryError):
@@ -48,6 +50,18 @@ def out_of_memory(kinds, near: tuple, timings: dict, mib: float):
             f"run (partitions=/scheduler=; fperr intersect --workers N --partitions K: "
             f"each partition holds less, docs/partitioned.md) or run on a machine with "
             f"more memory ({type(e).__name__}: {str(e) or 'no detail'})") from e
+
+
+def give_back() -> None:
+    """Return the memory freed before the levels to the system (a serial run's peak,
+    docs/partitioned.md section 2): collect reference cycles (a plan's cell boxes and
+    their views hold boxes and masks until the next full collection) and, with glibc,
+    trim its heap (blocks freed below its mmap threshold otherwise stay resident:
+    W4 ~95 MiB, benchmarks/README.md "Serial peak")."""
+    gc.collect()
+    if sys.platform.startswith("linux"):
+        with contextlib.suppress(OSError, AttributeError):  # not glibc: nothing to trim
+            ctypes.CDLL(None).malloc_trim(0)
 
 
 class Registration:
@@ -205,10 +219,10 @@ class Registration:
                     c_all.append(cc)
                     sw_all.append(sw)
                     cw_all.append(cw)
-        s = _joined(s_all, np.zeros(0, dtype=np.int64))
-        c = _joined(c_all, np.zeros(0, dtype=np.int64))
-        sw = _joined(sw_all, np.zeros((0, i + 1), dtype=dt))
-        cw = _joined(cw_all, np.zeros((0, j + 1), dtype=dt))
+        s = joined(s_all, np.zeros(0, dtype=np.int64))
+        c = joined(c_all, np.zeros(0, dtype=np.int64))
+        sw = joined(sw_all, np.zeros((0, i + 1), dtype=dt))
+        cw = joined(cw_all, np.zeros((0, j + 1), dtype=dt))
         self._register(i, j, s, c)
         return self._output(kind, i, j, s, c, sw, cw, ncand, nsup)
 
@@ -283,14 +297,6 @@ class Registration:
             sid, cid = sid.take(order, axis=0), cid.take(order, axis=0)
         return KindPairs(kind, sid, cid, sw.take(order, axis=0), cw.take(order, axis=0),
                          candidates=ncand, suppressed=nsup)
-
-
-def _joined(parts: list, empty: np.ndarray) -> np.ndarray:
-    """The blocks ``parts`` concatenated (``empty`` if none), the list emptied: a kind's
-    hits are not held twice while they are registered and ordered."""
-    out = np.concatenate(parts) if parts else empty
-    parts.clear()
-    return out
 
 
 def _faces(cx, k, j, idx):
