@@ -76,7 +76,7 @@ from predicates.registration.plan.cellboxes import CellBoxes
 from predicates.registration.plan.inputs import (
     check_extent, mesh_arrays, scale_points, validate_options, validate_pair)
 from predicates.registration.levels.loop import (
-    Registration, RegistrationMemoryError, give_back, out_of_memory)
+    MemoryGuard, Registration, RegistrationMemoryError)
 from predicates.registration.partition import remote  # the plan on the workers, no Dask
 from predicates.registration.plan.refine import refine
 from predicates.registration.plan.resolution import (
@@ -166,21 +166,15 @@ def intersect(sim: MeshLike | ArrayLike, cut: MeshLike | ArrayLike,
             cut_region, tolerances,
             threads=1 if serial else plan_threads.threads_for(scheduler),
             scheduler=None if serial else (scheduler or "threads"), accelerate=accelerate)
-        timings["setup"] = time.perf_counter() - t0
-        timings["cpu_setup"] = time.process_time() - c0
+        timings["setup"], timings["cpu_setup"] = time.perf_counter() - t0, time.process_time() - c0
         check = partial(_check, plan.report, strict, memory_limit, plan.dim)
         if serial:
             check()
-            near = len(plan.sim_cells), len(plan.cut_cells)
-            with out_of_memory(plan.kinds, near, timings, _mib(args)):
-                reg = _ranked(plan, chunk, timings)
-                plan = _lean(plan)  # the run's arrays are reg's now: not held twice
-                give_back()  # what the plan freed, before the levels' peak
-                pairs = reg.run(progress, timings)
-                del reg  # its complexes and boxes, before the result
+            with MemoryGuard(plan, timings, _mib(args)):  # the plan is not held in it
+                reg, plan = _ranked(plan, chunk, timings)  # plan: lean, its arrays reg's
+                pairs = reg.run(progress, timings, give_back=True)  # then reg is empty
         else:
             from predicates.registration.partition.run import run_partitioned
-
             # checked there, before any task: the memory guard counts the partitions
             # held at once, not the whole run
             pairs = run_partitioned(plan, partitions, scheduler, chunk, timings, check,
@@ -334,19 +328,20 @@ class _Stages:
         self.timings[stage], self.t = t - self.t, t
 
 
-def _ranked(plan: Plan, chunk: int, timings: dict) -> Registration:
+def _ranked(plan: Plan, chunk: int, timings: dict) -> tuple[Registration, Plan]:
     """Rank space of the cells that can meet (they hold every pair within reach,
-    docs/resolution.md): the registration, whose ``run()`` gives {kind: KindPairs}."""
+    docs/resolution.md): the registration, whose ``run()`` gives {kind: KindPairs},
+    and the plan without the arrays it now holds its own copies of (:func:`_lean`)."""
     t = time.perf_counter()
     reg = Registration(plan.dim, plan.P_sim, plan.sim_cells, plan.P_cut, plan.cut_cells,
                        plan.tol, plan.scale.reach, chunk, accelerate=plan.accelerate)
     timings["ranks"] = time.perf_counter() - t
-    return reg
+    return reg, _lean(plan)
 
 
 def _register(plan: Plan, chunk: int, progress: bool, timings: dict) -> dict:
     """:func:`_ranked`, then the levels: {kind: KindPairs} (benchmarks/partition_split.py)."""
-    return _ranked(plan, chunk, timings).run(progress, timings)
+    return _ranked(plan, chunk, timings)[0].run(progress, timings)
 
 
 def _lean(plan: Plan) -> Plan:

@@ -25,7 +25,7 @@ from predicates.registration.levels.complex import (
 from predicates.registration.levels.facepairs import FacePairs, cell_pairs, joined
 from predicates.registration.result.intersection import KindPairs
 
-__all__ = ["Registration", "RegistrationMemoryError", "give_back", "out_of_memory"]
+__all__ = ["MemoryGuard", "Registration", "RegistrationMemoryError", "trim_freed"]
 
 
 class RegistrationMemoryError(MemoryError):
@@ -34,25 +34,36 @@ class RegistrationMemoryError(MemoryError):
     (partition the run: docs/partitioned.md, section 2)."""
 
 
-@contextlib.contextmanager
-def out_of_memory(kinds, near: tuple, timings: dict, mib: float):
-    """A MemoryError of the serial registration as :class:`RegistrationMemoryError`
-    naming the stage reached, the cells near the cut (``near``) and what to do."""
-    try:
-        yield
-    except MemoryError as e:  # a refusal that says where and what to do, not a bare one
-        stage = next((k.name for k in kinds if k.name not in timings),
-                     "output") if "broadphase_cells" in timings else (
-                     "broad phase" if "ranks" in timings else "rank space")
+class MemoryGuard:
+    """A MemoryError of the serial registration (inside ``with``) as
+    :class:`RegistrationMemoryError` naming the stage reached in ``timings``, the cells
+    near the cut and what to do. Keeps the plan's counts, not the plan (whose arrays
+    the registration releases meanwhile)."""
+
+    def __init__(self, plan, timings: dict, mib: float):
+        self.kinds, self.timings, self.mib = plan.kinds, timings, mib
+        self.near = len(plan.sim_cells), len(plan.cut_cells)
+
+    def __enter__(self) -> MemoryGuard:
+        return self
+
+    def __exit__(self, kind, e, tb) -> None:
+        if not isinstance(e, MemoryError) or isinstance(e, RegistrationMemoryError):
+            return  # anything else propagates as it is
+        done = self.timings
+        stage = next((k.name for k in self.kinds if k.name not in done),
+                     "output") if "broadphase_cells" in done else (
+                     "broad phase" if "ranks" in done else "rank space")
         raise RegistrationMemoryError(
-            f"not enough memory for the registration ({stage}) of meshes of {mib:.0f} MiB, "
-            f"{near[0]} simulation and {near[1]} cutting cells near the cut: partition the "
-            f"run (partitions=/scheduler=; fperr intersect --workers N --partitions K: "
-            f"each partition holds less, docs/partitioned.md) or run on a machine with "
-            f"more memory ({type(e).__name__}: {str(e) or 'no detail'})") from e
+            f"not enough memory for the registration ({stage}) of meshes of "
+            f"{self.mib:.0f} MiB, {self.near[0]} simulation and {self.near[1]} cutting "
+            f"cells near the cut: partition the run (partitions=/scheduler=; fperr "
+            f"intersect --workers N --partitions K: each partition holds less, "
+            f"docs/partitioned.md) or run on a machine with more memory "
+            f"({type(e).__name__}: {str(e) or 'no detail'})") from e
 
 
-def give_back() -> None:
+def trim_freed() -> None:
     """Return the memory freed before the levels to the system (a serial run's peak,
     docs/partitioned.md section 2): collect reference cycles (a plan's cell boxes and
     their views hold boxes and masks until the next full collection) and, with glibc,
@@ -172,10 +183,15 @@ class Registration:
         return blocked
 
     # -- levels ---------------------------------------------------------------------------
-    def run(self, progress: bool, timings: dict) -> dict:
+    def run(self, progress: bool, timings: dict, give_back: bool = False) -> dict:
         """Register every kind in the catalogue's order; returns {kind: KindPairs} and
-        records the time of the broad phase and of every kind in ``timings``."""
+        records the time of the broad phase and of every kind in ``timings``. Once:
+        the arrays are released after. ``give_back``: first return the memory freed
+        before (:func:`trim_freed`; a serial run, its plan released)."""
         from tqdm import tqdm
+
+        if give_back:
+            trim_freed()
 
         kinds = catalogue_kinds(self.dim)
         pairs = {}
@@ -195,6 +211,9 @@ class Registration:
                 bar.update(1)
         finally:
             bar.close()
+            # the complexes, boxes and registered keys: not held past the run
+            self.faces = self.sim = self.cut = None
+            self.registered, self.sim_involved, self.cut_involved = {}, {}, {}
         return pairs
 
     def _level(self, k) -> KindPairs:
