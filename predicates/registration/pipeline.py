@@ -56,6 +56,7 @@ differs in the predicates.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import os
 import time
 import warnings
@@ -74,7 +75,8 @@ from predicates.registration.plan import resolution
 from predicates.registration.plan.cellboxes import CellBoxes
 from predicates.registration.plan.inputs import (
     check_extent, mesh_arrays, scale_points, validate_options, validate_pair)
-from predicates.registration.levels.loop import Registration
+from predicates.registration.levels.loop import (
+    MemoryGuard, Registration, RegistrationMemoryError)
 from predicates.registration.partition import remote  # the plan on the workers, no Dask
 from predicates.registration.plan.refine import refine
 from predicates.registration.plan.resolution import (
@@ -86,8 +88,8 @@ from predicates.registration.spatial.blocks import Blocks
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike, DTypeLike
 
-__all__ = ["CHUNK", "MeshLike", "PLAN_STAGES", "PlanMemoryError", "intersect",
-           "intersect_files"]
+__all__ = ["CHUNK", "MeshLike", "PLAN_STAGES", "PlanMemoryError",
+           "RegistrationMemoryError", "intersect", "intersect_files"]
 
 #: Pairs per predicate batch (bounds the gathered coordinates and temporaries).
 CHUNK = 1 << 17
@@ -164,15 +166,15 @@ def intersect(sim: MeshLike | ArrayLike, cut: MeshLike | ArrayLike,
             cut_region, tolerances,
             threads=1 if serial else plan_threads.threads_for(scheduler),
             scheduler=None if serial else (scheduler or "threads"), accelerate=accelerate)
-        timings["setup"] = time.perf_counter() - t0
-        timings["cpu_setup"] = time.process_time() - c0
+        timings["setup"], timings["cpu_setup"] = time.perf_counter() - t0, time.process_time() - c0
         check = partial(_check, plan.report, strict, memory_limit, plan.dim)
         if serial:
             check()
-            pairs = _register(plan, chunk, progress, timings)
+            with MemoryGuard(plan, timings, _mib(args)):  # the plan is not held in it
+                reg, plan = _ranked(plan, chunk, timings)  # plan: lean, its arrays reg's
+                pairs = reg.run(progress, timings, give_back=True)  # then reg is empty
         else:
             from predicates.registration.partition.run import run_partitioned
-
             # checked there, before any task: the memory guard counts the partitions
             # held at once, not the whole run
             pairs = run_partitioned(plan, partitions, scheduler, chunk, timings, check,
@@ -202,13 +204,17 @@ class PlanMemoryError(MemoryError):
 def _too_large(args, timings: dict, serial: bool, err: MemoryError) -> str:
     """The message of :class:`PlanMemoryError`: the stage reached, the meshes' bytes."""
     stage = next((s for s in PLAN_STAGES if s not in timings), "plan_report")
-    size = sum(getattr(a, "nbytes", 0) for a in args if a is not None)
     what = "" if serial else " (in a partitioned run the plan runs on the client)"
     return (f"not enough memory for the plan ({stage.replace('plan_', '')}) of meshes "
-            f"of {size / 2**20:.0f} MiB{what}: besides the meshes themselves it needs "
+            f"of {_mib(args):.0f} MiB{what}: besides the meshes themselves it needs "
             f"about as many bytes again as the simulation mesh (W4: 1.04x, "
             f"docs/partitioned.md); free memory or run on a machine with more "
             f"({type(err).__name__}: {err or 'no detail'})")
+
+
+def _mib(args) -> float:
+    """The meshes' bytes (MiB) as given to :func:`intersect` (arrays; else 0)."""
+    return sum(getattr(a, "nbytes", 0) for a in args if a is not None) / 2**20
 
 
 class Plan(NamedTuple):
@@ -322,14 +328,27 @@ class _Stages:
         self.timings[stage], self.t = t - self.t, t
 
 
-def _register(plan: Plan, chunk: int, progress: bool, timings: dict) -> dict:
-    """Rank space, broad phase and levels on the cells that can meet (they hold every
-    pair within reach, docs/resolution.md): {kind: KindPairs}."""
+def _ranked(plan: Plan, chunk: int, timings: dict) -> tuple[Registration, Plan]:
+    """Rank space of the cells that can meet (they hold every pair within reach,
+    docs/resolution.md): the registration, whose ``run()`` gives {kind: KindPairs},
+    and the plan without the arrays it now holds its own copies of (:func:`_lean`)."""
     t = time.perf_counter()
     reg = Registration(plan.dim, plan.P_sim, plan.sim_cells, plan.P_cut, plan.cut_cells,
                        plan.tol, plan.scale.reach, chunk, accelerate=plan.accelerate)
     timings["ranks"] = time.perf_counter() - t
-    return reg.run(progress, timings)
+    return reg, _lean(plan)
+
+
+def _register(plan: Plan, chunk: int, progress: bool, timings: dict) -> dict:
+    """:func:`_ranked`, then the levels: {kind: KindPairs} (benchmarks/partition_split.py)."""
+    return _ranked(plan, chunk, timings)[0].run(progress, timings)
+
+
+def _lean(plan: Plan) -> Plan:
+    """The plan without what only the rank space read (the scaled points, the run's
+    cells, the masks): the result's fields, a serial run's peak lower by their bytes."""
+    return plan._replace(P_sim=None, P_cut=None, sim_cells=None, cut_cells=None,
+                         scale=dataclasses.replace(plan.scale, masks=(), first=()))
 
 
 def _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts,

@@ -139,13 +139,14 @@ def _register(args, work, check):
 
 
 def _out_of_memory(e: MemoryError) -> str:
-    """The message of a run that ran out of memory: the plan's names its stage and the
-    meshes' size (``PlanMemoryError``); any other says what to try."""
-    from predicates.registration.pipeline import PlanMemoryError
+    """The message of a run that ran out of memory: the plan's and the registration's
+    name their stage and the meshes' size (``PlanMemoryError``,
+    ``RegistrationMemoryError``); any other says what to try."""
+    from predicates.registration.pipeline import PlanMemoryError, RegistrationMemoryError
 
-    if isinstance(e, PlanMemoryError):
+    if isinstance(e, (PlanMemoryError, RegistrationMemoryError)):
         return str(e)
-    return (f"not enough memory for this run ({type(e).__name__}: {e or 'no detail'}); "
+    return (f"not enough memory for this run ({type(e).__name__}: {str(e) or 'no detail'}); "
             f"nothing was written: free memory, use a machine with more, or partition "
             f"the run (--workers N --partitions K, each partition then holds less: "
             f"docs/partitioned.md)")

@@ -121,6 +121,42 @@ def test_run_errors_are_bad_input_only_when_the_input_is_bad(tmp_path, cube_plan
     assert not out.exists()
 
 
+_LIMITED_REGISTRATION = (
+    "import resource, sys, unicodedata\n"  # tqdm's lazy import, mapped before the cap
+    "from predicates.registration import pipeline\n"
+    "real = pipeline.Registration\n"
+    "def limited(*a, **k):\n"
+    "    with open('/proc/self/status') as f:\n"
+    "        vm = next(int(l.split()[1]) * 1024 for l in f if l.startswith('VmSize:'))\n"
+    "    resource.setrlimit(resource.RLIMIT_AS, (vm + (2 << 20), resource.RLIM_INFINITY))\n"
+    "    return real(*a, **k)\n"
+    "pipeline.Registration = limited\n"
+    "from proofs.cli import main\n"
+    "sys.exit(main(sys.argv[1:]))\n")
+
+
+def test_out_of_memory_in_the_registration_exits_1_and_writes_nothing(tmp_path):
+    """The address space capped once the plan is done (at the registration's entrance,
+    to what the process maps plus 2 MiB; cube 30 × icosphere 3 needs tens of MiB
+    more): exit 1, one message naming the registration's stage and what to do, no
+    traceback, no output file."""
+    from predicates.registration.examples import icosphere
+
+    sim = _write(tmp_path / "cube.vtu", cube_grid(30), "tetra")
+    cut = _write(tmp_path / "sphere.vtu", icosphere(3), "triangle")
+    out = tmp_path / "hits.vtu"
+    r = subprocess.run([sys.executable, "-c", _LIMITED_REGISTRATION, "intersect", sim, cut,
+                        "-o", str(out), "--quiet"], cwd=ROOT,
+                       env={**ENV, "FPERR_ACCELERATE": "0"}, capture_output=True,
+                       text=True, timeout=300)
+    assert r.returncode == 1, r.stderr
+    assert re.search(r"^fperr intersect: error: not enough memory for the registration "
+                     r"\([a-z_ ]+\) of meshes of \d+ MiB, .* partition the run .*--workers N "
+                     r"--partitions K", r.stderr, re.M), r.stderr
+    assert "Traceback" not in r.stderr and "internal error" not in r.stderr
+    assert not out.exists()
+
+
 def test_a_mesh_of_the_wrong_number_type_is_a_mesh_type_error():
     """What the command line reports as bad input is what validation raises (and, for
     a library caller, still a TypeError)."""

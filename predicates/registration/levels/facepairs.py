@@ -32,7 +32,7 @@ import numpy as np
 from predicates.registration.spatial.blocks import Blocks
 from predicates.registration.spatial.broadphase import box_pairs, boxes_of, pair_test
 
-__all__ = ["FacePairs", "cell_pairs", "owned_table"]
+__all__ = ["FacePairs", "cell_pairs", "joined", "owned_table"]
 
 
 def cell_pairs(P_sim, sim_cells, P_cut, cut_cells, pad: float, chunk: int,
@@ -58,6 +58,23 @@ def cell_pairs(P_sim, sim_cells, P_cut, cut_cells, pad: float, chunk: int,
            for x in (sim_cells, cut_cells)]
     return ((np.cumsum(keep_s, dtype=ids[0]) - 1).take(T),
             (np.cumsum(keep_c, dtype=ids[1]) - 1).take(C), keep_s, keep_c)
+
+
+def joined(parts: list, empty: np.ndarray) -> np.ndarray:
+    """``np.concatenate(parts)`` (``empty`` if none; the same values and dtype), each
+    part released once copied and the list emptied: the blocks and the whole are not
+    held at once (the output's pages are touched as they are written)."""
+    if not parts:
+        return empty
+    out = np.empty((sum(len(p) for p in parts),) + parts[0].shape[1:],
+                   np.result_type(*parts))
+    at = 0
+    parts.reverse()
+    while parts:
+        part = parts.pop()
+        out[at: at + len(part)] = part
+        at += len(part)
+    return out
 
 
 def owned_table(F: np.ndarray, n_faces: int) -> np.ndarray:
@@ -108,7 +125,22 @@ class FacePairs:
         self._level_reach = {}
         for k in kinds:
             self._level_reach[k.i] = max(self._level_reach.get(k.i, 0.0), reach[k.name])
+        self._left = [(k.i, k.j) for k in kinds]  # the kinds still to ask for, in order
+        self._first_done = set()  # the simulation levels whose stage 1 was computed
         self.T, self.C = T, C
+
+    def _release(self) -> None:
+        """Drop the boxes and owned tables no kind still to come reads (a serial run's
+        peak: W4's face boxes and lists are ~150 MB, docs/partitioned.md section 2):
+        the simulation tables serve stage 1 only, the cutting cells' boxes also serve
+        stage 1 of the levels still without it; the same pairs either way."""
+        sim = {i for i, _ in self._left}
+        first = {i for i in sim if i != self.top_s and i not in self._first_done}
+        cut = {j for _, j in self._left} | ({self.top_c} if first else set())
+        for key in [k for k in self._boxes if k[1] not in (sim if k[0] == "sim" else cut)]:
+            del self._boxes[key]
+        for key in [k for k in self._tables if k[1] not in (first if k[0] == "sim" else cut)]:
+            del self._tables[key]
 
     def _box(self, side, k):
         if (side, k) not in self._boxes:
@@ -157,9 +189,10 @@ class FacePairs:
         if i == self.top_s:  # the cell itself: the cell pairs, tested in stage 2
             return self.T, self.C
         if self.accelerate:  # every level still to come in one compiled pass
-            self._stage1.update(self._first_levels(sorted(
-                k for k, left in self._pending.items()
-                if left and k != self.top_s and k not in self._stage1)))
+            levels = sorted(k for k, left in self._pending.items()
+                            if left and k != self.top_s and k not in self._stage1)
+            self._stage1.update(self._first_levels(levels))
+            self._first_done.update(levels)
             return self._stage1[i]
         tab = self._table("sim", i)
         step = max(1, self.chunk // tab.shape[1])
@@ -170,9 +203,8 @@ class FacePairs:
             f, C = self._test(self._level_reach[i], i, self.top_c, f, C.take(rows))
             fs.append(f)
             cs.append(C)
-        if not fs:
-            return np.zeros(0, np.int64), np.zeros(0, np.int64)
-        return np.concatenate(fs), np.concatenate(cs)
+        self._first_done.add(i)
+        return joined(fs, np.zeros(0, np.int64)), joined(cs, np.zeros(0, np.int64))
 
     def _first_levels(self, levels: list) -> dict:
         """Stage 1 of the simulation ``levels`` in one compiled pass over the cell pairs
@@ -205,6 +237,8 @@ class FacePairs:
             step = max(1, self.chunk // (max(1, tab[2]) if lists else tab.shape[1]))
         for lo in range(0, len(f_all), step):
             yield f_all[lo: lo + step], C_all[lo: lo + step], tab, pad
+        self._left.remove((i, j))  # this kind is done: what no later kind reads goes
+        self._release()
 
     def boxes(self, i: int, j: int) -> tuple:
         """(lo_a, hi_a, lo_b, hi_b): the boxes of the simulation i-simplices and the

@@ -9,6 +9,9 @@ is a vectorised ``searchsorted``.
 """
 from __future__ import annotations
 
+import contextlib
+import ctypes
+import gc
 import sys
 import time
 
@@ -19,10 +22,57 @@ from predicates.registration.spatial.blocks import Blocks
 from predicates.registration.spatial.broadphase import boxes_of, tighten_flags
 from predicates.registration.levels.complex import (
     Side, any_flagged, distinct_lex_order, packed_keys, sorted_rows)
-from predicates.registration.levels.facepairs import FacePairs, cell_pairs
+from predicates.registration.levels.facepairs import FacePairs, cell_pairs, joined
 from predicates.registration.result.intersection import KindPairs
 
-__all__ = ["Registration"]
+__all__ = ["MemoryGuard", "Registration", "RegistrationMemoryError", "trim_freed"]
+
+
+class RegistrationMemoryError(MemoryError):
+    """The serial registration after the plan (rank space, broad phase, levels) ran out
+    of memory: the message names the stage, the cells near the cut and what to do
+    (partition the run: docs/partitioned.md, section 2)."""
+
+
+class MemoryGuard:
+    """A MemoryError of the serial registration (inside ``with``) as
+    :class:`RegistrationMemoryError` naming the stage reached in ``timings``, the cells
+    near the cut and what to do. Keeps the plan's counts, not the plan (whose arrays
+    the registration releases meanwhile)."""
+
+    def __init__(self, plan, timings: dict, mib: float):
+        self.kinds, self.timings, self.mib = plan.kinds, timings, mib
+        self.near = len(plan.sim_cells), len(plan.cut_cells)
+
+    def __enter__(self) -> MemoryGuard:
+        return self
+
+    def __exit__(self, kind, e, tb) -> None:
+        if not isinstance(e, MemoryError) or isinstance(e, RegistrationMemoryError):
+            return  # anything else propagates as it is
+        done = self.timings
+        stage = next((k.name for k in self.kinds if k.name not in done),
+                     "output") if "broadphase_cells" in done else (
+                     "broad phase" if "ranks" in done else "rank space")
+        raise RegistrationMemoryError(
+            f"not enough memory for the registration ({stage}) of meshes of "
+            f"{self.mib:.0f} MiB, {self.near[0]} simulation and {self.near[1]} cutting "
+            f"cells near the cut: partition the run (partitions=/scheduler=; fperr "
+            f"intersect --workers N --partitions K: each partition holds less, "
+            f"docs/partitioned.md) or run on a machine with more memory "
+            f"({type(e).__name__}: {str(e) or 'no detail'})") from e
+
+
+def trim_freed() -> None:
+    """Return the memory freed before the levels to the system (a serial run's peak,
+    docs/partitioned.md section 2): collect reference cycles (a plan's cell boxes and
+    their views hold boxes and masks until the next full collection) and, with glibc,
+    trim its heap (blocks freed below its mmap threshold otherwise stay resident:
+    W4 ~95 MiB, benchmarks/README.md "Serial peak")."""
+    gc.collect()
+    if sys.platform.startswith("linux"):
+        with contextlib.suppress(OSError, AttributeError):  # not glibc: nothing to trim
+            ctypes.CDLL(None).malloc_trim(0)
 
 
 class Registration:
@@ -75,6 +125,7 @@ class Registration:
             return
         sim.build_unique(tops_s[keep_s])
         cut.build_unique(tops_c[keep_c])
+        sim.cells = cut.cells = None  # the complexes hold what the levels read
         self.faces = FacePairs(sim, cut, T, C, self.reach, catalogue_kinds(self.dim),
                                2 * self.chunk, self.accelerate)
         self.empty = False
@@ -132,10 +183,15 @@ class Registration:
         return blocked
 
     # -- levels ---------------------------------------------------------------------------
-    def run(self, progress: bool, timings: dict) -> dict:
+    def run(self, progress: bool, timings: dict, give_back: bool = False) -> dict:
         """Register every kind in the catalogue's order; returns {kind: KindPairs} and
-        records the time of the broad phase and of every kind in ``timings``."""
+        records the time of the broad phase and of every kind in ``timings``. Once:
+        the arrays are released after. ``give_back``: first return the memory freed
+        before (:func:`trim_freed`; a serial run, its plan released)."""
         from tqdm import tqdm
+
+        if give_back:
+            trim_freed()
 
         kinds = catalogue_kinds(self.dim)
         pairs = {}
@@ -155,6 +211,9 @@ class Registration:
                 bar.update(1)
         finally:
             bar.close()
+            # the complexes, boxes and registered keys: not held past the run
+            self.faces = self.sim = self.cut = None
+            self.registered, self.sim_involved, self.cut_involved = {}, {}, {}
         return pairs
 
     def _level(self, k) -> KindPairs:
@@ -179,10 +238,10 @@ class Registration:
                     c_all.append(cc)
                     sw_all.append(sw)
                     cw_all.append(cw)
-        s = np.concatenate(s_all) if s_all else np.zeros(0, dtype=np.int64)
-        c = np.concatenate(c_all) if c_all else np.zeros(0, dtype=np.int64)
-        sw = np.concatenate(sw_all) if sw_all else np.zeros((0, i + 1), dtype=dt)
-        cw = np.concatenate(cw_all) if cw_all else np.zeros((0, j + 1), dtype=dt)
+        s = joined(s_all, np.zeros(0, dtype=np.int64))
+        c = joined(c_all, np.zeros(0, dtype=np.int64))
+        sw = joined(sw_all, np.zeros((0, i + 1), dtype=dt))
+        cw = joined(cw_all, np.zeros((0, j + 1), dtype=dt))
         self._register(i, j, s, c)
         return self._output(kind, i, j, s, c, sw, cw, ncand, nsup)
 
