@@ -172,7 +172,7 @@ def intersect(sim: MeshLike | ArrayLike, cut: MeshLike | ArrayLike,
             check()
             with MemoryGuard(plan, timings, _mib(args)):  # the plan is not held in it
                 reg, plan = _ranked(plan, chunk, timings)  # plan: lean, its arrays reg's
-                pairs = reg.run(progress, timings, give_back=True)  # then reg is empty
+                pairs = reg.run(progress, timings, give_back=_held_much(plan))  # reg empty
         else:
             from predicates.registration.partition.run import run_partitioned
             # checked there, before any task: the memory guard counts the partitions
@@ -342,6 +342,13 @@ def _ranked(plan: Plan, chunk: int, timings: dict) -> tuple[Registration, Plan]:
 def _register(plan: Plan, chunk: int, progress: bool, timings: dict) -> dict:
     """:func:`_ranked`, then the levels: {kind: KindPairs} (benchmarks/partition_split.py)."""
     return _ranked(plan, chunk, timings)[0].run(progress, timings)
+
+
+def _held_much(plan: Plan) -> bool:
+    """Whether giving the plan's freed memory back before the levels pays
+    (:func:`~predicates.registration.levels.loop.trim_freed`: a full collection, ~10-20 ms
+    with sympy loaded): for a mesh of 2^20 cells or more, whose serial peak it lowers."""
+    return len(plan.sim.cells) >= 2**20
 
 
 def _lean(plan: Plan) -> Plan:
