@@ -318,13 +318,18 @@ def scale_points(points: np.ndarray, e: int, role: str,
     without a scaled copy of every point (a partitioned run's plan keeps the run's
     vertices only: docs/partitioned.md 6)."""
     if keep is not None:
-        step = 1 << 16  # (each block's check is the whole array's on its rows)
+        step, inexact = 1 << 16, None  # (each block's check is the whole array's on its rows)
         for a in range(0, len(points), step):
-            _check_scaled(points[a:a + step], times_pow2_quiet(points[a:a + step], -e),
-                          e, role, exact=False)
-        for a in range(0, len(points), step):
-            _check_scaled(points[a:a + step], times_pow2_quiet(points[a:a + step], -e),
-                          e, role, overflow=False)
+            block = points[a:a + step]
+            out = times_pow2_quiet(block, -e)
+            _check_scaled(block, out, e, role, exact=False)  # an overflow anywhere first
+            if inexact is None:
+                try:
+                    _check_scaled(block, out, e, role, overflow=False)
+                except ValueError as err:
+                    inexact = err
+        if inexact is not None:
+            raise inexact
         return times_pow2(points[keep], -e)
     out = times_pow2_quiet(points, -e)
     _check_scaled(points, out, e, role)
