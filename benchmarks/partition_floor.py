@@ -10,7 +10,7 @@ One process, one LocalCluster of 2 single-threaded workers
 * ``serial``: ``intersect`` as is; ``plan``: its global plan (``pipeline._plan``);
   ``plan_threaded``: the same on 2 threads (a partitioned run's; the bounds take the
   faster of the two);
-  ``register``: the rest (``pipeline._register``);
+  ``register``: the rest (``pipeline._ranked`` then ``Registration.run``);
 * ``partitioned``: ``intersect(partitions=2, scheduler=client)``; ``post_plan``: the
   same run given the finished plan (``run_partitioned``: split, Dask, merge);
   ``post_plan_presplit``: the parts cut beforehand, only their tasks and the merge;
@@ -72,15 +72,16 @@ def plan_cells(P, cells, clo, chi, pad):
 def register_task(lean, chunk: int) -> float:
     """The serial registration of ``lean`` (a broadcast :func:`_lean` plan) as one task:
     its wall seconds, timed inside the task."""
-    from predicates.registration import pipeline
+    from predicates.registration.levels.loop import Registration
 
     t = time.perf_counter()
-    pipeline._register(lean, chunk, False, {})
+    Registration(lean.dim, lean.P_sim, lean.sim_cells, lean.P_cut, lean.cut_cells, lean.tol,
+                 lean.scale.reach, chunk, accelerate=lean.accelerate).run(False, {})
     return time.perf_counter() - t
 
 
 def _lean(plan):
-    """What ``pipeline._register`` reads of a plan (dim, scaled points, run cells,
+    """What the registration (``levels.loop.Registration``) reads of a plan (dim, scaled points, run cells,
     tolerances, reach), without the input arrays it does not need."""
     from types import SimpleNamespace
 
@@ -131,7 +132,7 @@ def _steps(client, meshes, pl, inside: dict) -> dict:
         "serial": lambda: predicates.intersect(sp, sc, cp, cc),
         "plan": lambda: _plan(meshes),
         "plan_threaded": lambda: _plan(meshes, 2),
-        "register": lambda: pipeline._register(pl, pipeline.CHUNK, False, {}),
+        "register": lambda: pipeline._ranked(pl, pipeline.CHUNK, {})[0].run(False, {}),
         "partitioned": lambda: predicates.intersect(sp, sc, cp, cc, partitions=2,
                                                     scheduler=client),
         "post_plan": lambda: run_partitioned(pl, 2, client, pipeline.CHUNK, {}),

@@ -8,7 +8,7 @@ On W1 (n = 48 × icosphere 5) or W4 (``--n 120 --subdivisions 7``): the plan onc
 for each k the split (``partition.split``: the Layout — Morton order, vertex owners,
 halos — and every Part) timed, best of ``--reps``, with the cells and cutting cells
 the partitions receive in all and the bytes sent. Baseline timed in the same run: the
-serial registration after the plan (``pipeline._register``), so the split reads as a
+serial registration after the plan (``pipeline._ranked`` then ``Registration.run``), so the split reads as a
 fraction of the work it distributes.
 """
 from __future__ import annotations
@@ -50,7 +50,7 @@ def main(argv=None) -> None:
     plan = pipeline._plan((sp, sc, cp, cc), np.float64, 1.0, False, pipeline.CHUNK, True,
                           {}, None, None)
     pad = max(plan.scale.reach.values())
-    reg, _ = _best(lambda: pipeline._register(plan, pipeline.CHUNK, False, {}),
+    reg, _ = _best(lambda: pipeline._ranked(plan, pipeline.CHUNK, {})[0].run(False, {}),
                    min(a.reps, 2))
     print(f"cube n = {a.n} ({len(sc):,} tetrahedra; {len(plan.sim_cells):,} run cells, "
           f"{len(plan.P_sim):,} points) x icosphere {len(cc):,} triangles "

@@ -74,7 +74,8 @@ from predicates.registration.plan import threads as plan_threads
 from predicates.registration.plan import resolution
 from predicates.registration.plan.cellboxes import CellBoxes
 from predicates.registration.plan.inputs import (
-    check_extent, mesh_arrays, scale_points, validate_options, validate_pair)
+    check_extent, mesh_arrays, renumbered, run_vertices, scale_points, validate_options,
+    validate_pair)
 from predicates.registration.levels.loop import (
     MemoryGuard, Registration, RegistrationMemoryError)
 from predicates.registration.partition import remote  # the plan on the workers, no Dask
@@ -237,6 +238,9 @@ class Plan(NamedTuple):
     refinement: object
     arrays: object  # inputs.Arrays: the meshes as arrays, with notes and plane
     accelerate: bool = False  # the compiled candidate chain (predicates.compiled)
+    # a partitioned run's plan: P_sim holds only the run's vertices, these global ids
+    # ascending, and sim_cells is in their positions (None: every point, global ids)
+    sim_vertex_ids: np.ndarray | None = None
 
 
 def _plan(args, dtype, tolerance_scale, progress, chunk, refine_cut, timings, sim_region,
@@ -295,16 +299,21 @@ def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, 
 
     # L over the cells that can meet, then the exact power-of-two scaling from it
     sc_ = consistent_scale(dim, sim_box, cut_box, dtype, table=tolerances, flags=work.flags)
-    P_sim = scale_points(sim.points, sc_.e, "simulation")
+    ms, mc = sc_.masks
+    run = sim_box.cells_of(ms)
+    # partitioned: every point checked, only the run's vertices scaled and kept, the
+    # run's cells renumbered to them (docs/partitioned.md 6); serial: every point
+    keep = None if scheduler is None else run_vertices(run, len(sim.points))
+    P_sim = scale_points(sim.points, sc_.e, "simulation", keep)
     P_cut = scale_points(cut.points, sc_.e, "cutting")
     tol_run = sc_.tol if ts == 1 else sc_.tol.scaled(dtype.type(ts))
     clock("plan_scale")
     report = _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts, work)
     clock("plan_report")
-    ms, mc = sc_.masks
-    return Plan(dim, dtype, sim, cut, sc_, P_sim, P_cut, sim_box.cells_of(ms),
-                cut.cells[mc], tol_run, ts, catalogue_kinds(dim), report, refinement, arrays,
-                work.blocks.accelerate)
+    return Plan(dim, dtype, sim, cut, sc_, P_sim, P_cut,
+                run if keep is None else renumbered(run, keep), cut.cells[mc], tol_run, ts,
+                catalogue_kinds(dim), report, refinement, arrays, work.blocks.accelerate,
+                keep)
 
 
 def _connected(scheduler):
@@ -337,11 +346,6 @@ def _ranked(plan: Plan, chunk: int, timings: dict) -> tuple[Registration, Plan]:
                        plan.tol, plan.scale.reach, chunk, accelerate=plan.accelerate)
     timings["ranks"] = time.perf_counter() - t
     return reg, _lean(plan)
-
-
-def _register(plan: Plan, chunk: int, progress: bool, timings: dict) -> dict:
-    """:func:`_ranked`, then the levels: {kind: KindPairs} (benchmarks/partition_split.py)."""
-    return _ranked(plan, chunk, timings)[0].run(progress, timings)
 
 
 def _held_much(plan: Plan) -> bool:

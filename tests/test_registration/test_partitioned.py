@@ -995,3 +995,64 @@ def test_an_address_where_no_scheduler_listens_fails_at_once(tmp_path):
     r = _cli("intersect", str(sim), str(cut), "-o", str(out), "--scheduler", address)
     assert r.returncode == 2 and "connection refused" in r.stderr and not out.exists()
     assert "Traceback" not in r.stderr and time.perf_counter() - t < 20
+
+
+@pytest.mark.parametrize("name,rotate", [("corner", None), ("sphere", 3), ("circle", 2)])
+def test_partitioned_plan_keeps_only_the_run_vertices(name, rotate):
+    """A partitioned run's plan (a scheduler given) holds the scaled coordinates of the
+    run cells' vertices only (docs/partitioned.md 6): ``sim_vertex_ids`` are exactly the
+    vertices of the serial plan's run cells, ascending; its ``P_sim`` rows are the
+    serial plan's rows of those vertices bit for bit, and its run cells map back to the
+    serial run cells; every global quantity is the serial plan's."""
+    from predicates.registration import pipeline
+
+    sp, sc, cp, cc = _corner_cut() if name == "corner" else CASES[name](rotate)
+    args = ((sp, sc, cp, cc), np.float64, 1.0, False, pipeline.CHUNK, True, {}, None, None)
+    ref = pipeline._plan(*args)
+    got = pipeline._plan(*args, scheduler="synchronous")
+    assert ref.sim_vertex_ids is None
+    ids = got.sim_vertex_ids
+    assert np.array_equal(ids, np.unique(ref.sim_cells))  # ascending, no others
+    assert got.P_sim.dtype == ref.P_sim.dtype and len(got.P_sim) == len(ids)
+    assert got.P_sim.tobytes() == ref.P_sim[ids].tobytes()
+    assert got.sim_cells.dtype == np.int32
+    assert np.array_equal(ids[got.sim_cells], ref.sim_cells)
+    if name == "corner":
+        assert len(ids) < len(sp) // 4  # most points are not kept
+    for field in ("L_a", "L_b", "e", "reach", "pad", "history"):
+        assert getattr(got.scale, field) == getattr(ref.scale, field), field
+    assert got.report.to_dict() == ref.report.to_dict()
+    assert got.cut_cells.tobytes() == ref.cut_cells.tobytes()
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_scaling_only_kept_rows_refuses_as_every_point(dtype):
+    """``scale_points(..., keep)`` (the partitioned plan's: only the run's vertices
+    returned) refuses exactly what scaling every point refuses, with the same message —
+    a point outside ``keep`` that overflows, or that loses bits to underflow, and the
+    overflow first when both occur — and returns the rows ``keep`` bit for bit."""
+    from predicates.registration.plan.inputs import scale_points
+
+    rng = np.random.default_rng(7)
+    big, tiny = np.finfo(dtype).max / 4, np.finfo(dtype).smallest_subnormal
+    base = rng.uniform(-1, 1, (200_000, 3)).astype(dtype)  # several 65,536-row blocks
+    keep = np.arange(0, len(base), 3)
+
+    def refusal(points, e, rows):
+        with pytest.raises(ValueError) as err:
+            scale_points(points, e, "simulation", rows)
+        return str(err.value)
+
+    for e, bad in ((-8, {150_001: big}), (1, {100_000: tiny}),
+                   (-8, {70_001: tiny, 199_999: big})):
+        pts = base.copy()
+        for row, value in bad.items():
+            pts[row, 1] = value
+        assert all(row not in set(keep.tolist()) for row in bad)
+        whole = refusal(pts, e, None)
+        assert refusal(pts, e, keep) == whole
+        assert ("too large" in whole) == (big in bad.values())
+    for e in (-3, 0, 5):
+        out = scale_points(base, e, "simulation", keep)
+        assert out.tobytes() == scale_points(base, e, "simulation")[keep].tobytes()
+        assert np.array_equal(out.astype(np.float64) * 2.0 ** e, base[keep])

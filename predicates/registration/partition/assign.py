@@ -128,6 +128,14 @@ def _local(P, cells, keep):
     return P[ids], loc[sub], ids.astype(np.int32) if len(P) <= 2 ** 31 else ids
 
 
+def _global(vertex_ids: np.ndarray, sid: np.ndarray) -> np.ndarray:
+    """The global ids of a part's rows ``sid`` of the plan's run vertices, int32 when
+    they fit (as :func:`_local`'s)."""
+    gid = vertex_ids[sid]
+    return gid.astype(np.int32) if len(vertex_ids) == 0 or vertex_ids[-1] < 2 ** 31 \
+        else gid
+
+
 def assign(P_sim: np.ndarray, sim_cells: np.ndarray, k: int):
     """(position of every cell in Morton order, owner partition of every vertex): cell
     c is owned by partition pos[c]·k // m; a vertex by the partition owning the
@@ -200,14 +208,15 @@ def cut_slice(part: Part, side: CutSide) -> Part:
 
 
 def split(P_sim, sim_cells, P_cut, cut_cells, k: int, pad: float, owner=None,
-          write=None, cut_in_task: bool = False):
+          write=None, cut_in_task: bool = False, vertex_ids=None):
     """Yield the :class:`Part` of each non-empty partition of k (cells in Morton
     order, cut into k runs of equal size ± 1); ``pad``: the largest broad-phase reach.
     Any assignment of cells to partitions gives the serial result; Morton runs keep them
     compact, so halos and cutting slices stay small. ``owner``: each vertex's partition
     given and ``write`` (per-partition files), ``cut_in_task`` (the cutting slices cut
-    by the tasks): :class:`Layout`."""
-    layout = Layout(P_sim, sim_cells, P_cut, cut_cells, k, pad, owner, write, cut_in_task)
+    by the tasks), ``vertex_ids`` (the plan's run vertices): :class:`Layout`."""
+    layout = Layout(P_sim, sim_cells, P_cut, cut_cells, k, pad, owner, write, cut_in_task,
+                    vertex_ids)
     for r in range(k):
         part = layout.part(r)
         if part is not None:
@@ -231,11 +240,18 @@ class Layout:
     (``sim_coords``, ``cell_ids``), for its file. ``cut_in_task``: the parts leave their
     cutting slices to the task (``cut_pending``: :func:`cut_slice` with a
     :class:`CutSide` sent once per worker); a part whose halo's bounding box misses the
-    hull of the cutting cells' wide boxes is still cut here (empty: no task)."""
+    hull of the cutting cells' wide boxes is still cut here (empty: no task).
+    ``vertex_ids``: the global id of each row of ``P_sim`` (ascending; ``sim_cells`` in
+    those rows: the plan's run vertices, ``Plan.sim_vertex_ids``) — ``owner`` and
+    ``write``'s points are then indexed by global id, and each Part's ``sim_ids`` are
+    global ids (a monotone map: the local order is still the global order)."""
 
     def __init__(self, P_sim, sim_cells, P_cut, cut_cells, k: int, pad: float,
-                 owner: np.ndarray | None = None, write=None, cut_in_task: bool = False):
-        self.write, self.cut_in_task = write, cut_in_task
+                 owner: np.ndarray | None = None, write=None, cut_in_task: bool = False,
+                 vertex_ids: np.ndarray | None = None):
+        self.write, self.cut_in_task, self.vertex_ids = write, cut_in_task, vertex_ids
+        if owner is not None and vertex_ids is not None:
+            owner = owner[vertex_ids]  # indexed as P_sim's rows
         self.P_sim, self.sim_cells, self.P_cut, self.cut_cells = (P_sim, sim_cells, P_cut,
                                                                   cut_cells)
         self.k, self.pad = k, pad
@@ -273,11 +289,12 @@ class Layout:
             cut_keep = cut_near(self.lo[halo], self.hi[halo], self.clo, self.chi,
                                 *self.wide, self.pad)
         Pc, cc, cid = _local(self.P_cut, self.cut_cells, cut_keep)
-        part = Part(r, Ps, cs, sid, self.owner[sid] == r, Pc, cc, cid, int(self.owned[r]),
+        gid = sid if self.vertex_ids is None else _global(self.vertex_ids, sid)
+        part = Part(r, Ps, cs, gid, self.owner[sid] == r, Pc, cc, cid, int(self.owned[r]),
                     cut_pending=pending)
         if self.write is not None:
             points, rows = self.write
-            part.sim_coords, part.cell_ids = points[sid], rows[halo]
+            part.sim_coords, part.cell_ids = points[gid], rows[halo]
         return part
 
 

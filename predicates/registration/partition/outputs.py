@@ -86,7 +86,10 @@ class Staged:
                              plan.arrays.plane if files.plane is None else files.plane,
                              live)
         run_vertices = np.zeros(len(plan.sim.points), dtype=bool)
-        run_vertices[plan.sim_cells.ravel()] = True  # the only owners the split reads
+        # the only owners the split reads (the plan's run vertices when it kept only
+        # those, else the vertices of its run cells)
+        run_vertices[plan.sim_cells.ravel() if plan.sim_vertex_ids is None
+                     else plan.sim_vertex_ids] = True
         self.owner = owners_of(plan.sim.points, plan.sim.cells, k, run_vertices, scheduler)
         # the run's cells are the rows of the masks: a part's cells' indices among all
         self.write = (plan.sim.points, np.flatnonzero(sc.masks[0]))

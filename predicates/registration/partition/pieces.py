@@ -11,8 +11,8 @@ coordinates in each. The mesh is: point g at its coordinates, the cells of the p
 in the order the pieces are given, each piece's in its file's order, in global ids.
 
 Each worker reads its pieces once; the client receives per piece its point ids and
-coordinates (the plan scales the points: docs/partitioned.md section 6) and a few
-numbers; the cells stay on the workers as the chunks of a dask array, which the plan's
+coordinates, one piece at a time (the plan checks every point and scales the run's
+vertices: docs/partitioned.md section 6), and a few numbers; the cells stay on the workers as the chunks of a dask array, which the plan's
 per-chunk passes (:mod:`.remote`, on each piece's own points: the points are not sent
 back to the workers) and the split's gather of the cells that can meet use.
 """
@@ -88,9 +88,19 @@ def read_piece(path: str | os.PathLike, region=None) -> Piece:
 
 
 def _head(piece: Piece):
-    """What the client needs of a piece: (ids, coordinates, cell count, dim, plane,
-    notes); its cells stay where it was read."""
-    return piece.ids, piece.points, len(piece.cells), piece.dim, piece.plane, piece.notes
+    """What the client needs of a piece besides its points: (1 + its largest point id
+    (0 if none), cell count, dim, plane, notes); its cells stay where it was read."""
+    top = int(piece.ids.max()) + 1 if len(piece.ids) else 0
+    return top, len(piece.cells), piece.dim, piece.plane, piece.notes
+
+
+def _coords(piece: Piece):
+    """A piece's points for the client's assembly: (global ids, coordinates)."""
+    return piece.ids, piece.points
+
+
+def _head_and_coords(piece: Piece):
+    return _head(piece), _coords(piece)
 
 
 def _cells(piece: Piece) -> np.ndarray:
@@ -122,16 +132,21 @@ def read_pieces_on_workers(paths, scheduler, region=None):
     if client is not None:  # read once; the cells' chunks are views of what was read
         read = client.map(read_piece, paths, region=region, pure=False)
         heads = client.gather(client.map(_head, read, pure=False))
+        # one piece's points at a time on the client: its peak is the points, not
+        # every piece's copy of them at once
+        coords = (client.gather(f) for f in client.map(_coords, read, pure=False))
     else:
         read = [dask.delayed(read_piece, pure=True)(p, region) for p in paths]
-        heads = dask.compute(*[dask.delayed(_head)(r) for r in read], scheduler=scheduler)
-    points, notes = assemble_points(paths, heads)
-    dim, plane = heads[0][3], heads[0][4]
-    chunks = [da.from_delayed(dask.delayed(_cells, pure=True)(r), shape=(h[2], dim + 1),
-                              dtype=np.int64) for r, h in zip(read, heads) if h[2]]
+        both = dask.compute(*[dask.delayed(_head_and_coords)(r) for r in read],
+                            scheduler=scheduler)
+        heads, coords = [b[0] for b in both], [b[1] for b in both]
+    points, notes = assemble_points(paths, heads, coords)
+    dim, plane = heads[0][2], heads[0][3]
+    chunks = [da.from_delayed(dask.delayed(_cells, pure=True)(r), shape=(h[1], dim + 1),
+                              dtype=np.int64) for r, h in zip(read, heads) if h[1]]
     # no cells at all: the plan refuses the empty mesh
     cells = da.concatenate(chunks) if chunks else da.zeros((0, dim + 1), dtype=np.int64)
-    own = [r for r, h in zip(read, heads) if h[2]]  # one per chunk, in the chunks' order
+    own = [r for r, h in zip(read, heads) if h[1]]  # one per chunk, in the chunks' order
     if client is not None:  # the array holds its chunks' futures (the reads' are dropped)
         cells = client.persist(cells)
         own = client.map(_own, own, pure=False)  # views of what the workers read
@@ -142,40 +157,42 @@ def read_pieces_on_workers(paths, scheduler, region=None):
     return Converted(points, cells, notes, plane)
 
 
-def assemble_points(paths: list, heads: list) -> tuple[np.ndarray, list]:
-    """The global points from the pieces' (ids, coordinates): point g at the coordinates
-    every piece holding g gives it, bit for bit; refused, naming the pieces, when they
-    differ, when an id is held by none, or when the pieces' dimensions or planes
-    differ."""
-    dim, plane = heads[0][3], heads[0][4]
+def assemble_points(paths: list, heads: list, coords) -> tuple[np.ndarray, list]:
+    """The global points from the pieces' :func:`_head` and (ids, coordinates)
+    (``coords``, one per piece in order: an iterator, fetched as it is read): point g
+    at the coordinates every piece holding g gives it, bit for bit; refused, naming the
+    pieces, when they differ, when an id is held by none, or when the pieces'
+    dimensions or planes differ (before any coordinates are read)."""
+    dim, plane = heads[0][2], heads[0][3]
     for path, h in zip(paths, heads):
-        if (h[3], h[4]) != (dim, plane):
-            what = f"{h[3]}D" if h[3] != dim else f"in the plane z = {h[4]}"
+        if (h[2], h[3]) != (dim, plane):
+            what = f"{h[2]}D" if h[2] != dim else f"in the plane z = {h[3]}"
             raise MeshFileError(path, f"this piece is {what}, the first piece {paths[0]} "
                                       f"is not: the pieces of one mesh share its "
                                       f"dimension and plane")
-    n = 1 + max((int(h[0].max()) for h in heads if len(h[0])), default=-1)
+    n = max((h[0] for h in heads), default=0)
     points = np.zeros((n, dim), dtype=np.float64)
-    owner = np.full(n, -1, dtype=np.int64)  # the first piece giving each point
-    for i, (path, h) in enumerate(zip(paths, heads)):
-        ids, coords = h[0], h[1]
+    owner = np.full(n, -1, dtype=np.int32)  # the first piece giving each point
+    for i, (path, (ids, coords_i)) in enumerate(zip(paths, coords)):
         seen = owner[ids] >= 0
         # bits, not values: -0.0 and 0.0, or two NaNs, are not "the same point" here
-        differ = seen & np.any(points[ids].view(np.uint64) != coords.view(np.uint64), axis=1)
+        differ = seen & np.any(points[ids].view(np.uint64) != coords_i.view(np.uint64),
+                               axis=1)
         if differ.any():
             g = int(ids[np.flatnonzero(differ)[0]])
             raise MeshFileError(path, f"global point {g} has coordinates "
-                                      f"{coords[np.flatnonzero(differ)[0]].tolist()} here "
-                                      f"and {points[g].tolist()} in {paths[owner[g]]}: "
-                                      f"a point shared by pieces must be identical in each")
-        points[ids[~seen]] = coords[~seen]
+                                      f"{coords_i[np.flatnonzero(differ)[0]].tolist()} "
+                                      f"here and {points[g].tolist()} in "
+                                      f"{paths[owner[g]]}: a point shared by pieces must "
+                                      f"be identical in each")
+        points[ids[~seen]] = coords_i[~seen]
         owner[ids[~seen]] = i
     if n and (owner < 0).any():
         g = int(np.flatnonzero(owner < 0)[0])
         raise ValueError(f"the pieces' global point ids must be 0 … N-1 (N = {n}), each "
                          f"held by some piece; {int((owner < 0).sum())} are held by none "
                          f"(the first: {g}): give every piece, or renumber the ids")
-    notes = [n for h in heads for n in h[5]]
+    notes = [n for h in heads for n in h[4]]
     notes.append(f"{len(paths)} pieces read by the workers as one mesh ({n} points by "
                  f"their '{GLOBAL_IDS}')")
     return points, notes

@@ -283,7 +283,8 @@ def _tasks(dask, client, plan, k, scheduler, chunk, timings, bar, timeout=None,
     # on a Client the tasks cut their own cutting slices (the mesh sent once per worker)
     parts = () if len(plan.cut_cells) == 0 or len(plan.sim_cells) == 0 else (
         p for p in split(plan.P_sim, plan.sim_cells, plan.P_cut, plan.cut_cells, k, pad,
-                         owner, write, cut_in_task=client is not None)
+                         owner, write, cut_in_task=client is not None,
+                         vertex_ids=plan.sim_vertex_ids)
         if p.cut_pending or len(p.cut_cells))  # none within reach: nothing to own
     args = (plan.dim, plan.tol, reach, chunk, plan.accelerate)
     spec = None if staged is None else staged.spec

@@ -16,7 +16,7 @@ from predicates.registration.spatial.boxgrid import colmax, colmin
 from predicates.registration.spatial.broadphase import boxes_of
 
 __all__ = ["Arrays", "MeshInput", "check_extent", "MeshTypeError", "from_meshio", "max_box_edge", "mesh_arrays",
-           "scale_points", "times_pow2", "cell_error", "first_bad", "validate_mesh", "validate_options", "validate_pair"]
+           "renumbered", "run_vertices", "scale_points", "times_pow2", "cell_error", "first_bad", "validate_mesh", "validate_options", "validate_pair"]
 
 
 @dataclass
@@ -310,15 +310,48 @@ def max_box_edge(points: np.ndarray, cells: np.ndarray) -> float:
     return float(np.nextafter(d, np.inf)) if d > 0 else 0.0
 
 
-def scale_points(points: np.ndarray, e: int, role: str) -> np.ndarray:
-    """``points``·2^-e, refused unless exact (no overflow, no bit lost to underflow)."""
+def scale_points(points: np.ndarray, e: int, role: str,
+                 keep: np.ndarray | None = None) -> np.ndarray:
+    """``points``·2^-e, refused unless exact (no overflow, no bit lost to underflow).
+    ``keep`` (ascending row ids): every row is checked, block by block, but only the
+    rows ``keep`` are returned scaled — the same refusals as for the whole array,
+    without a scaled copy of every point (a partitioned run's plan keeps the run's
+    vertices only: docs/partitioned.md 6)."""
+    if keep is not None:
+        step, inexact = 1 << 16, None  # (each block's check is the whole array's on its rows)
+        for a in range(0, len(points), step):
+            block = points[a:a + step]
+            out = times_pow2_quiet(block, -e)
+            _check_scaled(block, out, e, role, exact=False)  # an overflow anywhere first
+            if inexact is None:
+                try:
+                    _check_scaled(block, out, e, role, overflow=False)
+                except ValueError as err:
+                    inexact = err
+        if inexact is not None:
+            raise inexact
+        return times_pow2(points[keep], -e)
+    out = times_pow2_quiet(points, -e)
+    _check_scaled(points, out, e, role)
+    return out
+
+
+def times_pow2_quiet(x: np.ndarray, k: int) -> np.ndarray:
+    """:func:`times_pow2` with floating-point warnings off (the caller checks)."""
     with np.errstate(all="ignore"):
-        out = times_pow2(points, -e)
+        return times_pow2(x, k)
+
+
+def _check_scaled(points: np.ndarray, out: np.ndarray, e: int, role: str,
+                  overflow: bool = True, exact: bool = True) -> None:
+    """Refuse ``out`` = ``points``·2^-e if it overflowed or (``exact``) lost a bit."""
     limit = np.finfo(points.dtype).max / 16
-    if not (np.isfinite(out).all() and np.all(np.abs(out) <= limit)):
+    if overflow and not (np.isfinite(out).all() and np.all(np.abs(out) <= limit)):
         raise ValueError(f"the {role} coordinates are too large relative to the cells' size "
                          f"(scaling the cells to unit size by 2^{-e} overflows "
                          f"{points.dtype.name}): translate the meshes closer to the origin")
+    if not exact:
+        return
     step = 1 << 16  # scaled back block by block: no second array of the points
     with np.errstate(all="ignore"):
         exact = all(np.array_equal(times_pow2(out[a:a + step], e), points[a:a + step])
@@ -327,7 +360,24 @@ def scale_points(points: np.ndarray, e: int, role: str) -> np.ndarray:
         raise ValueError(f"the {role} coordinates cannot be scaled exactly by 2^{-e} (to "
                          f"unit-size cells): some are so small relative to the cells that "
                          f"they underflow {points.dtype.name}; round them to zero first")
-    return out
+
+
+def run_vertices(cells: np.ndarray, n_points: int) -> np.ndarray:
+    """The vertex ids ``cells`` use, ascending (a mask of the points, column by column:
+    no sort of the ids, no copy of the cells)."""
+    used = np.zeros(n_points, dtype=bool)
+    for c in range(cells.shape[1]):
+        used[cells[:, c]] = True
+    return np.flatnonzero(used)
+
+
+def renumbered(cells: np.ndarray, vertices: np.ndarray) -> np.ndarray:
+    """``cells`` in the positions of their vertex ids in ``vertices`` (ascending, every
+    id of the cells in it): a monotone renumbering, so every comparison of vertex ids —
+    the registration's orders and tie-breaks — is unchanged (as for a partition's own
+    numbering, :mod:`~predicates.registration.partition.assign`)."""
+    out = np.searchsorted(vertices, cells)
+    return out.astype(np.int32) if len(vertices) < 2 ** 31 else out
 
 
 def times_pow2(x: np.ndarray, k: int) -> np.ndarray:
