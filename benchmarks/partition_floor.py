@@ -81,8 +81,8 @@ def register_task(lean, chunk: int) -> float:
 
 
 def _lean(plan):
-    """What the registration (``levels.loop.Registration``) reads of a plan (dim, scaled points, run cells,
-    tolerances, reach), without the input arrays it does not need."""
+    """What the registration (``levels.loop.Registration``) reads of a plan (dim, scaled
+    points, run cells, tolerances, reach, the compiled chain's flag), nothing more."""
     from types import SimpleNamespace
 
     return SimpleNamespace(dim=plan.dim, P_sim=plan.P_sim, sim_cells=plan.sim_cells,
