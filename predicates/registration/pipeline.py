@@ -205,12 +205,13 @@ class PlanMemoryError(MemoryError):
 def _too_large(args, timings: dict, serial: bool, err: MemoryError) -> str:
     """The message of :class:`PlanMemoryError`: the stage reached, the meshes' bytes."""
     stage = next((s for s in PLAN_STAGES if s not in timings), "plan_report")
-    what = "" if serial else " (in a partitioned run the plan runs on the client)"
+    what = "" if serial else (" (on the client; give the simulation cells as a dask "
+                              "array or pieces to run its per-cell passes on the workers)")
     return (f"not enough memory for the plan ({stage.replace('plan_', '')}) of meshes "
             f"of {_mib(args):.0f} MiB{what}: besides the meshes themselves it needs "
-            f"about as many bytes again as the simulation mesh (W4: 1.04x, "
-            f"docs/partitioned.md); free memory or run on a machine with more "
-            f"({type(err).__name__}: {err or 'no detail'})")
+            f"about as many bytes again as the simulation mesh (docs/partitioned.md "
+            f"section 2); free memory or run on a machine with more "
+            f"({type(err).__name__}: {str(err) or 'no detail'})")
 
 
 def _mib(args) -> float:
