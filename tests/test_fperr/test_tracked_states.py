@@ -20,6 +20,7 @@ from hypothesis import strategies as st
 import fperr
 from fperr import L, bounds, const, coord, eps, paper_integer, sqrt
 from fperr import rules
+from exact_vectors import dot, sub
 from tracked_checks import assert_exact, state
 
 # ---------------------------------------------------------------------------------
@@ -28,17 +29,6 @@ from tracked_checks import assert_exact, state
 
 def point(name, d):
     return [coord(f"{name}.{c}") for c in "xyz"[:d]]
-
-
-def sub(p, q):
-    return [a - b for a, b in zip(p, q)]
-
-
-def dot(u, v):
-    s = u[0] * v[0]
-    for a, b in zip(u[1:], v[1:]):
-        s = s + a * b
-    return s
 
 
 def same(x, y) -> bool:
