@@ -29,7 +29,7 @@ def test_readme_python_blocks_run(capsys, tmp_path, monkeypatch):
 def test_readme_quick_start_matches_ci():
     text = README.read_text()
     ci = (README.parent / ".ci" / "run").read_text()
-    test_line = "python3 -m pip install -e '.[test]' && python3 -m pytest -q"
+    test_line = "python3 -m pip install -e '.[test]' && python3 -m pytest -q -n auto"
     assert test_line in text
     assert test_line in ci
 
