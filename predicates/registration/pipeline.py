@@ -304,8 +304,12 @@ def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, 
     run = sim_box.cells_of(ms)
     # partitioned: every point checked, only the run's vertices scaled and kept, the
     # run's cells renumbered to them (docs/partitioned.md 6); serial: every point
-    keep = None if scheduler is None else run_vertices(run, len(sim.points))
-    P_sim = scale_points(sim.points, sc_.e, "simulation", keep)
+    if isinstance(sim.points, remote.RemotePoints):  # on the workers: checked there
+        keep = np.unique(run).astype(np.int64)  # the run's vertices: no mask of N
+        P_sim = sim.points.scaled(sc_.e, "simulation", keep)
+    else:
+        keep = None if scheduler is None else run_vertices(run, len(sim.points))
+        P_sim = scale_points(sim.points, sc_.e, "simulation", keep)
     P_cut = scale_points(cut.points, sc_.e, "cutting")
     tol_run = sc_.tol if ts == 1 else sc_.tol.scaled(dtype.type(ts))
     clock("plan_scale")
