@@ -162,7 +162,8 @@ class RemotePoints:
         import dask
 
         extra = [()] * len(self.ranges) if per_range is None else [(a,) for a in per_range]
-        tasks = [dask.delayed(f, pure=False)(r, *args, *x) for r, x in zip(self.ranges, extra)]
+        tasks = [dask.delayed(f, pure=False)(r, *args, *x)
+                 for r, x in zip(self.ranges, extra)]
         return list(dask.compute(*tasks, scheduler=self.scheduler))
 
     def checked(self, role: str, dtype) -> tuple[RemotePoints, bool]:

@@ -20,12 +20,14 @@ import numpy as np
 from predicates.registration.plan.cellboxes import CellBoxes, _Side
 from predicates.registration.plan.edges import edge_from, edge_shift, edge_summary
 from predicates.registration.plan.inputs import (
-    MeshInput, MeshTypeError, _array, _points, cell_error, first_bad)
+    MeshInput, MeshTypeError, _array, _points, cell_error, first_bad, run_vertices,
+    scale_points)
 from predicates.registration.partition.points import RemotePoints
 from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.boxes import boxes_of
 
-__all__ = ["RemoteCells", "is_remote", "validate_pair_remote", "validate_remote"]
+__all__ = ["RemoteCells", "is_remote", "scaled_points", "validate_pair_remote",
+           "validate_remote"]
 
 _LOCAL = ("threads", "processes", "synchronous", "sync", "single-threaded")
 
@@ -320,6 +322,18 @@ class RemoteCells(CellBoxes):
         lo, hi = self._boxes(np.arange(a, b))
         self._local.last = (a, b, lo, hi)
         return lo, hi
+
+
+def scaled_points(points, run: np.ndarray, e: int, partitioned: bool):
+    """(the run's vertices (ascending global ids) or None, the simulation points scaled
+    by 2^-e): ``inputs.scale_points`` — every point checked, a partitioned run's plan
+    keeping only the vertices of its cells ``run`` — or, for points on the workers
+    (:class:`~.points.RemotePoints`), checked and scaled there, only those rows back."""
+    if isinstance(points, RemotePoints):
+        keep = np.unique(run).astype(np.int64)  # the run's vertices: no mask of N
+        return keep, points.scaled(e, "simulation", keep)
+    keep = run_vertices(run, len(points)) if partitioned else None
+    return keep, scale_points(points, e, "simulation", keep)
 
 
 def validate_remote(points, cells, dim: int, dtype, scheduler, blocks: Blocks = SERIAL):
