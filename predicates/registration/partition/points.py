@@ -202,7 +202,11 @@ class RemotePoints:
     def take(self, ids) -> np.ndarray:
         """The rows ``ids`` (global ids, any order): from the scaled run's vertices when
         they hold them (scaled back: exact), else fetched from the ranges."""
-        ids = np.asarray(ids, dtype=np.int64)
+        shape = np.shape(ids)
+        ids = np.asarray(ids, dtype=np.int64).ravel()  # (cells (m, k): rows (m, k, d))
+        return self._take(ids).reshape(*shape, self.shape[1])
+
+    def _take(self, ids: np.ndarray) -> np.ndarray:
         if self._kept is not None and len(ids):
             keep, out, e = self._kept
             pos = np.minimum(np.searchsorted(keep, ids), max(len(keep) - 1, 0))
