@@ -11,7 +11,8 @@ Each is a task per chunk on the workers; the client combines the chunks' results
 exact reductions (min, max, integer sums, exact sums), so the plan is the serial one
 bit for bit whatever the chunking — and keeps only the cells that can meet (their
 vertex ids and boxes: what the later rounds, the report and the split use). The client
-holds the points, one byte per cell (the masks) and those cells.
+holds the points (not those of pieces read by the workers: :mod:`.points`, every box
+then computed on the workers), one byte per cell (the masks) and those cells.
 """
 from __future__ import annotations
 
@@ -154,7 +155,7 @@ class RemoteCells(CellBoxes):
         if self.pieces is not None and len(self.pieces) != len(cells.chunks[0]):
             self.pieces = None  # (not one per chunk: the points are sent instead)
         # the points on the workers too (points.py): every box is computed there
-        self.far = isinstance(points, RemotePoints)
+        self.far = isinstance(points, RemotePoints) and self.pieces is not None
         # every point to every worker, unless each chunk is a piece with its own
         self._pts = None if self.pieces is not None else self._share(points)
         self._summary, self._kept, self._kept_cells = None, None, None
