@@ -74,7 +74,7 @@ from predicates.registration.plan import threads as plan_threads
 from predicates.registration.plan import resolution
 from predicates.registration.plan.cellboxes import CellBoxes
 from predicates.registration.plan.inputs import (
-    check_extent, mesh_arrays, renumbered, run_vertices, scale_points, validate_options,
+    check_extent, mesh_arrays, renumbered, scale_points, validate_options,
     validate_pair)
 from predicates.registration.levels.loop import (
     MemoryGuard, Registration, RegistrationMemoryError)
@@ -302,10 +302,10 @@ def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, 
     sc_ = consistent_scale(dim, sim_box, cut_box, dtype, table=tolerances, flags=work.flags)
     ms, mc = sc_.masks
     run = sim_box.cells_of(ms)
-    # partitioned: every point checked, only the run's vertices scaled and kept, the
-    # run's cells renumbered to them (docs/partitioned.md 6); serial: every point
-    keep = None if scheduler is None else run_vertices(run, len(sim.points))
-    P_sim = scale_points(sim.points, sc_.e, "simulation", keep)
+    # partitioned: every point checked (a piece's on the workers, partition/points.py),
+    # only the run's vertices scaled and kept, the run's cells renumbered to them
+    # (docs/partitioned.md 6); serial: every point
+    keep, P_sim = remote.scaled_points(sim.points, run, sc_.e, scheduler is not None)
     P_cut = scale_points(cut.points, sc_.e, "cutting")
     tol_run = sc_.tol if ts == 1 else sc_.tol.scaled(dtype.type(ts))
     clock("plan_scale")

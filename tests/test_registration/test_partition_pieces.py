@@ -61,11 +61,16 @@ def test_pieces_read_by_the_workers_give_the_serial_result(tmp_path, case, seed,
     ref = predicates.intersect(sp, cells, cp, cc)
     got = read_pieces_on_workers(paths, sched)
     points, remote, notes = got.points, got.cells, got.notes
-    assert points.tobytes() == sp.astype(np.float64).tobytes()
+    # the points stay on the workers (partition/points.py): gathered only when asked
+    assert not isinstance(points, np.ndarray) and len(points) == len(sp)
+    assert np.asarray(points).tobytes() == sp.astype(np.float64).tobytes()
     assert remote.numblocks[0] == count and "pieces read by the workers" in notes[-1]
     res = predicates.intersect(points, remote, cp, cc, partitions=int(rng.integers(1, 6)),
                                scheduler=sched)
     assert_identical(ref, res)
+    # the result's points: a dask array, the serial validated points bit for bit
+    assert hasattr(res.sim_points, "compute") and res.sim_points.dtype == ref.sim_points.dtype
+    assert np.asarray(res.sim_points).tobytes() == ref.sim_points.tobytes()
     assert res.timings["plan_remote"]["tasks"] >= 2 * count  # the plan ran per piece
     # on each piece's own points: the points were not sent back to the workers
     assert res.timings["plan_remote"]["points_sent"] == "pieces"
@@ -315,12 +320,11 @@ def _slabs(folder, name: str, sp, sc, n: int, count: int) -> tuple[list, np.ndar
 def test_a_client_that_cannot_hold_the_mesh_reads_pieces(tmp_path):
     """Pieces with global point ids read by the workers, with the client's address
     space limited (RLIMIT_AS, after its imports, connection and a small warm-up run on
-    small pieces) to 0.5 × the simulation mesh's bytes — it cannot allocate the mesh —
+    small pieces) to 0.3 × the simulation mesh's bytes — it cannot allocate the mesh —
     and the workers, started outside it, unlimited: the run completes with the serial
-    result on the same mesh (every kind's pairs and weights). The client receives each
-    piece's point ids and coordinates, one piece at a time, and assembles the points
-    (24 bytes per point, an eighth of a tetrahedral mesh); the plan scales and keeps only
-    the run's vertices; the cells never reach it."""
+    result on the same mesh (every kind's pairs and weights). Neither the points nor
+    the cells reach the client: the points are checked and scaled on the workers, only
+    the run's vertices' scaled coordinates come back (partition/points.py)."""
 
     pytest.importorskip("distributed")
     from predicates.registration.examples import cube_grid, icosphere
@@ -334,9 +338,9 @@ def test_a_client_that_cannot_hold_the_mesh_reads_pieces(tmp_path):
     ref = predicates.intersect(sp, in_order, cp, cc)
     mesh = sp.nbytes + sc.nbytes
     del sp, sc, in_order
-    # 0.5: the client grew by 0.52x before the partitioned plan kept only the run's
-    # vertices and the pieces' points were fetched one piece at a time (0.37x after)
-    headroom = int(mesh * 0.5)
+    # 0.3: the client grew by 0.37x when it assembled, checked and scaled every point
+    # (main's code fails here, in the plan), 0.18x with the points on the workers
+    headroom = int(mesh * 0.3)
     result = tmp_path / "result.npz"
     out = run_client(PIECES_CLIENT, tmp_path, lambda address: [
         address, str(headroom), str(mesh), str(result), ",".join(warm), ",".join(paths)])
@@ -345,3 +349,67 @@ def test_a_client_that_cannot_hold_the_mesh_reads_pieces(tmp_path):
     assert out["e"] == ref.scale_exponent and ref.total > 0
     print(f"client address space grew by {out['grew'] / mesh:.2f} x the mesh")
     assert_pairs_equal_saved(ref, result)
+
+
+def _first_differing(paths) -> str:
+    """The refusal of pieces whose shared points differ, by the rule of
+    docs/partitioned.md 6 (an exact reference, on the client): the first piece, in the
+    given order, holding a point an earlier piece gave other bits; its first such row;
+    the coordinates of the first piece that gave the point."""
+    first, holder = {}, {}
+    for i, path in enumerate(paths):
+        m = meshio.read(path)
+        for g, xyz in zip(m.point_data[GLOBAL_IDS].tolist(), m.points):
+            if g in first and first[g].tobytes() != xyz.tobytes():
+                return (f"{path}: global point {g} has coordinates {xyz.tolist()} here and "
+                        f"{first[g].tolist()} in {paths[holder[g]]}: a point shared by "
+                        f"pieces must be identical in each")
+            first.setdefault(g, xyz.copy())
+            holder.setdefault(g, i)
+    raise AssertionError("no shared point differs")
+
+
+def _refusals(tmp_path, scheduler) -> None:
+    """A NaN point, a point float32 cannot hold and shared points whose bits differ,
+    through the pieces read by the workers of ``scheduler``: refused with the serial
+    messages (every check on the workers: partition/points.py)."""
+    sp, sc, cp, cc = _case("sphere", 5, angle=3, subdivisions=1)
+    used = np.unique(sc)
+    for name, value, dtype in (("nan", np.nan, np.float64), ("huge", 1e39, np.float32)):
+        bad = sp.copy()
+        bad[used[-3], 1] = value  # two bad points: the first by global id is named
+        bad[used[5], 2] = -value
+        folder = tmp_path / f"{name}-{id(scheduler)}"
+        folder.mkdir()
+        paths, cells = write_pieces(folder, bad, sc, np.random.default_rng(5), 3)
+        with pytest.raises(ValueError) as serial:
+            predicates.intersect(bad, cells, cp, cc, dtype=dtype)
+        got = read_pieces_on_workers(paths, scheduler)
+        with pytest.raises(ValueError) as pieces:
+            predicates.intersect(got.points, got.cells, cp, cc, dtype=dtype, partitions=2,
+                                 scheduler=scheduler)
+        assert str(pieces.value) == str(serial.value), name
+        assert f"point {used[5]}" in str(serial.value) or "overflow" in str(serial.value)
+    folder = tmp_path / f"differ-{id(scheduler)}"
+    folder.mkdir()
+    paths = write_pieces(folder, sp, sc, np.random.default_rng(6), 4)[0]
+    for k in (3, 1):  # shared points changed by one ulp in two pieces: the first is named
+        m = meshio.read(paths[k])
+        m.points[-2:, 0] = np.nextafter(m.points[-2:, 0], np.inf)
+        m.write(paths[k])
+    with pytest.raises(MeshFileError) as e:
+        read_pieces_on_workers(paths, scheduler)
+    assert str(e.value) == _first_differing([str(p) for p in paths])
+
+
+@pytest.mark.parametrize("scheduler", ["synchronous", "threads"])
+def test_points_refused_on_the_workers_with_the_serial_messages(tmp_path, scheduler):
+    _refusals(tmp_path, scheduler)
+
+
+def test_points_refused_on_a_distributed_cluster_with_the_serial_messages(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        _refusals(tmp_path, client)

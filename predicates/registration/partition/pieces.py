@@ -10,11 +10,12 @@ points with z or in a plane z = c), converted as a whole file is
 coordinates in each. The mesh is: point g at its coordinates, the cells of the pieces
 in the order the pieces are given, each piece's in its file's order, in global ids.
 
-Each worker reads its pieces once; the client receives per piece its point ids and
-coordinates, one piece at a time (the plan checks every point and scales the run's
-vertices: docs/partitioned.md section 6), and a few numbers; the cells stay on the workers as the chunks of a dask array, which the plan's
-per-chunk passes (:mod:`.remote`, on each piece's own points: the points are not sent
-back to the workers) and the split's gather of the cells that can meet use.
+Each worker reads its pieces once; the client receives per piece a few numbers. The
+points stay on the workers (:mod:`.points`: exchanged there into ranges of global ids,
+the shared points compared where they meet; the plan checks them and scales the run's
+vertices there, only those coming back); the cells stay on the workers as the chunks
+of a dask array, which the plan's per-chunk passes (:mod:`.remote`, on each piece's own
+points) and the split's gather of the cells that can meet use.
 """
 from __future__ import annotations
 
@@ -25,6 +26,7 @@ import numpy as np
 
 from predicates.registration.io.convert import Converted
 from predicates.registration.io.read import MeshFileError
+from predicates.registration.partition.points import points_on_workers
 
 __all__ = ["GLOBAL_IDS", "NoGlobalIds", "Piece", "read_piece", "read_pieces_on_workers"]
 
@@ -94,15 +96,6 @@ def _head(piece: Piece):
     return top, len(piece.cells), piece.dim, piece.plane, piece.notes
 
 
-def _coords(piece: Piece):
-    """A piece's points for the client's assembly: (global ids, coordinates)."""
-    return piece.ids, piece.points
-
-
-def _head_and_coords(piece: Piece):
-    return _head(piece), _coords(piece)
-
-
 def _cells(piece: Piece) -> np.ndarray:
     return piece.cells
 
@@ -116,9 +109,10 @@ def _own(piece: Piece):
 def read_pieces_on_workers(paths, scheduler, region=None):
     """The simulation mesh stored in ``paths`` (the format above) as a
     :class:`~predicates.registration.io.convert.Converted` (points, cells, notes,
-    plane): points a numpy array assembled on the client by global id, cells a dask
-    array with one chunk per piece, read by the workers of ``scheduler`` (a
-    ``dask.distributed.Client``: each piece read once and kept there; a local Dask
+    plane): points a :class:`~.points.RemotePoints` (held on the workers by ranges of
+    global ids; ``np.asarray`` gathers them), cells a dask array with one chunk per
+    piece, read by the workers of ``scheduler`` (a ``dask.distributed.Client``: each
+    piece read once and kept there; a local Dask
     scheduler's name: read again wherever a chunk is needed). Pass both to
     :func:`predicates.intersect` with the same ``scheduler``: the run's plan and result
     are those of the mesh read serially (docs/partitioned.md section 6)."""
@@ -132,15 +126,17 @@ def read_pieces_on_workers(paths, scheduler, region=None):
     if client is not None:  # read once; the cells' chunks are views of what was read
         read = client.map(read_piece, paths, region=region, pure=False)
         heads = client.gather(client.map(_head, read, pure=False))
-        # one piece's points at a time on the client: its peak is the points, not
-        # every piece's copy of them at once
-        coords = (client.gather(f) for f in client.map(_coords, read, pure=False))
     else:
         read = [dask.delayed(read_piece, pure=True)(p, region) for p in paths]
-        both = dask.compute(*[dask.delayed(_head_and_coords)(r) for r in read],
-                            scheduler=scheduler)
-        heads, coords = [b[0] for b in both], [b[1] for b in both]
-    points, notes = assemble_points(paths, heads, coords)
+        heads = dask.compute(*[dask.delayed(_head)(r) for r in read], scheduler=scheduler)
+    check_heads(paths, heads)
+    n = max((h[0] for h in heads), default=0)
+    # the points stay on the workers, exchanged into ranges of global ids and checked
+    # there (shared points compared where they meet): nothing per point on the client
+    points = points_on_workers(paths, read, n, heads[0][2], client, scheduler)
+    notes = [m for h in heads for m in h[4]]
+    notes.append(f"{len(paths)} pieces read by the workers as one mesh ({n} points by "
+                 f"their '{GLOBAL_IDS}', kept there)")
     dim, plane = heads[0][2], heads[0][3]
     chunks = [da.from_delayed(dask.delayed(_cells, pure=True)(r), shape=(h[1], dim + 1),
                               dtype=np.int64) for r, h in zip(read, heads) if h[1]]
@@ -157,12 +153,9 @@ def read_pieces_on_workers(paths, scheduler, region=None):
     return Converted(points, cells, notes, plane)
 
 
-def assemble_points(paths: list, heads: list, coords) -> tuple[np.ndarray, list]:
-    """The global points from the pieces' :func:`_head` and (ids, coordinates)
-    (``coords``, one per piece in order: an iterator, fetched as it is read): point g
-    at the coordinates every piece holding g gives it, bit for bit; refused, naming the
-    pieces, when they differ, when an id is held by none, or when the pieces'
-    dimensions or planes differ (before any coordinates are read)."""
+def check_heads(paths: list, heads: list) -> None:
+    """Refuse, naming the piece, pieces whose dimensions or planes differ from the
+    first's (before any coordinates are read): the pieces of one mesh share them."""
     dim, plane = heads[0][2], heads[0][3]
     for path, h in zip(paths, heads):
         if (h[2], h[3]) != (dim, plane):
@@ -170,29 +163,3 @@ def assemble_points(paths: list, heads: list, coords) -> tuple[np.ndarray, list]
             raise MeshFileError(path, f"this piece is {what}, the first piece {paths[0]} "
                                       f"is not: the pieces of one mesh share its "
                                       f"dimension and plane")
-    n = max((h[0] for h in heads), default=0)
-    points = np.zeros((n, dim), dtype=np.float64)
-    owner = np.full(n, -1, dtype=np.int32)  # the first piece giving each point
-    for i, (path, (ids, coords_i)) in enumerate(zip(paths, coords)):
-        seen = owner[ids] >= 0
-        # bits, not values: -0.0 and 0.0, or two NaNs, are not "the same point" here
-        differ = seen & np.any(points[ids].view(np.uint64) != coords_i.view(np.uint64),
-                               axis=1)
-        if differ.any():
-            g = int(ids[np.flatnonzero(differ)[0]])
-            raise MeshFileError(path, f"global point {g} has coordinates "
-                                      f"{coords_i[np.flatnonzero(differ)[0]].tolist()} "
-                                      f"here and {points[g].tolist()} in "
-                                      f"{paths[owner[g]]}: a point shared by pieces must "
-                                      f"be identical in each")
-        points[ids[~seen]] = coords_i[~seen]
-        owner[ids[~seen]] = i
-    if n and (owner < 0).any():
-        g = int(np.flatnonzero(owner < 0)[0])
-        raise ValueError(f"the pieces' global point ids must be 0 … N-1 (N = {n}), each "
-                         f"held by some piece; {int((owner < 0).sum())} are held by none "
-                         f"(the first: {g}): give every piece, or renumber the ids")
-    notes = [n for h in heads for n in h[4]]
-    notes.append(f"{len(paths)} pieces read by the workers as one mesh ({n} points by "
-                 f"their '{GLOBAL_IDS}')")
-    return points, notes

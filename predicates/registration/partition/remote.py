@@ -11,7 +11,8 @@ Each is a task per chunk on the workers; the client combines the chunks' results
 exact reductions (min, max, integer sums, exact sums), so the plan is the serial one
 bit for bit whatever the chunking — and keeps only the cells that can meet (their
 vertex ids and boxes: what the later rounds, the report and the split use). The client
-holds the points, one byte per cell (the masks) and those cells.
+holds the points (not those of pieces read by the workers: :mod:`.points`, every box
+then computed on the workers), one byte per cell (the masks) and those cells.
 """
 from __future__ import annotations
 
@@ -20,11 +21,14 @@ import numpy as np
 from predicates.registration.plan.cellboxes import CellBoxes, _Side
 from predicates.registration.plan.edges import edge_from, edge_shift, edge_summary
 from predicates.registration.plan.inputs import (
-    MeshInput, MeshTypeError, _array, _points, cell_error, first_bad)
+    MeshInput, MeshTypeError, _array, _points, cell_error, first_bad, run_vertices,
+    scale_points)
+from predicates.registration.partition.points import RemotePoints
 from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.boxes import boxes_of
 
-__all__ = ["RemoteCells", "is_remote", "validate_pair_remote", "validate_remote"]
+__all__ = ["RemoteCells", "is_remote", "scaled_points", "validate_pair_remote",
+           "validate_remote"]
 
 _LOCAL = ("threads", "processes", "synchronous", "sync", "single-threaded")
 
@@ -40,17 +44,19 @@ def is_remote(cells, scheduler) -> bool:
     return "Client" in type(scheduler).__name__ and hasattr(scheduler, "scatter")
 
 
-def _check(chunk, points, n_points: int, local=None):
+def _check(chunk, points, n_points: int, mark_used: bool = True, local=None):
     """A chunk's validation and summary: (first bad rows per check, the vertices it
-    uses as packed bits, its BoxSummary — None when a check failed). ``local``: the
+    uses as packed bits (none unless ``mark_used``: points on the workers check their
+    own, :mod:`.points`), its BoxSummary — None when a check failed). ``local``: the
     chunk's rows in the numbering of ``points`` (a piece's own), else ``chunk``."""
     chunk = np.asarray(chunk)
     bad = first_bad(chunk, chunk.shape[1], n_points)
-    used = np.zeros(n_points, dtype=bool)
+    used = np.zeros(n_points if mark_used else 0, dtype=bool)
     if any(b is not None for b in bad):
         return bad, np.packbits(used), None
-    for col in range(chunk.shape[1]):
-        used[chunk[:, col]] = True
+    if mark_used:
+        for col in range(chunk.shape[1]):
+            used[chunk[:, col]] = True
     return bad, np.packbits(used), CellBoxes(points, chunk if local is None else
                                               local).summary()
 
@@ -73,7 +79,12 @@ def _flags(chunk, points, origin, h, G, table, accelerate: bool = False):
     ids = np.flatnonzero(near)
     cells = chunk[ids]
     edge = edge_summary(points, cells, blocks) if len(ids) else None
-    return count, (ids, i0, i1, ext, cells, edge)
+    return count, (ids, i0, i1, ext, cells, edge, None)
+
+
+def _row_boxes(chunk, points, rows: np.ndarray):
+    """The boxes (lo, hi) of a chunk's ``rows`` (chunk-local, ascending)."""
+    return boxes_of(points, np.asarray(chunk)[rows])
 
 
 def _near_scan(chunk, points, grid, centres: bool):
@@ -105,9 +116,10 @@ def _on_piece(f, own, dtype, *args):
         count, got = _flags(local, pts, *args)
         if got is None:
             return count, None
-        ids, i0, i1, ext, _, edge = got
-        return count, (ids, i0, i1, ext, cells[ids], edge)
-    return f(local, pts, *args)  # _near_scan: row ids only
+        ids, i0, i1, ext, _, edge, _ = got
+        # the flagged cells' boxes here, from the piece's points: the client has none
+        return count, (ids, i0, i1, ext, cells[ids], edge, boxes_of(pts, local[ids]))
+    return f(local, pts, *args)  # _near_scan: row ids only; _row_boxes: boxes
 
 
 def _cpu_timed(f, *args):
@@ -142,6 +154,8 @@ class RemoteCells(CellBoxes):
         self.cols = None  # boxes here come from boxes_of on the kept or fetched rows
         if self.pieces is not None and len(self.pieces) != len(cells.chunks[0]):
             self.pieces = None  # (not one per chunk: the points are sent instead)
+        # the points on the workers too (points.py): every box is computed there
+        self.far = isinstance(points, RemotePoints) and self.pieces is not None
         # every point to every worker, unless each chunk is a piece with its own
         self._pts = None if self.pieces is not None else self._share(points)
         self._summary, self._kept, self._kept_cells = None, None, None
@@ -177,12 +191,13 @@ class RemoteCells(CellBoxes):
 
     def check(self, n_points: int):
         """Validation and summary: (first bad cell per check (global rows, None where
-        none), the vertices used (bool))."""
-        got = self._map(_check, n_points)
+        none), the vertices used (bool; None when the points on the workers are
+        checked there, :mod:`.points`))."""
+        got = self._map(_check, n_points, not self.far)
         bad = [min((int(o) + b[t] for o, (b, _, _) in zip(self.offsets, got)
                     if b[t] is not None), default=None) for t in range(3)]
-        used = np.zeros(n_points, dtype=bool)
-        for _, u, _ in got:
+        used = None if self.far else np.zeros(n_points, dtype=bool)
+        for _, u, _ in ([] if self.far else got):
             used |= np.unpackbits(u, count=n_points).astype(bool)
         if all(b is None for b in bad):
             out = got[0][2]
@@ -208,7 +223,11 @@ class RemoteCells(CellBoxes):
         cells = np.concatenate([g[1][4] for g in got])
         self.stats["bytes_back"] += sum(sum(a.nbytes for a in g[1][:3] + g[1][4:5])
                                         for g in got)
-        lo, hi = boxes_of(self.points, cells)
+        if all(g[1][6] is not None for g in got):  # computed where the pieces are
+            lo = np.concatenate([g[1][6][0] for g in got])
+            hi = np.concatenate([g[1][6][1] for g in got])
+        else:
+            lo, hi = boxes_of(self.points, cells)
         self._kept, self._kept_cells = (ids, lo, hi), cells
         self._edges = (ids, [g[1][5] for g in got if g[1][5] is not None])
         i0 = np.concatenate([g[1][1] for g in got])
@@ -276,24 +295,56 @@ class RemoteCells(CellBoxes):
             if len(ids) == 0 or (pos.max() < len(kept) and np.array_equal(kept[pos], ids)):
                 return lo[pos], hi[pos]
         cells = self._fetch(ids)
-        lo, hi = boxes_of(self.points, cells)
+        lo, hi = self._boxes(ids, cells)
         self._kept, self._kept_cells = (ids, lo, hi), cells
         return lo, hi
+
+    def _boxes(self, ids: np.ndarray, cells: np.ndarray | None = None):
+        """The boxes of the rows ``ids`` (ascending): from the points here, or, when
+        the points are on the workers, computed there per chunk (the same values:
+        min and max are exact)."""
+        if not self.far:
+            return boxes_of(self.points, self._fetch(ids) if cells is None else cells)
+        cut = np.searchsorted(ids, self.offsets)
+        d = self.dask.delayed
+        tasks = [d(_cpu_timed, pure=False)(_on_piece, _row_boxes, own, self.points.dtype,
+                                           ids[cut[i]:cut[i + 1]] - self.offsets[i])
+                 for i, own in enumerate(self.pieces) if cut[i + 1] > cut[i]]
+        got = [o[0] for o in self.dask.compute(*tasks, scheduler=self.scheduler)]
+        self.stats["tasks"] += len(tasks)
+        if not got:
+            return np.zeros((0, self.d)), np.zeros((0, self.d))
+        return np.concatenate([g[0] for g in got]), np.concatenate([g[1] for g in got])
 
     def block(self, a: int, b: int):
         last = getattr(self._local, "last", None)
         if last is not None and last[0] == a and last[1] == b:
             return last[2], last[3]
-        lo, hi = boxes_of(self.points, self._fetch(np.arange(a, b)))
+        lo, hi = self._boxes(np.arange(a, b))
         self._local.last = (a, b, lo, hi)
         return lo, hi
+
+
+def scaled_points(points, run: np.ndarray, e: int, partitioned: bool):
+    """(the run's vertices (ascending global ids) or None, the simulation points scaled
+    by 2^-e): ``inputs.scale_points`` — every point checked, a partitioned run's plan
+    keeping only the vertices of its cells ``run`` — or, for points on the workers
+    (:class:`~.points.RemotePoints`), checked and scaled there, only those rows back."""
+    if isinstance(points, RemotePoints):
+        keep = np.unique(run).astype(np.int64)  # the run's vertices: no mask of N
+        return keep, points.scaled(e, "simulation", keep)
+    keep = run_vertices(run, len(points)) if partitioned else None
+    return keep, scale_points(points, e, "simulation", keep)
 
 
 def validate_remote(points, cells, dim: int, dtype, scheduler, blocks: Blocks = SERIAL):
     """The simulation mesh validated with its cells on the workers: (MeshInput whose
     ``cells`` is the dask array, its :class:`RemoteCells`); the same checks, order and
     messages as :func:`~predicates.registration.plan.inputs.validate_mesh`."""
-    arr = _array(points, "simulation")
+    far = isinstance(points, RemotePoints) and getattr(cells, "fperr_pieces", None) \
+        is not None and len(cells.fperr_pieces) == len(cells.chunks[0])
+    # points on the workers without their pieces' cells: gathered here, as given
+    arr = points if far else _array(points, "simulation")
     name, k = "simulation cells", dim + 1
     what = {2: "triangles", 3: "tetrahedra"}[dim]
     if cells.dtype.kind not in "iu":
@@ -304,15 +355,21 @@ def validate_remote(points, cells, dim: int, dtype, scheduler, blocks: Blocks = 
                          f"simulation mesh), got {cells.shape}")
     if cells.shape[0] == 0:
         raise ValueError("the simulation mesh is empty (0 cells)")
-    with np.errstate(all="ignore"):  # unused rows are never read by a box
-        work = arr.astype(dtype, copy=False)
+    if far:  # checked on the workers (points.py), in ``dtype`` there
+        work = RemotePoints(arr.ranges, arr.bounds, arr.shape[1], arr.scheduler, dtype)
+    else:
+        with np.errstate(all="ignore"):  # unused rows are never read by a box
+            work = arr.astype(dtype, copy=False)
     remote = RemoteCells(work, cells, scheduler, blocks)
     bad, used = remote.check(len(arr))
     for t in range(3):
         if bad[t] is not None:
             row = remote._fetch(np.array([bad[t]]))[0].tolist()
             raise cell_error("simulation", t, bad[t], row, len(arr))
-    pts, rounded = _points(arr, used, "simulation", dtype)
+    if far:
+        pts, rounded = arr.checked("simulation", dtype)
+    else:
+        pts, rounded = _points(arr, used, "simulation", dtype)
     remote.points = pts  # the same boxes as from ``work`` (the used rows are equal)
     return MeshInput(pts, cells, "simulation", rounded), remote
 
@@ -322,7 +379,7 @@ def validate_pair_remote(sp, sc, cp, cc, dtype, scheduler, blocks: Blocks = SERI
     simulation's MeshInput, the cutting mesh's, the simulation's :class:`RemoteCells`)."""
     from predicates.registration.plan.inputs import validate_mesh
 
-    dim = _array(sp, "simulation").shape[1]
+    dim = sp.shape[1] if isinstance(sp, RemotePoints) else _array(sp, "simulation").shape[1]
     sim, remote = validate_remote(sp, sc, dim, dtype, scheduler, blocks)
     cut = validate_mesh(cp, cc, "cutting", dim, dtype, allow_empty=True, blocks=blocks)
     return dim, sim, cut, remote

@@ -41,6 +41,13 @@ class IntersectionResult(Mapping):
     ``res.notes``: what was done to the input (second-order cells, boundaries, regions).
     ``str(res)``: a readable summary; ``res.to_meshio()`` / ``res.sim_mesh()``: for
     ParaView; ``res.to_dict()`` / ``res.to_dataframe()``: for analysis.
+
+    ``res.sim_points`` is the validated simulation points (N, dim) in the working dtype
+    (points no cell uses are 0) — a numpy array, or, for pieces read by the workers
+    (docs/partitioned.md 6), a dask array computed where the points are: nothing of
+    size N reaches the client until asked (``np.asarray``, a pair's coordinates,
+    ``to_meshio``), while the scheduler that holds them is open; ``res.sim_cells`` is
+    likewise a dask array when the cells stayed on the workers.
     """
 
     dim: int
@@ -72,6 +79,8 @@ class IntersectionResult(Mapping):
         self._scaled_tolerances = self.tolerances
         self.tolerances = _input_units(self.tolerances, self.scale_exponent, self.dim)
         self.notes = list(self.notes)
+        if hasattr(self.sim_points, "to_dask"):  # points kept on the workers (pieces)
+            self.sim_points = self.sim_points.to_dask()
         for p in self.pairs.values():
             p._points = (self.sim_points, self.cut_points)
             p._sim_cells = self.sim_cells
