@@ -90,6 +90,15 @@ def _owned_levels(T, C, lo_c, hi_c, levels, s0, f0, pad0, lo0, hi0, o0, p0, s1, 
     counts[0], counts[1], counts[2] = n0, n1, n2
 
 
+@njit(**JIT_OPTIONS)
+def _owned_counts(T, start, out, k):
+    """out[k] = the faces the cells T[q] own, summed over q (stage 1's most pairs)."""
+    n = 0
+    for q in range(T.shape[0]):
+        n += start[T[q] + 1] - start[T[q]]
+    out[k] = n
+
+
 def owned_levels(T: np.ndarray, C: np.ndarray, boxes_c: tuple, levels: list) -> list:
     """Stage 1 of :mod:`predicates.registration.levels.facepairs` for up to three
     simulation levels in one pass over the cell pairs (T[q], C[q]): per level
@@ -100,10 +109,13 @@ def owned_levels(T: np.ndarray, C: np.ndarray, boxes_c: tuple, levels: list) -> 
     if not 1 <= len(levels) <= 3:
         raise ValueError(f"owned_levels takes 1 to 3 levels, got {len(levels)}")
     args, outs = [], []
+    most = np.zeros(3, dtype=np.int64)  # per level at most these pairs (one pass each,
+    for k in range(len(levels)):  # no temporaries: np.diff(start).take(T) was ~25 %)
+        _owned_counts(T, levels[k][0], most, k)
     for k in range(3):  # the slots past len(levels) are never read
         if k < len(levels):
             start, faces, pad, (lo, hi) = levels[k]
-            n = int(np.diff(start).take(T).sum()) if len(T) else 0  # at most these
+            n = int(most[k])
         else:
             start, faces, pad, lo, hi, n = _NO_FACES, _NO_FACES, 0.0, *boxes_c, 0
         # int32 ids when they fit (every face has one owner: ids < len(faces)): half
