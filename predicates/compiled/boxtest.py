@@ -18,7 +18,7 @@ from numba import njit
 from .buffers import buffer
 from .build import INLINE_OPTIONS, JIT_OPTIONS
 
-__all__ = ["grid_join", "join", "owned_levels", "owned_lists", "owned_lists_of", "owned_pairs",
+__all__ = ["grid_join", "join", "kept_ids", "owned_levels", "owned_lists", "owned_lists_of", "owned_pairs",
            "pair_test"]
 
 
@@ -404,3 +404,27 @@ def grid_join(ranges: tuple, G: np.ndarray, pad: float, cols: tuple, limit: int)
         if n <= guess:
             return out_a[:n], out_b[:n]
         guess = n
+
+
+@njit(**JIT_OPTIONS)
+def _kept_ids(ids, keep, new):
+    """keep[x] for every x in ``ids``; then ``ids`` rewritten in place as the positions
+    of their values among the kept ones (``new``: scratch of len(keep))."""
+    for q in range(ids.shape[0]):
+        keep[ids[q]] = True
+    count = 0
+    for x in range(keep.shape[0]):
+        new[x] = count
+        count += keep[x]
+    for q in range(ids.shape[0]):
+        ids[q] = new[ids[q]]
+
+
+def kept_ids(ids: np.ndarray, n: int) -> np.ndarray:
+    """The mask (n,) of the values in ``ids`` (< n), and ``ids`` overwritten with each
+    value's position among the kept ones — ``(np.cumsum(keep) - 1).take(ids)`` without
+    its temporaries or a second array the size of ``ids`` (W4: 4.5 M cell pairs)."""
+    keep = np.zeros(n, dtype=bool)
+    if len(ids):
+        _kept_ids(ids, keep, np.empty(n, dtype=ids.dtype))
+    return keep
