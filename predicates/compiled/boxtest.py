@@ -149,8 +149,9 @@ def owned_levels(T: np.ndarray, C: np.ndarray, boxes_c: tuple, levels: list) -> 
     the faces' boxes as (d, n) columns), the pairs (f, C[q]) of every face f that T[q]
     owns whose box is within pad of C[q]'s (``boxes_c``) — the pairs and order of
     :func:`owned_pairs` ("a") on the owned table. Returns [(f, C)] per level."""
-    if not 1 <= len(levels) <= 3:
-        raise ValueError(f"owned_levels takes 1 to 3 levels, got {len(levels)}")
+    if not 1 <= len(levels) <= 3 or boxes_c[0].shape[0] not in (2, 3):
+        raise ValueError(f"owned_levels takes 1 to 3 levels in 2 or 3 dimensions, got "
+                         f"{len(levels)} in {boxes_c[0].shape[0]}")
     args, outs = [], []
     most = np.zeros(3, dtype=np.int64)  # per level at most these pairs (one pass each,
     for k in range(len(levels)):  # no temporaries: np.diff(start).take(T) was ~25 %)
@@ -350,10 +351,18 @@ def _grid_join(ia0, ia1, G, start, ids, first, pad, lo_a, hi_a, lo_b, hi_b, limi
     ext = np.empty(d, dtype=np.int64)
     count = 0
     proposals = 0
+    three, unrolled = d == 3, d == 2 or d == 3
+    l1 = l2 = u1 = u2 = 0.0
     for a in range(ia0.shape[0]):
         for ax in range(d):
             ext[ax] = ia1[a, ax] - ia0[a, ax] + 1
             off[ax] = 0
+        # a's box held, the test written out (d = 2, 3; W4 ~15 % faster than _near)
+        l0, u0 = lo_a[0, a], hi_a[0, a]
+        if unrolled:
+            l1, u1 = lo_a[1, a], hi_a[1, a]
+        if three:
+            l2, u2 = lo_a[2, a], hi_a[2, a]
         while True:
             key = _cell_key(ia0, a, off, G)
             proposals += start[key + 1] - start[key]
@@ -367,7 +376,14 @@ def _grid_join(ia0, ia1, G, start, ids, first, pad, lo_a, hi_a, lo_b, hi_b, limi
                 if (bits | first[e]) != full:
                     continue
                 b = ids[e]
-                if _near(pad, lo_a, hi_a, lo_b, hi_b, a, b):
+                if unrolled:  # _near's subtractions and comparisons, in its order
+                    near = (lo_b[0, b] - u0 <= pad and l0 - hi_b[0, b] <= pad
+                            and lo_b[1, b] - u1 <= pad and l1 - hi_b[1, b] <= pad and (
+                                not three or (lo_b[2, b] - u2 <= pad
+                                              and l2 - hi_b[2, b] <= pad)))
+                else:
+                    near = _near(pad, lo_a, hi_a, lo_b, hi_b, a, b)
+                if near:
                     if count < out_a.shape[0]:
                         out_a[count] = a
                         out_b[count] = b
