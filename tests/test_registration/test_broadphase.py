@@ -206,17 +206,12 @@ def test_face_pairs_from_cell_pairs_equal_box_pairs_per_kind(dim, chunk, acceler
     values = rng.permutation(np.resize([0.0, 0.004, 0.02, 0.05], len(ks)))
     reach = {k.name: float(r) for k, r in zip(ks, values)}
     full = {k: (sim.cx.S[k.i], cut.cx.S[k.j]) for k in ks}  # every cell's faces
-    tops = {}  # compiled: the kept cells' boxes, handed to FacePairs
     T, C, keep_s, keep_c = cell_pairs(sim.P, sim.cx.S[dim], cut.P, cut.cx.S[dim - 1],
-                                      max(reach.values()), chunk, accelerate, tops)
+                                      max(reach.values()), chunk)
     assert 0 < keep_s.sum() < len(keep_s)  # some cells have no partner: dropped
     sim.build_unique(sim.cx.S[dim][keep_s])
     cut.build_unique(cut.cx.S[dim - 1][keep_c])
-    if accelerate:  # the very bits FacePairs would compute from the kept rows
-        want = boxes_of(cut.P, cut.cx.S[cut.cx.top])
-        assert all(g.shape == w.T.shape and g.tobytes() == np.ascontiguousarray(w.T).tobytes()
-                   for g, w in zip(tops["cut"], want))
-    fp = FacePairs(sim, cut, T, C, reach, ks, chunk, accelerate=accelerate, top_boxes=tops)
+    fp = FacePairs(sim, cut, T, C, reach, ks, chunk, accelerate=accelerate)
     ref = FacePairs(sim, cut, T, C, reach, ks, chunk)  # numpy: the order to match
     total = 0
     for k in ks:

@@ -36,12 +36,10 @@ __all__ = ["FacePairs", "cell_pairs", "joined", "owned_table"]
 
 
 def cell_pairs(P_sim, sim_cells, P_cut, cut_cells, pad: float, chunk: int,
-               accelerate: bool = False, kept_boxes: dict | None = None):
+               accelerate: bool = False):
     """The pairs of cells (rows of ``sim_cells`` × rows of ``cut_cells``, coordinates
     ``P_sim``, ``P_cut``) whose boxes are within ``pad``: (T, C, keep_s, keep_c), with
-    ``keep_*`` the masks of the cells in some pair and T, C indices into the kept rows.
-    ``kept_boxes``: a dict receiving "cut", the kept cutting cells' boxes as (d, n)
-    columns (lo, hi) — what :class:`FacePairs` would compute again from those rows."""
+    ``keep_*`` the masks of the cells in some pair and T, C indices into the kept rows."""
     blocks = Blocks(accelerate=accelerate)
     lo_s, hi_s = boxes_of(P_sim, sim_cells, blocks)
     lo_c, hi_c = boxes_of(P_cut, cut_cells, blocks)
@@ -60,27 +58,13 @@ def cell_pairs(P_sim, sim_cells, P_cut, cut_cells, pad: float, chunk: int,
 
         # the join's own fresh arrays, renumbered in place: no second pair of arrays
         # (W4: 36 MB less fresh memory; keep and cumsum and take 46 -> ~15 ms)
-        keep_s, keep_c = kept_ids(T, len(sim_cells)), kept_ids(C, len(cut_cells))
-        if kept_boxes is not None:  # the cutting cells' only: stage 1 reads them at
-            # once, the simulation cells' only the last kind (held until then, they
-            # raised W4's serial peak by ~20 MiB)
-            kept_boxes["cut"] = _kept_columns(lo_c, hi_c, keep_c)
-        return T, C, keep_s, keep_c
+        return T, C, kept_ids(T, len(sim_cells)), kept_ids(C, len(cut_cells))
     keep_s, keep_c = np.zeros(len(sim_cells), bool), np.zeros(len(cut_cells), bool)
     keep_s[T] = True
     keep_c[C] = True
     # take: the same values as fancy indexing, faster
     return ((np.cumsum(keep_s, dtype=ids[0]) - 1).take(T),
             (np.cumsum(keep_c, dtype=ids[1]) - 1).take(C), keep_s, keep_c)
-
-
-def _kept_columns(lo: np.ndarray, hi: np.ndarray, keep: np.ndarray) -> tuple:
-    """The boxes (n, d) of the kept rows as (d, m) columns, :func:`_columns`' form
-    (boxes_of's arrays are (d, n): all kept, no copy). The same bits as computing
-    them again from the kept rows: a box is a min and max per axis of its own row."""
-    if keep.all():
-        return lo.T, hi.T
-    return lo.T[:, keep], hi.T[:, keep]
 
 
 def joined(parts: list, empty: np.ndarray) -> np.ndarray:
@@ -135,14 +119,11 @@ class FacePairs:
     ``j``) in the order they will be asked for."""
 
     def __init__(self, sim, cut, T, C, reach: dict, kinds, chunk: int,
-                 accelerate: bool = False, top_boxes: dict | None = None):
+                 accelerate: bool = False):
         self.sim, self.cut, self.reach, self.chunk = sim, cut, reach, chunk
         self.accelerate = accelerate  # compiled box tests (predicates.compiled)
         self.top_s, self.top_c = sim.cx.top, cut.cx.top
         self._boxes = {}  # (side, level) -> (lo, hi) columns
-        for side, top in (("sim", self.top_s), ("cut", self.top_c)):  # cell_pairs' own
-            if top_boxes and side in top_boxes:
-                self._boxes[side, top] = top_boxes[side]
         self._tables = {}  # (side, level) -> owned table
         self._stage1 = {}  # sim level i -> (f, C)
         self._pending = {}  # sim level i -> kinds still to ask for it

@@ -120,16 +120,15 @@ class Registration:
                 return
             # the pairs of distinct cells within σ+; complexes of the cells in some pair
             tops_s, tops_c = sim.unique_cells(near_s), cut.unique_cells(near_c)
-        tops = {}  # compiled: the kept cells' boxes, not computed again by FacePairs
         T, C, keep_s, keep_c = cell_pairs(sim.P, tops_s, cut.P, tops_c, pad, 2 * self.chunk,
-                                          self.accelerate, tops)
+                                          self.accelerate)
         if len(T) == 0:
             return
         sim.build_unique(tops_s[keep_s])
         cut.build_unique(tops_c[keep_c])
         sim.cells = cut.cells = None  # the complexes hold what the levels read
         self.faces = FacePairs(sim, cut, T, C, self.reach, catalogue_kinds(self.dim),
-                               2 * self.chunk, self.accelerate, tops)
+                               2 * self.chunk, self.accelerate)
         self.empty = False
 
     def _candidates(self, kind, i, j):
