@@ -18,8 +18,8 @@ from numba import njit
 from .buffers import buffer
 from .build import INLINE_OPTIONS, JIT_OPTIONS
 
-__all__ = ["grid_join", "join", "kept_ids", "owned_levels", "owned_lists", "owned_lists_of", "owned_pairs",
-           "pair_test"]
+__all__ = ["grid_join", "join", "kept_ids", "owned_levels", "owned_lists", "owned_lists_of",
+           "owned_pairs", "pair_test"]
 
 
 @njit(**INLINE_OPTIONS)
