@@ -264,6 +264,27 @@ def test_box_pairs_compiled_join_identical(seed):
         assert len(ia) > 100 and len(set(zip(ja.tolist(), jb.tolist()))) == len(ja)
 
 
+
+@pytest.mark.parametrize("dtype", [np.int32, np.int64])
+def test_kept_ids_is_cumsum_take(dtype):
+    """cell_pairs' compiled renumbering (boxtest.kept_ids, in place) gives the mask of
+    the values present and ``(np.cumsum(keep) - 1).take(ids)``: repeats, gaps, values
+    at both ends, no ids at all."""
+    from predicates.compiled.boxtest import kept_ids
+
+    rng = np.random.default_rng(5)
+    for n, m in ((1, 3), (50, 400), (10_000, 2_000), (7, 0)):
+        ids = rng.integers(0, n, m).astype(dtype)
+        if m:
+            ids[:2] = 0, n - 1
+        keep = np.zeros(n, dtype=bool)
+        keep[ids] = True
+        want = (np.cumsum(keep) - 1).take(ids)
+        got = ids.copy()
+        assert np.array_equal(kept_ids(got, n), keep)
+        assert got.dtype == dtype and np.array_equal(got, want)
+        assert not m or got.max() == keep.sum() - 1  # the kept ones are dense
+
 def test_cell_passes_identical():
     """The plan's compiled per-cell passes (Blocks(accelerate=True)) give the numpy
     passes' values: boxes (signed zeros included), cell indices, coverage, look-ups,
