@@ -19,7 +19,6 @@ a degenerate sign (e through an edge or vertex, a crossing on e) is left as it w
 """
 from __future__ import annotations
 
-
 import numpy as np
 
 __all__ = ["declump"]
