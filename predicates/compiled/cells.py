@@ -340,14 +340,61 @@ def least_square_edge(cols, C, a, b):
     return best
 
 
+@njit(**INLINE_OPTIONS)
+def _clean_rows(arr, r, lim, used):
+    """The first row from ``r`` on with an id outside [0, lim) or a repeated id (or m);
+    the rows before it mark ``used``. k = 2, 3, 4 written out: one branch-free test per
+    row (the generic loop's per-id branches cost 4× the pass on W4: 20 vs 5 ns/cell)."""
+    k = arr.shape[1]
+    m = arr.shape[0]
+    while r < m:
+        if k == 4:
+            a, b, c, e = arr[r, 0], arr[r, 1], arr[r, 2], arr[r, 3]
+            ok = ((a >= 0) & (a < lim) & (b >= 0) & (b < lim) & (c >= 0) & (c < lim)
+                  & (e >= 0) & (e < lim) & (a != b) & (a != c) & (a != e) & (b != c)
+                  & (b != e) & (c != e))
+            if not ok:
+                return r
+            used[a] = True
+            used[b] = True
+            used[c] = True
+            used[e] = True
+        elif k == 3:
+            a, b, c = arr[r, 0], arr[r, 1], arr[r, 2]
+            ok = ((a >= 0) & (a < lim) & (b >= 0) & (b < lim) & (c >= 0) & (c < lim)
+                  & (a != b) & (a != c) & (b != c))
+            if not ok:
+                return r
+            used[a] = True
+            used[b] = True
+            used[c] = True
+        elif k == 2:
+            a, b = arr[r, 0], arr[r, 1]
+            if not ((a >= 0) & (a < lim) & (b >= 0) & (b < lim) & (a != b)):
+                return r
+            used[a] = True
+            used[b] = True
+        else:
+            return r
+        r += 1
+    return r
+
+
 @njit(**JIT_OPTIONS)
 def check_cells(arr, top, first, used):
     """:func:`predicates.registration.plan.inputs.first_bad` and the used-vertex mask
     in one pass over signed integer cells ``arr`` (m, k): ``first`` (3,) gets the first
     row with a negative id, one ≥ ``top`` (top < 0: no bound) and one repeating an id
-    (−1: none, as given on entry); ``used[v]`` is set for every id in range."""
+    (−1: none, as given on entry); ``used[v]`` is set for every id in range. Clean
+    rows (every id in [0, min(top, len(used))), none repeated) take
+    :func:`_clean_rows`' test; any other row is classified id by id."""
     k = arr.shape[1]
-    for r in range(arr.shape[0]):
+    lim = used.shape[0] if top < 0 else min(top, used.shape[0])
+    r = 0
+    while r < arr.shape[0]:
+        r = _clean_rows(arr, r, lim, used)
+        if r >= arr.shape[0]:
+            break
         neg = False
         out = False
         rep = False
@@ -365,6 +412,7 @@ def check_cells(arr, top, first, used):
             first[1] = r
         if rep and first[2] < 0:
             first[2] = r
+        r += 1
 
 
 @njit(**JIT_OPTIONS)
