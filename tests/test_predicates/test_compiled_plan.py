@@ -256,7 +256,7 @@ def test_compiled_cell_check_is_numpys(data, d):
 @settings(deadline=None)
 @given(data=st.data())
 def test_compiled_exact_sums_are_exact(data):
-    """ExactSum with its compiled narrow path (predicates.compiled.cells.narrow_sums)
+    """ExactSum with its compiled narrow path (predicates.compiled.cellsums.narrow_sums)
     gives the exact sum (Fraction) and numpy's mean, on blocks that take the narrow path
     (one to ten binades), blocks that must not (subnormals, 2^-1000, wide spreads,
     huge values, inf and NaN), zeros of both signs, blocks longer than 2^16 values."""

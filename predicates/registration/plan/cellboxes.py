@@ -200,24 +200,29 @@ class CellBoxes:
         return self._summary
 
     def _compiled_summary(self, a: int, b: int) -> BoxSummary:
-        """The :class:`BoxSummary` of rows [a, b), each block's boxes and reductions
-        compiled (:func:`predicates.compiled.cells.box_summary`: the values of
-        :func:`summarize`, the hull, extrema and histogram kept across the blocks) —
-        numpy's per-block reductions cost 3× the boxes themselves on W4."""
-        from predicates.compiled.buffers import buffer
-        from predicates.compiled.cells import box_summary
+        """The :class:`BoxSummary` of rows [a, b) in one compiled loop per block of at
+        most 2^16 rows (:func:`predicates.compiled.cellsums.summary_block`: the boxes in
+        registers, the values of :func:`summarize`; the exact sums' narrow parts, a
+        block outside the narrow path summed from its boxes as before)."""
+        from predicates.compiled.cellsums import summary_block
+        from predicates.registration.spatial import exactsum as xs
 
-        d = self.d
+        d, P = self.d, self._given()
         lo_min, hi_max = np.full(d, np.inf), np.full(d, -np.inf)
         hist, sums = np.zeros(2048, dtype=np.int64), [ExactSum(True) for _ in range(d)]
         e_min, e_max = np.inf, -np.inf
+        status = np.empty((d, 3))
         for s, t in self.blocks.each(a, b):
-            lo, hi = self.block(s, t)
-            ext = buffer("summary_ext", d * (t - s), np.float64).reshape(d, t - s)
-            low, top = box_summary(lo.T, hi.T, ext, lo_min, hi_max, hist)
-            for ax in range(d):
-                sums[ax].add(ext[ax])
-            e_min, e_max = min(e_min, low), max(e_max, top)
+            for u in range(s, t, 1 << 16):  # the narrow path's sums: ≤ 2^16 values
+                w = min(u + (1 << 16), t)
+                low, top = summary_block(P, self.cells[u:w], lo_min, hi_max, hist, status,
+                                         xs._BIG, xs._TINY, xs._SPREAD, xs._SPLIT)
+                for ax in range(d):
+                    if not sums[ax].add_narrow(w - u, int(status[ax, 0]), status[ax, 1],
+                                               status[ax, 2]):
+                        lo, hi = self.block(u, w)
+                        sums[ax].add(hi[:, ax] - lo[:, ax])
+                e_min, e_max = min(e_min, low), max(e_max, top)
         ok = bool(np.isfinite(e_max)) and e_min >= 0
         return BoxSummary(b - a, lo_min, hi_max, float(e_max), sums, float(e_min),
                           hist if ok else None)

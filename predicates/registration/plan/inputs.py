@@ -102,9 +102,9 @@ def _cells(cells, role, width, n_points, what, blocks: Blocks = SERIAL, used=Non
 
 
 def _checked_and_used(arr: np.ndarray, n_points: int, blocks: Blocks, used) -> list:
-    """:func:`first_bad` by the compiled pass (:func:`predicates.compiled.cells.
+    """:func:`first_bad` by the compiled pass (:func:`predicates.compiled.cellsums.
     check_cells`, the same rows), marking ``used`` as it reads the ids."""
-    from predicates.compiled.cells import check_cells
+    from predicates.compiled.cellsums import check_cells
 
     top = n_points if n_points <= np.iinfo(arr.dtype).max else -1
 
