@@ -4,7 +4,8 @@ checks with the used-vertex mask (:func:`check_cells`), and the boxes' summary
 (:func:`summary_block`: hull, extrema, exponent histogram and the exact sums' narrow
 parts of each block, the boxes computed in registers, no (d, m) temporaries), with
 :func:`narrow_sums`, :class:`~predicates.registration.spatial.exactsum.ExactSum`'s
-narrow path on an array. Every value is that of the numpy pass it replaces
+narrow path on an array; and the exact power-of-two scaling of the points with its
+checks in one pass (:func:`scale_exact`). Every value is that of the numpy pass it replaces
 (:mod:`predicates.compiled.cells` for the boxes' min/max rule).
 """
 from __future__ import annotations
@@ -15,7 +16,7 @@ from numba import njit
 from .build import INLINE_OPTIONS, JIT_OPTIONS
 from .cells import _box_row
 
-__all__ = ["check_cells", "narrow_sums", "summary_block"]
+__all__ = ["check_cells", "narrow_sums", "scale_exact", "summary_block"]
 
 
 @njit(**INLINE_OPTIONS)
@@ -266,3 +267,22 @@ def summary_block(points, rows, lo_min, hi_max, hist, status, big, tiny, spread,
     for ax in range(d):
         status[ax, 0] = state
     return e_min, e_max
+
+
+@njit(**JIT_OPTIONS)
+def scale_exact(points, out, factor, back, limit):
+    """``out`` = ``points``·``factor`` (a power of two, a normal number of the points'
+    dtype: one correctly rounded multiplication, as
+    :func:`predicates.registration.plan.inputs.times_pow2`) and the two refusals of
+    ``inputs._check_scaled`` in the same pass: (some scaled value is not finite or
+    beyond ``limit``, some is inexact: y·``back`` ≠ x with back = 1/factor)."""
+    over = False
+    inexact = False
+    for i in range(points.shape[0]):
+        for j in range(points.shape[1]):
+            x = points[i, j]
+            y = x * factor
+            out[i, j] = y
+            over |= not abs(y) <= limit
+            inexact |= y * back != x
+    return over, inexact

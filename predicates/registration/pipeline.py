@@ -305,8 +305,9 @@ def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, 
     # partitioned: every point checked, only the run's vertices scaled and kept, the
     # run's cells renumbered to them (docs/partitioned.md 6); serial: every point
     keep = None if scheduler is None else run_vertices(run, len(sim.points))
-    P_sim = scale_points(sim.points, sc_.e, "simulation", keep)
-    P_cut = scale_points(cut.points, sc_.e, "cutting")
+    fast = work.blocks.accelerate
+    P_sim = scale_points(sim.points, sc_.e, "simulation", keep, accelerate=fast)
+    P_cut = scale_points(cut.points, sc_.e, "cutting", accelerate=fast)
     tol_run = sc_.tol if ts == 1 else sc_.tol.scaled(dtype.type(ts))
     clock("plan_scale")
     report = _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts, work)

@@ -448,3 +448,44 @@ def test_hits_in_order_is_the_numpy_output(data, widths, n):
     order, got1, got2 = hits_in_order((S1, ids1, s, n), (S2, ids2, c, n))
     assert np.array_equal(order, want)
     assert np.array_equal(got1, sid[want]) and np.array_equal(got2, cid[want])
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_compiled_scaling_is_numpys(dtype):
+    """scale_points with the compiled pass (cellsums.scale_exact: the scaling and both
+    checks at once) returns the numpy pass's points bit for bit and refuses what it
+    refuses with the same message — an overflow, a bit lost to underflow, the overflow
+    first when both occur — and every accepted value is exactly x·2^-e (Fractions)."""
+    from predicates.registration.plan.inputs import scale_points
+
+    rng = np.random.default_rng(11)
+    fi = np.finfo(dtype)
+    big, tiny = fi.max / 4, fi.smallest_subnormal
+    base = rng.uniform(-1, 1, (3000, 3)).astype(dtype) * dtype(2.0) ** rng.integers(
+        -20, 20, (3000, 1)).astype(dtype)
+    base[0], base[1, 0] = 0.0, -0.0
+
+    def outcome(points, e, fast):
+        try:
+            return "ok", scale_points(points, e, "simulation", accelerate=fast).tobytes()
+        except ValueError as err:
+            return "refused", str(err)
+
+    cases = [(e, {}) for e in (-8, 0, 7, fi.maxexp + 3)] + [
+        (-8, {5: big}), (1, {6: tiny}), (-8, {7: tiny, 2999: big}), (2, {3: big})]
+    seen = set()
+    for e, bad in cases:
+        pts = base.copy()
+        for row, value in bad.items():
+            pts[row, 1] = value
+        want, got = outcome(pts, e, False), outcome(pts, e, True)
+        assert want == got
+        seen.add(want[0] if want[0] == "ok" else
+                 "overflow" if "too large" in want[1] else
+                 "underflow" if "cannot be scaled exactly" in want[1] else want[1])
+        if want[0] == "ok":
+            out = np.frombuffer(got[1], dtype=dtype).reshape(pts.shape)
+            for i in (0, 1, 3, 7, 2999):
+                assert all(Fraction(float(y)) == Fraction(float(x)) * Fraction(2) ** -e
+                           for x, y in zip(pts[i], out[i]))
+    assert seen == {"ok", "overflow", "underflow"}  # both refusals are exercised

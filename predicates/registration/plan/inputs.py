@@ -311,12 +311,25 @@ def max_box_edge(points: np.ndarray, cells: np.ndarray) -> float:
 
 
 def scale_points(points: np.ndarray, e: int, role: str,
-                 keep: np.ndarray | None = None) -> np.ndarray:
+                 keep: np.ndarray | None = None, accelerate: bool = False) -> np.ndarray:
     """``points``·2^-e, refused unless exact (no overflow, no bit lost to underflow).
     ``keep`` (ascending row ids): every row is checked, block by block, but only the
     rows ``keep`` are returned scaled — the same refusals as for the whole array,
     without a scaled copy of every point (a partitioned run's plan keeps the run's
-    vertices only: docs/partitioned.md 6)."""
+    vertices only: docs/partitioned.md 6). ``accelerate``: the scaling and both checks
+    in one compiled pass (:func:`predicates.compiled.cellsums.scale_exact`: the same
+    values and refusals, no temporaries)."""
+    fi = np.finfo(points.dtype)
+    if accelerate and keep is None and fi.minexp < -abs(e) and abs(e) < fi.maxexp:
+        from predicates.compiled.cellsums import scale_exact
+
+        out = np.empty_like(points)
+        ty = points.dtype.type
+        over, inexact = scale_exact(points, out, ty(2.0 ** -e), ty(2.0 ** e),
+                                    float(fi.max / 16))
+        if over or inexact:  # the numpy checks' refusal, in their order
+            _check_scaled(points, out, e, role)
+        return out
     if keep is not None:
         step, inexact = 1 << 16, None  # (each block's check is the whole array's on its rows)
         for a in range(0, len(points), step):
