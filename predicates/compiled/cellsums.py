@@ -5,7 +5,8 @@ checks with the used-vertex mask (:func:`check_cells`), and the boxes' summary
 parts of each block, the boxes computed in registers, no (d, m) temporaries), with
 :func:`narrow_sums`, :class:`~predicates.registration.spatial.exactsum.ExactSum`'s
 narrow path on an array; and the exact power-of-two scaling of the points with its
-checks in one pass (:func:`scale_exact`). Every value is that of the numpy pass it replaces
+checks in one pass (:func:`scale_exact`); the report's pair-estimate grid without
+(n, d) temporaries (:func:`pad_extents`, :func:`pad_index`). Every value is that of the numpy pass it replaces
 (:mod:`predicates.compiled.cells` for the boxes' min/max rule).
 """
 from __future__ import annotations
@@ -16,7 +17,8 @@ from numba import njit
 from .build import INLINE_OPTIONS, JIT_OPTIONS
 from .cells import _box_row
 
-__all__ = ["check_cells", "narrow_sums", "scale_exact", "summary_block"]
+__all__ = ["check_cells", "narrow_sums", "pad_extents", "pad_index", "scale_exact",
+           "summary_block"]
 
 
 @njit(**INLINE_OPTIONS)
@@ -286,3 +288,41 @@ def scale_exact(points, out, factor, back, limit):
             over |= not abs(y) <= limit
             inexact |= y * back != x
     return over, inexact
+
+
+@njit(**JIT_OPTIONS)
+def pad_extents(lo, hi, h, ext, lo_min, hi_max):
+    """The report's pair estimate (:func:`predicates.registration.plan.resolution.
+    _estimate_grid`) on boxes (n, d) enlarged by h (lo − h, hi + h, rounded as numpy
+    rounds them): each one's largest edge into ``ext`` (box_extent: np.maximum over the
+    axes from axis 0) and the enlarged boxes' hull ``lo_min``/``hi_max`` (d,) updated
+    (min and max: exact; a signed zero of the hull only moves the origin by nothing)."""
+    for r in range(lo.shape[0]):
+        e = 0.0
+        for ax in range(lo.shape[1]):
+            a = lo[r, ax] - h
+            b = hi[r, ax] + h
+            lo_min[ax] = a if a < lo_min[ax] else lo_min[ax]
+            hi_max[ax] = b if b > hi_max[ax] else hi_max[ax]
+            x = b - a
+            e = x if ax == 0 else (e if (e > x) | (e != e) else x)
+        ext[r] = e
+
+
+@njit(**JIT_OPTIONS)
+def pad_index(lo, hi, h, origin, g, i0, i1):
+    """floor((lo − h − origin)/g) and floor((hi + h − origin)/g) into ``i0``, ``i1``
+    (n, d) binary64 (numpy's roundings in its order), and Σ over the boxes of
+    Π_axes (i1 − i0 + 1), the product from axis 0 (a float sum of integers: exact
+    below 2^53, and beyond it far above any budget it is compared with)."""
+    total = 0.0
+    for r in range(lo.shape[0]):
+        c = 1.0
+        for ax in range(lo.shape[1]):
+            a = np.floor((lo[r, ax] - h - origin[ax]) / g)
+            b = np.floor((hi[r, ax] + h - origin[ax]) / g)
+            i0[r, ax] = a
+            i1[r, ax] = b
+            c = (b - a + 1) if ax == 0 else c * (b - a + 1)
+        total += c
+    return total
