@@ -238,6 +238,9 @@ def pair_bits(S, G, stride, bits):
     c). :func:`flag_block_indexed` decides a row whose range spans at most two cells
     per axis from one bit (a range inside the block: no occupied cell in the block,
     none in the range — the corner sum is a count of occupied cells)."""
+    if G.shape[0] == 3:  # written out (W4's 1.8 M grid cells: 22.5 -> 15.6 ms)
+        _pair_bits3(S, G, stride, bits)
+        return
     d = G.shape[0]
     low = np.empty(d, dtype=np.int64)
     up = np.empty(d, dtype=np.int64)
@@ -260,6 +263,26 @@ def pair_bits(S, G, stride, bits):
             if c[ax] < G[ax]:
                 break
             c[ax] = 0
+
+
+@njit(**INLINE_OPTIONS)
+def _pair_bits3(S, G, stride, bits):
+    """:func:`pair_bits` for d = 3: the cells in nested loops, each block's corner sum
+    (:func:`_corner_sum`'s terms) from scalar keys."""
+    s0, s1, s2 = stride[0], stride[1], stride[2]
+    for z in range(G[2]):
+        z0, z1 = z * s2, min(z + 2, G[2]) * s2
+        for y in range(G[1]):
+            y0, y1 = y * s1, min(y + 2, G[1]) * s1
+            for x in range(G[0]):
+                x0, x1 = x * s0, min(x + 2, G[0]) * s0
+                count = (np.int64(S[x1 + y1 + z1]) - np.int64(S[x0 + y1 + z1])
+                         - np.int64(S[x1 + y0 + z1]) - np.int64(S[x1 + y1 + z0])
+                         + np.int64(S[x0 + y0 + z1]) + np.int64(S[x0 + y1 + z0])
+                         + np.int64(S[x1 + y0 + z0]) - np.int64(S[x0 + y0 + z0]))
+                if count > 0:
+                    key = x0 + y0 + z0
+                    bits[key >> 3] |= np.uint8(1 << (key & 7))
 
 
 @njit(**JIT_OPTIONS)

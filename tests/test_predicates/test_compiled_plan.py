@@ -516,3 +516,31 @@ def test_compiled_estimate_grid_is_numpys(data, d):
         assert a.shape == b.shape and np.array_equal(a, b)
     assert R.estimate_cell_pairs(*sides, pad) == \
         R.estimate_cell_pairs(*sides, pad, Blocks(accelerate=True))
+
+
+@pytest.mark.parametrize("d", [2, 3])
+def test_pair_bits_are_the_blocks_occupancy(d):
+    """cells.pair_bits (d = 3 written out, d = 2 the generic loop): the bit of cell c is
+    set exactly when a cell of the 2^d block [c, c + 1] (inside the grid) is occupied —
+    brute force over every cell of random grids, the grid's last rows included."""
+    from predicates.compiled.cells import pair_bits
+    from predicates.registration.spatial.gridsums import _stride
+
+    rng = np.random.default_rng(d)
+    for _ in range(5):
+        G = rng.integers(1, 7, size=d).astype(np.int64)
+        occ = np.zeros(tuple((G + 1)[::-1]), np.int32)
+        occ[tuple(slice(None, -1) for _ in range(d))] = rng.random(tuple(G[::-1])) < 0.15
+        S = np.zeros_like(occ)
+        S[tuple(slice(1, None) for _ in range(d))] = occ[tuple(slice(None, -1) for _ in range(d))]
+        for ax in range(d):
+            np.cumsum(S, axis=ax, out=S)
+        bits = np.zeros(S.size // 8 + 1, np.uint8)
+        pair_bits(S.ravel(), G, _stride(G), bits)
+        got = np.unpackbits(bits, bitorder="little")[:S.size]
+        want = np.zeros(S.size, np.uint8)
+        for c in np.ndindex(*G[::-1]):  # c reversed: axis 0 last, as occ's shape
+            block = occ[tuple(slice(i, min(i + 2, g)) for i, g in zip(c, G[::-1]))]
+            key = sum(int(i) * int(s) for i, s in zip(c[::-1], _stride(G)))
+            want[key] = block.any()
+        assert np.array_equal(got, want)
