@@ -287,7 +287,7 @@ def _pair_bits3(S, G, stride, bits):
 
 @njit(**JIT_OPTIONS)
 def flag_block_indexed(points, index, rows, stride, S, has_table, i0, i1, near, flo, fhi,
-                       bits):
+                       bits, fcells):
     """:func:`flag_block` from the vertices' grid cells ``index`` (:func:`point_index`)
     instead of each row's box: the same values, because the index
     ``clip(floor((x − o)/h), 0, G − 1)`` is a non-decreasing function of x (each
@@ -296,21 +296,25 @@ def flag_block_indexed(points, index, rows, stride, S, has_table, i0, i1, near, 
     float box only for the flagged rows: their largest edge, and their boxes into the
     first rows of ``flo``, ``fhi`` (m, d) (kept for the later rounds and the report).
     ``bits`` (:func:`pair_bits`, or empty: not used) decides rows spanning at most two
-    cells per axis without the table's 2^d scattered look-ups. Returns as flag_block.
+    cells per axis without the table's 2^d scattered look-ups; the flagged rows' vertex
+    ids into the first rows of ``fcells`` (m, k) (the run's cells, gathered here while
+    the block is in cache). Returns as flag_block.
     Tetrahedra in 3D take a loop with the four ids read once and the ranges in scalars
     (the generic loop's per-axis re-reads cost 1.5–2.8× the pass on W4)."""
     if points.shape[1] == 3 and rows.shape[1] == 4:
         return _flag_tetrahedra(points, index, rows, stride, S, has_table, i0, i1, near,
-                                flo, fhi, bits)
+                                flo, fhi, bits, fcells)
     return _flag_rows(points, index, rows, stride, S, has_table, i0, i1, near, flo, fhi,
-                      bits)
+                      bits, fcells)
 
 
 @njit(**INLINE_OPTIONS)
-def _flagged(points, rows, m, nf, flo, fhi, ext):
-    """A flagged row's boxes into row ``nf`` of ``flo``, ``fhi`` and its largest edge
-    (box_extent: np.maximum over the axes) into ``ext`` (Python's max: only when
-    larger)."""
+def _flagged(points, rows, m, nf, flo, fhi, fcells, ext):
+    """A flagged row's boxes and vertex ids into row ``nf`` of ``flo``, ``fhi``,
+    ``fcells`` and its largest edge (box_extent: np.maximum over the axes) into ``ext``
+    (Python's max: only when larger)."""
+    for v in range(rows.shape[1]):
+        fcells[nf, v] = rows[m, v]
     e = 0.0
     for ax in range(points.shape[1]):
         a, b = _box_row(points, rows, m, ax)
@@ -334,7 +338,7 @@ def _range4(index, v0, v1, v2, v3, ax):
 
 @njit(**INLINE_OPTIONS)
 def _flag_tetrahedra(points, index, rows, stride, S, has_table, i0, i1, near, flo, fhi,
-                     bits):
+                     bits, fcells):
     """:func:`_flag_rows` for d = 3, k = 4 (the same values): the flagged rows' ranges
     written when flagged only."""
     low_term = np.empty(3, dtype=np.int64)
@@ -368,13 +372,14 @@ def _flag_tetrahedra(points, index, rows, stride, S, has_table, i0, i1, near, fl
         if count > 0:
             i0[nf, 0], i0[nf, 1], i0[nf, 2] = x0, y0, z0
             i1[nf, 0], i1[nf, 1], i1[nf, 2] = x1, y1, z1
-            ext = _flagged(points, rows, m, nf, flo, fhi, ext)
+            ext = _flagged(points, rows, m, nf, flo, fhi, fcells, ext)
             nf += 1
     return covered, ext, nf
 
 
 @njit(**INLINE_OPTIONS)
-def _flag_rows(points, index, rows, stride, S, has_table, i0, i1, near, flo, fhi, bits):
+def _flag_rows(points, index, rows, stride, S, has_table, i0, i1, near, flo, fhi, bits,
+               fcells):
     """:func:`flag_block_indexed` on any d and k."""
     d = points.shape[1]
     k = rows.shape[1]
@@ -411,7 +416,7 @@ def _flag_rows(points, index, rows, stride, S, has_table, i0, i1, near, flo, fhi
             _corner_loop(S, low_term, up_term)
         near[m] = count > 0
         if count > 0:
-            ext = _flagged(points, rows, m, nf, flo, fhi, ext)
+            ext = _flagged(points, rows, m, nf, flo, fhi, fcells, ext)
             nf += 1
     return covered, ext, nf
 

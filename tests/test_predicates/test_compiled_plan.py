@@ -388,7 +388,9 @@ def test_indexed_flag_block_is_the_per_row_block(data, d, h):
     if data.draw(st.booleans()):  # the 2^d blocks' bits decide the small ranges
         bits = np.zeros(len(S) // 8 + 1, np.uint8)
         pair_bits(S, G, stride, bits)
-    got = flag_block_indexed(P, index, cells, stride, S, True, *out[1], flo, fhi, bits)
+    fcells = np.empty_like(cells)
+    got = flag_block_indexed(P, index, cells, stride, S, True, *out[1], flo, fhi, bits,
+                             fcells)
     assert ref[0] == got[0] and ref[2] == got[2]
     assert np.float64(ref[1]).tobytes() == np.float64(got[1]).tobytes()
     nf = ref[2]
@@ -400,6 +402,7 @@ def test_indexed_flag_block_is_the_per_row_block(data, d, h):
     rows = np.flatnonzero(out[0][2])
     assert flo[:nf].tobytes() == np.ascontiguousarray(lo.T[rows]).tobytes()
     assert fhi[:nf].tobytes() == np.ascontiguousarray(hi.T[rows]).tobytes()
+    assert np.array_equal(fcells[:nf], cells[rows])  # the run's cells, in order
     # the points' grid cells are numpy's cell_index of the binary64 coordinates
     from predicates.registration.spatial.boxgrid import cell_index
 
@@ -416,6 +419,19 @@ def test_the_run_cells_are_gathered_once():
     assert box.cells_of(sel) is first and np.array_equal(first, C[sel])
     other = ~sel
     assert np.array_equal(box.cells_of(other), C[other])
+    # the first round's flagged cells are kept by the flag pass: their cells (and a
+    # subset's) come from there, the same rows in the same order; others are gathered
+    from predicates.registration.examples import cube_grid
+
+    P, C = cube_grid(6)
+    box = CellBoxes(P, C, Blocks(accelerate=True, block=97))
+    lo_b = np.array([[0.3, 0.3, 0.3]])
+    near = near_all(box, lo_b, lo_b + 0.2, 0.01)[0]
+    assert box._kept_cells is not None and 0 < near.sum() < len(C)
+    assert np.array_equal(box._kept_cells[1], C[near])
+    half = near & (np.arange(len(C)) % 2 == 0)
+    for sel in (near.copy(), half, np.flatnonzero(half), ~near):
+        assert np.array_equal(box.cells_of(sel), C[sel])
 
 
 @settings(deadline=None)

@@ -100,6 +100,7 @@ class CellBoxes:
         self._summary = None
         self._points_c = None  # the points C-contiguous, when a compiled pass asks
         self._kept = None  # (ids, lo, hi) of the last subset gathered
+        self._kept_cells = None  # (ids, cells) of the first round's flagged cells
         self._cells_sel = None  # (selection, its cells) of the last cells_of
         self._local = threading.local()  # the last block computed, per thread
         self.lo, self.hi = _Side(self, 0), _Side(self, 1)
@@ -156,11 +157,14 @@ class CellBoxes:
         self._kept = (ids, lo, hi)
         return lo, hi
 
-    def keep(self, ids: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> None:
+    def keep(self, ids: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+             cells: np.ndarray | None = None) -> None:
         """Keep the boxes ``lo``, ``hi`` of the rows ``ids`` (ascending), computed by a
-        pass that had them (the first round's flagged cells): :meth:`rows` of them, or
-        of a subset, then gathers nothing."""
+        pass that had them (the first round's flagged cells), and their ``cells``:
+        :meth:`rows` and :meth:`cells_of` of them, or of a subset, then gather
+        nothing from every cell."""
         self._kept = (ids, lo, hi)
+        self._kept_cells = None if cells is None else (ids, cells)
 
     def cells_of(self, sel) -> np.ndarray:
         """The cells (vertex ids) of the rows ``sel`` (a mask or ascending ids); the
@@ -169,9 +173,24 @@ class CellBoxes:
         last = self._cells_sel
         if last is not None and last[0] is sel:
             return last[1]
-        out = self.cells[sel]
+        out = self._kept_rows(sel)
+        out = self.cells[sel] if out is None else out
         self._cells_sel = (sel, out)
         return out
+
+    def _kept_rows(self, sel):
+        """The kept cells (:meth:`keep`) of the rows ``sel`` when they hold them all,
+        else None."""
+        if self._kept_cells is None:
+            return None
+        kept, cells = self._kept_cells
+        ids = np.flatnonzero(sel) if np.asarray(sel).dtype == bool else np.asarray(sel)
+        if len(ids) == len(kept) and np.array_equal(kept, ids):
+            return cells
+        pos = np.searchsorted(kept, ids)
+        if len(ids) and pos.max() < len(kept) and np.array_equal(kept[pos], ids):
+            return cells[pos]
+        return None
 
     def flag_pass(self, origin, h, G, table):
         """:func:`~.lean.flag_pass` over these cells (the first round of the cells that

@@ -86,7 +86,10 @@ def flag_pass(boxes, origin, h, G, table):
         if table is not None and parts and parts[0][4] is not None:
             kept = [np.concatenate([b for p in parts for b in p[4 + s]] or
                                    [np.zeros((0, d))]) for s in (0, 1)]
-            boxes.keep(np.flatnonzero(near), *kept)  # the flagged rows' boxes
+            k = boxes.cells.shape[1]
+            cells = np.concatenate([c for p in parts for c in p[6]] or
+                                   [np.zeros((0, k), dtype=boxes.cells.dtype)])
+            boxes.keep(np.flatnonzero(near), *kept, cells)  # the flagged rows' boxes, ids
         return _gathered(parts, table, near, d)
 
     def span(a: int, b: int):
@@ -142,23 +145,24 @@ def _compiled_span(boxes, origin, h, G, table, near):
             bits = np.zeros(len(table) // 8 + 1, dtype=np.uint8)
             pair_bits(S, G_, stride, bits)
 
-    def block(s: int, t: int, i0, i1, flo, fhi):
+    def block(s: int, t: int, i0, i1, flo, fhi, fcells):
         out = flags[s:t] if near is not None else flags
         if index is not None:
             return flag_block_indexed(P, index, boxes.cells[s:t], stride, S,
-                                      table is not None, i0, i1, out, flo, fhi, bits)
+                                      table is not None, i0, i1, out, flo, fhi, bits, fcells)
         return flag_block(P, boxes.cells[s:t], o, float(h), G_, stride, S,
                           table is not None, i0, i1, out)
 
     def span(a: int, b: int):
         count, ext, r0, r1 = 0, 0.0, [], []
-        b0, b1 = ([], []) if index is not None else (None, None)
+        b0, b1, c0 = ([], [], []) if index is not None else (None, None, None)
         for s, t in boxes.blocks.each(a, b):
             i0 = buffer("flag_i0", t - s, np.int32, len(G))
             i1 = buffer("flag_i1", t - s, np.int32, len(G))
             flo = buffer("flag_lo", t - s, np.float64, len(G))
             fhi = buffer("flag_hi", t - s, np.float64, len(G))
-            n, e, nf = block(s, t, i0, i1, flo, fhi)
+            fcells = buffer("flag_cells", t - s, boxes.cells.dtype, boxes.cells.shape[1])
+            n, e, nf = block(s, t, i0, i1, flo, fhi, fcells)
             count += int(n)
             if nf:  # the flagged rows' ranges (and boxes), compacted by the kernel
                 r0.append(i0[:nf].copy())
@@ -167,7 +171,8 @@ def _compiled_span(boxes, origin, h, G, table, near):
                 if b0 is not None:
                     b0.append(flo[:nf].copy())
                     b1.append(fhi[:nf].copy())
-        return count, r0, r1, ext, b0, b1
+                    c0.append(fcells[:nf].copy())
+        return count, r0, r1, ext, b0, b1, c0
 
     return span
 
