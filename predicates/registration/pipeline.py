@@ -74,8 +74,8 @@ from predicates.registration.plan import threads as plan_threads
 from predicates.registration.plan import resolution
 from predicates.registration.plan.cellboxes import CellBoxes
 from predicates.registration.plan.inputs import (
-    check_extent, mesh_arrays, renumbered, run_vertices, scale_points, validate_options,
-    validate_pair)
+    check_extent, hull_of, mesh_arrays, renumbered, run_vertices, scale_points,
+    validate_options, validate_pair)
 from predicates.registration.levels.loop import (
     MemoryGuard, Registration, RegistrationMemoryError)
 from predicates.registration.partition import remote  # the plan on the workers, no Dask
@@ -282,21 +282,21 @@ def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, 
         timings["plan_remote"] = sim_box.stats
     else:
         dim, sim, cut = validate_pair(sp, sc, cp, cc, dtype, work.blocks)
-        # the simulation boxes are never stored: computed block by block where needed
-        # (reductions, flags), those of the cells that can meet gathered once
+        # its boxes never stored: computed per block where needed, the run's kept once
         sim_box = CellBoxes(sim.points, sim.cells, work.blocks)
     clock("plan_validate")
-    S = sim_box.summary()
+    S, cut_box = sim_box.summary(), work.boxes(cut.points, cut.cells)  # the input's
     check_extent("simulation", sim, sp, dtype, (S.lo_min, S.hi_max))
-    check_extent("cutting", cut, cp, dtype)
+    check_extent("cutting", cut, cp, dtype, hull_of(*cut_box))
     clock("plan_boxes")
     refinement = None
     if refine_cut and len(cut.cells):
-        refinement = refine(cut.points, cut.cells, sim_box.lo, sim_box.hi,
+        refinement = refine(cut.points, cut.cells, sim_box.lo, sim_box.hi, boxes=cut_box,
                             sim_stats=S.scan_stats(), accelerate=work.blocks.accelerate)
         cut.points, cut.cells = refinement.points, refinement.cells
+        if refinement.rounds:  # else the same cells: the same boxes
+            cut_box = work.boxes(cut.points, cut.cells)
         clock("refine")
-    cut_box = work.boxes(cut.points, cut.cells)
 
     # L over the cells that can meet, then the exact power-of-two scaling from it
     sc_ = consistent_scale(dim, sim_box, cut_box, dtype, table=tolerances, flags=work.flags)

@@ -15,7 +15,7 @@ from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.boxgrid import colmax, colmin
 from predicates.registration.spatial.broadphase import boxes_of
 
-__all__ = ["Arrays", "MeshInput", "check_extent", "MeshTypeError", "from_meshio", "max_box_edge", "mesh_arrays",
+__all__ = ["Arrays", "MeshInput", "check_extent", "hull_of", "MeshTypeError", "from_meshio", "max_box_edge", "mesh_arrays",
            "renumbered", "run_vertices", "scale_points", "times_pow2", "cell_error", "first_bad", "validate_mesh", "validate_options", "validate_pair"]
 
 
@@ -409,6 +409,11 @@ def check_extent(name: str, mesh: MeshInput, given, dtype, hull=None) -> None:
     them; ``hull``: (lo_min, hi_max) of its cells' boxes if known."""
     if len(mesh.cells) and _one_point(mesh, hull):
         raise ValueError(_collapse_reason(name, given, mesh, dtype))
+
+
+def hull_of(lo: np.ndarray, hi: np.ndarray):
+    """(lo_min, hi_max) of boxes (n, d) for :func:`check_extent` (None when n = 0)."""
+    return (colmin(lo), colmax(hi)) if len(lo) else None
 
 
 def _one_point(mesh, hull=None) -> bool:
