@@ -560,3 +560,31 @@ def test_pair_bits_are_the_blocks_occupancy(d):
             key = sum(int(i) * int(s) for i, s in zip(c[::-1], _stride(G)))
             want[key] = block.any()
         assert np.array_equal(got, want)
+
+
+def test_plan_float_kernels_have_no_fma():
+    """The plan's kernels whose floating-point values must be numpy's (the exact sums'
+    Veltkamp split, the scaling, the estimate grid's floor((x − o)/g)): no fma or
+    fmuladd intrinsic and no fast-math flag in their LLVM IR, no FMA instruction in
+    their machine code (docs/design.md, "Compiled candidate chain")."""
+    import re
+
+    from predicates.compiled import cellsums as K
+    from predicates.registration.spatial import exactsum as xs
+
+    fma_asm = re.compile(r"\bv?f(n)?m(add|sub)\d|\bvfmaddsub|\bvfmsubadd", re.I)
+    fma_ir = re.compile(r"@llvm\.(fma|fmuladd)|\bf(add|sub|mul|div|neg|cmp)\s+(fast|"
+                        r"contract|reassoc|afn|arcp|nnan|ninf|nsz)\b")
+    P, C = np.random.default_rng(0).random((8, 3)), np.array([[0, 1, 2, 3], [4, 5, 6, 7]])
+    K.summary_block(P, C, np.full(3, np.inf), np.full(3, -np.inf),
+                    np.zeros(2048, np.int64), np.empty((3, 3)), xs._BIG, xs._TINY,
+                    xs._SPREAD, xs._SPLIT)
+    K.narrow_sums(P[:, 0].copy(), xs._BIG, xs._TINY, xs._SPREAD, xs._SPLIT)
+    K.scale_exact(P, np.empty_like(P), 0.5, 2.0, 1e300)
+    K.pad_extents(P, P + 1, 0.1, np.empty(8), np.full(3, np.inf), np.full(3, -np.inf))
+    K.pad_index(P, P + 1, 0.1, np.zeros(3), 0.25, np.empty((8, 3)), np.empty((8, 3)))
+    for f in (K.summary_block, K.narrow_sums, K.scale_exact, K.pad_extents, K.pad_index):
+        assert f.targetoptions.get("fastmath") in (False, None)
+        for sig in f.signatures:
+            ir, asm = f.inspect_llvm(sig), f.inspect_asm(sig)
+            assert not fma_ir.search(ir) and not fma_asm.search(asm), f.__name__
