@@ -588,3 +588,25 @@ def test_plan_float_kernels_have_no_fma():
         for sig in f.signatures:
             ir, asm = f.inspect_llvm(sig), f.inspect_asm(sig)
             assert not fma_ir.search(ir) and not fma_asm.search(asm), f.__name__
+
+
+def test_occupied_table_is_the_cumulative_sums():
+    """cellsums.occupied_table (one pass, inclusion–exclusion) equals lean._table of the
+    occupied cells (a shifted copy and three cumulative sums) on random coverage counts,
+    sparse and dense, the grid's unused last rows included; and lean._occupied's table
+    is the numpy path's for random boxes."""
+    from predicates.compiled.cellsums import occupied_table
+    from predicates.registration.plan.lean import _occupied, _table
+
+    rng = np.random.default_rng(5)
+    for shape, p in (((2, 2, 2), 0.5), ((5, 7, 3), 0.1), ((9, 4, 6), 0.9), ((3, 8, 8), 0.0)):
+        cover = (rng.random(shape) < p) * rng.integers(1, 4, size=shape)
+        cover = cover.astype(np.int32)
+        S = np.empty(shape, np.int32)
+        occupied_table(cover, S)
+        assert np.array_equal(S.ravel(), _table(cover > 0))
+    G = np.array([6, 4, 5], dtype=np.int64)
+    i0 = rng.integers(0, 4, size=(40, 3))
+    i1 = np.minimum(i0 + rng.integers(0, 3, size=(40, 3)), G - 1)
+    assert np.array_equal(_occupied(i0, i1, G, Blocks(accelerate=True)),
+                          _occupied(i0, i1, G, SERIAL))

@@ -23,7 +23,8 @@ from predicates.registration.spatial.boxes import box_extent
 from predicates.registration.spatial.boxgrid import (
     BITS, cell_index, colmax, colmin, enlarge, mean_extent, ncells)
 from predicates.registration.spatial.broadphase import _dense, near_flags
-from predicates.registration.spatial.gridsums import _corners, _stride, any_in, occupancy
+from predicates.registration.spatial.gridsums import (
+    _corners, _stride, any_in, coverage, occupancy)
 
 __all__ = ["flag_pass", "near_all"]
 
@@ -58,7 +59,7 @@ def near_all(boxes, lo_b: np.ndarray, hi_b: np.ndarray, pad: float, flags=near_f
         # the cutting side's passes compiled too when the plan's are (the same values)
         ib0, ib1 = (cell_index(x, origin, h, G, boxes.blocks) for x in (lo_bx, hi_bx))
         dense = _dense(G + 1, na + nb)
-        table = _table(occupancy(ib0, ib1, G, boxes.blocks)) if dense else None
+        table = _occupied(ib0, ib1, G, boxes.blocks) if dense else None
         covered, got = boxes.flag_pass(origin, h, G, table)
         if covered + ncells(ib0, ib1).sum() <= budget or np.all(G == 1):
             break
@@ -70,6 +71,13 @@ def near_all(boxes, lo_b: np.ndarray, hi_b: np.ndarray, pad: float, flags=near_f
         return near_a, near_b, ext
     near_a, i0f, i1f, ext = got
     # the flagged cells' coverage: the same integer counts as near_flags's occupancy
+    if boxes.blocks.accelerate and len(G) == 3:  # any_in's look-ups on _occupied's table
+        from predicates.compiled.cells import look_corners
+
+        S, near_b = _occupied(i0f, i1f, G, boxes.blocks), np.empty(nb, dtype=bool)
+        boxes.blocks.rows(lambda a, b: look_corners(S, ib0[a:b], ib1[a:b], _stride(G),
+                                                    near_b[a:b]), nb)
+        return near_a, near_b, ext
     return near_a, any_in(occupancy(i0f, i1f, G, boxes.blocks), ib0, ib1, G, boxes.blocks), ext
 
 
@@ -175,6 +183,20 @@ def _compiled_span(boxes, origin, h, G, table, near):
         return count, r0, r1, ext, b0, b1, c0
 
     return span
+
+
+def _occupied(i0, i1, G, blocks) -> np.ndarray:
+    """``_table(occupancy(i0, i1, G, blocks))``: compiled in 3D from the coverage counts
+    in one pass (:func:`predicates.compiled.cellsums.occupied_table`: the same
+    integers)."""
+    if not (blocks.accelerate and len(G) == 3):
+        return _table(occupancy(i0, i1, G, blocks))
+    from predicates.compiled.cellsums import occupied_table
+
+    cover = coverage(i0, i1, G, blocks, np.int32 if len(i0) < 2 ** 31 - 1 else np.int64)
+    S = np.empty(cover.shape, dtype=np.int32 if cover.size < 2 ** 31 else np.int64)
+    occupied_table(cover, S)
+    return S.ravel()
 
 
 def _table(occ: np.ndarray) -> np.ndarray:
