@@ -74,7 +74,7 @@ from predicates.registration.plan import threads as plan_threads
 from predicates.registration.plan import resolution
 from predicates.registration.plan.cellboxes import CellBoxes
 from predicates.registration.plan.inputs import (
-    check_extent, mesh_arrays, renumbered, scale_points, validate_options,
+    check_extent, hull_of, mesh_arrays, renumbered, scale_points, validate_options,
     validate_pair)
 from predicates.registration.levels.loop import (
     MemoryGuard, Registration, RegistrationMemoryError)
@@ -282,21 +282,21 @@ def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, 
         timings["plan_remote"] = sim_box.stats
     else:
         dim, sim, cut = validate_pair(sp, sc, cp, cc, dtype, work.blocks)
-        # the simulation boxes are never stored: computed block by block where needed
-        # (reductions, flags), those of the cells that can meet gathered once
+        # its boxes never stored: computed per block where needed, the run's kept once
         sim_box = CellBoxes(sim.points, sim.cells, work.blocks)
     clock("plan_validate")
-    S = sim_box.summary()
+    S, cut_box = sim_box.summary(), work.boxes(cut.points, cut.cells)  # the input's
     check_extent("simulation", sim, sp, dtype, (S.lo_min, S.hi_max))
-    check_extent("cutting", cut, cp, dtype)
+    check_extent("cutting", cut, cp, dtype, hull_of(*cut_box))
     clock("plan_boxes")
     refinement = None
     if refine_cut and len(cut.cells):
-        refinement = refine(cut.points, cut.cells, sim_box.lo, sim_box.hi,
+        refinement = refine(cut.points, cut.cells, sim_box.lo, sim_box.hi, boxes=cut_box,
                             sim_stats=S.scan_stats(), accelerate=work.blocks.accelerate)
         cut.points, cut.cells = refinement.points, refinement.cells
+        if refinement.rounds:  # else the same cells: the same boxes
+            cut_box = work.boxes(cut.points, cut.cells)
         clock("refine")
-    cut_box = work.boxes(cut.points, cut.cells)
 
     # L over the cells that can meet, then the exact power-of-two scaling from it
     sc_ = consistent_scale(dim, sim_box, cut_box, dtype, table=tolerances, flags=work.flags)
@@ -305,8 +305,9 @@ def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, 
     # partitioned: every point checked (a piece's on the workers, partition/points.py),
     # only the run's vertices scaled and kept, the run's cells renumbered to them
     # (docs/partitioned.md 6); serial: every point
-    keep, P_sim = remote.scaled_points(sim.points, run, sc_.e, scheduler is not None)
-    P_cut = scale_points(cut.points, sc_.e, "cutting")
+    fast = work.blocks.accelerate
+    keep, P_sim = remote.scaled_points(sim.points, run, sc_.e, scheduler is not None, fast)
+    P_cut = scale_points(cut.points, sc_.e, "cutting", accelerate=fast)
     tol_run = sc_.tol if ts == 1 else sc_.tol.scaled(dtype.type(ts))
     clock("plan_scale")
     report = _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts, work)

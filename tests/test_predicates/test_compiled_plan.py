@@ -256,7 +256,7 @@ def test_compiled_cell_check_is_numpys(data, d):
 @settings(deadline=None)
 @given(data=st.data())
 def test_compiled_exact_sums_are_exact(data):
-    """ExactSum with its compiled narrow path (predicates.compiled.cells.narrow_sums)
+    """ExactSum with its compiled narrow path (predicates.compiled.cellsums.narrow_sums)
     gives the exact sum (Fraction) and numpy's mean, on blocks that take the narrow path
     (one to ten binades), blocks that must not (subnormals, 2^-1000, wide spreads,
     huge values, inf and NaN), zeros of both signs, blocks longer than 2^16 values."""
@@ -388,7 +388,9 @@ def test_indexed_flag_block_is_the_per_row_block(data, d, h):
     if data.draw(st.booleans()):  # the 2^d blocks' bits decide the small ranges
         bits = np.zeros(len(S) // 8 + 1, np.uint8)
         pair_bits(S, G, stride, bits)
-    got = flag_block_indexed(P, index, cells, stride, S, True, *out[1], flo, fhi, bits)
+    fcells = np.empty_like(cells)
+    got = flag_block_indexed(P, index, cells, stride, S, True, *out[1], flo, fhi, bits,
+                             fcells)
     assert ref[0] == got[0] and ref[2] == got[2]
     assert np.float64(ref[1]).tobytes() == np.float64(got[1]).tobytes()
     nf = ref[2]
@@ -400,6 +402,7 @@ def test_indexed_flag_block_is_the_per_row_block(data, d, h):
     rows = np.flatnonzero(out[0][2])
     assert flo[:nf].tobytes() == np.ascontiguousarray(lo.T[rows]).tobytes()
     assert fhi[:nf].tobytes() == np.ascontiguousarray(hi.T[rows]).tobytes()
+    assert np.array_equal(fcells[:nf], cells[rows])  # the run's cells, in order
     # the points' grid cells are numpy's cell_index of the binary64 coordinates
     from predicates.registration.spatial.boxgrid import cell_index
 
@@ -416,6 +419,19 @@ def test_the_run_cells_are_gathered_once():
     assert box.cells_of(sel) is first and np.array_equal(first, C[sel])
     other = ~sel
     assert np.array_equal(box.cells_of(other), C[other])
+    # the first round's flagged cells are kept by the flag pass: their cells (and a
+    # subset's) come from there, the same rows in the same order; others are gathered
+    from predicates.registration.examples import cube_grid
+
+    P, C = cube_grid(6)
+    box = CellBoxes(P, C, Blocks(accelerate=True, block=97))
+    lo_b = np.array([[0.3, 0.3, 0.3]])
+    near = near_all(box, lo_b, lo_b + 0.2, 0.01)[0]
+    assert box._kept_cells is not None and 0 < near.sum() < len(C)
+    assert np.array_equal(box._kept_cells[1], C[near])
+    half = near & (np.arange(len(C)) % 2 == 0)
+    for sel in (near.copy(), half, np.flatnonzero(half), ~near):
+        assert np.array_equal(box.cells_of(sel), C[sel])
 
 
 @settings(deadline=None)
@@ -448,3 +464,149 @@ def test_hits_in_order_is_the_numpy_output(data, widths, n):
     order, got1, got2 = hits_in_order((S1, ids1, s, n), (S2, ids2, c, n))
     assert np.array_equal(order, want)
     assert np.array_equal(got1, sid[want]) and np.array_equal(got2, cid[want])
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_compiled_scaling_is_numpys(dtype):
+    """scale_points with the compiled pass (cellsums.scale_exact: the scaling and both
+    checks at once) returns the numpy pass's points bit for bit and refuses what it
+    refuses with the same message — an overflow, a bit lost to underflow, the overflow
+    first when both occur — and every accepted value is exactly x·2^-e (Fractions)."""
+    from predicates.registration.plan.inputs import scale_points
+
+    rng = np.random.default_rng(11)
+    fi = np.finfo(dtype)
+    big, tiny = fi.max / 4, fi.smallest_subnormal
+    base = rng.uniform(-1, 1, (3000, 3)).astype(dtype) * dtype(2.0) ** rng.integers(
+        -20, 20, (3000, 1)).astype(dtype)
+    base[0], base[1, 0] = 0.0, -0.0
+
+    def outcome(points, e, fast):
+        try:
+            return "ok", scale_points(points, e, "simulation", accelerate=fast).tobytes()
+        except ValueError as err:
+            return "refused", str(err)
+
+    cases = [(e, {}) for e in (-8, 0, 7, fi.maxexp + 3)] + [
+        (-8, {5: big}), (1, {6: tiny}), (-8, {7: tiny, 2999: big}), (2, {3: big})]
+    seen = set()
+    for e, bad in cases:
+        pts = base.copy()
+        for row, value in bad.items():
+            pts[row, 1] = value
+        want, got = outcome(pts, e, False), outcome(pts, e, True)
+        assert want == got
+        seen.add(want[0] if want[0] == "ok" else
+                 "overflow" if "too large" in want[1] else
+                 "underflow" if "cannot be scaled exactly" in want[1] else want[1])
+        if want[0] == "ok":
+            out = np.frombuffer(got[1], dtype=dtype).reshape(pts.shape)
+            for i in (0, 1, 3, 7, 2999):
+                assert all(Fraction(float(y)) == Fraction(float(x)) * Fraction(2) ** -e
+                           for x, y in zip(pts[i], out[i]))
+    assert seen == {"ok", "overflow", "underflow"}  # both refusals are exercised
+
+
+@_SLOW
+@given(data=st.data(), d=st.sampled_from([2, 3]))
+def test_compiled_estimate_grid_is_numpys(data, d):
+    """The pair estimate's grid by the compiled passes (resolution._compiled_grid:
+    padded boxes never stored) gives _estimate_grid's indices (equal values: a hull's
+    signed zero may differ, as for the broad phase's origin) and budget, on boxes from
+    adversarial values with point-like, small and huge widths (the loop coarsens the
+    grid), pads from 0 up; and the estimate is the same integer both ways."""
+    from predicates.registration.plan import resolution as R
+
+    rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 32 - 1)))
+    sides = []
+    for _ in range(2):
+        n = data.draw(st.integers(1, 300))
+        lo = rng.choice(_VALUES, size=(n, d)) + rng.random((n, d)) * rng.choice([0, 1], n)[:, None]
+        width = rng.choice([0.0, 2.0 ** -30, 0.01, 0.5, 1e3], size=(n, 1),
+                           p=[0.3, 0.2, 0.3, 0.15, 0.05])
+        sides += [lo, lo + width * rng.random((n, d))]
+    pad = data.draw(st.sampled_from([0.0, 2.0 ** -20, 0.1, 30.0]))
+    want, got = R._estimate_grid(*sides, pad), R._compiled_grid(*sides, pad)
+    assert want[4] == got[4]
+    for a, b in zip(want[:4], got[:4]):
+        assert a.shape == b.shape and np.array_equal(a, b)
+    assert R.estimate_cell_pairs(*sides, pad) == \
+        R.estimate_cell_pairs(*sides, pad, Blocks(accelerate=True))
+
+
+@pytest.mark.parametrize("d", [2, 3])
+def test_pair_bits_are_the_blocks_occupancy(d):
+    """cells.pair_bits (d = 3 written out, d = 2 the generic loop): the bit of cell c is
+    set exactly when a cell of the 2^d block [c, c + 1] (inside the grid) is occupied —
+    brute force over every cell of random grids, the grid's last rows included."""
+    from predicates.compiled.cells import pair_bits
+    from predicates.registration.spatial.gridsums import _stride
+
+    rng = np.random.default_rng(d)
+    for _ in range(5):
+        G = rng.integers(1, 7, size=d).astype(np.int64)
+        occ = np.zeros(tuple((G + 1)[::-1]), np.int32)
+        occ[tuple(slice(None, -1) for _ in range(d))] = rng.random(tuple(G[::-1])) < 0.15
+        S = np.zeros_like(occ)
+        S[tuple(slice(1, None) for _ in range(d))] = occ[tuple(slice(None, -1) for _ in range(d))]
+        for ax in range(d):
+            np.cumsum(S, axis=ax, out=S)
+        bits = np.zeros(S.size // 8 + 1, np.uint8)
+        pair_bits(S.ravel(), G, _stride(G), bits)
+        got = np.unpackbits(bits, bitorder="little")[:S.size]
+        want = np.zeros(S.size, np.uint8)
+        for c in np.ndindex(*G[::-1]):  # c reversed: axis 0 last, as occ's shape
+            block = occ[tuple(slice(i, min(i + 2, g)) for i, g in zip(c, G[::-1]))]
+            key = sum(int(i) * int(s) for i, s in zip(c[::-1], _stride(G)))
+            want[key] = block.any()
+        assert np.array_equal(got, want)
+
+
+def test_plan_float_kernels_have_no_fma():
+    """The plan's kernels whose floating-point values must be numpy's (the exact sums'
+    Veltkamp split, the scaling, the estimate grid's floor((x − o)/g)): no fma or
+    fmuladd intrinsic and no fast-math flag in their LLVM IR, no FMA instruction in
+    their machine code (docs/design.md, "Compiled candidate chain")."""
+    import re
+
+    from predicates.compiled import cellsums as K
+    from predicates.registration.spatial import exactsum as xs
+
+    fma_asm = re.compile(r"\bv?f(n)?m(add|sub)\d|\bvfmaddsub|\bvfmsubadd", re.I)
+    fma_ir = re.compile(r"@llvm\.(fma|fmuladd)|\bf(add|sub|mul|div|neg|cmp)\s+(fast|"
+                        r"contract|reassoc|afn|arcp|nnan|ninf|nsz)\b")
+    P, C = np.random.default_rng(0).random((8, 3)), np.array([[0, 1, 2, 3], [4, 5, 6, 7]])
+    K.summary_block(P, C, np.full(3, np.inf), np.full(3, -np.inf),
+                    np.zeros(2048, np.int64), np.empty((3, 3)), xs._BIG, xs._TINY,
+                    xs._SPREAD, xs._SPLIT)
+    K.narrow_sums(P[:, 0].copy(), xs._BIG, xs._TINY, xs._SPREAD, xs._SPLIT)
+    K.scale_exact(P, np.empty_like(P), 0.5, 2.0, 1e300)
+    K.pad_extents(P, P + 1, 0.1, np.empty(8), np.full(3, np.inf), np.full(3, -np.inf))
+    K.pad_index(P, P + 1, 0.1, np.zeros(3), 0.25, np.empty((8, 3)), np.empty((8, 3)))
+    for f in (K.summary_block, K.narrow_sums, K.scale_exact, K.pad_extents, K.pad_index):
+        assert f.targetoptions.get("fastmath") in (False, None)
+        for sig in f.signatures:
+            ir, asm = f.inspect_llvm(sig), f.inspect_asm(sig)
+            assert not fma_ir.search(ir) and not fma_asm.search(asm), f.__name__
+
+
+def test_occupied_table_is_the_cumulative_sums():
+    """cellsums.occupied_table (one pass, inclusion–exclusion) equals lean._table of the
+    occupied cells (a shifted copy and three cumulative sums) on random coverage counts,
+    sparse and dense, the grid's unused last rows included; and lean._occupied's table
+    is the numpy path's for random boxes."""
+    from predicates.compiled.cellsums import occupied_table
+    from predicates.registration.plan.lean import _occupied, _table
+
+    rng = np.random.default_rng(5)
+    for shape, p in (((2, 2, 2), 0.5), ((5, 7, 3), 0.1), ((9, 4, 6), 0.9), ((3, 8, 8), 0.0)):
+        cover = (rng.random(shape) < p) * rng.integers(1, 4, size=shape)
+        cover = cover.astype(np.int32)
+        S = np.empty(shape, np.int32)
+        occupied_table(cover, S)
+        assert np.array_equal(S.ravel(), _table(cover > 0))
+    G = np.array([6, 4, 5], dtype=np.int64)
+    i0 = rng.integers(0, 4, size=(40, 3))
+    i1 = np.minimum(i0 + rng.integers(0, 3, size=(40, 3)), G - 1)
+    assert np.array_equal(_occupied(i0, i1, G, Blocks(accelerate=True)),
+                          _occupied(i0, i1, G, SERIAL))

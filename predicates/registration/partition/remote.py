@@ -325,16 +325,18 @@ class RemoteCells(CellBoxes):
         return lo, hi
 
 
-def scaled_points(points, run: np.ndarray, e: int, partitioned: bool):
+def scaled_points(points, run: np.ndarray, e: int, partitioned: bool,
+                  accelerate: bool = False):
     """(the run's vertices (ascending global ids) or None, the simulation points scaled
     by 2^-e): ``inputs.scale_points`` — every point checked, a partitioned run's plan
     keeping only the vertices of its cells ``run`` — or, for points on the workers
-    (:class:`~.points.RemotePoints`), checked and scaled there, only those rows back."""
+    (:class:`~.points.RemotePoints`), checked and scaled there, only those rows back;
+    ``accelerate``: scale_points' compiled pass (the same values and refusals)."""
     if isinstance(points, RemotePoints):
         keep = np.unique(run).astype(np.int64)  # the run's vertices: no mask of N
         return keep, points.scaled(e, "simulation", keep)
     keep = run_vertices(run, len(points)) if partitioned else None
-    return keep, scale_points(points, e, "simulation", keep)
+    return keep, scale_points(points, e, "simulation", keep, accelerate=accelerate)
 
 
 def validate_remote(points, cells, dim: int, dtype, scheduler, blocks: Blocks = SERIAL):

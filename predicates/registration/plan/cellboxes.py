@@ -100,6 +100,7 @@ class CellBoxes:
         self._summary = None
         self._points_c = None  # the points C-contiguous, when a compiled pass asks
         self._kept = None  # (ids, lo, hi) of the last subset gathered
+        self._kept_cells = None  # (ids, cells) of the first round's flagged cells
         self._cells_sel = None  # (selection, its cells) of the last cells_of
         self._local = threading.local()  # the last block computed, per thread
         self.lo, self.hi = _Side(self, 0), _Side(self, 1)
@@ -156,11 +157,14 @@ class CellBoxes:
         self._kept = (ids, lo, hi)
         return lo, hi
 
-    def keep(self, ids: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> None:
+    def keep(self, ids: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+             cells: np.ndarray | None = None) -> None:
         """Keep the boxes ``lo``, ``hi`` of the rows ``ids`` (ascending), computed by a
-        pass that had them (the first round's flagged cells): :meth:`rows` of them, or
-        of a subset, then gathers nothing."""
+        pass that had them (the first round's flagged cells), and their ``cells``:
+        :meth:`rows` and :meth:`cells_of` of them, or of a subset, then gather
+        nothing from every cell."""
         self._kept = (ids, lo, hi)
+        self._kept_cells = None if cells is None else (ids, cells)
 
     def cells_of(self, sel) -> np.ndarray:
         """The cells (vertex ids) of the rows ``sel`` (a mask or ascending ids); the
@@ -169,9 +173,24 @@ class CellBoxes:
         last = self._cells_sel
         if last is not None and last[0] is sel:
             return last[1]
-        out = self.cells[sel]
+        out = self._kept_rows(sel)
+        out = self.cells[sel] if out is None else out
         self._cells_sel = (sel, out)
         return out
+
+    def _kept_rows(self, sel):
+        """The kept cells (:meth:`keep`) of the rows ``sel`` when they hold them all,
+        else None."""
+        if self._kept_cells is None:
+            return None
+        kept, cells = self._kept_cells
+        ids = np.flatnonzero(sel) if np.asarray(sel).dtype == bool else np.asarray(sel)
+        if len(ids) == len(kept) and np.array_equal(kept, ids):
+            return cells
+        pos = np.searchsorted(kept, ids)
+        if len(ids) and pos.max() < len(kept) and np.array_equal(kept[pos], ids):
+            return cells[pos]
+        return None
 
     def flag_pass(self, origin, h, G, table):
         """:func:`~.lean.flag_pass` over these cells (the first round of the cells that
@@ -200,24 +219,29 @@ class CellBoxes:
         return self._summary
 
     def _compiled_summary(self, a: int, b: int) -> BoxSummary:
-        """The :class:`BoxSummary` of rows [a, b), each block's boxes and reductions
-        compiled (:func:`predicates.compiled.cells.box_summary`: the values of
-        :func:`summarize`, the hull, extrema and histogram kept across the blocks) —
-        numpy's per-block reductions cost 3× the boxes themselves on W4."""
-        from predicates.compiled.buffers import buffer
-        from predicates.compiled.cells import box_summary
+        """The :class:`BoxSummary` of rows [a, b) in one compiled loop per block of at
+        most 2^16 rows (:func:`predicates.compiled.cellsums.summary_block`: the boxes in
+        registers, the values of :func:`summarize`; the exact sums' narrow parts, a
+        block outside the narrow path summed from its boxes as before)."""
+        from predicates.compiled.cellsums import summary_block
+        from predicates.registration.spatial import exactsum as xs
 
-        d = self.d
+        d, P = self.d, self._given()
         lo_min, hi_max = np.full(d, np.inf), np.full(d, -np.inf)
         hist, sums = np.zeros(2048, dtype=np.int64), [ExactSum(True) for _ in range(d)]
         e_min, e_max = np.inf, -np.inf
+        status = np.empty((d, 3))
         for s, t in self.blocks.each(a, b):
-            lo, hi = self.block(s, t)
-            ext = buffer("summary_ext", d * (t - s), np.float64).reshape(d, t - s)
-            low, top = box_summary(lo.T, hi.T, ext, lo_min, hi_max, hist)
-            for ax in range(d):
-                sums[ax].add(ext[ax])
-            e_min, e_max = min(e_min, low), max(e_max, top)
+            for u in range(s, t, 1 << 16):  # the narrow path's sums: ≤ 2^16 values
+                w = min(u + (1 << 16), t)
+                low, top = summary_block(P, self.cells[u:w], lo_min, hi_max, hist, status,
+                                         xs._BIG, xs._TINY, xs._SPREAD, xs._SPLIT)
+                for ax in range(d):
+                    if not sums[ax].add_narrow(w - u, int(status[ax, 0]), status[ax, 1],
+                                               status[ax, 2]):
+                        lo, hi = self.block(u, w)
+                        sums[ax].add(hi[:, ax] - lo[:, ax])
+                e_min, e_max = min(e_min, low), max(e_max, top)
         ok = bool(np.isfinite(e_max)) and e_min >= 0
         return BoxSummary(b - a, lo_min, hi_max, float(e_max), sums, float(e_min),
                           hist if ok else None)

@@ -19,7 +19,7 @@ def shortest_edge(points: np.ndarray, cells: np.ndarray, mask,
     underflows (a mesh at 1e±300 has the same edges, scaled)."""
     if not mask.any():
         return None
-    top, shift, least = edge_summary(points, cells[mask], blocks)
+    top, shift, least = edge_summary(points, cells if mask.all() else cells[mask], blocks)
     return edge_from(least, shift)
 
 

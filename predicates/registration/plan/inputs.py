@@ -15,7 +15,7 @@ from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.boxgrid import colmax, colmin
 from predicates.registration.spatial.broadphase import boxes_of
 
-__all__ = ["Arrays", "MeshInput", "check_extent", "MeshTypeError", "from_meshio", "max_box_edge", "mesh_arrays",
+__all__ = ["Arrays", "MeshInput", "check_extent", "hull_of", "MeshTypeError", "from_meshio", "max_box_edge", "mesh_arrays",
            "renumbered", "run_vertices", "scale_points", "times_pow2", "cell_error", "first_bad", "validate_mesh", "validate_options", "validate_pair"]
 
 
@@ -102,9 +102,9 @@ def _cells(cells, role, width, n_points, what, blocks: Blocks = SERIAL, used=Non
 
 
 def _checked_and_used(arr: np.ndarray, n_points: int, blocks: Blocks, used) -> list:
-    """:func:`first_bad` by the compiled pass (:func:`predicates.compiled.cells.
+    """:func:`first_bad` by the compiled pass (:func:`predicates.compiled.cellsums.
     check_cells`, the same rows), marking ``used`` as it reads the ids."""
-    from predicates.compiled.cells import check_cells
+    from predicates.compiled.cellsums import check_cells
 
     top = n_points if n_points <= np.iinfo(arr.dtype).max else -1
 
@@ -311,12 +311,25 @@ def max_box_edge(points: np.ndarray, cells: np.ndarray) -> float:
 
 
 def scale_points(points: np.ndarray, e: int, role: str,
-                 keep: np.ndarray | None = None) -> np.ndarray:
+                 keep: np.ndarray | None = None, accelerate: bool = False) -> np.ndarray:
     """``points``·2^-e, refused unless exact (no overflow, no bit lost to underflow).
     ``keep`` (ascending row ids): every row is checked, block by block, but only the
     rows ``keep`` are returned scaled — the same refusals as for the whole array,
     without a scaled copy of every point (a partitioned run's plan keeps the run's
-    vertices only: docs/partitioned.md 6)."""
+    vertices only: docs/partitioned.md 6). ``accelerate``: the scaling and both checks
+    in one compiled pass (:func:`predicates.compiled.cellsums.scale_exact`: the same
+    values and refusals, no temporaries)."""
+    fi = np.finfo(points.dtype)
+    if accelerate and keep is None and fi.minexp < -abs(e) and abs(e) < fi.maxexp:
+        from predicates.compiled.cellsums import scale_exact
+
+        out = np.empty_like(points)
+        ty = points.dtype.type
+        over, inexact = scale_exact(points, out, ty(2.0 ** -e), ty(2.0 ** e),
+                                    float(fi.max / 16))
+        if over or inexact:  # the numpy checks' refusal, in their order
+            _check_scaled(points, out, e, role)
+        return out
     if keep is not None:
         step, inexact = 1 << 16, None  # (each block's check is the whole array's on its rows)
         for a in range(0, len(points), step):
@@ -396,6 +409,11 @@ def check_extent(name: str, mesh: MeshInput, given, dtype, hull=None) -> None:
     them; ``hull``: (lo_min, hi_max) of its cells' boxes if known."""
     if len(mesh.cells) and _one_point(mesh, hull):
         raise ValueError(_collapse_reason(name, given, mesh, dtype))
+
+
+def hull_of(lo: np.ndarray, hi: np.ndarray):
+    """(lo_min, hi_max) of boxes (n, d) for :func:`check_extent` (None when n = 0)."""
+    return (colmin(lo), colmax(hi)) if len(lo) else None
 
 
 def _one_point(mesh, hull=None) -> bool:

@@ -23,7 +23,8 @@ from predicates.registration.spatial.boxes import box_extent
 from predicates.registration.spatial.boxgrid import (
     BITS, cell_index, colmax, colmin, enlarge, mean_extent, ncells)
 from predicates.registration.spatial.broadphase import _dense, near_flags
-from predicates.registration.spatial.gridsums import _corners, _stride, any_in, occupancy
+from predicates.registration.spatial.gridsums import (
+    _corners, _stride, any_in, coverage, occupancy)
 
 __all__ = ["flag_pass", "near_all"]
 
@@ -58,7 +59,7 @@ def near_all(boxes, lo_b: np.ndarray, hi_b: np.ndarray, pad: float, flags=near_f
         # the cutting side's passes compiled too when the plan's are (the same values)
         ib0, ib1 = (cell_index(x, origin, h, G, boxes.blocks) for x in (lo_bx, hi_bx))
         dense = _dense(G + 1, na + nb)
-        table = _table(occupancy(ib0, ib1, G, boxes.blocks)) if dense else None
+        table = _occupied(ib0, ib1, G, boxes.blocks) if dense else None
         covered, got = boxes.flag_pass(origin, h, G, table)
         if covered + ncells(ib0, ib1).sum() <= budget or np.all(G == 1):
             break
@@ -70,6 +71,13 @@ def near_all(boxes, lo_b: np.ndarray, hi_b: np.ndarray, pad: float, flags=near_f
         return near_a, near_b, ext
     near_a, i0f, i1f, ext = got
     # the flagged cells' coverage: the same integer counts as near_flags's occupancy
+    if boxes.blocks.accelerate and len(G) == 3:  # any_in's look-ups on _occupied's table
+        from predicates.compiled.cells import look_corners
+
+        S, near_b = _occupied(i0f, i1f, G, boxes.blocks), np.empty(nb, dtype=bool)
+        boxes.blocks.rows(lambda a, b: look_corners(S, ib0[a:b], ib1[a:b], _stride(G),
+                                                    near_b[a:b]), nb)
+        return near_a, near_b, ext
     return near_a, any_in(occupancy(i0f, i1f, G, boxes.blocks), ib0, ib1, G, boxes.blocks), ext
 
 
@@ -86,7 +94,10 @@ def flag_pass(boxes, origin, h, G, table):
         if table is not None and parts and parts[0][4] is not None:
             kept = [np.concatenate([b for p in parts for b in p[4 + s]] or
                                    [np.zeros((0, d))]) for s in (0, 1)]
-            boxes.keep(np.flatnonzero(near), *kept)  # the flagged rows' boxes
+            k = boxes.cells.shape[1]
+            cells = np.concatenate([c for p in parts for c in p[6]] or
+                                   [np.zeros((0, k), dtype=boxes.cells.dtype)])
+            boxes.keep(np.flatnonzero(near), *kept, cells)  # the flagged rows' boxes, ids
         return _gathered(parts, table, near, d)
 
     def span(a: int, b: int):
@@ -142,23 +153,24 @@ def _compiled_span(boxes, origin, h, G, table, near):
             bits = np.zeros(len(table) // 8 + 1, dtype=np.uint8)
             pair_bits(S, G_, stride, bits)
 
-    def block(s: int, t: int, i0, i1, flo, fhi):
+    def block(s: int, t: int, i0, i1, flo, fhi, fcells):
         out = flags[s:t] if near is not None else flags
         if index is not None:
             return flag_block_indexed(P, index, boxes.cells[s:t], stride, S,
-                                      table is not None, i0, i1, out, flo, fhi, bits)
+                                      table is not None, i0, i1, out, flo, fhi, bits, fcells)
         return flag_block(P, boxes.cells[s:t], o, float(h), G_, stride, S,
                           table is not None, i0, i1, out)
 
     def span(a: int, b: int):
         count, ext, r0, r1 = 0, 0.0, [], []
-        b0, b1 = ([], []) if index is not None else (None, None)
+        b0, b1, c0 = ([], [], []) if index is not None else (None, None, None)
         for s, t in boxes.blocks.each(a, b):
             i0 = buffer("flag_i0", t - s, np.int32, len(G))
             i1 = buffer("flag_i1", t - s, np.int32, len(G))
             flo = buffer("flag_lo", t - s, np.float64, len(G))
             fhi = buffer("flag_hi", t - s, np.float64, len(G))
-            n, e, nf = block(s, t, i0, i1, flo, fhi)
+            fcells = buffer("flag_cells", t - s, boxes.cells.dtype, boxes.cells.shape[1])
+            n, e, nf = block(s, t, i0, i1, flo, fhi, fcells)
             count += int(n)
             if nf:  # the flagged rows' ranges (and boxes), compacted by the kernel
                 r0.append(i0[:nf].copy())
@@ -167,9 +179,24 @@ def _compiled_span(boxes, origin, h, G, table, near):
                 if b0 is not None:
                     b0.append(flo[:nf].copy())
                     b1.append(fhi[:nf].copy())
-        return count, r0, r1, ext, b0, b1
+                    c0.append(fcells[:nf].copy())
+        return count, r0, r1, ext, b0, b1, c0
 
     return span
+
+
+def _occupied(i0, i1, G, blocks) -> np.ndarray:
+    """``_table(occupancy(i0, i1, G, blocks))``: compiled in 3D from the coverage counts
+    in one pass (:func:`predicates.compiled.cellsums.occupied_table`: the same
+    integers)."""
+    if not (blocks.accelerate and len(G) == 3):
+        return _table(occupancy(i0, i1, G, blocks))
+    from predicates.compiled.cellsums import occupied_table
+
+    cover = coverage(i0, i1, G, blocks, np.int32 if len(i0) < 2 ** 31 - 1 else np.int64)
+    S = np.empty(cover.shape, dtype=np.int32 if cover.size < 2 ** 31 else np.int64)
+    occupied_table(cover, S)
+    return S.ravel()
 
 
 def _table(occ: np.ndarray) -> np.ndarray:

@@ -40,6 +40,7 @@ import numpy as np
 
 from fperr.warnings import ResolutionError
 
+from predicates.registration.spatial.blocks import Blocks
 from predicates.registration.spatial.boxes import box_extent, boxes_of
 from predicates.registration.levels.complex import unique_rows
 from predicates.registration.plan.refine_index import LevelIndex
@@ -108,13 +109,15 @@ class Refinement:
 
 
 def refine(points: np.ndarray, cells: np.ndarray, sim_lo: np.ndarray, sim_hi: np.ndarray,
-           max_cells: int = MAX_CELLS, sim_stats=None, accelerate: bool = False
-           ) -> Refinement:
+           max_cells: int = MAX_CELLS, sim_stats=None, accelerate: bool = False,
+           boxes: tuple | None = None) -> Refinement:
     """Refine the cutting mesh (``points`` in the working dtype, ``cells`` (M, k)) where
     its edges are longer than the simulation cells they meet (boxes ``sim_lo``,
     ``sim_hi`` in binary64; ``sim_stats``: their box-edge statistics if known,
     :func:`~.refine_scan.stats_from`). ``accelerate``: the edges' unique rows by the
-    compiled counting sort (the same rows and map). See the module docstring."""
+    compiled counting sort (the same rows and map) and the cells' boxes compiled;
+    ``boxes``: the cutting cells' (lo, hi) if the caller has them. See the module
+    docstring."""
     k = cells.shape[1]
     P = points  # never written: a refined mesh's points are a new array
     C = cells.astype(np.int64, copy=True)
@@ -122,7 +125,9 @@ def refine(points: np.ndarray, cells: np.ndarray, sim_lo: np.ndarray, sim_hi: np
     # identity rows, a read-only view (no bytes) until a split gathers them: an
     # unrefined mesh's map back costs nothing (W4: 23.6 MB held through the run)
     B = np.broadcast_to(np.eye(k), (len(C), k, k))
-    sim = _SimScale(sim_lo, sim_hi, *_reach(P, C), sim_stats) if len(C) else None
+    if boxes is None and len(C):
+        boxes = boxes_of(P, C, Blocks(accelerate=accelerate))
+    sim = _SimScale(sim_lo, sim_hi, *_reach(P, C, boxes), sim_stats) if len(C) else None
     known = np.zeros(0, dtype=np.int64)  # keys of edges already tested (unmarked)
     rounds = 0
     while len(C) and (rounds or _can_mark(sim)):
@@ -286,14 +291,14 @@ class _SimScale:
         return self._index[name].marks(qlo, qhi, qext)
 
 
-def _reach(P, C):
+def _reach(P, C, boxes=None):
     """Per input cutting cell, a box holding the query box (:func:`_too_long`) of every
     edge refinement can make inside it: midpoints stay in their edge's box (rounding is
     monotone), so an edge's box lies in its cell's box and its box edge is at most the
     cell's; lo − ext and hi + ext are then bounded by the cell's (monotone rounding),
     widened by one ulp and 2^-1000 for halvings of subnormal coordinates. Returns
-    ((lo, hi), the cells' box edges)."""
-    lo, hi = boxes_of(P, C)
+    ((lo, hi), the cells' box edges); ``boxes``: the cells' (lo, hi) if known."""
+    lo, hi = boxes_of(P, C) if boxes is None else boxes
     ext = box_extent(lo, hi)
     tiny = math.ldexp(1.0, -1000)
     e = ext[:, None]

@@ -204,7 +204,8 @@ def estimate_cell_pairs(lo_a, hi_a, lo_b, hi_b, pad: float, blocks: Blocks = SER
     counts' passes (compiled or threaded: the same integers)."""
     if len(lo_a) == 0 or len(lo_b) == 0:
         return 0
-    ia0, ia1, ib0, ib1, budget = _estimate_grid(lo_a, hi_a, lo_b, hi_b, pad)
+    grid = _compiled_grid if blocks.accelerate else _estimate_grid
+    ia0, ia1, ib0, ib1, budget = grid(lo_a, hi_a, lo_b, hi_b, pad)
     fast = _dense_pair_count(ia0, ia1, ib0, ib1, budget, blocks)
     if fast is not None:
         return fast
@@ -236,6 +237,32 @@ def _estimate_grid(lo_a, hi_a, lo_b, hi_b, pad: float):
         na, nb = rowwise(np.multiply, ia1 - ia0 + 1), rowwise(np.multiply, ib1 - ib0 + 1)
         if na.sum() + nb.sum() <= budget:
             return ia0, ia1, ib0, ib1, budget
+        g *= 2
+
+
+def _compiled_grid(lo_a, hi_a, lo_b, hi_b, pad: float):
+    """:func:`_estimate_grid`'s values by two compiled passes per side and cell size
+    (:mod:`predicates.compiled.cellsums`: the padded boxes are never stored): the same
+    indices, and the same coarsening decisions (integer counts, exact sums)."""
+    from predicates.compiled.cellsums import pad_extents, pad_index
+
+    h = 0.5 * pad
+    d = lo_a.shape[1]
+    sides = [tuple(np.ascontiguousarray(x, dtype=np.float64) for x in s)
+             for s in ((lo_a, hi_a), (lo_b, hi_b))]
+    ext = np.empty(len(lo_a) + len(lo_b))
+    lo_min, hi_max = np.full(d, np.inf), np.full(d, -np.inf)
+    pad_extents(*sides[0], h, ext[:len(lo_a)], lo_min, hi_max)
+    pad_extents(*sides[1], h, ext[len(lo_a):], lo_min, hi_max)
+    span = float((hi_max - lo_min).max())
+    g = max(float(np.median(ext)), float(pad), span * 2.0 ** -20, 1e-300)
+    budget = 8 * (len(lo_a) + len(lo_b)) + (1 << 20)
+    out = [np.empty((len(lo), d)) for lo, _ in sides for _ in (0, 1)]
+    while True:
+        total = sum(pad_index(*side, h, lo_min, g, *out[2 * s:2 * s + 2])
+                    for s, side in enumerate(sides))
+        if total <= budget:
+            return (*out, budget)
         g *= 2
 
 

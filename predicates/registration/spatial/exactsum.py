@@ -36,7 +36,7 @@ class ExactSum:
 
     def __init__(self, accelerate: bool = False):
         #: blocks that fit the narrow path checked and summed by one compiled kernel
-        #: (predicates.compiled.cells.narrow_sums: the same exact sums)
+        #: (predicates.compiled.cellsums.narrow_sums: the same exact sums)
         self.accelerate = accelerate
         self.units = 0  # Σ in units of 2^-1074 (flushed part)
         self.acc = np.zeros((2, _BINS))  # per-binade float sums of high and low parts
@@ -49,7 +49,7 @@ class ExactSum:
         x = np.asarray(x, dtype=np.float64)
         self.n += len(x)
         if self.accelerate:
-            from predicates.compiled.cells import narrow_sums
+            from predicates.compiled.cellsums import narrow_sums
 
             x = np.ascontiguousarray(x)
         for a in range(0, len(x), 1 << 16):
@@ -61,6 +61,18 @@ class ExactSum:
                     continue
             self._block(x[a:a + (1 << 16)] + 0.0)  # + 0.0: −0.0 becomes +0.0
         return self
+
+    def add_narrow(self, count: int, status: int, high: float, low: float) -> bool:
+        """Add ``count`` values summed by a compiled pass's narrow path
+        (:func:`predicates.compiled.cellsums.narrow_sums`' outcome, ≤ 2^16 values):
+        status 2 — their exact sum is high + low; 1 — no positive value; 0 — not
+        summed: returns False and the caller :meth:`add`-s the values instead."""
+        if status == 0:
+            return False
+        self.n += count
+        if status == 2:
+            self._add_floats((high, low))
+        return True
 
     def _add_floats(self, values) -> None:
         """Add binary64 values that are multiples of 2^-1074 (exact sums), exactly."""
