@@ -227,7 +227,7 @@ class RemoteCells(CellBoxes):
             lo = np.concatenate([g[1][6][0] for g in got])
             hi = np.concatenate([g[1][6][1] for g in got])
         else:
-            lo, hi = boxes_of(self.points, cells)
+            lo, hi = boxes_of(self.points, cells, self.blocks)  # compiled when the plan is
         self._kept, self._kept_cells = (ids, lo, hi), cells
         self._edges = (ids, [g[1][5] for g in got if g[1][5] is not None])
         i0 = np.concatenate([g[1][1] for g in got])
@@ -304,7 +304,8 @@ class RemoteCells(CellBoxes):
         the points are on the workers, computed there per chunk (the same values:
         min and max are exact)."""
         if not self.far:
-            return boxes_of(self.points, self._fetch(ids) if cells is None else cells)
+            return boxes_of(self.points, self._fetch(ids) if cells is None else cells,
+                            self.blocks)
         cut = np.searchsorted(ids, self.offsets)
         d = self.dask.delayed
         tasks = [d(_cpu_timed, pure=False)(_on_piece, _row_boxes, own, self.points.dtype,
