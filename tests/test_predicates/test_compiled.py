@@ -135,7 +135,7 @@ def test_no_fma_no_fast_math(pred):
         fu = ns[f"fused_{np.dtype(dt).name}"]
         one, no, w = np.zeros(1, np.int64), np.zeros(1, bool), len(pred.weight_names)
         box = np.zeros((d, 1))
-        fu(one, one, np.zeros(2, np.int64), one, False, 0.0, box, box, box, box, no, no,
+        fu(one, one, np.zeros(2, np.int64), one, False, 0.0, P, R1, box, box, no, no,
            False, False, P, R1, P, R2, np.zeros(8, dt), one, one,
            np.zeros((1, max(1, w)), dt), one, one, np.zeros(3, np.int64))
         for f in (fn, fu):
