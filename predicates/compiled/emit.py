@@ -69,6 +69,21 @@ def chain_lines(prog: Program, n1: int, dt: str, opts: str) -> list[str]:
     return lines + ["        " + b for b in body_] + ["    return count", "", ""]
 
 
+def _sim_box(count: int, dim: int) -> list[str]:
+    """Statements setting (fl, fh) per axis to simplex f's box (``count`` vertices
+    Rs[f], rows of Ps): :func:`predicates.registration.spatial.boxes.boxes_of`'s
+    minimum/maximum fold, exact (a NaN propagates, as np.minimum's)."""
+    out = ["v = Rs[f, 0]"] + [f"fl{a} = np.float64(Ps[v, {a}])" for a in range(dim)]
+    out += [f"fh{a} = fl{a}" for a in range(dim)]
+    for p in range(1, count):
+        out.append(f"v = Rs[f, {p}]")
+        for a in range(dim):
+            out += [f"x = np.float64(Ps[v, {a}])",
+                    f"fl{a} = fl{a} if (fl{a} < x) | (fl{a} != fl{a}) else x",
+                    f"fh{a} = fh{a} if (fh{a} > x) | (fh{a} != fh{a}) else x"]
+    return out
+
+
 def fused_lines(prog: Program, n1: int, dt: str, opts: str) -> list[str]:
     """``fused_<dt>(F, Cs, start, owned, has_tab, pad, Ps, Rs, lo_b, hi_b, flags, use_flags, swapped,
     P1, R1, P2, R2, tol, out_s, out_c, out_w, maybe_s, maybe_c, counts)`` (module
@@ -88,15 +103,16 @@ def fused_lines(prog: Program, n1: int, dt: str, opts: str) -> list[str]:
             "        c = Cs[q]",
             "        e0 = start[c] if has_tab else 0",
             "        e1 = start[c + 1] if has_tab else 1"]
-    # f's box computed once per stage-1 pair from its vertices (Rs[f] rows of Ps:
-    # numpy's minimum/maximum fold, exact; no stored simulation face boxes), the test
-    # written out per axis (one subtraction and comparison each, as the numpy test)
-    for a in range(prog.dim):
-        head += [f"        fl{a} = np.float64(Ps[Rs[f, 0], {a}])", f"        fh{a} = fl{a}",
-                 "        for k in range(1, Rs.shape[1]):",
-                 f"            x = np.float64(Ps[Rs[f, k], {a}])",
-                 f"            fl{a} = fl{a} if (fl{a} < x) | (fl{a} != fl{a}) else x",
-                 f"            fh{a} = fh{a} if (fh{a} > x) | (fh{a} != fh{a}) else x"]
+    # f's box computed once per stage-1 pair from its vertices (no stored simulation
+    # face boxes), unrolled (its vertex count: the predicate's first or second
+    # primitive's, as swapped says); the test written out per axis (one subtraction and
+    # comparison each, as the numpy test)
+    n2 = prog.n_points - n1
+    if n1 == n2:
+        head += ["        " + b for b in _sim_box(n1, prog.dim)]
+    else:
+        head += ["        if swapped:"] + ["            " + b for b in _sim_box(n2, prog.dim)]
+        head += ["        else:"] + ["            " + b for b in _sim_box(n1, prog.dim)]
     head += ["        for e in range(e0, e1):"]
     test = " and ".join(f"lo_b[{a}, g] - fh{a} <= pad and fl{a} - hi_b[{a}, g] <= pad"
                         for a in range(prog.dim))
