@@ -64,15 +64,20 @@ _NO_FACES = np.zeros(1, dtype=np.int64)
 
 
 @njit(**INLINE_OPTIONS)
-def _hold_boxes(t, start, faces, lo, hi, held):
-    """Copy the boxes of the faces cell t owns into ``held`` rows (lo on columns 0–2,
-    hi on 3–5): read once per run of cell pairs sharing t (T ascends), then from a few
-    cache lines instead of 2d columns per face and pair."""
+def _hold_boxes(t, start, faces, P, R, held):
+    """The boxes of the faces cell t owns into ``held`` rows (lo on columns 0–2, hi on
+    3–5) from their vertices R[f] (rows of P) by boxes_of's minimum/maximum fold: exact,
+    the same boxes (up to a zero's sign, which no box test sees), none stored (W4: 1.08
+    M, 52 MB); once per run of cell pairs sharing t (T ascends), then a few cache lines."""
     for u in range(start[t + 1] - start[t]):
         f = faces[start[t] + u]
-        for ax in range(lo.shape[0]):
-            held[u, ax] = lo[ax, f]
-            held[u, 3 + ax] = hi[ax, f]
+        for ax in range(P.shape[1]):
+            a = b = np.float64(P[R[f, 0], ax])
+            for v in range(1, R.shape[1]):
+                x = np.float64(P[R[f, v], ax])
+                a = a if (a < x) | (a != a) else x  # np.minimum: a NaN propagates
+                b = b if (b > x) | (b != b) else x
+            held[u, ax], held[u, 3 + ax] = a, b
 
 
 @njit(**INLINE_OPTIONS)
@@ -101,11 +106,11 @@ def _widest(start):
 
 
 @njit(**JIT_OPTIONS)
-def _owned_levels(T, C, lo_c, hi_c, levels, s0, f0, pad0, lo0, hi0, o0, p0, s1, f1, pad1,
-                  lo1, hi1, o1, p1, s2, f2, pad2, lo2, hi2, o2, p2, counts):
+def _owned_levels(T, C, lo_c, hi_c, levels, s0, f0, pad0, P0, R0, o0, p0, s1, f1, pad1,
+                  P1, R1, o1, p1, s2, f2, pad2, P2, R2, o2, p2, counts):
     """Stage 1 of the first ``levels`` (1–3) levels given, per cell pair (T[q], C[q]);
-    the faces' boxes of each run of pairs sharing T[q] held in small arrays (W4: the
-    kernel ~25 % faster than reading the face columns per pair; the same pairs)."""
+    the faces' boxes of each run of pairs sharing T[q] computed into small arrays (W4:
+    the kernel ~25 % faster than reading the face columns per pair; the same pairs)."""
     three = lo_c.shape[0] == 3
     h0 = np.zeros((_widest(s0), 6))
     h1 = np.zeros((_widest(s1) if levels > 1 else 1, 6))
@@ -115,21 +120,19 @@ def _owned_levels(T, C, lo_c, hi_c, levels, s0, f0, pad0, lo0, hi0, o0, p0, s1, 
     for q in range(T.shape[0]):
         t, c = T[q], C[q]
         if t != held:
-            _hold_boxes(t, s0, f0, lo0, hi0, h0)
+            _hold_boxes(t, s0, f0, P0, R0, h0)
             if levels > 1:
-                _hold_boxes(t, s1, f1, lo1, hi1, h1)
+                _hold_boxes(t, s1, f1, P1, R1, h1)
             if levels > 2:
-                _hold_boxes(t, s2, f2, lo2, hi2, h2)
+                _hold_boxes(t, s2, f2, P2, R2, h2)
             held = t
         l0, l1, u0, u1 = lo_c[0, c], lo_c[1, c], hi_c[0, c], hi_c[1, c]
         l2, u2 = (lo_c[2, c], hi_c[2, c]) if three else (0.0, 0.0)
         n0 = _owned_level(t, c, s0, f0, pad0, h0, three, l0, l1, l2, u0, u1, u2, o0, p0, n0)
         if levels > 1:
-            n1 = _owned_level(t, c, s1, f1, pad1, h1, three, l0, l1, l2, u0, u1, u2, o1, p1,
-                              n1)
+            n1 = _owned_level(t, c, s1, f1, pad1, h1, three, l0, l1, l2, u0, u1, u2, o1, p1, n1)
         if levels > 2:
-            n2 = _owned_level(t, c, s2, f2, pad2, h2, three, l0, l1, l2, u0, u1, u2, o2, p2,
-                              n2)
+            n2 = _owned_level(t, c, s2, f2, pad2, h2, three, l0, l1, l2, u0, u1, u2, o2, p2, n2)
     counts[0], counts[1], counts[2] = n0, n1, n2
 
 
@@ -145,10 +148,11 @@ def _owned_counts(T, start, out, k):
 def owned_levels(T: np.ndarray, C: np.ndarray, boxes_c: tuple, levels: list) -> list:
     """Stage 1 of :mod:`predicates.registration.levels.facepairs` for up to three
     simulation levels in one pass over the cell pairs (T[q], C[q]): per level
-    ``(start, faces, pad, (lo, hi))`` (the cells' owned-face lists, the level's reach,
-    the faces' boxes as (d, n) columns), the pairs (f, C[q]) of every face f that T[q]
-    owns whose box is within pad of C[q]'s (``boxes_c``) — the pairs and order of
-    :func:`owned_pairs` ("a") on the owned table. Returns [(f, C)] per level."""
+    ``(start, faces, pad, (P, R))`` (the cells' owned-face lists, the level's reach,
+    the points (N, d) and the faces' vertex ids (n, k), whose boxes it computes), the
+    pairs (f, C[q]) of every face f that T[q] owns whose box is within pad of C[q]'s
+    (``boxes_c``) — the pairs and order of :func:`owned_pairs` ("a") on the owned
+    table. Returns [(f, C)] per level."""
     if not 1 <= len(levels) <= 3 or boxes_c[0].shape[0] not in (2, 3):
         raise ValueError(f"owned_levels takes 1 to 3 levels in 2 or 3 dimensions, got "
                          f"{len(levels)} in {boxes_c[0].shape[0]}")
@@ -158,16 +162,16 @@ def owned_levels(T: np.ndarray, C: np.ndarray, boxes_c: tuple, levels: list) -> 
         _owned_counts(T, levels[k][0], most, k)
     for k in range(3):  # the slots past len(levels) are never read
         if k < len(levels):
-            start, faces, pad, (lo, hi) = levels[k]
+            start, faces, pad, (P, R) = levels[k]
             n = int(most[k])
-        else:
-            start, faces, pad, lo, hi, n = _NO_FACES, _NO_FACES, 0.0, *boxes_c, 0
+        else:  # level 0's points and rows: the same argument types
+            start, faces, pad, (P, R), n = _NO_FACES, _NO_FACES, 0.0, levels[0][3], 0
         # int32 ids when they fit (every face has one owner: ids < len(faces)): half
         # the fresh memory of the run's largest arrays (W4: 5.6 M pairs at level 2)
         ids = np.int32 if len(faces) < 2 ** 31 else np.int64
         out = (np.empty(max(n, 1), dtype=ids), np.empty(max(n, 1), dtype=C.dtype))
         outs.append(out)
-        args += [start, faces, float(pad), lo, hi, *out]
+        args += [start, faces, float(pad), P, R, *out]
     counts = np.zeros(3, dtype=np.int64)
     if len(T):
         _owned_levels(T, C, *boxes_c, len(levels), *args, counts)

@@ -74,8 +74,9 @@ def fused(kind, sim, cut, F, C, owned, pad: float, boxes: tuple, flags, tol):
     """The fused per-kind chain (:func:`predicates.compiled.emit.fused_lines`) on one
     block of stage-1 pairs (F[q], C[q]): ``owned`` the cutting cells' owned j-faces as
     (start, faces, the most one cell owns) (:func:`~.boxtest.owned_lists_of`; None: the
-    cells themselves), ``boxes`` = (lo_a, hi_a, lo_b, hi_b) as (d, n) columns of the
-    sides' i- and j-simplices, ``flags`` = (flag_s, flag_c) of the suppression
+    cells themselves), ``boxes`` = (P, R, lo_b, hi_b): the simulation points and
+    i-simplices' vertex ids (the kernel computes their boxes), the cutting
+    j-simplices' boxes as (d, n) columns, ``flags`` = (flag_s, flag_c) of the suppression
     pre-filter or None. Returns (candidates, (s, c, sim weights, cut weights) of the
     registered pairs, (s, c) of the pairs to look up before evaluating them)."""
     pred = kind.predicate

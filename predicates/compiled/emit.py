@@ -16,7 +16,7 @@ The box test is written out in the module per axis (not imported: the module's h
 its file name, and with it numba's on-disk cache — covers every line it runs): the
 broad phase's exact test (:func:`predicates.registration.spatial.broadphase.pair_test`),
 F[lo_b − hi_a] ≤ pad and F[lo_a − hi_b] ≤ pad per axis, a NaN failing, with f's box
-read once per stage-1 pair.
+computed from its vertices once per stage-1 pair (min and max exact: the same box).
 """
 from __future__ import annotations
 
@@ -69,14 +69,29 @@ def chain_lines(prog: Program, n1: int, dt: str, opts: str) -> list[str]:
     return lines + ["        " + b for b in body_] + ["    return count", "", ""]
 
 
+def _sim_box(count: int, dim: int) -> list[str]:
+    """Statements setting (fl, fh) per axis to simplex f's box (``count`` vertices
+    Rs[f], rows of Ps): :func:`predicates.registration.spatial.boxes.boxes_of`'s
+    minimum/maximum fold, exact (a NaN propagates, as np.minimum's)."""
+    out = ["v = Rs[f, 0]"] + [f"fl{a} = np.float64(Ps[v, {a}])" for a in range(dim)]
+    out += [f"fh{a} = fl{a}" for a in range(dim)]
+    for p in range(1, count):
+        out.append(f"v = Rs[f, {p}]")
+        for a in range(dim):
+            out += [f"x = np.float64(Ps[v, {a}])",
+                    f"fl{a} = fl{a} if (fl{a} < x) | (fl{a} != fl{a}) else x",
+                    f"fh{a} = fh{a} if (fh{a} > x) | (fh{a} != fh{a}) else x"]
+    return out
+
+
 def fused_lines(prog: Program, n1: int, dt: str, opts: str) -> list[str]:
-    """``fused_<dt>(F, Cs, start, owned, has_tab, pad, boxes, flags, use_flags, swapped,
+    """``fused_<dt>(F, Cs, start, owned, has_tab, pad, Ps, Rs, lo_b, hi_b, flags, use_flags, swapped,
     P1, R1, P2, R2, tol, out_s, out_c, out_w, maybe_s, maybe_c, counts)`` (module
     docstring): cell C's owned j-faces are ``owned[start[C]:start[C + 1]]`` (in the
     owned table's column order: only faces it owns, no −1 slots to skip); counts =
     (candidates, hits, pairs left to the suppression look-up)."""
     head = [f"@njit(**{opts})",
-            f"def fused_{dt}(F, Cs, start, owned, has_tab, pad, lo_a, hi_a, lo_b, hi_b,",
+            f"def fused_{dt}(F, Cs, start, owned, has_tab, pad, Ps, Rs, lo_b, hi_b,",
             "             flag_s, flag_c, use_flags, swapped, P1, R1, P2, R2, tol, out_s,",
             "             out_c, out_w, maybe_s, maybe_c, counts):",
             f'    """{prog.name}: stage-1 pairs (F[q], Cs[q]) to registered pairs."""',
@@ -88,9 +103,16 @@ def fused_lines(prog: Program, n1: int, dt: str, opts: str) -> list[str]:
             "        c = Cs[q]",
             "        e0 = start[c] if has_tab else 0",
             "        e1 = start[c + 1] if has_tab else 1"]
-    # f's box read once per stage-1 pair, the test written out per axis (one
-    # subtraction and comparison each, as the numpy test; module docstring)
-    head += [f"        fl{a} = lo_a[{a}, f]\n        fh{a} = hi_a[{a}, f]" for a in range(prog.dim)]
+    # f's box computed once per stage-1 pair from its vertices (no stored simulation
+    # face boxes), unrolled (its vertex count: the predicate's first or second
+    # primitive's, as swapped says); the test written out per axis (one subtraction and
+    # comparison each, as the numpy test)
+    n2 = prog.n_points - n1
+    if n1 == n2:
+        head += ["        " + b for b in _sim_box(n1, prog.dim)]
+    else:
+        head += ["        if swapped:"] + ["            " + b for b in _sim_box(n2, prog.dim)]
+        head += ["        else:"] + ["            " + b for b in _sim_box(n1, prog.dim)]
     head += ["        for e in range(e0, e1):"]
     test = " and ".join(f"lo_b[{a}, g] - fh{a} <= pad and fl{a} - hi_b[{a}, g] <= pad"
                         for a in range(prog.dim))

@@ -135,7 +135,7 @@ def test_no_fma_no_fast_math(pred):
         fu = ns[f"fused_{np.dtype(dt).name}"]
         one, no, w = np.zeros(1, np.int64), np.zeros(1, bool), len(pred.weight_names)
         box = np.zeros((d, 1))
-        fu(one, one, np.zeros(2, np.int64), one, False, 0.0, box, box, box, box, no, no,
+        fu(one, one, np.zeros(2, np.int64), one, False, 0.0, P, R1, box, box, no, no,
            False, False, P, R1, P, R2, np.zeros(8, dt), one, one,
            np.zeros((1, max(1, w)), dt), one, one, np.zeros(3, np.int64))
         for f in (fn, fu):
@@ -359,3 +359,36 @@ def test_owned_lists_are_the_owned_table(width):
     start2, faces2, widest = owned_lists_of(F, 40)
     assert np.array_equal(start2, start) and np.array_equal(faces2, faces)
     assert widest == int(np.diff(start).max())
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_stage1_boxes_from_vertices_keep_the_stored_boxes_pairs(seed):
+    """Stage 1 (boxtest.owned_levels) computes the faces' boxes from their vertices: on
+    points with ties, signed zeros and a NaN, its pairs are exactly those of the numpy
+    owned-table expansion and box test on boxes_of's stored boxes, level by level."""
+    from predicates.compiled.boxtest import owned_levels, owned_lists_of
+    from predicates.registration.levels.facepairs import _owned, owned_table
+    from predicates.registration.spatial.boxes import boxes_of
+    from predicates.registration.spatial.broadphase import pair_test
+
+    rng = np.random.default_rng(seed)
+    P = rng.integers(-2, 3, size=(30, 3)) * 0.5  # coarse: equal coordinates, touching
+    P[rng.random(P.shape) < 0.2] = -0.0
+    P[7, 1] = np.nan
+    lo_c = rng.integers(-3, 3, size=(3, 25)) * 0.5
+    boxes_c = (lo_c, lo_c + rng.integers(0, 3, size=(3, 25)) * 0.5)
+    T = np.sort(rng.integers(0, 20, 200))
+    C = rng.integers(0, 25, 200)
+    spec, want = [], []
+    for k, pad in zip((1, 2, 3), (0.0, 0.25, 0.5)):  # vertices, edges, triangles
+        R = rng.integers(0, 30, size=(50, k))
+        F = rng.integers(0, 50, size=(20, 4))
+        spec.append(owned_lists_of(F, 50)[:2] + (pad, (P, R)))
+        lo, hi = boxes_of(P, R)
+        f, rows = _owned(owned_table(F, 50), T)
+        keep = pair_test(pad, lo.T, hi.T, *boxes_c, f, C.take(rows))
+        want.append((f[keep], C.take(rows)[keep]))
+    got = owned_levels(T, C, boxes_c, spec)
+    assert sum(len(f) for f, _ in want) > 0
+    for (f, c), (wf, wc) in zip(got, want):
+        assert f.tolist() == wf.tolist() and c.tolist() == wc.tolist()
