@@ -622,8 +622,8 @@ def test_compiled_edge_summary_is_numpys_and_the_definition(data, d):
     rows) equals its numpy path; the renumbering keeps exactly the used vertices in
     ascending order and maps every cell back to its own ids; the least squared edge is
     the definition's float expression (differences and squares summed from axis 0) on
-    the coordinates scaled by 2^-shift, and the shortest edge is exact Fraction's
-    nearest-above check: sqrt(least)·2^shift is the correctly rounded root."""
+    the coordinates scaled by 2^-shift; and the shortest edge scaled back is a root of
+    it: no neighbouring float's square is closer to it (exact Fractions)."""
     from predicates.compiled.cellsums import used_renumbered
     from predicates.registration.plan.edges import edge_from, edge_summary
 
@@ -649,7 +649,7 @@ def test_compiled_edge_summary_is_numpys_and_the_definition(data, d):
                     sq = t * t if ax == 0 else sq + t * t
                 ref = min(ref, sq)
     assert least == ref
-    if least > 0:  # the root: correctly rounded (exact scaling by 2^shift)
+    if least > 0:  # the root (the scaling by 2^shift is exact)
         h = Fraction(edge_from(least, shift)) / Fraction(2) ** shift
         lower, upper = np.nextafter(float(h), 0), np.nextafter(float(h), np.inf)
         assert abs(h * h - Fraction(least)) <= min(abs(Fraction(lower) ** 2 - Fraction(least)),
