@@ -652,5 +652,5 @@ def test_compiled_edge_summary_is_numpys_and_the_definition(data, d):
     if least > 0:  # the root (the scaling by 2^shift is exact)
         h = Fraction(edge_from(least, shift)) / Fraction(2) ** shift
         lower, upper = np.nextafter(float(h), 0), np.nextafter(float(h), np.inf)
-        assert abs(h * h - Fraction(least)) <= min(abs(Fraction(lower) ** 2 - Fraction(least)),
-                                                    abs(Fraction(upper) ** 2 - Fraction(least)))
+        off = [abs(Fraction(x) ** 2 - Fraction(least)) for x in (lower, upper)]
+        assert abs(h * h - Fraction(least)) <= min(off)
