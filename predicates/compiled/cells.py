@@ -422,18 +422,19 @@ def _flag_rows(points, index, rows, stride, S, has_table, i0, i1, near, flo, fhi
 
 
 @njit(**JIT_OPTIONS)
-def least_square_edge(cols, C, a, b):
-    """min over cells a … b − 1 (columns of ``C``, (k, m) vertex ids) and their vertex
-    pairs u < v of Σ_ax (x_u − x_v)², summed from axis 0 as
-    :func:`predicates.registration.plan.resolution.shortest_edge` sums (min: exact)."""
+def least_square_edge(rows, C, a, b):
+    """min over cells a … b − 1 (columns of ``C``, (k, m) vertex ids into ``rows``,
+    (n, d) coordinates: a vertex's d values in one cache line) and their vertex pairs
+    u < v of Σ_ax (x_u − x_v)², summed from axis 0 as
+    :func:`predicates.registration.plan.edges.shortest_edge` sums (min: exact)."""
     best = np.inf
     for m in range(a, b):
         for u in range(C.shape[0]):
             for v in range(u + 1, C.shape[0]):
-                t = cols[0, C[u, m]] - cols[0, C[v, m]]
+                t = rows[C[u, m], 0] - rows[C[v, m], 0]
                 sq = t * t
-                for ax in range(1, cols.shape[0]):
-                    t = cols[ax, C[u, m]] - cols[ax, C[v, m]]
+                for ax in range(1, rows.shape[1]):
+                    t = rows[C[u, m], ax] - rows[C[v, m], ax]
                     sq = sq + t * t
                 if sq < best:
                     best = sq

@@ -7,7 +7,8 @@ parts of each block, the boxes computed in registers, no (d, m) temporaries), wi
 narrow path on an array; and the exact power-of-two scaling of the points with its
 checks in one pass (:func:`scale_exact`); the report's pair-estimate grid without
 (n, d) temporaries (:func:`pad_extents`, :func:`pad_index`); the first round's
-summed-area tables of occupied grid cells in one pass (:func:`occupied_table`). Every
+summed-area tables of occupied grid cells in one pass (:func:`occupied_table`); the
+shortest edge's renumbering of the used vertices (:func:`used_renumbered`). Every
 value is that of the numpy pass it replaces
 (:mod:`predicates.compiled.cells` for the boxes' min/max rule).
 """
@@ -20,7 +21,7 @@ from .build import INLINE_OPTIONS, JIT_OPTIONS
 from .cells import _box_row
 
 __all__ = ["check_cells", "narrow_sums", "occupied_table", "pad_extents", "pad_index",
-           "scale_exact", "summary_block"]
+           "scale_exact", "summary_block", "used_renumbered"]
 
 
 @njit(**INLINE_OPTIONS)
@@ -347,3 +348,31 @@ def occupied_table(cover, S):
                               + S[i - 1, j, k] + S[i, j - 1, k] + S[i, j, k - 1]
                               - S[i - 1, j - 1, k] - S[i - 1, j, k - 1] - S[i, j - 1, k - 1]
                               + S[i - 1, j - 1, k - 1])
+
+
+@njit(**JIT_OPTIONS)
+def used_renumbered(cells, n_points):
+    """(ids, C): the vertices ``cells`` (m, k) use, ascending (np.flatnonzero of the
+    used mask), and the cells' ids renumbered into them, transposed to (k, m) — what
+    :func:`predicates.registration.plan.edges.edge_summary` builds in numpy with a mask,
+    a scatter and two gathers (three passes over the cells, ~25 ms on W4's run), here two
+    passes over the cells and two over the points; integers only."""
+    m, k = cells.shape
+    local = np.full(n_points, -1, np.int64)
+    for r in range(m):
+        for v in range(k):
+            local[cells[r, v]] = 0
+    count = 0
+    for i in range(n_points):
+        if local[i] == 0:
+            local[i] = count
+            count += 1
+    ids = np.empty(count, np.int64)
+    for i in range(n_points):
+        if local[i] >= 0:
+            ids[local[i]] = i
+    C = np.empty((k, m), np.int64)
+    for r in range(m):
+        for v in range(k):
+            C[v, r] = local[cells[r, v]]
+    return ids, C

@@ -570,6 +570,7 @@ def test_plan_float_kernels_have_no_fma():
     import re
 
     from predicates.compiled import cellsums as K
+    from predicates.compiled.cells import least_square_edge
     from predicates.registration.spatial import exactsum as xs
 
     fma_asm = re.compile(r"\bv?f(n)?m(add|sub)\d|\bvfmaddsub|\bvfmsubadd", re.I)
@@ -583,7 +584,9 @@ def test_plan_float_kernels_have_no_fma():
     K.scale_exact(P, np.empty_like(P), 0.5, 2.0, 1e300)
     K.pad_extents(P, P + 1, 0.1, np.empty(8), np.full(3, np.inf), np.full(3, -np.inf))
     K.pad_index(P, P + 1, 0.1, np.zeros(3), 0.25, np.empty((8, 3)), np.empty((8, 3)))
-    for f in (K.summary_block, K.narrow_sums, K.scale_exact, K.pad_extents, K.pad_index):
+    least_square_edge(P, C.T.copy(), 0, 2)
+    for f in (K.summary_block, K.narrow_sums, K.scale_exact, K.pad_extents, K.pad_index,
+              least_square_edge):
         assert f.targetoptions.get("fastmath") in (False, None)
         for sig in f.signatures:
             ir, asm = f.inspect_llvm(sig), f.inspect_asm(sig)
@@ -610,3 +613,44 @@ def test_occupied_table_is_the_cumulative_sums():
     i1 = np.minimum(i0 + rng.integers(0, 3, size=(40, 3)), G - 1)
     assert np.array_equal(_occupied(i0, i1, G, Blocks(accelerate=True)),
                           _occupied(i0, i1, G, SERIAL))
+
+
+@_SLOW
+@given(st.data(), st.sampled_from([2, 3]))
+def test_compiled_edge_summary_is_numpys_and_the_definition(data, d):
+    """edges.edge_summary compiled (cellsums.used_renumbered, least_square_edge on (n, d)
+    rows) equals its numpy path; the renumbering keeps exactly the used vertices in
+    ascending order and maps every cell back to its own ids; the least squared edge is
+    the definition's float expression (differences and squares summed from axis 0) on
+    the coordinates scaled by 2^-shift; and the shortest edge scaled back is a root of
+    it: no neighbouring float's square is closer to it (exact Fractions)."""
+    from predicates.compiled.cellsums import used_renumbered
+    from predicates.registration.plan.edges import edge_from, edge_summary
+
+    P, cells, rng = _mesh(data, d)
+    cells = cells[[len(set(c)) == d + 1 for c in cells.tolist()]]
+    if not len(cells):
+        return
+    P = P * P.dtype.type(2.0 ** int(rng.integers(-60, 60)))
+    ids, C = used_renumbered(np.ascontiguousarray(cells, dtype=np.int64), len(P))
+    assert np.array_equal(ids, np.unique(cells)) and np.array_equal(ids[C], cells.T)
+    fast = edge_summary(P, cells, Blocks(accelerate=True))
+    assert fast == edge_summary(P, cells, SERIAL)
+    top, shift, least = fast
+    assert top == float(np.abs(P[ids]).max())
+    X = np.ldexp(P.astype(np.float64), -shift)
+    ref = np.inf
+    for c in cells.tolist():
+        for u in range(d + 1):
+            for v in range(u + 1, d + 1):
+                sq = 0.0
+                for ax in range(d):
+                    t = float(X[c[u], ax]) - float(X[c[v], ax])
+                    sq = t * t if ax == 0 else sq + t * t
+                ref = min(ref, sq)
+    assert least == ref
+    if least > 0:  # the root (the scaling by 2^shift is exact)
+        h = Fraction(edge_from(least, shift)) / Fraction(2) ** shift
+        lower, upper = np.nextafter(float(h), 0), np.nextafter(float(h), np.inf)
+        off = [abs(Fraction(x) ** 2 - Fraction(least)) for x in (lower, upper)]
+        assert abs(h * h - Fraction(least)) <= min(off)

@@ -42,37 +42,52 @@ def edge_summary(points: np.ndarray, cells: np.ndarray, blocks: Blocks = SERIAL,
     chunks of cells with one shift is the whole's (min is exact), so per-chunk
     summaries on the workers combine to :func:`shortest_edge`'s value when their
     shifts agree (docs/partitioned.md 5a)."""
+    ids, C = _renumbered(points, cells, blocks.accelerate)
+    P = points[ids]
+    top = float(np.abs(P).max()) if C.size else 0.0
+    shift = edge_shift(top) if shift is None else shift
+    # compiled: (n, d) rows, a vertex's coordinates in one cache line (the kernel's
+    # gathers miss the cache: three column reads per vertex cost 1.5-2x); numpy's
+    # per-axis takes: (d, n) columns. The same values either way (elementwise scaling)
+    P = P if blocks.accelerate else P.T
+    coords = times_pow2(np.ascontiguousarray(P, dtype=np.float64), -shift)
+    return top, shift, _least_square(coords, C, blocks)
+
+
+def _renumbered(points: np.ndarray, cells: np.ndarray, accelerate: bool):
+    """(ids, C): the vertices the cells use (ascending) and the cells (k, m) renumbered
+    into them — only these points are read, close together in memory."""
+    if accelerate:  # the same integers in one compiled pass (cellsums.used_renumbered)
+        from predicates.compiled.cellsums import used_renumbered
+
+        return used_renumbered(np.ascontiguousarray(cells, dtype=np.int64), len(points))
     C = np.ascontiguousarray(np.asarray(cells).T)
     used = np.zeros(len(points), dtype=bool)  # the vertices of the selected cells
     for row in C:  # (a mask, not np.unique: its hash or sort costs seconds at 10^7)
         used[row] = True
-    ids = np.flatnonzero(used)  # only these points: renumbered, the same coordinates
+    ids = np.flatnonzero(used)
     local = np.zeros(len(points), dtype=np.int64)
     local[ids] = np.arange(len(ids))
-    C = local[C]
-    P = points[ids]
-    top = float(np.abs(P).max()) if C.size else 0.0
-    shift = edge_shift(top) if shift is None else shift
-    cols = times_pow2(np.ascontiguousarray(P.T, dtype=np.float64), -shift)
-    return top, shift, _least_square(cols, C, blocks)
+    return ids, local[C]
 
 
-def _least_square(cols: np.ndarray, C: np.ndarray, blocks: Blocks) -> float:
-    """The least squared edge of the cells ``C`` ((k, n) local ids into ``cols``)."""
-    k, dim = C.shape[0], cols.shape[0]
+def _least_square(coords: np.ndarray, C: np.ndarray, blocks: Blocks) -> float:
+    """The least squared edge of the cells ``C`` ((k, n) local ids into ``coords``:
+    (n, d) rows when ``blocks.accelerate``, else (d, n) columns)."""
+    k, dim = C.shape[0], coords.shape[0]  # (dim: the numpy path's)
 
     def span(a: int, b: int) -> float:
         if blocks.accelerate:  # the same sums, compiled (GIL-free)
             from predicates.compiled.cells import least_square_edge
 
-            return float(least_square_edge(cols, C, a, b))
+            return float(least_square_edge(coords, C, a, b))
         best = np.inf
         for lo, hi in blocks.each(a, b):
             # per axis 1D takes (no (n, k, d) gather); the squares summed axis by axis
             # from the left, as an (n, d) array's .sum(1) adds them (same values); the
             # square root of the least sum (sqrt is monotone and correctly rounded: the
             # least root)
-            X = [[cols[ax].take(C[v, lo:hi]) for ax in range(dim)] for v in range(k)]
+            X = [[coords[ax].take(C[v, lo:hi]) for ax in range(dim)] for v in range(k)]
             sq, t = np.empty(hi - lo), np.empty(hi - lo)
             for u in range(k):
                 for v in range(u + 1, k):

@@ -286,8 +286,10 @@ def _dense_pair_count(ia0, ia1, ib0, ib1, budget: int, blocks: Blocks = SERIAL):
     :func:`_cell_keys` is injective on the grid (every index < its radix, no int64
     overflow); None otherwise (or when the grid has more than ``budget`` cells), and
     the caller counts by keys."""
-    i0 = np.concatenate([ia0, ib0]).astype(np.int64)
-    i1 = np.concatenate([ia1, ib1]).astype(np.int64)
+    # cast while joining (astype's conversion, numpy's unsafe casting): one (n, d) copy
+    # each, not two (the second's page faults cost as much as the cast: ~5 ms on W4)
+    i0 = np.concatenate([ia0, ib0], dtype=np.int64, casting="unsafe")
+    i1 = np.concatenate([ia1, ib1], dtype=np.int64, casting="unsafe")
     G = colmax(i1) + 1
     top = float(G[0])
     for g in G[1:]:
