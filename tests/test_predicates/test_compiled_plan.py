@@ -564,12 +564,18 @@ def test_pair_bits_are_the_blocks_occupancy(d):
 
 def test_plan_float_kernels_have_no_fma():
     """The plan's kernels whose floating-point values must be numpy's (the exact sums'
-    Veltkamp split, the scaling, the estimate grid's floor((x − o)/g)): no fma or
-    fmuladd intrinsic and no fast-math flag in their LLVM IR, no FMA instruction in
-    their machine code (docs/design.md, "Compiled candidate chain")."""
+    Veltkamp split, the scaling, the estimate grid's floor((x − o)/g), the shortest
+    edge): no fma or fmuladd intrinsic and no fast-math flag in their LLVM IR, no FMA
+    instruction in their machine code (docs/design.md, "Compiled candidate chain").
+    Each is compiled here again from its Python source with the declared options but
+    without the disk cache: numba does not inspect a kernel loaded from its cache (it
+    warns and returns no code), which would make the check pass on anything."""
     import re
 
+    from numba import njit
+
     from predicates.compiled import cellsums as K
+    from predicates.compiled.build import JIT_OPTIONS
     from predicates.compiled.cells import least_square_edge
     from predicates.registration.spatial import exactsum as xs
 
@@ -577,20 +583,26 @@ def test_plan_float_kernels_have_no_fma():
     fma_ir = re.compile(r"@llvm\.(fma|fmuladd)|\bf(add|sub|mul|div|neg|cmp)\s+(fast|"
                         r"contract|reassoc|afn|arcp|nnan|ninf|nsz)\b")
     P, C = np.random.default_rng(0).random((8, 3)), np.array([[0, 1, 2, 3], [4, 5, 6, 7]])
-    K.summary_block(P, C, np.full(3, np.inf), np.full(3, -np.inf),
-                    np.zeros(2048, np.int64), np.empty((3, 3)), xs._BIG, xs._TINY,
-                    xs._SPREAD, xs._SPLIT)
-    K.narrow_sums(P[:, 0].copy(), xs._BIG, xs._TINY, xs._SPREAD, xs._SPLIT)
-    K.scale_exact(P, np.empty_like(P), 0.5, 2.0, 1e300)
-    K.pad_extents(P, P + 1, 0.1, np.empty(8), np.full(3, np.inf), np.full(3, -np.inf))
-    K.pad_index(P, P + 1, 0.1, np.zeros(3), 0.25, np.empty((8, 3)), np.empty((8, 3)))
-    least_square_edge(P, C.T.copy(), 0, 2)
-    for f in (K.summary_block, K.narrow_sums, K.scale_exact, K.pad_extents, K.pad_index,
-              least_square_edge):
-        assert f.targetoptions.get("fastmath") in (False, None)
+    calls = [
+        (K.summary_block, (P, C, np.full(3, np.inf), np.full(3, -np.inf),
+                           np.zeros(2048, np.int64), np.empty((3, 3)), xs._BIG, xs._TINY,
+                           xs._SPREAD, xs._SPLIT)),
+        (K.narrow_sums, (P[:, 0].copy(), xs._BIG, xs._TINY, xs._SPREAD, xs._SPLIT)),
+        (K.scale_exact, (P, np.empty_like(P), 0.5, 2.0, 1e300)),
+        (K.pad_extents, (P, P + 1, 0.1, np.empty(8), np.full(3, np.inf),
+                         np.full(3, -np.inf))),
+        (K.pad_index, (P, P + 1, 0.1, np.zeros(3), 0.25, np.empty((8, 3)),
+                       np.empty((8, 3)))),
+        (least_square_edge, (P, C.T.copy(), 0, 2)),
+    ]
+    for kernel, args in calls:
+        assert kernel.targetoptions.get("fastmath") in (False, None)
+        f = njit(**dict(JIT_OPTIONS, cache=False))(kernel.py_func)
+        f(*args)
         for sig in f.signatures:
             ir, asm = f.inspect_llvm(sig), f.inspect_asm(sig)
-            assert not fma_ir.search(ir) and not fma_asm.search(asm), f.__name__
+            assert "define " in ir and ".globl" in asm, kernel.__name__  # not a stub
+            assert not fma_ir.search(ir) and not fma_asm.search(asm), kernel.__name__
 
 
 def test_occupied_table_is_the_cumulative_sums():
