@@ -565,7 +565,7 @@ def test_pair_bits_are_the_blocks_occupancy(d):
 def test_plan_float_kernels_have_no_fma():
     """The plan's kernels whose floating-point values must be numpy's (the exact sums'
     Veltkamp split, the scaling, the estimate grid's floor((x − o)/g), the shortest
-    edge): no fma or fmuladd intrinsic and no fast-math flag in their LLVM IR, no FMA
+    edge, the cells' boxes, grid indices and first-round flags): no fma or fmuladd intrinsic and no fast-math flag in their LLVM IR, no FMA
     instruction in their machine code (docs/design.md, "Compiled candidate chain").
     Each is compiled here again from its Python source with the declared options but
     without the disk cache: numba does not inspect a kernel loaded from its cache (it
@@ -576,8 +576,10 @@ def test_plan_float_kernels_have_no_fma():
 
     from predicates.compiled import cellsums as K
     from predicates.compiled.build import JIT_OPTIONS
+    from predicates.compiled import cells
     from predicates.compiled.cells import least_square_edge
     from predicates.registration.spatial import exactsum as xs
+    from predicates.registration.spatial.gridsums import _stride
 
     fma_asm = re.compile(r"\bv?f(n)?m(add|sub)\d|\bvfmaddsub|\bvfmsubadd", re.I)
     fma_ir = re.compile(r"@llvm\.(fma|fmuladd)|\bf(add|sub|mul|div|neg|cmp)\s+(fast|"
@@ -594,6 +596,21 @@ def test_plan_float_kernels_have_no_fma():
         (K.pad_index, (P, P + 1, 0.1, np.zeros(3), 0.25, np.empty((8, 3)),
                        np.empty((8, 3)))),
         (least_square_edge, (P, C.T.copy(), 0, 2)),
+    ]
+    # the boxes, grid indices and the first round's flags (cells.py): their floats
+    # decide which cells can meet, as numpy's floor((x − o)/h) and min/max do
+    G = np.array([4, 4, 4], np.int64)
+    stride, S, o = _stride(G), np.zeros(125, np.int32), np.zeros(3)
+    index, m = np.empty((8, 3), np.int32), len(C)
+    ranges = (np.zeros((m, 3), np.int32), np.zeros((m, 3), np.int32), np.zeros(m, bool))
+    calls += [
+        (cells.fill_boxes, (P, C, np.empty((3, m)), np.empty((3, m)))),
+        (cells.cell_index, (P, o, 0.25, G, np.empty((8, 3), np.int32))),
+        (cells.point_index, (P, o, 0.25, G, index)),
+        (cells.flag_block, (P, C, o, 0.25, G, stride, S, True, *ranges)),
+        (cells.flag_block_indexed, (P, index, C, stride, S, True, *ranges, np.empty((m, 3)),
+                                    np.empty((m, 3)), np.zeros(0, np.uint8),
+                                    np.empty_like(C))),
     ]
     for kernel, args in calls:
         assert kernel.targetoptions.get("fastmath") in (False, None)
