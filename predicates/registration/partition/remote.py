@@ -122,6 +122,13 @@ def _on_piece(f, own, dtype, *args):
     return f(local, pts, *args)  # _near_scan: row ids only; _row_boxes: boxes
 
 
+def _own_pieces(cells):
+    """The pieces read by the workers behind the dask array ``cells`` (:mod:`.pieces`)
+    when each chunk is one, else None (not one per chunk: the points are sent)."""
+    pieces = getattr(cells, "fperr_pieces", None)
+    return pieces if pieces is not None and len(pieces) == len(cells.chunks[0]) else None
+
+
 def _cpu_timed(f, *args):
     """``(f(*args), the thread CPU seconds it took)`` (on a worker)."""
     import time
@@ -142,7 +149,7 @@ class RemoteCells(CellBoxes):
         self.dask, self.scheduler = dask, scheduler
         self.client = None if isinstance(scheduler, str) else scheduler
         # pieces read by the workers: each chunk's own points and cells (pieces.py)
-        self.pieces = getattr(cells, "fperr_pieces", None)
+        self.pieces = _own_pieces(cells)
         cells = cells.rechunk({1: -1})
         if self.client is not None:
             cells = self.client.persist(cells)  # computed once, kept on the workers
@@ -152,8 +159,6 @@ class RemoteCells(CellBoxes):
         self.points, self.blocks = points, blocks
         self.n, self.d = int(cells.shape[0]), points.shape[1]
         self.cols = None  # boxes here come from boxes_of on the kept or fetched rows
-        if self.pieces is not None and len(self.pieces) != len(cells.chunks[0]):
-            self.pieces = None  # (not one per chunk: the points are sent instead)
         # the points on the workers too (points.py): every box is computed there
         self.far = isinstance(points, RemotePoints) and self.pieces is not None
         # every point to every worker, unless each chunk is a piece with its own
@@ -344,8 +349,7 @@ def validate_remote(points, cells, dim: int, dtype, scheduler, blocks: Blocks = 
     """The simulation mesh validated with its cells on the workers: (MeshInput whose
     ``cells`` is the dask array, its :class:`RemoteCells`); the same checks, order and
     messages as :func:`~predicates.registration.plan.inputs.validate_mesh`."""
-    far = isinstance(points, RemotePoints) and getattr(cells, "fperr_pieces", None) \
-        is not None and len(cells.fperr_pieces) == len(cells.chunks[0])
+    far = isinstance(points, RemotePoints) and _own_pieces(cells) is not None
     # points on the workers without their pieces' cells: gathered here, as given
     arr = points if far else _array(points, "simulation")
     name, k = "simulation cells", dim + 1
