@@ -1,7 +1,7 @@
 """Pictures of the conforming tetrahedralization of the split (docs/split.md, "The
 conforming tetrahedralization"), with matplotlib (Agg backend): the boundary triangles of
 every piece (faces of its simplices no other simplex of the piece shares), Lambert-shaded
-(pixels, not results: docs/design.md), the cut faces in a lighter tone of their piece,
+(elementwise, in a fixed order), the cut faces in a lighter tone of their piece,
 the pieces moved apart — pieces whose centroids nearly coincide (a ball in its cavity)
 side by side along x. ``clip`` keeps the simplices of some pieces on one side of an
 axis-aligned plane only, to look into a cavity. 2D: the triangles filled by piece. 3D is

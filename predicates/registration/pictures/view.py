@@ -45,10 +45,11 @@ class View:
 
 def _unit_circle(degrees: float) -> tuple[Fraction, Fraction]:
     """(cos, sin) of a rational angle near ``degrees``: exact fractions on the unit circle
-    from t = tan(angle/2), itself a fraction from the correctly rounded cosine and sine
-    (:func:`predicates.portable.cos_sin`), so the same on every machine."""
-    (c,), (s,) = portable.cos_sin(np.array([float(degrees)]) * (np.pi / 180))
-    t = (Fraction(s) / (1 + Fraction(c))).limit_denominator(HALF_TANGENT_DENOMINATOR)
+    from t = tan(angle/2), itself a fraction from the correctly rounded cosine and sine of
+    angle/2 (:func:`predicates.portable.cos_sin`), so the same on every machine."""
+    (c,), (s,) = portable.cos_sin(np.array([float(degrees)]) * (np.pi / 360))
+    # cos(angle/2) is never 0 in floats (π/2 is not a float): t is finite
+    t = (Fraction(s) / Fraction(c)).limit_denominator(HALF_TANGENT_DENOMINATOR)
     return (1 - t * t) / (1 + t * t), 2 * t / (1 + t * t)
 
 

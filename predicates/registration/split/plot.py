@@ -113,7 +113,7 @@ def draw_pieces(ax, sm, explode: float = 0.3, clip=None, light=(-0.4, -0.8, 0.6)
         draw_faces(ax, v, np.concatenate(faces), np.concatenate(rgba),
                    edgecolors=(0, 0, 0, 0.25), linewidths=0.2, zorder=1)
     if polys:  # the cut surface, over the pieces (the fragments' faces see-through)
-        shade = 0.35 + 0.65 * lambert(polys, light)  # pixels, not results
+        shade = 0.35 + 0.65 * lambert(polys, light)
         rgba = np.column_stack([np.outer(shade, (0.8, 0.15, 0.1)), np.full(len(polys), 0.95)])
         draw_faces(ax, v, polys, rgba, edgecolors=(0.3, 0, 0, 0.3), linewidths=0.15,
                    zorder=2)
