@@ -69,8 +69,8 @@ def draw_pieces(ax, sm, explode: float = 0.3, clip=None, light=(-0.4, -0.8, 0.6)
     """Draw ``sm`` (a :class:`~predicates.registration.split.mesh.SplitMesh`) into a plain
     2D matplotlib axis; 3D meshes in ``view`` (a
     :class:`~predicates.registration.pictures.view.View`, default mplot3d's default
-    angles: projected by exact rotations, pictures/view.py). ``clip``: (axis, value, sign): keep cells with
-    sign·(centroid[axis] − value) ≥ 0. ``surface``: the cut surface
+    angles: projected by exact rotations, pictures/view.py). ``clip``: (axis, value,
+    sign): keep cells with sign·(centroid[axis] − value) ≥ 0. ``surface``: the cut surface
     (:class:`~predicates.registration.split.surface.CutSurface`), drawn over the
     pieces (dark red; moved with the highest-numbered piece of its cell's fragments)."""
     from matplotlib.collections import PolyCollection
