@@ -1,10 +1,12 @@
 """Pictures of the conforming tetrahedralization of the split (docs/split.md, "The
 conforming tetrahedralization"), with matplotlib (Agg backend): the boundary triangles of
 every piece (faces of its simplices no other simplex of the piece shares), Lambert-shaded
-(pixels, not results: docs/design.md), the cut faces in a lighter tone of their piece,
+(elementwise, in a fixed order), the cut faces in a lighter tone of their piece,
 the pieces moved apart — pieces whose centroids nearly coincide (a ball in its cavity)
 side by side along x. ``clip`` keeps the simplices of some pieces on one side of an
-axis-aligned plane only, to look into a cavity. 2D: the triangles filled by piece."""
+axis-aligned plane only, to look into a cavity. 2D: the triangles filled by piece. 3D is
+projected by an exact rotation and drawn back to front on plain 2D axes
+(:mod:`~predicates.registration.pictures.view`): the same pixels on every machine."""
 from __future__ import annotations
 
 import numpy as np
@@ -37,8 +39,10 @@ def _piece_boundary(cells: np.ndarray):
     return faces[cnt[inv.ravel()] == 1]
 
 
-def draw_conforming(ax, cm, explode: float = 0.3, clip=None, light=(-0.4, -0.8, 0.6)):
-    """Draw ``cm`` into a matplotlib axis (3D axis in 3D). ``clip``: (pieces, axis,
+def draw_conforming(ax, cm, explode: float = 0.3, clip=None, light=(-0.4, -0.8, 0.6),
+                    view=None) -> None:
+    """Draw ``cm`` into a plain 2D matplotlib axis; 3D in ``view`` (default mplot3d's
+    default angles, projected by exact rotations: pictures/view.py). ``clip``: (pieces, axis,
     value): the simplices of those pieces whose centroid has coordinate ``axis`` ≥
     ``value`` only."""
     from matplotlib.colors import to_rgb
@@ -60,35 +64,30 @@ def draw_conforming(ax, cm, explode: float = 0.3, clip=None, light=(-0.4, -0.8, 
         ax.set_aspect("equal")
         ax.autoscale_view()
         return
-    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+    from predicates.registration.pictures.view import DEFAULT_VIEW, draw_faces, fit, lambert
 
-    L = np.asarray(light, dtype=np.float64)
-    L = L / np.sqrt((L * L).sum())
     cut = {tuple(sorted(f)) for f in cm.cut_faces.tolist()}
-    lo, hi = [], []
+    faces, colours = [], []
     for p in range(cm.n_pieces):
         sel = cm.cells[keep & (cm.piece == p)]
         if len(sel) == 0:
             continue
-        faces = _piece_boundary(sel)
-        F = cm.points[faces] + off[p]
-        n = np.cross(F[:, 1] - F[:, 0], F[:, 2] - F[:, 0])
-        n /= np.maximum(np.sqrt((n * n).sum(axis=1)), 1e-300)[:, None]
-        shade = 0.4 + 0.6 * np.abs((n * L).sum(axis=1))
+        ids = _piece_boundary(sel)
+        F = cm.points[ids] + off[p]
+        shade = 0.4 + 0.6 * lambert(F, light)
         rgb = np.clip(np.outer(shade, to_rgb(PIECE_COLOURS[p % 10])), 0, 1)
-        on_cut = np.array([tuple(sorted(f)) in cut for f in faces.tolist()])
+        on_cut = np.array([tuple(sorted(f)) in cut for f in ids.tolist()])
         rgb[on_cut] = 0.6 * rgb[on_cut] + 0.4
-        ax.add_collection3d(Poly3DCollection(F, facecolors=rgb, edgecolors=(0, 0, 0, 0.15),
-                                             linewidths=0.1))
-        lo.append(F.reshape(-1, 3).min(axis=0))
-        hi.append(F.reshape(-1, 3).max(axis=0))
-    lo, hi = np.min(lo, axis=0), np.max(hi, axis=0)
-    c, r = (lo + hi) / 2, (hi - lo).max() / 2
-    ax.set_xlim(c[0] - r, c[0] + r)
-    ax.set_ylim(c[1] - r, c[1] + r)
-    ax.set_zlim(c[2] - r, c[2] + r)
-    ax.set_box_aspect((1, 1, 1))
+        faces.append(F)
+        colours.append(np.column_stack([rgb, np.ones(len(rgb))]))
     ax.set_axis_off()
+    if not faces:
+        return
+    v = view or DEFAULT_VIEW
+    F = np.concatenate(faces)
+    draw_faces(ax, v, F, np.concatenate(colours), edgecolors=(0, 0, 0, 0.15),
+               linewidths=0.1)
+    fit(ax, v.project(F)[0])
 
 
 def plot_conforming(cm, path: str, explode: float = 0.3, clip=None,

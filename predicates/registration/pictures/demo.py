@@ -213,19 +213,17 @@ def demo_figure(path: str, n: int = 8, subdivisions: int = 3) -> list:
     sim = cube_grid(n)
     s_sphere = intersect(sim, icosphere(subdivisions)).split()
     s_plane = intersect(sim, grid_plane(n)).split()
+    from predicates.registration.pictures.view import view
     from predicates.registration.split.plot import _figure, draw_pieces
 
     plt, fig, (a1, a2) = _figure(3, 2)
-    draw_pieces(a1, s_sphere, explode=0.15, clip=(1, 0.5, 1))
-    a1.view_init(elev=20, azim=-75)
+    draw_pieces(a1, s_sphere, explode=0.15, clip=(1, 0.5, 1), view=view(elev=20, azim=-75))
     a1.set_title(f"cube cut by a sphere: {s_sphere.n_pieces} pieces, side by side\n"
                  "(cells with centroid y ≥ ½ shown, to look inside; lighter: fragments)")
-    draw_pieces(a2, s_plane, explode=0.6)
-    a2.view_init(elev=15, azim=-60)
+    draw_pieces(a2, s_plane, explode=0.6, view=view(elev=15, azim=-60))
     a2.set_title(f"cut by the plane z = ½ through grid vertices: {s_plane.n_pieces} pieces"
                  f"\n({int(s_plane.on_cut.sum())} vertices on the cut; exploded)")
     fig.tight_layout()
-    fig.subplots_adjust(top=0.9)  # 3D axes ignore their two-line titles in tight_layout
     fig.savefig(path, dpi=130)
     plt.close(fig)
     return [s_sphere, s_plane]

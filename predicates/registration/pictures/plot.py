@@ -1,6 +1,7 @@
 """Pictures of a registration (section 1 of the paper) with matplotlib (Agg backend):
 a 2D result, a 2D degenerate case robust beside naive with the naive run's
-inconsistencies marked, and the cut cells of a 3D result.
+inconsistencies marked, and the cut cells of a 3D result (projected by an exact rotation
+on plain 2D axes: :mod:`~predicates.registration.pictures.view`).
 
 Kinds get a colour AND a marker shape/size (larger markers drawn first), so that
 coincident points of different kinds stay visible.
@@ -107,16 +108,23 @@ def plot_robust_naive(robust, naive, inside, path: str | os.PathLike, title: str
     plt.close(fig)
 
 
-def plot_3d_cells(res, path: str | os.PathLike, title: str = "", max_cells: int = 2500) -> None:
+def plot_3d_cells(res, path: str | os.PathLike, title: str = "", max_cells: int = 2500,
+                  view=None) -> None:
     """A 3D result: the cut tetrahedra (:meth:`intersected_cells`, coloured by height)
-    with the cutting surface, matplotlib 3D: the cut cells with x below a threshold (at
-    most half of them and at most ``max_cells``, so that the inside shows and the
-    picture draws quickly), their outer faces only."""
-    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+    with the cutting surface: the cut cells with x below a threshold (at most half of
+    them and at most ``max_cells``, so that the inside shows and the picture draws
+    quickly), their outer faces only, and the cutting triangles beyond the threshold.
+    ``view``: a :class:`~predicates.registration.pictures.view.View` (default mplot3d's
+    default angles), projected by an exact rotation on plain 2D axes, faces back to front
+    (pictures/view.py: the same pixels on every machine)."""
+    from matplotlib.colors import to_rgb
+
+    from predicates.registration.pictures.view import DEFAULT_VIEW, draw_faces, draw_frame, lambert
 
     if res.dim != 3:
         raise ValueError("plot_3d_cells draws 3D results")
     plt = _plt()
+    v = view or DEFAULT_VIEW
     P = res.sim_points.astype(np.float64)
     ids = res.intersected_cells()
     cells = res.sim_cells[ids]
@@ -129,21 +137,24 @@ def plot_3d_cells(res, path: str | os.PathLike, title: str = "", max_cells: int 
     _, inv, cnt = np.unique(np.sort(tri, axis=1), axis=0, return_inverse=True,
                             return_counts=True)
     faces = P[tri[cnt[inv.ravel()] == 1]]  # the outer faces of the shown cells
-    fig = plt.figure(figsize=(8, 7.5))
-    ax = fig.add_subplot(projection="3d")
+    colours = np.zeros((0, 4))
     if len(faces):
         z = faces[:, :, 2].mean(axis=1)
         colours = plt.get_cmap("viridis")((z - z.min()) / max(np.ptp(z), 1e-300))
-        ax.add_collection3d(Poly3DCollection(faces, facecolors=colours, edgecolors="k",
-                                             linewidths=0.15, alpha=0.85))
+        colours[:, 3] = 0.85
     C = res.cut_points.astype(np.float64)
-    tri = res.cut_cells[C[res.cut_cells].mean(axis=1)[:, 0] > cut_x]
-    if len(tri):
-        ax.plot_trisurf(C[:, 0], C[:, 1], C[:, 2], triangles=tri, color="tab:red",
-                        alpha=0.35, linewidth=0)
-    lo, hi = P.min(axis=0), P.max(axis=0)
-    ax.set(xlim=(lo[0], hi[0]), ylim=(lo[1], hi[1]), zlim=(lo[2], hi[2]),
-           xlabel="x", ylabel="y", zlabel="z")
+    beyond = C[res.cut_cells[C[res.cut_cells].mean(axis=1)[:, 0] > cut_x]]
+    red = np.zeros((0, 4))
+    if len(beyond):  # shaded, as mplot3d shaded its surface
+        red = np.outer(0.55 + 0.45 * lambert(beyond), to_rgb("tab:red"))
+        red = np.column_stack([np.clip(red, 0, 1), np.full(len(beyond), 0.35)])
+    fig, ax = plt.subplots(figsize=(8, 7.5))
+    # cells and cutting surface in one painter's order: each hides what lies behind it
+    draw_faces(ax, v, np.concatenate([faces.reshape(-1, 3, 3), beyond]),
+               np.concatenate([colours, red]),
+               edgecolors=[(0, 0, 0, 1)] * len(faces) + [(0, 0, 0, 0)] * len(beyond),
+               linewidths=0.15)
+    draw_frame(ax, v, P.min(axis=0), P.max(axis=0))
     ax.set_title(title or f"{len(ids)} cut tetrahedra ({len(keep)} shown) and the "
                           "cutting surface (red)", fontsize=10)
     fig.tight_layout()

@@ -4,10 +4,13 @@
 3D: the boundary faces of every piece (faces of its new cells that no other cell of the
 piece shares, by node ids), Lambert-shaded, coloured by piece, moved apart; ``clip``
 keeps only the cells whose original centroid lies on one side of an axis-aligned plane,
-to look inside (a cube cut by a sphere). Cells cut into fragments are drawn lighter. Every new cell is drawn whole, virtual corners
-included, as the virtual node algorithm simulates it; the cut surface embedded in them
+to look inside (a cube cut by a sphere). Cells cut into fragments are drawn lighter.
+Every new cell is drawn whole, virtual corners included, as the virtual node algorithm
+simulates it; the cut surface embedded in them
 (:mod:`~predicates.registration.split.surface`: its polygons, 2D segments) is drawn
-over the pieces in dark red.
+over the pieces in dark red. 3D is projected by an exact rotation and drawn back to
+front on plain 2D axes (:mod:`~predicates.registration.pictures.view`): the same pixels
+on every machine.
 """
 from __future__ import annotations
 
@@ -62,10 +65,12 @@ def _surface_polygons(sm, surface, explode, clip):
 
 
 def draw_pieces(ax, sm, explode: float = 0.3, clip=None, light=(-0.4, -0.8, 0.6),
-                surface=None):
-    """Draw ``sm`` (a :class:`~predicates.registration.split.mesh.SplitMesh`) into a matplotlib axis (a 3D
-    axis for 3D meshes). ``clip``: (axis, value, sign): keep cells with
-    sign·(centroid[axis] − value) ≥ 0. ``surface``: the cut surface
+                surface=None, view=None) -> None:
+    """Draw ``sm`` (a :class:`~predicates.registration.split.mesh.SplitMesh`) into a plain
+    2D matplotlib axis; 3D meshes in ``view`` (a
+    :class:`~predicates.registration.pictures.view.View`, default mplot3d's default
+    angles: projected by exact rotations, pictures/view.py). ``clip``: (axis, value,
+    sign): keep cells with sign·(centroid[axis] − value) ≥ 0. ``surface``: the cut surface
     (:class:`~predicates.registration.split.surface.CutSurface`), drawn over the
     pieces (dark red; moved with the highest-numbered piece of its cell's fragments)."""
     from matplotlib.collections import PolyCollection
@@ -89,42 +94,30 @@ def draw_pieces(ax, sm, explode: float = 0.3, clip=None, light=(-0.4, -0.8, 0.6)
         ax.set_aspect("equal")
         ax.autoscale_view()
         return
-    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+    from predicates.registration.pictures.view import DEFAULT_VIEW, draw_faces, draw_frame, lambert
 
-    L = np.asarray(light, dtype=np.float64)
-    L /= np.linalg.norm(L)  # shading: pixels, not results (docs/design.md)
+    v = view or DEFAULT_VIEW
+    faces, rgba = [], []
     for p in range(sm.n_pieces):
         sel = sm.cells[keep & (sm.piece == p)]
         if len(sel) == 0:
             continue
-        faces, frag = _boundary_faces(sel, cut[keep & (sm.piece == p)])
-        F = X[faces]
-        n = np.cross(F[:, 1] - F[:, 0], F[:, 2] - F[:, 0])
-        n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
-        shade = 0.45 + 0.55 * np.abs(n @ L)  # two-sided: face orientation is arbitrary
+        ids, frag = _boundary_faces(sel, cut[keep & (sm.piece == p)])
+        F = X[ids]
+        shade = 0.45 + 0.55 * lambert(F, light)
         rgb = np.clip(np.outer(shade, to_rgb(PIECE_COLOURS[p % len(PIECE_COLOURS)])), 0, 1)
         rgb[frag] = 0.45 * rgb[frag] + 0.55  # faces of fragments (cut cells): lighter
-        rgba = np.column_stack([rgb, np.where(frag & bool(polys), 0.2, 1.0)])
-        ax.add_collection3d(Poly3DCollection(F, facecolors=rgba, edgecolors=(0, 0, 0, 0.25),
-                                             linewidths=0.2, zorder=1))
+        faces.append(F)
+        rgba.append(np.column_stack([rgb, np.where(frag & bool(polys), 0.2, 1.0)]))
+    if faces:  # one collection: every piece's faces back to front together
+        draw_faces(ax, v, np.concatenate(faces), np.concatenate(rgba),
+                   edgecolors=(0, 0, 0, 0.25), linewidths=0.2, zorder=1)
     if polys:  # the cut surface, over the pieces (the fragments' faces see-through)
-        ax.computed_zorder = False
-        n = np.array([np.cross(p[1] - p[0], p[-1] - p[0]) for p in polys])
-        n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
-        shade = 0.35 + 0.65 * np.abs(n @ L)  # pixels, not results
-        rgba = np.column_stack([np.outer(shade, (0.8, 0.15, 0.1)), np.full(len(n), 0.95)])
-        ax.add_collection3d(Poly3DCollection(polys, facecolors=rgba,
-                                             edgecolors=(0.3, 0, 0, 0.3), linewidths=0.15,
-                                             zorder=2))
-    lo, hi = X.min(axis=0), X.max(axis=0)
-    c, r = (lo + hi) / 2, (hi - lo).max() / 2
-    ax.set_xlim(c[0] - r, c[0] + r)
-    ax.set_ylim(c[1] - r, c[1] + r)
-    ax.set_zlim(c[2] - r, c[2] + r)
-    ax.set_box_aspect((1, 1, 1))
-    ax.set_xlabel("x")
-    ax.set_ylabel("y")
-    ax.set_zlabel("z")
+        shade = 0.35 + 0.65 * lambert(polys, light)
+        rgba = np.column_stack([np.outer(shade, (0.8, 0.15, 0.1)), np.full(len(polys), 0.95)])
+        draw_faces(ax, v, polys, rgba, edgecolors=(0.3, 0, 0, 0.3), linewidths=0.15,
+                   zorder=2)
+    draw_frame(ax, v, X.min(axis=0), X.max(axis=0))
 
 
 def _figure(dim, panels=1):
@@ -133,8 +126,9 @@ def _figure(dim, panels=1):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    kw = {"subplot_kw": {"projection": "3d"}} if dim == 3 else {}
-    fig, axes = plt.subplots(1, panels, figsize=(6.5 * panels, 6.5), **kw)
+    # 3D too: plain axes, projected by pictures/view.py (mplot3d's projection differs
+    # in its last bits between BLAS kernels and CPUs)
+    fig, axes = plt.subplots(1, panels, figsize=(6.5 * panels, 6.5))
     return plt, fig, np.atleast_1d(axes)
 
 
