@@ -8,9 +8,10 @@ to look inside (a cube cut by a sphere). Cells cut into fragments are drawn ligh
 Every new cell is drawn whole, virtual corners included, as the virtual node algorithm
 simulates it; the cut surface embedded in them
 (:mod:`~predicates.registration.split.surface`: its polygons, 2D segments) is drawn
-over the pieces in dark red. 3D is projected by an exact rotation and drawn back to
-front on plain 2D axes (:mod:`~predicates.registration.pictures.view`): the same pixels
-on every machine.
+over the pieces in dark red, each polygon moved with the piece behind it
+(:func:`surface_pieces`, docs/split.md "Pictures"). 3D is projected by an exact rotation
+and drawn back to front on plain 2D axes (:mod:`~predicates.registration.pictures.view`):
+the same pixels on every machine.
 """
 from __future__ import annotations
 
