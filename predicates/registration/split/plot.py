@@ -8,15 +8,16 @@ to look inside (a cube cut by a sphere). Cells cut into fragments are drawn ligh
 Every new cell is drawn whole, virtual corners included, as the virtual node algorithm
 simulates it; the cut surface embedded in them
 (:mod:`~predicates.registration.split.surface`: its polygons, 2D segments) is drawn
-over the pieces in dark red. 3D is projected by an exact rotation and drawn back to
-front on plain 2D axes (:mod:`~predicates.registration.pictures.view`): the same pixels
-on every machine.
+over the pieces in dark red, each polygon moved with the piece behind it
+(:func:`surface_pieces`, docs/split.md "Pictures"). 3D is projected by an exact rotation
+and drawn back to front on plain 2D axes (:mod:`~predicates.registration.pictures.view`):
+the same pixels on every machine.
 """
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["draw_pieces", "plot_split"]
+__all__ = ["draw_pieces", "plot_split", "surface_pieces"]
 
 #: face colours of the pieces (cycled)
 PIECE_COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple",
@@ -41,18 +42,104 @@ def _boundary_faces(cells: np.ndarray, frag: np.ndarray):
     return faces[once], np.tile(frag, 4)[once]
 
 
+def _behind_pieces(sm, surface) -> np.ndarray:
+    """(Q,) the piece behind each cut polygon where one of its points decides it, else
+    −1. A point decides when it is a crossing of a simulation edge (u, v) with the
+    interior of the polygon's cutting cell, the only registered point on that edge, u
+    and v off the cut: the edge's end strictly on the side the cutting cell's normal
+    points away from (2D: left of the segment, as in docs/split.md "Volumes and
+    moments"), by exact orientation on the stored coordinates
+    (``tetra_faces.positive``), reaches the polygon without crossing the cut; its piece
+    (the piece of its one material node) is behind the polygon."""
+    from predicates.registration.split.tetra_faces import positive
+
+    d, Q, src = sm.dim, len(surface), sm.source
+    out = np.full(Q, -1, dtype=np.int64)
+    if Q == 0 or src is None:
+        return out
+    on_edge = (surface.sim >= 0).sum(axis=1) == 2
+    ends = np.sort(surface.sim[:, :2], axis=1)
+    _, inv, cnt = np.unique(ends[on_edge], axis=0, return_inverse=True, return_counts=True)
+    once = np.zeros(len(ends), dtype=bool)
+    once[np.flatnonzero(on_edge)] = cnt[inv.ravel()] == 1
+    u, v = surface.sim[:, 0], surface.sim[:, 1]
+    decides = once & (surface.cut >= 0).all(axis=1) & ~sm.on_cut[u] & ~sm.on_cut[v]
+    q = np.repeat(np.arange(Q), surface.sizes())
+    h = surface.index
+    q, h = q[decides[h]], h[decides[h]]
+    if len(h) == 0:
+        return out
+    Y = np.asarray(src.cut_points, dtype=np.float64)
+    X = np.concatenate([Y, np.asarray(src.sim_points, dtype=np.float64)])
+    cutting = np.asarray(src.cut_cells, dtype=np.int64)[surface.cut_cell[q]]
+    su = positive(np.column_stack([cutting, len(Y) + u[h]]), X)
+    sv = positive(np.column_stack([cutting, len(Y) + v[h]]), X)
+    if d == 2:  # behind is left of the segment: positive in 2D
+        su, sv = -su, -sv
+    vertex_piece = np.full(len(sm.on_cut), -1, dtype=np.int64)
+    slot = sm.material
+    vertex_piece[sm.node_origin[sm.cells[slot]]] = np.broadcast_to(
+        sm.piece[:, None], slot.shape)[slot]
+    end = np.where(su < 0, u[h], v[h])
+    ok = su * sv < 0
+    lo, hi = np.full(Q, sm.n_pieces), np.full(Q, -1, dtype=np.int64)
+    np.minimum.at(lo, q[ok], vertex_piece[end[ok]])
+    np.maximum.at(hi, q[ok], vertex_piece[end[ok]])
+    out[hi == lo] = hi[hi == lo]
+    return out
+
+
+def _neighbour_pairs(surface) -> tuple[np.ndarray, np.ndarray]:
+    """Pairs of cut polygons sharing an edge (2D: segments sharing a point), both ways;
+    points are shared between neighbouring cells, so this follows the surface."""
+    Q, idx = len(surface), surface.index
+    q = np.repeat(np.arange(Q), surface.sizes())
+    if surface.dim == 3:
+        nxt = np.arange(1, len(idx) + 1)
+        nxt[surface.offsets[1:] - 1] = surface.offsets[:-1]  # cyclic within a polygon
+        a, b = np.minimum(idx, idx[nxt]), np.maximum(idx, idx[nxt])
+    else:
+        a = b = idx
+    o = np.lexsort((q, b, a))
+    a, b, q = a[o], b[o], q[o]
+    first = np.ones(len(q), dtype=bool)
+    first[1:] = (a[1:] != a[:-1]) | (b[1:] != b[:-1])
+    head = q[np.flatnonzero(first)[np.cumsum(first) - 1]]  # a star per shared edge
+    return np.concatenate([head, q]), np.concatenate([q, head])
+
+
+def surface_pieces(sm, surface) -> np.ndarray:
+    """(Q,) the piece each cut polygon is drawn with (docs/split.md, "Pictures"): the
+    piece behind it (:func:`_behind_pieces`: the side its cutting cell's normal points
+    away from, the inside of an outward closed surface), spread across shared edges to
+    the polygons that do not decide it (a cap of the cut bulging into a cell with no
+    corner behind it, several polygons in a cell), so a closed surface bounding one
+    piece moves with it as a whole; a part of the surface where nothing decides keeps
+    the highest-numbered piece among the fragments of the cells its cutting cell
+    passes through."""
+    piece = _behind_pieces(sm, surface)
+    src, dst = _neighbour_pairs(surface)
+    for _ in range(len(piece)):  # one ring of polygons a round
+        ok = (piece[src] >= 0) & (piece[dst] < 0)
+        if not ok.any():
+            break
+        cand = np.full(len(piece), -1, dtype=np.int64)
+        np.maximum.at(cand, dst[ok], piece[src[ok]])
+        piece = np.where(piece < 0, cand, piece)
+    rest = piece < 0
+    if rest.any():
+        top = np.zeros(int(sm.cell_origin.max(initial=-1)) + 1, dtype=np.int64)
+        np.maximum.at(top, sm.cell_origin, sm.piece)
+        by_cut = np.zeros(int(surface.cut_cell.max(initial=-1)) + 1, dtype=np.int64)
+        np.maximum.at(by_cut, surface.cut_cell, top[surface.cell])
+        piece[rest] = by_cut[surface.cut_cell[rest]]
+    return piece
+
+
 def _surface_polygons(sm, surface, explode, clip):
-    """The cut polygons (2D: segments) as coordinate lists, each moved with the
-    highest-numbered piece among the fragments of the cells its cutting cell passes
-    through (one side for the whole surface when it bounds a piece: the inner one of
-    nested pieces; a cell the cut only grazes, whose fragments are all one piece, does
-    not pull its polygon over the other piece), clipped like the cells."""
-    off = sm.explode_offsets(explode)
-    top = np.zeros(int(sm.cell_origin.max(initial=-1)) + 1, dtype=np.int64)
-    np.maximum.at(top, sm.cell_origin, sm.piece)  # the last piece among the cell's fragments
-    by_cut = np.zeros(int(surface.cut_cell.max(initial=-1)) + 1, dtype=np.int64)
-    np.maximum.at(by_cut, surface.cut_cell, top[surface.cell])
-    move = off[by_cut[surface.cut_cell]]
+    """The cut polygons (2D: segments) as coordinate lists, each moved with its piece
+    (:func:`surface_pieces`), clipped like the cells."""
+    move = sm.explode_offsets(explode)[surface_pieces(sm, surface)]
     polys = []
     for q in range(len(surface)):
         P = surface.points[surface.polygon(q)].astype(np.float64)
@@ -72,7 +159,7 @@ def draw_pieces(ax, sm, explode: float = 0.3, clip=None, light=(-0.4, -0.8, 0.6)
     angles: projected by exact rotations, pictures/view.py). ``clip``: (axis, value,
     sign): keep cells with sign·(centroid[axis] − value) ≥ 0. ``surface``: the cut surface
     (:class:`~predicates.registration.split.surface.CutSurface`), drawn over the
-    pieces (dark red; moved with the highest-numbered piece of its cell's fragments)."""
+    pieces (dark red; each polygon moved with the piece behind it, :func:`surface_pieces`)."""
     from matplotlib.collections import PolyCollection
     from matplotlib.colors import to_rgb
 
