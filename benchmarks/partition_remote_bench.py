@@ -276,7 +276,7 @@ def record_partitions(out: dict, res) -> None:
     """Per partition: cells, bytes, peaks, times; the critical path's CPU seconds."""
     out["parts"] = [{key: p.get(key) for key in (
         "sim_cells", "cut_cells", "bytes_in", "bytes_out", "peak_rss_mib", "pid",
-        "seconds", "cpu_s", "file_bytes", "cpu_file_s")} for p in res.timings["partitions"]]
+        "seconds", "cpu_s", "cpu_slice_s", "cpu_owned_s", "file_bytes", "cpu_file_s")} for p in res.timings["partitions"]]
     # CPU seconds on the critical path (load-independent; docs/partitioned.md 5b): the
     # client's, the plan's per-chunk passes (largest chunk each), the busiest task
     remote = res.timings.get("plan_remote") or {}

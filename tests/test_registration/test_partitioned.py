@@ -503,6 +503,68 @@ def test_merge_restores_the_serial_order_and_refuses_a_shared_vertex():
         merge([kind], parts, np.float64)
 
 
+@settings(max_examples=80, deadline=None)
+@given(seed=st.integers(0, 10**6), k=st.integers(1, 9), pairs=st.integers(0, 120),
+       blocks=st.integers(1, 40), runs=st.sampled_from([0, 2, 4096]),
+       wide=st.booleans())
+def test_merge_by_runs_is_the_stable_sort(seed, k, pairs, blocks, runs, wide):
+    """The merge (runs copied as slices, or the sort-and-gather fallback when there are
+    more runs than ``MERGE_RUNS`` allows) gives the arrays of the definition: every
+    partition's pairs concatenated, then a stable sort by the smallest sim id — the
+    same bytes, int64 ids from int32 or int64 parts, the weights' dtype kept; a vertex
+    whose pairs two partitions kept is refused (random owners, some in blocks of
+    consecutive vertices: few runs)."""
+    from predicates.registration.partition import assign as assign_mod
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(assign_mod, "MERGE_RUNS", runs)
+        _merge_case(assign_mod.merge, np.random.default_rng(seed), k, pairs, blocks, wide)
+
+
+def _merge_case(merge, rng, k, pairs, blocks, wide):
+    from predicates.catalogue import kinds
+    from predicates.registration.result.intersection import KindPairs
+
+    kind = kinds(3)[4]  # (i + 1, j + 1) ids per pair, i != j: the widths differ
+    n_vertices = 200
+    owner = np.repeat(rng.integers(0, k, size=blocks), -(-n_vertices // blocks))[
+        :n_vertices] if rng.random() < 0.5 else rng.integers(0, k, size=n_vertices)
+    sim = np.sort(rng.integers(0, n_vertices, size=(pairs, kind.i + 1)), axis=1)
+    cut = rng.integers(0, 500, size=(pairs, kind.j + 1))
+    order = np.lexsort((*cut.T[::-1], *sim.T[::-1]))  # the serial order: sim, then cut
+    sim, cut = sim[order], cut[order]
+    ids = np.int32 if wide else np.int64
+    sw = rng.random((pairs, kind.i + 1)).astype(np.float32)
+    cw = rng.random((pairs, kind.j + 1)).astype(np.float32)
+    first = sim.min(axis=1)
+
+    def part(keep):
+        return KindPairs(kind.name, sim[keep].astype(ids), cut[keep].astype(ids),
+                         sw[keep], cw[keep], candidates=1, suppressed=2)
+
+    turn = rng.permutation(k)  # the partitions' results in any order
+    results = [{kind.name: part(owner[first] == r)} for r in turn]
+    parts = [res[kind.name] for res in results]
+    cat = [np.concatenate([getattr(p, a) for p in parts]) for a in
+           ("sim", "cut", "sim_weights", "cut_weights")]
+    ref = np.argsort(cat[0].min(axis=1), kind="stable")
+    got = merge([kind], results, np.float32)[kind.name]
+    for a, b in zip((got.sim, got.cut, got.sim_weights, got.cut_weights), cat):
+        assert a.dtype == (np.int64 if b.dtype.kind == "i" else np.float32)
+        assert a.shape == b.shape and a.tobytes() == b[ref].astype(a.dtype).tobytes()
+    assert (got.candidates, got.suppressed) == (k, 2 * k)
+    # every row of the serial order is kept by exactly one partition: it is that order
+    assert np.array_equal(got.sim, sim) and np.array_equal(got.cut, cut)
+    if pairs and k > 1:  # some vertex's pair kept by a second partition too
+        row = int(rng.integers(0, pairs))
+        other = (int(owner[first[row]]) + 1) % k
+        keep = owner[first] == other
+        keep[row] = True  # still in the serial order (a subsequence)
+        results[int(np.flatnonzero(turn == other)[0])] = {kind.name: part(keep)}
+        with pytest.raises(RuntimeError, match="ownership bug"):
+            merge([kind], results, np.float32)
+
+
 @settings(max_examples=60, deadline=None)
 @given(seed=st.integers(0, 10**6), dim=st.sampled_from([2, 3]))
 def test_plan_counts_match_their_reference_forms(seed, dim):
@@ -817,25 +879,31 @@ def test_cutting_slices_cut_in_the_tasks_are_the_clients(seed, k, pad, dim):
     """On a Client the tasks cut their own cutting slices from the cutting mesh sent
     once (CutSide, pickled as it travels to a worker): every Part equals, array by
     array, the one the client cuts; the parts the client leaves whole (no cutting
-    cell's wide box meets the halo's bounding box) are exactly empty slices."""
+    cell's wide box meets the halo's bounding box) are exactly empty slices — also
+    when the task cuts it with the compiled passes (a compiled run's task)."""
     import pickle
 
+    from predicates import compiled
     from predicates.registration.partition.assign import CutSide, cut_slice
+    from predicates.registration.spatial.blocks import SERIAL, Blocks
 
     sp, sc, cp, cc = CASES["sphere" if dim == 3 else "circle"](seed)
-    side = pickle.loads(pickle.dumps(CutSide(cp, cc, pad)))
     want = list(split(sp, sc, cp, cc, k, pad=pad))
     got = list(split(sp, sc, cp, cc, k, pad=pad, cut_in_task=True))
     assert [p.index for p in got] == [p.index for p in want]
-    for p, q in zip(got, want):
-        if not p.cut_pending:
-            assert len(q.cut_cells) == 0 and len(p.cut_cells) == 0
-        p = cut_slice(p, side)
-        assert not p.cut_pending
-        for name in ("P_sim", "sim_cells", "sim_ids", "own_vertex", "P_cut", "cut_cells",
-                     "cut_ids"):
-            a, b = getattr(p, name), getattr(q, name)
-            assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+    ways = [SERIAL] + ([Blocks(accelerate=True)] if compiled.available() else [])
+    for blocks in ways:
+        side = pickle.loads(pickle.dumps(CutSide(cp, cc, pad)))
+        for p, q in zip(got, want):
+            if not p.cut_pending:
+                assert len(q.cut_cells) == 0 and len(p.cut_cells) == 0
+            p = cut_slice(p, side, blocks)
+            assert not p.cut_pending
+            for name in ("P_sim", "sim_cells", "sim_ids", "own_vertex", "P_cut",
+                         "cut_cells", "cut_ids"):
+                a, b = getattr(p, name), getattr(q, name)
+                assert a.dtype == b.dtype and a.shape == b.shape and \
+                    a.tobytes() == b.tobytes()
 
 
 def test_parts_far_from_the_cut_run_no_task_on_a_client():

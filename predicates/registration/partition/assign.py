@@ -21,6 +21,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.boxgrid import colmax, colmin, rowwise
 from predicates.registration.spatial.broadphase import boxes_of
 from predicates.registration.partition.slices import cut_near, halos, owner_halos, wide
@@ -185,23 +186,26 @@ class CutSide:
     def __setstate__(self, state):
         self.__init__(state["P_cut"], state["cut_cells"], state["pad"])
 
-    def boxes(self):
-        """(lo, hi, wide lo, wide hi) of every cutting cell (:func:`.slices.wide`)."""
+    def boxes(self, blocks: Blocks = SERIAL):
+        """(lo, hi, wide lo, wide hi) of every cutting cell (:func:`.slices.wide`);
+        ``blocks``: compiled or not, the same boxes."""
         if self._boxes is None:  # exact (min, max) and elementwise: the client's values
-            clo, chi = boxes_of(self.P_cut, self.cut_cells)
+            clo, chi = boxes_of(self.P_cut, self.cut_cells, blocks)
             self._boxes = (clo, chi, *wide(clo, chi, self.pad))
         return self._boxes
 
 
-def cut_slice(part: Part, side: CutSide) -> Part:
+def cut_slice(part: Part, side: CutSide, blocks: Blocks = SERIAL) -> Part:
     """``part`` with its cutting slice (the cells :func:`.slices.cut_near` keeps for its
     halo, renumbered) taken from ``side``: the same slice the client's
     :meth:`Layout.part` cuts — the halo's boxes are exact functions of its cells'
-    coordinates, which renumbering does not change, in the same order."""
+    coordinates, which renumbering does not change, in the same order. ``blocks``: the
+    boxes' and the grid test's passes (compiled in a compiled run's task: the same
+    boxes and flags)."""
     if not part.cut_pending:
         return part
-    lo, hi = boxes_of(part.P_sim, part.sim_cells)
-    keep = cut_near(lo, hi, *side.boxes(), side.pad)
+    lo, hi = boxes_of(part.P_sim, part.sim_cells, blocks)
+    keep = cut_near(lo, hi, *side.boxes(blocks), side.pad, blocks)
     Pc, cc, cid = _local(side.P_cut, side.cut_cells, keep)
     # a new Part: the one received may be a scattered object the worker keeps
     return replace(part, P_cut=Pc, cut_cells=cc, cut_ids=cid, cut_pending=False)
@@ -267,7 +271,9 @@ class Layout:
             self.halo, self.halo_at = owner_halos(sim_cells, owner, k)
         self.lo = self.hi = None  # the run cells' boxes, once, when a part is cut here
         if cut_in_task:  # only the hull of the cutting cells' wide boxes
-            used = P_cut[cut_cells.ravel()] if len(cut_cells) else P_cut[:0]
+            used = np.zeros(len(P_cut), dtype=bool)  # each used point once, not per corner
+            used[cut_cells.ravel()] = True
+            used = P_cut[used]
             self.hull = None if len(used) == 0 else wide(colmin(used)[None],
                                                          colmax(used)[None], pad)
         else:
@@ -326,27 +332,94 @@ def merge(kinds, results: list[dict], dtype) -> dict:
     """{kind: KindPairs}: the partitions' owned pairs in the serial run's order (by
     sorted sim ids, then sorted cut ids). Each partition's pairs come in that order
     already (its run sorts by local ids, and local order is global order) and all pairs
-    with the same smallest sim id belong to one partition (its owner), so a stable sort
-    by the smallest sim id alone merges them — O(n log k) on k sorted runs, not a
-    lexsort of every column. ``candidates`` and ``suppressed`` are summed: per-run work
-    statistics (halo pairs are counted by every partition that proposed them), not part
-    of the result."""
+    with the same smallest sim id belong to one partition (its owner), so the serial
+    order is the merge of k sorted runs by the smallest sim id alone — the stable sort
+    by that key, with no tie between partitions (refused: an ownership bug). The merge
+    is found run by run (:func:`merge_runs`) and copied slice by slice into the result's
+    arrays, no reorder of every row (docs/partitioned.md 5). ``candidates`` and
+    ``suppressed`` are summed: per-run work statistics (halo pairs are counted by every
+    partition that proposed them), not part of the result."""
     out = {}
     for k in kinds:
         got = [r[k.name] for r in results if k.name in r]
-        # (the int64 empty arrays also widen the partitions' int32 ids)
-        sid = np.concatenate([g.sim for g in got] + [np.zeros((0, k.i + 1), np.int64)])
-        cid = np.concatenate([g.cut for g in got] + [np.zeros((0, k.j + 1), np.int64)])
-        sw = np.concatenate([g.sim_weights for g in got] + [np.zeros((0, k.i + 1), dtype)])
-        cw = np.concatenate([g.cut_weights for g in got] + [np.zeros((0, k.j + 1), dtype)])
-        first = rowwise(np.minimum, sid)
-        order = np.argsort(first, kind="stable")
-        part = np.repeat(np.arange(len(got)), [len(g.sim) for g in got])[order]
-        first = first[order]
-        if np.any((first[1:] == first[:-1]) & (part[1:] != part[:-1])):
-            raise RuntimeError(f"{k.name}: two partitions kept pairs of the same vertex (an "
-                               "ownership bug; please report it)")
-        out[k.name] = KindPairs(k.name, sid[order], cid[order], sw[order], cw[order],
+        keys = [rowwise(np.minimum, g.sim) if len(g.sim) else np.zeros(0, np.int64)
+                for g in got]
+        how = merge_runs(keys, MERGE_RUNS + sum(map(len, keys)) // 256, k.name)
+        if how is None:  # partitions interleaved row by row: one sort, then a gather
+            how = _merge_order(keys, k.name)
+        arrays = []  # the serial run's int64 ids (the partitions send int32 when they fit)
+        for name, base in (("sim", np.int64), ("cut", np.int64), ("sim_weights", dtype),
+                           ("cut_weights", dtype)):
+            parts = [getattr(g, name) for g in got]
+            width = (k.i if name.startswith("sim") else k.j) + 1
+            arrays.append(_merged(parts, how, width,
+                                  np.result_type(base, *(a.dtype for a in parts))))
+        out[k.name] = KindPairs(k.name, *arrays,
                                 candidates=sum(g.candidates for g in got),
                                 suppressed=sum(g.suppressed for g in got))
+    return out
+
+
+#: The merge copies slices while it finds at most this many runs (plus one per 256 pairs)
+#: of consecutive pairs of one partition; beyond (partitions interleaved pair by pair)
+#: one stable sort of every key and a gather cost less than a slice per run.
+MERGE_RUNS = 4096
+
+
+def _shared(kind: str) -> RuntimeError:
+    return RuntimeError(f"{kind}: two partitions kept pairs of the same vertex (an "
+                        "ownership bug; please report it)")
+
+
+def merge_runs(keys: list[np.ndarray], limit: int, kind: str = "pairs"):
+    """The stable merge of the ascending arrays ``keys`` (one per partition) as runs
+    ``(partition, start, stop)`` of consecutive rows of one partition, in merged order;
+    None when it needs more than ``limit`` runs. Each step takes the partition whose
+    next key is the smallest, and its rows up to the next key of any other partition (a
+    binary search). A key in two partitions raises RuntimeError: when the merge reaches
+    it, both partitions' next keys are that key (all smaller ones are taken)."""
+    heads = [0] * len(keys)
+    runs = []
+    while True:
+        live = sorted((int(key[h]), p) for p, (key, h) in enumerate(zip(keys, heads))
+                      if h < len(key))
+        if not live:
+            return runs
+        if len(runs) == limit:
+            return None
+        p = live[0][1]
+        if len(live) == 1:
+            stop = len(keys[p])
+        else:  # (equal next keys: stop is the head, and the test below refuses it)
+            stop = int(np.searchsorted(keys[p], live[1][0], side="left"))
+            if stop < len(keys[p]) and keys[p][stop] == live[1][0]:
+                raise _shared(kind)
+        runs.append((p, heads[p], stop))
+        heads[p] = stop
+
+
+def _merge_order(keys: list[np.ndarray], kind: str) -> np.ndarray:
+    """The rows of the concatenated ``keys`` in their stable sorted order (the merge's
+    fallback), after refusing a key held by two partitions."""
+    first = np.concatenate(keys + [np.zeros(0, np.int64)])
+    order = np.argsort(first, kind="stable")
+    part = np.repeat(np.arange(len(keys)), [len(key) for key in keys])[order]
+    first = first[order]
+    if np.any((first[1:] == first[:-1]) & (part[1:] != part[:-1])):
+        raise _shared(kind)
+    return order
+
+
+def _merged(parts: list[np.ndarray], how, width: int, dtype) -> np.ndarray:
+    """The rows of ``parts`` (one array per partition) in the merged order ``how``:
+    runs (partition, start, stop) copied as slices, or an order of the concatenated
+    rows (``take``: a row gather, half of fancy indexing's time)."""
+    if isinstance(how, np.ndarray):
+        rows = np.concatenate(parts + [np.zeros((0, width), dtype)])
+        return np.take(rows, how, axis=0)
+    out = np.empty((sum(len(a) for a in parts), width), dtype=dtype)
+    at = 0
+    for p, start, stop in how:
+        out[at: at + stop - start] = parts[p][start:stop]
+        at += stop - start
     return out

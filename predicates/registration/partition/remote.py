@@ -21,8 +21,8 @@ import numpy as np
 from predicates.registration.plan.cellboxes import CellBoxes, _Side
 from predicates.registration.plan.edges import edge_from, edge_shift, edge_summary
 from predicates.registration.plan.inputs import (
-    MeshInput, MeshTypeError, _array, _points, cell_error, first_bad, run_vertices,
-    scale_points)
+    MeshInput, MeshTypeError, _array, _checked_and_used, _points, cell_error, first_bad,
+    run_vertices, scale_points)
 from predicates.registration.partition.points import RemotePoints
 from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.boxes import boxes_of
@@ -44,21 +44,33 @@ def is_remote(cells, scheduler) -> bool:
     return "Client" in type(scheduler).__name__ and hasattr(scheduler, "scatter")
 
 
-def _check(chunk, points, n_points: int, mark_used: bool = True, local=None):
+def _check(chunk, points, n_points: int, mark_used: bool = True,
+           accelerate: bool = False, local=None):
     """A chunk's validation and summary: (first bad rows per check, the vertices it
     uses as packed bits (none unless ``mark_used``: points on the workers check their
     own, :mod:`.points`), its BoxSummary — None when a check failed). ``local``: the
-    chunk's rows in the numbering of ``points`` (a piece's own), else ``chunk``."""
+    chunk's rows in the numbering of ``points`` (a piece's own), else ``chunk``.
+    ``accelerate``: the serial plan's compiled passes (:func:`~predicates.registration.
+    plan.inputs._checked_and_used`'s checks and marks in one loop, the summary's
+    compiled blocks: the same rows, marks and summary)."""
+    from predicates import compiled
+
+    blocks = Blocks(accelerate=accelerate and compiled.available())
     chunk = np.asarray(chunk)
-    bad = first_bad(chunk, chunk.shape[1], n_points)
-    used = np.zeros(n_points if mark_used else 0, dtype=bool)
+    used = np.zeros(n_points if mark_used or blocks.accelerate else 0, dtype=bool)
+    if blocks.accelerate and chunk.dtype.kind == "i" and chunk.size:
+        bad = _checked_and_used(chunk, n_points, blocks, used)
+    else:
+        bad = first_bad(chunk, chunk.shape[1], n_points)
+        if mark_used and all(b is None for b in bad):
+            for col in range(chunk.shape[1]):
+                used[chunk[:, col]] = True
+    if not mark_used:
+        used = used[:0]
     if any(b is not None for b in bad):
-        return bad, np.packbits(used), None
-    if mark_used:
-        for col in range(chunk.shape[1]):
-            used[chunk[:, col]] = True
-    return bad, np.packbits(used), CellBoxes(points, chunk if local is None else
-                                              local).summary()
+        return bad, np.packbits(used[:0]), None
+    return bad, np.packbits(used), CellBoxes(points, chunk if local is None else local,
+                                             blocks).summary()
 
 
 def _flags(chunk, points, origin, h, G, table, accelerate: bool = False):
@@ -198,7 +210,7 @@ class RemoteCells(CellBoxes):
         """Validation and summary: (first bad cell per check (global rows, None where
         none), the vertices used (bool; None when the points on the workers are
         checked there, :mod:`.points`))."""
-        got = self._map(_check, n_points, not self.far)
+        got = self._map(_check, n_points, not self.far, self.blocks.accelerate)
         bad = [min((int(o) + b[t] for o, (b, _, _) in zip(self.offsets, got)
                     if b[t] is not None), default=None) for t in range(3)]
         used = None if self.far else np.zeros(n_points, dtype=bool)

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.boxgrid import colmax, colmin, enlarge, expand
 from predicates.registration.spatial.broadphase import near_flags, runs
 
@@ -84,7 +85,8 @@ def wide(clo: np.ndarray, chi: np.ndarray, pad: float):
     return enlarge(clo, chi, 2 * pad)
 
 
-def cut_near(lo, hi, clo, chi, wide_lo, wide_hi, pad: float) -> np.ndarray:
+def cut_near(lo, hi, clo, chi, wide_lo, wide_hi, pad: float,
+             blocks: Blocks = SERIAL) -> np.ndarray:
     """Indices (ascending) of the cutting cells (boxes ``clo``, ``chi``; ``wide`` of
     them: ``wide_lo``, ``wide_hi``) that share a broad-phase grid cell with one of the
     halo cells' boxes ``lo``, ``hi``, the cutting boxes enlarged by ``pad``
@@ -93,7 +95,8 @@ def cut_near(lo, hi, clo, chi, wide_lo, wide_hi, pad: float) -> np.ndarray:
     halo cell (the same float test), and a tight one — the grid is about a cell's size,
     so a partition gets the cutting cells over its own region plus a border. The
     bounding-box test first makes the grid's work proportional to the partition, not
-    to the whole cutting mesh."""
+    to the whole cutting mesh. ``blocks``: near_flags' passes (compiled in a task of a
+    compiled run: the same flags)."""
     if len(clo) == 0 or len(lo) == 0:
         return np.zeros(0, dtype=np.int64)
     blo, bhi = colmin(lo), colmax(hi)
@@ -104,5 +107,5 @@ def cut_near(lo, hi, clo, chi, wide_lo, wide_hi, pad: float) -> np.ndarray:
     cand = np.flatnonzero(meets)
     if cand.size == 0:
         return cand
-    _, near = near_flags(lo, hi, clo[cand], chi[cand], pad, sides="b")
+    _, near = near_flags(lo, hi, clo[cand], chi[cand], pad, sides="b", blocks=blocks)
     return cand[near]

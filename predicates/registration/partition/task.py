@@ -12,6 +12,7 @@ from predicates import compiled
 from predicates.registration.levels.loop import Registration
 from predicates.registration.partition.assign import CutSide, Part, cut_slice, owned
 from predicates.registration.partition.memory import peak_rss_mib, rss_mib
+from predicates.registration.spatial.blocks import Blocks
 
 __all__ = ["run_part"]
 
@@ -37,20 +38,25 @@ def run_part(part: Part, dim: int, tol, reach: dict, chunk: int,
     r0, p0 = resource.getrusage(resource.RUSAGE_THREAD), time.process_time()
     rss0 = rss_mib()
     bytes_in = part.nbytes  # as sent (the slice cut here is not)
-    if part.cut_pending:
-        part = cut_slice(part, cut_side)
+    fast = accelerate and compiled.available()
+    if part.cut_pending:  # compiled when the registration is (the same slice)
+        part = cut_slice(part, cut_side, Blocks(accelerate=fast))
+    cpu_slice = time.thread_time() - cpu
     if len(part.cut_cells):
         reg = Registration(dim, part.P_sim, part.sim_cells, part.P_cut, part.cut_cells,
-                           tol, reach, chunk, accelerate=accelerate and compiled.available())
+                           tol, reach, chunk, accelerate=fast)
         local = reg.run(False, {})
     else:  # no cutting cell within reach of the halo: it owns no pair
         local = {}
+    c = time.thread_time()
     pairs = owned(part, local)
+    cpu_owned = time.thread_time() - c
     sent_back = sum(a.nbytes for p in pairs.values()
                     for a in (p.sim, p.cut, p.sim_weights, p.cut_weights))
     stats = {"part": part.index, "owned_cells": part.owned_cells,
              "sim_cells": len(part.sim_cells), "cut_cells": len(part.cut_cells),
-             "bytes_in": bytes_in, "bytes_out": sent_back}
+             "bytes_in": bytes_in, "bytes_out": sent_back,
+             "cpu_slice_s": cpu_slice, "cpu_owned_s": cpu_owned}
     if file_path is not None:
         from predicates.registration.partition.outputs import write_part
 
