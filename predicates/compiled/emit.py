@@ -102,7 +102,9 @@ def fused_lines(prog: Program, n1: int, dt: str, opts: str) -> list[str]:
             "        f = F[q]",
             "        c = Cs[q]",
             "        e0 = start[c] if has_tab else 0",
-            "        e1 = start[c + 1] if has_tab else 1"]
+            "        e1 = start[c + 1] if has_tab else 1",
+            "        if e0 == e1:  # C owns no j-face: f's box is not needed",
+            "            continue"]
     # f's box computed once per stage-1 pair from its vertices (no stored simulation
     # face boxes), unrolled (its vertex count: the predicate's first or second
     # primitive's, as swapped says); the test written out per axis (one subtraction and
