@@ -98,7 +98,10 @@ def fused_lines(prog: Program, n1: int, dt: str, opts: str) -> list[str]:
             "    ncand = 0",
             "    nh = 0",
             "    nm = 0",
-            "    for q in range(F.shape[0]):",
+            "    held = -1  # the simulation face whose box fl, fh hold"]
+    head += ["    " + ", ".join(f"f{s}{a}" for s in "lh" for a in range(prog.dim))
+             + " = " + ", ".join(["0.0"] * (2 * prog.dim))]
+    head += ["    for q in range(F.shape[0]):",
             "        f = F[q]",
             "        c = Cs[q]",
             "        e0 = start[c] if has_tab else 0",
@@ -109,12 +112,14 @@ def fused_lines(prog: Program, n1: int, dt: str, opts: str) -> list[str]:
     # face boxes), unrolled (its vertex count: the predicate's first or second
     # primitive's, as swapped says); the test written out per axis (one subtraction and
     # comparison each, as the numpy test)
+    # (once per run of pairs sharing f: the cell pairs T ascend, tetrahedron_vertex's)
     n2 = prog.n_points - n1
+    head += ["        if f != held:", "            held = f"]
     if n1 == n2:
-        head += ["        " + b for b in _sim_box(n1, prog.dim)]
+        head += ["            " + b for b in _sim_box(n1, prog.dim)]
     else:
-        head += ["        if swapped:"] + ["            " + b for b in _sim_box(n2, prog.dim)]
-        head += ["        else:"] + ["            " + b for b in _sim_box(n1, prog.dim)]
+        head += ["            if swapped:"] + ["                " + b for b in _sim_box(n2, prog.dim)]
+        head += ["            else:"] + ["                " + b for b in _sim_box(n1, prog.dim)]
     head += ["        for e in range(e0, e1):"]
     test = " and ".join(f"lo_b[{a}, g] - fh{a} <= pad and fl{a} - hi_b[{a}, g] <= pad"
                         for a in range(prog.dim))
