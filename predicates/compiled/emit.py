@@ -16,7 +16,9 @@ The box test is written out in the module per axis (not imported: the module's h
 its file name, and with it numba's on-disk cache — covers every line it runs): the
 broad phase's exact test (:func:`predicates.registration.spatial.broadphase.pair_test`),
 F[lo_b − hi_a] ≤ pad and F[lo_a − hi_b] ≤ pad per axis, a NaN failing, with f's box
-computed from its vertices once per stage-1 pair (min and max exact: the same box).
+computed from its vertices (min and max exact: the same box) once per run of stage-1
+pairs sharing f, and only for a cell C that owns a j-face (benchmarks/README.md, "Part
+2, eighth pass").
 """
 from __future__ import annotations
 
@@ -98,21 +100,27 @@ def fused_lines(prog: Program, n1: int, dt: str, opts: str) -> list[str]:
             "    ncand = 0",
             "    nh = 0",
             "    nm = 0",
-            "    for q in range(F.shape[0]):",
+            "    held = -1  # the simulation face whose box fl, fh hold"]
+    head += ["    " + ", ".join(f"f{s}{a}" for s in "lh" for a in range(prog.dim))
+             + " = " + ", ".join(["0.0"] * (2 * prog.dim))]
+    head += ["    for q in range(F.shape[0]):",
             "        f = F[q]",
             "        c = Cs[q]",
             "        e0 = start[c] if has_tab else 0",
-            "        e1 = start[c + 1] if has_tab else 1"]
-    # f's box computed once per stage-1 pair from its vertices (no stored simulation
-    # face boxes), unrolled (its vertex count: the predicate's first or second
-    # primitive's, as swapped says); the test written out per axis (one subtraction and
-    # comparison each, as the numpy test)
+            "        e1 = start[c + 1] if has_tab else 1",
+            "        if e0 == e1:  # C owns no j-face: f's box is not needed",
+            "            continue"]
+    # f's box computed from its vertices (no stored simulation face boxes) once per run
+    # of pairs sharing f (the cell pairs T ascend: tetrahedron_vertex's), unrolled (its
+    # vertex count: the predicate's first or second primitive's, as swapped says); the
+    # test written out per axis (one subtraction and comparison each, as the numpy test)
     n2 = prog.n_points - n1
+    head += ["        if f != held:", "            held = f"]
     if n1 == n2:
-        head += ["        " + b for b in _sim_box(n1, prog.dim)]
+        head += ["            " + b for b in _sim_box(n1, prog.dim)]
     else:
-        head += ["        if swapped:"] + ["            " + b for b in _sim_box(n2, prog.dim)]
-        head += ["        else:"] + ["            " + b for b in _sim_box(n1, prog.dim)]
+        head += ["            if swapped:"] + ["                " + b for b in _sim_box(n2, prog.dim)]
+        head += ["            else:"] + ["                " + b for b in _sim_box(n1, prog.dim)]
     head += ["        for e in range(e0, e1):"]
     test = " and ".join(f"lo_b[{a}, g] - fh{a} <= pad and fl{a} - hi_b[{a}, g] <= pad"
                         for a in range(prog.dim))

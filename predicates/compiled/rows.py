@@ -14,7 +14,7 @@ from numba import njit
 
 from .build import INLINE_OPTIONS, JIT_OPTIONS
 
-__all__ = ["distinct_lex_order", "hits_in_order", "unique_rows"]
+__all__ = ["any_flagged", "distinct_lex_order", "hits_in_order", "unique_rows"]
 
 
 @njit(**JIT_OPTIONS)
@@ -83,16 +83,17 @@ def _before(keys, x, y):
 
 
 @njit(**JIT_OPTIONS)
-def _sort_runs(order, keys, long_runs):
-    """``order`` sorted by keys[0]: every run of equal keys[0] of up to 32 rows sorted
-    by keys[1], … in place (insertion); longer runs' (start, end) written to
-    ``long_runs`` for the caller. Returns their number."""
+def _sort_runs(order, keys, ranked, long_runs):
+    """``order`` sorted by keys[0] (``ranked``: keys[0] in that order, read in sequence
+    to find the runs, not through ``order``): every run of equal keys[0] of up to 32
+    rows sorted by keys[1], … in place (insertion); longer runs' (start, end) written
+    to ``long_runs`` for the caller. Returns their number."""
     n = order.shape[0]
     nl = 0
     i = 0
     while i < n:
         j = i + 1
-        while j < n and keys[0, order[j]] == keys[0, order[i]]:
+        while j < n and ranked[j] == ranked[i]:
             j += 1
         if j - i > 32:
             long_runs[nl, 0] = i
@@ -124,7 +125,8 @@ def _order_of(keys: np.ndarray) -> np.ndarray:
     order = np.argsort(keys[0])
     if len(keys) > 1 and len(order) > 1:
         long_runs = np.empty((len(order) // 33 + 1, 2), dtype=np.int64)
-        for i, j in long_runs[:_sort_runs(order, keys, long_runs)].tolist():
+        ranked = keys[0].take(order)
+        for i, j in long_runs[:_sort_runs(order, keys, ranked, long_runs)].tolist():
             run = order[i:j]
             run[:] = run.take(np.lexsort(keys[:0:-1].take(run, axis=1)))
     return order
@@ -197,3 +199,20 @@ def hits_in_order(first: tuple, second: tuple) -> tuple:
     _ids_in_order(S1, ids1, s, order, out1)
     _ids_in_order(S2, ids2, c, order, out2)
     return order, out1, out2
+
+
+@njit(**JIT_OPTIONS)
+def _any_flagged(flags, rows, out):
+    for r in range(rows.shape[0]):
+        hit = False
+        for c in range(rows.shape[1]):
+            hit |= flags[rows[r, c]]
+        out[r] = hit
+
+
+def any_flagged(flags: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """:func:`predicates.registration.levels.complex.any_flagged` (per row of ids: is
+    one of them flagged), compiled: one pass over the rows, no column copies."""
+    out = np.empty(len(rows), dtype=bool)
+    _any_flagged(flags, rows, out)
+    return out

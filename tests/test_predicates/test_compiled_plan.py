@@ -140,6 +140,24 @@ def test_distinct_order_is_lexsort(data, widths, n, long_runs):
         assert np.array_equal(compiled_order(keys), want)
 
 
+@settings(deadline=None)
+@given(data=st.data(), width=st.integers(1, 6), n=st.integers(1, 50))
+def test_compiled_any_flagged_is_any_of_the_row(data, width, n):
+    """The suppression pre-filter's flags (loop._any_face, compiled): per row of ids,
+    True exactly when one of its ids is flagged — checked id by id in Python, and
+    against the numpy twin (complex.any_flagged)."""
+    from predicates.compiled.rows import any_flagged as compiled_any_flagged
+    from predicates.registration.levels.complex import any_flagged
+
+    rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 32 - 1)))
+    flags = rng.random(n) < data.draw(st.sampled_from([0.0, 0.05, 0.5, 1.0]))
+    rows = rng.integers(0, n, size=(data.draw(st.integers(0, 300)), width))
+    got = compiled_any_flagged(flags, rows)
+    assert got.dtype == bool and got.shape == (len(rows),)
+    assert got.tolist() == [any(bool(flags[v]) for v in row) for row in rows.tolist()]
+    assert np.array_equal(got, any_flagged(flags, rows))
+
+
 
 def _pair_list(parts) -> list:
     return [(int(a), int(b)) for ia, ib in parts for a, b in zip(ia, ib)]

@@ -144,12 +144,13 @@ class Registration:
                  if a <= i and b <= j and (a, b) != (i, j) and len(keys)]
         if not lower:
             return None
+        fast = self.accelerate
         flag_s = np.zeros(self.sim.count(i), dtype=bool)
         for a in {a for a, _ in lower}:
-            flag_s |= _any_face(self.sim.cx, i, a, self.sim_involved[a])
+            flag_s |= _any_face(self.sim.cx, i, a, self.sim_involved[a], fast)
         flag_c = np.zeros(self.cut.count(j), dtype=bool)
         for b in {b for _, b in lower}:
-            flag_c |= _any_face(self.cut.cx, j, b, self.cut_involved[b])
+            flag_c |= _any_face(self.cut.cx, j, b, self.cut_involved[b], fast)
         return lower, flag_s, flag_c
 
     def _blocked(self, i, j, s, c, suspects):
@@ -332,6 +333,13 @@ def _faces(cx, k, j, idx):
     return cx.face(k, j).take(idx, axis=0)
 
 
-def _any_face(cx, k, j, involved):
-    """Per k-simplex: is one of its j-faces flagged in ``involved`` (per j-simplex)?"""
-    return involved if j == k else any_flagged(involved, cx.face(k, j))
+def _any_face(cx, k, j, involved, accelerate: bool = False):
+    """Per k-simplex: is one of its j-faces flagged in ``involved`` (per j-simplex)?
+    ``accelerate``: in one compiled pass over the rows (the same flags)."""
+    if j == k:
+        return involved
+    if accelerate:
+        from predicates.compiled.rows import any_flagged as compiled_any_flagged
+
+        return compiled_any_flagged(involved, cx.face(k, j))
+    return any_flagged(involved, cx.face(k, j))
