@@ -253,6 +253,50 @@ def test_compiled_cell_check_is_numpys(data, d):
                 assert want[1].cells is got[1].cells is cells
 
 
+@_SLOW
+@given(data=st.data())
+def test_tetrahedra_summary_is_the_general_loop(data):
+    """summary_tetrahedra (finite points, the plan's tetrahedra) writes exactly what
+    the general summary_block writes — hull bit for bit (signed zeros), exponent
+    histogram, narrow-sum status and parts, least and largest extent — on adversarial
+    finite points (float64 and float32, repeated vertices, zeros of both signs, binades
+    far apart); the hull and the largest extent are the exact ones (Fractions), and a
+    narrow block's parts sum to the extents' exact sum. A non-finite point makes
+    CellBoxes take the general loop."""
+    from predicates.compiled.cellsums import summary_block
+    from predicates.compiled.tetsums import all_finite, summary_tetrahedra
+    from predicates.registration.spatial import exactsum as xs
+
+    P, cells, rng = _mesh(data, 3)
+    P = np.ascontiguousarray(P)
+    assert all_finite(P)
+    outs = []
+    for kernel in (summary_block, summary_tetrahedra):
+        lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+        hist, status = np.zeros(2048, np.int64), np.empty((3, 3))
+        got = kernel(P, cells, lo, hi, hist, status, xs._BIG, xs._TINY, xs._SPREAD,
+                     xs._SPLIT)
+        outs.append((lo.tobytes(), hi.tobytes(), hist.tobytes(), status.tobytes(),
+                     np.array(got).tobytes()))
+    assert outs[0] == outs[1]
+    X = [[Fraction(float(v)) for v in P[row, ax]] for row in cells for ax in range(3)]
+    ext = [max(x) - min(x) for x in X]
+    assert np.frombuffer(outs[1][0])[0] == min(min(X[3 * r]) for r in range(len(cells)))
+    assert np.frombuffer(outs[1][4])[1] == float(max(ext))  # exact: one rounding
+    status = np.frombuffer(outs[1][3]).reshape(3, 3)
+    for ax in range(3):
+        if status[ax, 0] == 2:
+            want = sum(Fraction(float(np.float64(P[row, ax].max()) - np.float64(
+                P[row, ax].min()))) for row in cells)
+            assert Fraction(float(status[ax, 1])) + Fraction(float(status[ax, 2])) == want
+    bad = P.copy()
+    bad[rng.integers(0, len(P)), rng.integers(0, 3)] = data.draw(
+        st.sampled_from([np.nan, np.inf, -np.inf]))
+    assert not all_finite(bad)
+    box = CellBoxes(bad, cells, Blocks(accelerate=True))
+    assert box._summary_kernel() is summary_block
+
+
 @settings(deadline=None)
 @given(data=st.data())
 def test_compiled_exact_sums_are_exact(data):
@@ -575,6 +619,7 @@ def test_plan_float_kernels_have_no_fma():
     from numba import njit
 
     from predicates.compiled import cellsums as K
+    from predicates.compiled import tetsums as T
     from predicates.compiled.build import JIT_OPTIONS
     from predicates.compiled import cells
     from predicates.compiled.cells import least_square_edge
@@ -596,6 +641,10 @@ def test_plan_float_kernels_have_no_fma():
         (K.pad_index, (P, P + 1, 0.1, np.zeros(3), 0.25, np.empty((8, 3)),
                        np.empty((8, 3)))),
         (least_square_edge, (P, C.T.copy(), 0, 2)),
+        (T.summary_tetrahedra, (P, C, np.full(3, np.inf), np.full(3, -np.inf),
+                                np.zeros(2048, np.int64), np.empty((3, 3)), xs._BIG,
+                                xs._TINY, xs._SPREAD, xs._SPLIT)),
+        (T.all_finite, (P,)),
     ]
     # the boxes, grid indices and the first round's flags (cells.py): their floats
     # decide which cells can meet, as numpy's floor((x − o)/h) and min/max do
