@@ -299,6 +299,41 @@ def test_tetrahedra_summary_is_the_general_loop(data):
 
 @settings(deadline=None)
 @given(data=st.data())
+def test_compiled_widening_is_numpys_nextafter(data):
+    """boxgrid.enlarge and refine._reach compiled (cellsums.widened: nextafter from the
+    bits) give numpy's values bit for bit — zeros of both signs, subnormals, the largest
+    finite values, infinities, NaN, one pad or one per row, with and without the
+    2^-1000 of _reach — and the widened box holds every point within the pad (exact
+    comparison in Fractions)."""
+    from predicates.registration.plan.refine import _reach
+    from predicates.registration.spatial.boxgrid import enlarge
+
+    odd = [0.0, -0.0, 5e-324, -5e-324, 2.0 ** -1022, -(2.0 ** -1074) * 3, 1.0,
+           -1.0 - 2.0 ** -52, 1.7976931348623157e308, -1.7976931348623157e308, np.inf,
+           -np.inf, np.nan]
+    rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 32 - 1)))
+    n, d = data.draw(st.integers(1, 40)), data.draw(st.sampled_from([2, 3]))
+    lo = np.where(rng.random((n, d)) < 0.5, rng.choice(odd, size=(n, d)),
+                  rng.standard_normal((n, d)))
+    pad = data.draw(st.sampled_from([0.0, 5e-324, 2.0 ** -30, 0.25, 1e308]))
+    with np.errstate(all="ignore"):
+        hi = lo + rng.choice([0.0, 5e-324, 0.5, 1e300], size=(n, d))
+        want, got = enlarge(lo, hi, pad), enlarge(lo, hi, pad, accelerate=True)
+        assert all(a.tobytes() == b.tobytes() for a, b in zip(want, got))
+        fin = np.isfinite(lo) & np.isfinite(hi) & np.isfinite(got[0]) & np.isfinite(got[1])
+        for x, y, a, b in zip(lo[fin], hi[fin], got[0][fin], got[1][fin]):
+            assert Fraction(float(a)) <= Fraction(float(x)) - Fraction(pad)
+            assert Fraction(float(b)) >= Fraction(float(y)) + Fraction(pad)
+        ok = np.isfinite(lo).all(1) & np.isfinite(hi).all(1) & (hi >= lo).all(1)
+        boxes = (lo[ok], hi[ok])
+        (wl, wh), we = _reach(None, None, boxes)
+        (gl, gh), ge = _reach(None, None, boxes, accelerate=True)
+        assert wl.tobytes() == gl.tobytes() and wh.tobytes() == gh.tobytes()
+        assert we.tobytes() == ge.tobytes()
+
+
+@settings(deadline=None)
+@given(data=st.data())
 def test_compiled_exact_sums_are_exact(data):
     """ExactSum with its compiled narrow path (predicates.compiled.cellsums.narrow_sums)
     gives the exact sum (Fraction) and numpy's mean, on blocks that take the narrow path
@@ -645,6 +680,8 @@ def test_plan_float_kernels_have_no_fma():
                                 np.zeros(2048, np.int64), np.empty((3, 3)), xs._BIG,
                                 xs._TINY, xs._SPREAD, xs._SPLIT)),
         (T.all_finite, (P,)),
+        (K.widened, (P, P + 1, np.full(8, 0.5), 2.0 ** -1000, np.empty_like(P),
+                     np.empty_like(P))),
     ]
     # the boxes, grid indices and the first round's flags (cells.py): their floats
     # decide which cells can meet, as numpy's floor((x − o)/h) and min/max do

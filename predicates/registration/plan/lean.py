@@ -41,7 +41,7 @@ def near_all(boxes, lo_b: np.ndarray, hi_b: np.ndarray, pad: float, flags=near_f
     if na == 0 or nb == 0:
         return np.zeros(na, dtype=bool), np.zeros(nb, dtype=bool), 0.0
     S = boxes.summary()
-    lo_bx, hi_bx = enlarge(lo_b, hi_b, pad)
+    lo_bx, hi_bx = enlarge(lo_b, hi_b, pad, boxes.blocks.accelerate)
     origin = np.minimum(S.lo_min, colmin(lo_bx))
     top = np.maximum(S.hi_max, colmax(hi_bx))
     with np.errstate(over="ignore"):

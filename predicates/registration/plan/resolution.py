@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -183,7 +183,8 @@ def consistent_scale(dim: int, sim_box, cut_box, dtype, max_rounds: int = MAX_RO
         La, Lb = _up(ext_s), _max_edge(ext_c, nxt_masks[1])
         if La + Lb == 0:  # nothing can meet: keep the last sound scale
             break
-        nxt = scale_for(dim, La, Lb, dtype, table)
+        nxt = (replace(cur, reach=dict(cur.reach)) if (La, Lb) == (cur.L_a, cur.L_b) else
+               scale_for(dim, La, Lb, dtype, table))  # (the same L: the same scale)
         if not nxt.pad <= cur.pad:  # L_k bounds pairs within cur.pad only
             break
         nxt.masks = tuple(nxt_masks)
