@@ -486,6 +486,21 @@ def test_indexed_flag_block_is_the_per_row_block(data, d, h):
     from predicates.registration.spatial.boxgrid import cell_index
 
     assert np.array_equal(index, cell_index(P.astype(np.float64), origin, h, G))
+    if d == 3:  # tetrahedra from packed indices (flagpack.py): the same values, writes
+        from predicates.compiled.flagpack import flag_tetrahedra_packed, pack_index
+
+        packed = np.empty(len(P), np.int64)
+        pack_index(P, origin, h, G, packed)
+        assert np.array_equal(packed, (index.astype(np.int64) << [0, 21, 42]).sum(1))
+        again = [np.zeros((m, d), np.int32), np.zeros((m, d), np.int32), np.zeros(m, bool),
+                 np.empty((m, d)), np.empty((m, d))]
+        fc = np.empty_like(cells)
+        pk = flag_tetrahedra_packed(P, packed, cells, stride, S, True, *again, bits, fc)
+        assert (pk[0], pk[2]) == (got[0], got[2])
+        assert np.float64(pk[1]).tobytes() == np.float64(got[1]).tobytes()
+        assert np.array_equal(again[2], out[1][2]) and np.array_equal(fc[:nf], fcells[:nf])
+        for x, y in zip(again[:2] + again[3:], out[1][:2] + [flo, fhi]):
+            assert x[:nf].tobytes() == y[:nf].tobytes()
 
 
 def test_the_run_cells_are_gathered_once():
@@ -654,6 +669,7 @@ def test_plan_float_kernels_have_no_fma():
     from numba import njit
 
     from predicates.compiled import cellsums as K
+    from predicates.compiled import flagpack
     from predicates.compiled import tetsums as T
     from predicates.compiled.build import JIT_OPTIONS
     from predicates.compiled import cells
@@ -697,6 +713,10 @@ def test_plan_float_kernels_have_no_fma():
         (cells.flag_block_indexed, (P, index, C, stride, S, True, *ranges, np.empty((m, 3)),
                                     np.empty((m, 3)), np.zeros(0, np.uint8),
                                     np.empty_like(C))),
+        (flagpack.pack_index, (P, o, 0.25, G, np.empty(8, np.int64))),
+        (flagpack.flag_tetrahedra_packed, (P, np.zeros(8, np.int64), C, stride, S, True,
+                                           *ranges, np.empty((m, 3)), np.empty((m, 3)),
+                                           np.zeros(0, np.uint8), np.empty_like(C))),
     ]
     for kernel, args in calls:
         assert kernel.targetoptions.get("fastmath") in (False, None)

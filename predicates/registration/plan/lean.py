@@ -134,10 +134,12 @@ def _compiled_span(boxes, origin, h, G, table, near):
     (:func:`predicates.compiled.cells.flag_block`); the flagged rows' cell ranges go
     to reused per-thread buffers, compacted, and are copied out. With at least as many
     cells as points, the points' grid cells are computed first, once (N·d divisions
-    instead of 2·d per cell; ``flag_block_indexed``: the same values)."""
+    instead of 2·d per cell; ``flag_block_indexed``: the same values), for tetrahedra
+    packed into one int64 a point (:mod:`predicates.compiled.flagpack`)."""
     from predicates.compiled.buffers import buffer
     from predicates.compiled.cells import (
         flag_block, flag_block_indexed, pair_bits, point_index)
+    from predicates.compiled.flagpack import flag_tetrahedra_packed, pack_index
 
     P = np.ascontiguousarray(boxes.points)
     o, G_ = np.asarray(origin, dtype=np.float64), np.asarray(G, dtype=np.int64)
@@ -145,10 +147,11 @@ def _compiled_span(boxes, origin, h, G, table, near):
     stride = _stride(G)
     flags = np.zeros(1, dtype=bool) if near is None else near
     index, bits = None, np.zeros(0, dtype=np.uint8)
+    packed = P.shape[1] == 3 and boxes.cells.shape[1] == 4  # tetrahedra: flagpack.py
     if len(boxes) >= len(P):  # (a worker's small chunk: per row, not all points)
-        index = np.empty(P.shape, dtype=np.int32)
-        boxes.blocks.rows(lambda a, b: point_index(P[a:b], o, float(h), G_, index[a:b]),
-                          len(P))
+        index = np.empty(len(P) if packed else P.shape, dtype=np.int64 if packed else np.int32)
+        fill = pack_index if packed else point_index
+        boxes.blocks.rows(lambda a, b: fill(P[a:b], o, float(h), G_, index[a:b]), len(P))
         if table is not None and len(boxes) >= len(table) // 8:  # a pass over the grid
             bits = np.zeros(len(table) // 8 + 1, dtype=np.uint8)
             pair_bits(S, G_, stride, bits)
@@ -156,8 +159,9 @@ def _compiled_span(boxes, origin, h, G, table, near):
     def block(s: int, t: int, i0, i1, flo, fhi, fcells):
         out = flags[s:t] if near is not None else flags
         if index is not None:
-            return flag_block_indexed(P, index, boxes.cells[s:t], stride, S,
-                                      table is not None, i0, i1, out, flo, fhi, bits, fcells)
+            kernel = flag_tetrahedra_packed if packed else flag_block_indexed
+            return kernel(P, index, boxes.cells[s:t], stride, S, table is not None, i0, i1,
+                          out, flo, fhi, bits, fcells)
         return flag_block(P, boxes.cells[s:t], o, float(h), G_, stride, S,
                           table is not None, i0, i1, out)
 
