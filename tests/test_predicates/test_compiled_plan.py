@@ -626,6 +626,14 @@ def test_compiled_estimate_grid_is_numpys(data, d):
         assert a.shape == b.shape and np.array_equal(a, b)
     assert R.estimate_cell_pairs(*sides, pad) == \
         R.estimate_cell_pairs(*sides, pad, Blocks(accelerate=True))
+    # the fused dense count (paircount.compiled_count, indices never stored) runs
+    # exactly where the dense count does, with its integer
+    from predicates.registration.plan.paircount import compiled_count
+
+    dense = R._dense_pair_count(*want)
+    assert compiled_count(*sides, pad) == dense
+    if dense is not None:
+        assert dense == R.estimate_cell_pairs(*sides, pad)
 
 
 @pytest.mark.parametrize("d", [2, 3])
@@ -669,7 +677,7 @@ def test_plan_float_kernels_have_no_fma():
     from numba import njit
 
     from predicates.compiled import cellsums as K
-    from predicates.compiled import flagpack
+    from predicates.compiled import estimate, flagpack
     from predicates.compiled import tetsums as T
     from predicates.compiled.build import JIT_OPTIONS
     from predicates.compiled import cells
@@ -713,6 +721,10 @@ def test_plan_float_kernels_have_no_fma():
         (cells.flag_block_indexed, (P, index, C, stride, S, True, *ranges, np.empty((m, 3)),
                                     np.empty((m, 3)), np.zeros(0, np.uint8),
                                     np.empty_like(C))),
+        (estimate.pad_total, (P, P + 1, 0.1, np.zeros(3), 0.25)),
+        (estimate.pad_corners, (P, P + 1, 0.1, np.zeros(3), 0.25,
+                                np.array([1, 11, 121], np.int64), np.zeros(1331, np.int64),
+                                1)),
         (flagpack.pack_index, (P, o, 0.25, G, np.empty(8, np.int64))),
         (flagpack.flag_tetrahedra_packed, (P, np.zeros(8, np.int64), C, stride, S, True,
                                            *ranges, np.empty((m, 3)), np.empty((m, 3)),
