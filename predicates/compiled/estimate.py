@@ -4,8 +4,9 @@ box's cell range computed where it is used — the covered cells' total for the
 budget test and the ±1 at its corners of the coverage's difference array in one
 pass (:func:`pad_corners`; :func:`pad_total`, the total alone) — instead of four
 (n, d) index arrays, their int64 copies and a pass over each
-(:func:`predicates.compiled.cellsums.pad_index`, ``gridsums.coverage``). The ranges are ``pad_index``'s (the same expression in the
-same order), the counts integers: the same estimate.
+(:func:`predicates.compiled.cellsums.pad_index`, ``gridsums.coverage``). The ranges
+are ``pad_index``'s (the same expression in the same order), the counts integers:
+the same estimate.
 """
 from __future__ import annotations
 
