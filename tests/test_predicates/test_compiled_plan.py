@@ -516,6 +516,7 @@ def test_the_run_cells_are_gathered_once():
     # the first round's flagged cells are kept by the flag pass: their cells (and a
     # subset's) come from there, the same rows in the same order; others are gathered
     from predicates.registration.examples import cube_grid
+    from predicates.registration.spatial.boxes import boxes_of
 
     P, C = cube_grid(6)
     box = CellBoxes(P, C, Blocks(accelerate=True, block=97))
@@ -526,6 +527,14 @@ def test_the_run_cells_are_gathered_once():
     half = near & (np.arange(len(C)) % 2 == 0)
     for sel in (near.copy(), half, np.flatnonzero(half), ~near):
         assert np.array_equal(box.cells_of(sel), C[sel])
+    # the flags' own mask is recognised (no look-up): the kept rows, the same values as
+    # for an equal mask looked up
+    lo, hi = boxes_of(P, C[near])
+    for sel in (near, near.copy()):
+        got = box.rows(sel)
+        assert got[0].tobytes() == lo.tobytes() and got[1].tobytes() == hi.tobytes()
+    assert box.rows(near)[0] is box._kept[1]
+    assert box.cells_of(near) is box._kept_cells[1]
 
 
 @settings(deadline=None)

@@ -102,6 +102,7 @@ class CellBoxes:
         self._points_c = None  # the points C-contiguous, when a compiled pass asks
         self._kept = None  # (ids, lo, hi) of the last subset gathered
         self._kept_cells = None  # (ids, cells) of the first round's flagged cells
+        self._kept_mask = None  # the mask whose rows the kept ones are (keep(mask=))
         self._cells_sel = None  # (selection, its cells) of the last cells_of
         self._local = threading.local()  # the last block computed, per thread
         self.lo, self.hi = _Side(self, 0), _Side(self, 1)
@@ -143,6 +144,8 @@ class CellBoxes:
         """(lo, hi) of the rows ``sel`` (a boolean mask of n or ascending ids), in
         ascending order; from the kept subset when it holds them, else gathered (and
         kept)."""
+        if self._kept is not None and sel is self._kept_mask:
+            return self._kept[1:]  # the kept rows' own mask: no look-up
         ids = np.flatnonzero(sel) if np.asarray(sel).dtype == bool else np.asarray(sel)
         if self._kept is not None:
             kept, lo, hi = self._kept
@@ -155,16 +158,18 @@ class CellBoxes:
             lo, hi = boxes_of(self.points, self.cells, self.blocks)
         else:
             lo, hi = boxes_of(self.points, self.cells[ids], self.blocks)
-        self._kept = (ids, lo, hi)
+        self._kept, self._kept_mask = (ids, lo, hi), None
         return lo, hi
 
     def keep(self, ids: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-             cells: np.ndarray | None = None) -> None:
+             cells: np.ndarray | None = None, mask: np.ndarray | None = None) -> None:
         """Keep the boxes ``lo``, ``hi`` of the rows ``ids`` (ascending), computed by a
         pass that had them (the first round's flagged cells), and their ``cells``:
         :meth:`rows` and :meth:`cells_of` of them, or of a subset, then gather
-        nothing from every cell."""
-        self._kept = (ids, lo, hi)
+        nothing from every cell. ``mask``: the boolean mask whose rows ``ids`` are,
+        recognised as that object later without a look-up (the plan's masks are never
+        written once made)."""
+        self._kept, self._kept_mask = (ids, lo, hi), mask
         self._kept_cells = None if cells is None else (ids, cells)
 
     def cells_of(self, sel) -> np.ndarray:
@@ -185,6 +190,8 @@ class CellBoxes:
         if self._kept_cells is None:
             return None
         kept, cells = self._kept_cells
+        if sel is self._kept_mask:  # (the same array object, never written after)
+            return cells
         ids = np.flatnonzero(sel) if np.asarray(sel).dtype == bool else np.asarray(sel)
         if len(ids) == len(kept) and np.array_equal(kept, ids):
             return cells
