@@ -8,7 +8,8 @@ narrow path on an array; and the exact power-of-two scaling of the points with i
 checks in one pass (:func:`scale_exact`); the report's pair-estimate grid without
 (n, d) temporaries (:func:`pad_extents`, :func:`pad_index`); the first round's
 summed-area tables of occupied grid cells in one pass (:func:`occupied_table`); the
-shortest edge's renumbering of the used vertices (:func:`used_renumbered`). Every
+shortest edge's renumbering of the used vertices (:func:`used_renumbered`); boxes
+widened outwards by a pad (:func:`widened`: nextafter from the bits). Every
 value is that of the numpy pass it replaces
 (:mod:`predicates.compiled.cells` for the boxes' min/max rule).
 """
@@ -21,7 +22,7 @@ from .build import INLINE_OPTIONS, JIT_OPTIONS
 from .cells import _box_row
 
 __all__ = ["check_cells", "narrow_sums", "occupied_table", "pad_extents", "pad_index",
-           "scale_exact", "summary_block", "used_renumbered"]
+           "scale_exact", "summary_block", "used_renumbered", "widened"]
 
 
 @njit(**INLINE_OPTIONS)
@@ -376,3 +377,45 @@ def used_renumbered(cells, n_points):
         for v in range(k):
             C[v, r] = local[cells[r, v]]
     return ids, C
+
+
+@njit(**INLINE_OPTIONS)
+def _next_down(y):
+    """np.nextafter(y, −inf) from the bits: the next binary64 below y (−inf and NaN
+    stay; ±0 gives the least negative subnormal; an ulp off any other y)."""
+    if y != y or y == -np.inf:
+        return y
+    if y == 0.0:
+        return -5e-324
+    bits = np.float64(y).view(np.int64)
+    return np.int64(bits - 1 if y > 0.0 else bits + 1).view(np.float64)
+
+
+@njit(**INLINE_OPTIONS)
+def _next_up(y):
+    """np.nextafter(y, +inf) from the bits (as :func:`_next_down`, mirrored)."""
+    if y != y or y == np.inf:
+        return y
+    if y == 0.0:
+        return 5e-324
+    bits = np.float64(y).view(np.int64)
+    return np.int64(bits + 1 if y > 0.0 else bits - 1).view(np.float64)
+
+
+@njit(**JIT_OPTIONS)
+def widened(lo, hi, pad, tiny, out_lo, out_hi):
+    """Boxes (n, d) widened outwards: nextafter(lo − p, −inf) − tiny and
+    nextafter(hi + p, +inf) + tiny (``tiny`` = 0: not added) with p = ``pad``'s row r
+    (one value: every row), numpy's roundings in its order
+    (:func:`predicates.registration.spatial.boxgrid.enlarge`, ``refine._reach``)."""
+    per_row = pad.shape[0] > 1
+    for r in range(lo.shape[0]):
+        p = pad[r] if per_row else pad[0]
+        for ax in range(lo.shape[1]):
+            a = _next_down(lo[r, ax] - p)
+            b = _next_up(hi[r, ax] + p)
+            if tiny != 0.0:
+                a = a - tiny
+                b = b + tiny
+            out_lo[r, ax] = a
+            out_hi[r, ax] = b

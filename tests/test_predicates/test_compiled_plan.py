@@ -271,6 +271,85 @@ def test_compiled_cell_check_is_numpys(data, d):
                 assert want[1].cells is got[1].cells is cells
 
 
+@_SLOW
+@given(data=st.data())
+def test_tetrahedra_summary_is_the_general_loop(data):
+    """summary_tetrahedra (finite points, the plan's tetrahedra) writes exactly what
+    the general summary_block writes — hull bit for bit (signed zeros), exponent
+    histogram, narrow-sum status and parts, least and largest extent — on adversarial
+    finite points (float64 and float32, repeated vertices, zeros of both signs, binades
+    far apart); the hull and the largest extent are the exact ones (Fractions), and a
+    narrow block's parts sum to the extents' exact sum. A non-finite point makes
+    CellBoxes take the general loop."""
+    from predicates.compiled.cellsums import summary_block
+    from predicates.compiled.tetsums import all_finite, summary_tetrahedra
+    from predicates.registration.spatial import exactsum as xs
+
+    P, cells, rng = _mesh(data, 3)
+    P = np.ascontiguousarray(P)
+    assert all_finite(P)
+    outs = []
+    for kernel in (summary_block, summary_tetrahedra):
+        lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+        hist, status = np.zeros(2048, np.int64), np.empty((3, 3))
+        got = kernel(P, cells, lo, hi, hist, status, xs._BIG, xs._TINY, xs._SPREAD,
+                     xs._SPLIT)
+        outs.append((lo.tobytes(), hi.tobytes(), hist.tobytes(), status.tobytes(),
+                     np.array(got).tobytes()))
+    assert outs[0] == outs[1]
+    X = [[Fraction(float(v)) for v in P[row, ax]] for row in cells for ax in range(3)]
+    ext = [max(x) - min(x) for x in X]
+    assert np.frombuffer(outs[1][0])[0] == min(min(X[3 * r]) for r in range(len(cells)))
+    assert np.frombuffer(outs[1][4])[1] == float(max(ext))  # exact: one rounding
+    status = np.frombuffer(outs[1][3]).reshape(3, 3)
+    for ax in range(3):
+        if status[ax, 0] == 2:
+            want = sum(Fraction(float(np.float64(P[row, ax].max()) - np.float64(
+                P[row, ax].min()))) for row in cells)
+            assert Fraction(float(status[ax, 1])) + Fraction(float(status[ax, 2])) == want
+    bad = P.copy()
+    bad[rng.integers(0, len(P)), rng.integers(0, 3)] = data.draw(
+        st.sampled_from([np.nan, np.inf, -np.inf]))
+    assert not all_finite(bad)
+    box = CellBoxes(bad, cells, Blocks(accelerate=True))
+    assert box._summary_kernel() is summary_block
+
+
+@settings(deadline=None)
+@given(data=st.data())
+def test_compiled_widening_is_numpys_nextafter(data):
+    """boxgrid.enlarge and refine._reach compiled (cellsums.widened: nextafter from the
+    bits) give numpy's values bit for bit — zeros of both signs, subnormals, the largest
+    finite values, infinities, NaN, one pad or one per row, with and without the
+    2^-1000 of _reach — and the widened box holds every point within the pad (exact
+    comparison in Fractions)."""
+    from predicates.registration.plan.refine import _reach
+    from predicates.registration.spatial.boxgrid import enlarge
+
+    odd = [0.0, -0.0, 5e-324, -5e-324, 2.0 ** -1022, -(2.0 ** -1074) * 3, 1.0,
+           -1.0 - 2.0 ** -52, 1.7976931348623157e308, -1.7976931348623157e308, np.inf,
+           -np.inf, np.nan]
+    rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 32 - 1)))
+    n, d = data.draw(st.integers(1, 40)), data.draw(st.sampled_from([2, 3]))
+    lo = np.where(rng.random((n, d)) < 0.5, rng.choice(odd, size=(n, d)),
+                  rng.standard_normal((n, d)))
+    pad = data.draw(st.sampled_from([0.0, 5e-324, 2.0 ** -30, 0.25, 1e308]))
+    with np.errstate(all="ignore"):
+        hi = lo + rng.choice([0.0, 5e-324, 0.5, 1e300], size=(n, d))
+        want, got = enlarge(lo, hi, pad), enlarge(lo, hi, pad, accelerate=True)
+        assert all(a.tobytes() == b.tobytes() for a, b in zip(want, got))
+        fin = np.isfinite(lo) & np.isfinite(hi) & np.isfinite(got[0]) & np.isfinite(got[1])
+        for x, y, a, b in zip(lo[fin], hi[fin], got[0][fin], got[1][fin]):
+            assert Fraction(float(a)) <= Fraction(float(x)) - Fraction(pad)
+            assert Fraction(float(b)) >= Fraction(float(y)) + Fraction(pad)
+        ok = np.isfinite(lo).all(1) & np.isfinite(hi).all(1) & (hi >= lo).all(1)
+        boxes = (lo[ok], hi[ok])
+        (wl, wh), we = _reach(None, None, boxes)
+        (gl, gh), ge = _reach(None, None, boxes, accelerate=True)
+        assert wl.tobytes() == gl.tobytes() and wh.tobytes() == gh.tobytes()
+        assert we.tobytes() == ge.tobytes()
+
+
 @settings(deadline=None)
 @given(data=st.data())
 def test_compiled_exact_sums_are_exact(data):
@@ -425,6 +504,21 @@ def test_indexed_flag_block_is_the_per_row_block(data, d, h):
     from predicates.registration.spatial.boxgrid import cell_index
 
     assert np.array_equal(index, cell_index(P.astype(np.float64), origin, h, G))
+    if d == 3:  # tetrahedra from packed indices (flagpack.py): the same values, writes
+        from predicates.compiled.flagpack import flag_tetrahedra_packed, pack_index
+
+        packed = np.empty(len(P), np.int64)
+        pack_index(P, origin, h, G, packed)
+        assert np.array_equal(packed, (index.astype(np.int64) << [0, 21, 42]).sum(1))
+        again = [np.zeros((m, d), np.int32), np.zeros((m, d), np.int32), np.zeros(m, bool),
+                 np.empty((m, d)), np.empty((m, d))]
+        fc = np.empty_like(cells)
+        pk = flag_tetrahedra_packed(P, packed, cells, stride, S, True, *again, bits, fc)
+        assert (pk[0], pk[2]) == (got[0], got[2])
+        assert np.float64(pk[1]).tobytes() == np.float64(got[1]).tobytes()
+        assert np.array_equal(again[2], out[1][2]) and np.array_equal(fc[:nf], fcells[:nf])
+        for x, y in zip(again[:2] + again[3:], out[1][:2] + [flo, fhi]):
+            assert x[:nf].tobytes() == y[:nf].tobytes()
 
 
 def test_the_run_cells_are_gathered_once():
@@ -440,6 +534,7 @@ def test_the_run_cells_are_gathered_once():
     # the first round's flagged cells are kept by the flag pass: their cells (and a
     # subset's) come from there, the same rows in the same order; others are gathered
     from predicates.registration.examples import cube_grid
+    from predicates.registration.spatial.boxes import boxes_of
 
     P, C = cube_grid(6)
     box = CellBoxes(P, C, Blocks(accelerate=True, block=97))
@@ -450,6 +545,14 @@ def test_the_run_cells_are_gathered_once():
     half = near & (np.arange(len(C)) % 2 == 0)
     for sel in (near.copy(), half, np.flatnonzero(half), ~near):
         assert np.array_equal(box.cells_of(sel), C[sel])
+    # the flags' own mask is recognised (no look-up): the kept rows, the same values as
+    # for an equal mask looked up
+    lo, hi = boxes_of(P, C[near])
+    for sel in (near, near.copy()):
+        got = box.rows(sel)
+        assert got[0].tobytes() == lo.tobytes() and got[1].tobytes() == hi.tobytes()
+    assert box.rows(near)[0] is box._kept[1]
+    assert box.cells_of(near) is box._kept_cells[1]
 
 
 @settings(deadline=None)
@@ -550,6 +653,14 @@ def test_compiled_estimate_grid_is_numpys(data, d):
         assert a.shape == b.shape and np.array_equal(a, b)
     assert R.estimate_cell_pairs(*sides, pad) == \
         R.estimate_cell_pairs(*sides, pad, Blocks(accelerate=True))
+    # the fused dense count (paircount.compiled_count, indices never stored) runs
+    # exactly where the dense count does, with its integer
+    from predicates.registration.plan.paircount import compiled_count
+
+    dense = R._dense_pair_count(*want)
+    assert compiled_count(*sides, pad) == dense
+    if dense is not None:
+        assert dense == R.estimate_cell_pairs(*sides, pad)
 
 
 @pytest.mark.parametrize("d", [2, 3])
@@ -593,6 +704,8 @@ def test_plan_float_kernels_have_no_fma():
     from numba import njit
 
     from predicates.compiled import cellsums as K
+    from predicates.compiled import estimate, flagpack
+    from predicates.compiled import tetsums as T
     from predicates.compiled.build import JIT_OPTIONS
     from predicates.compiled import cells
     from predicates.compiled.cells import least_square_edge
@@ -614,6 +727,12 @@ def test_plan_float_kernels_have_no_fma():
         (K.pad_index, (P, P + 1, 0.1, np.zeros(3), 0.25, np.empty((8, 3)),
                        np.empty((8, 3)))),
         (least_square_edge, (P, C.T.copy(), 0, 2)),
+        (T.summary_tetrahedra, (P, C, np.full(3, np.inf), np.full(3, -np.inf),
+                                np.zeros(2048, np.int64), np.empty((3, 3)), xs._BIG,
+                                xs._TINY, xs._SPREAD, xs._SPLIT)),
+        (T.all_finite, (P,)),
+        (K.widened, (P, P + 1, np.full(8, 0.5), 2.0 ** -1000, np.empty_like(P),
+                     np.empty_like(P))),
     ]
     # the boxes, grid indices and the first round's flags (cells.py): their floats
     # decide which cells can meet, as numpy's floor((x − o)/h) and min/max do
@@ -629,6 +748,14 @@ def test_plan_float_kernels_have_no_fma():
         (cells.flag_block_indexed, (P, index, C, stride, S, True, *ranges, np.empty((m, 3)),
                                     np.empty((m, 3)), np.zeros(0, np.uint8),
                                     np.empty_like(C))),
+        (estimate.pad_total, (P, P + 1, 0.1, np.zeros(3), 0.25)),
+        (estimate.pad_corners, (P, P + 1, 0.1, np.zeros(3), 0.25,
+                                np.array([1, 11, 121], np.int64), np.zeros(1331, np.int64),
+                                1)),
+        (flagpack.pack_index, (P, o, 0.25, G, np.empty(8, np.int64))),
+        (flagpack.flag_tetrahedra_packed, (P, np.zeros(8, np.int64), C, stride, S, True,
+                                           *ranges, np.empty((m, 3)), np.empty((m, 3)),
+                                           np.zeros(0, np.uint8), np.empty_like(C))),
     ]
     for kernel, args in calls:
         assert kernel.targetoptions.get("fastmath") in (False, None)

@@ -98,9 +98,11 @@ class CellBoxes:
         self.n, self.d = len(cells), points.shape[1]
         self.cols = None  # the points by axis in binary64, made by the numpy blocks
         self._summary = None
+        self._tetrahedra = None  # tetrahedra over finite points (compiled summary)
         self._points_c = None  # the points C-contiguous, when a compiled pass asks
         self._kept = None  # (ids, lo, hi) of the last subset gathered
         self._kept_cells = None  # (ids, cells) of the first round's flagged cells
+        self._kept_mask = None  # the mask whose rows the kept ones are (keep(mask=))
         self._cells_sel = None  # (selection, its cells) of the last cells_of
         self._local = threading.local()  # the last block computed, per thread
         self.lo, self.hi = _Side(self, 0), _Side(self, 1)
@@ -142,6 +144,8 @@ class CellBoxes:
         """(lo, hi) of the rows ``sel`` (a boolean mask of n or ascending ids), in
         ascending order; from the kept subset when it holds them, else gathered (and
         kept)."""
+        if self._kept is not None and sel is self._kept_mask:
+            return self._kept[1:]  # the kept rows' own mask: no look-up
         ids = np.flatnonzero(sel) if np.asarray(sel).dtype == bool else np.asarray(sel)
         if self._kept is not None:
             kept, lo, hi = self._kept
@@ -154,16 +158,18 @@ class CellBoxes:
             lo, hi = boxes_of(self.points, self.cells, self.blocks)
         else:
             lo, hi = boxes_of(self.points, self.cells[ids], self.blocks)
-        self._kept = (ids, lo, hi)
+        self._kept, self._kept_mask = (ids, lo, hi), None
         return lo, hi
 
     def keep(self, ids: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-             cells: np.ndarray | None = None) -> None:
+             cells: np.ndarray | None = None, mask: np.ndarray | None = None) -> None:
         """Keep the boxes ``lo``, ``hi`` of the rows ``ids`` (ascending), computed by a
         pass that had them (the first round's flagged cells), and their ``cells``:
         :meth:`rows` and :meth:`cells_of` of them, or of a subset, then gather
-        nothing from every cell."""
-        self._kept = (ids, lo, hi)
+        nothing from every cell. ``mask``: the boolean mask whose rows ``ids`` are,
+        recognised as that object later without a look-up (the plan's masks are never
+        written once made)."""
+        self._kept, self._kept_mask = (ids, lo, hi), mask
         self._kept_cells = None if cells is None else (ids, cells)
 
     def cells_of(self, sel) -> np.ndarray:
@@ -184,6 +190,8 @@ class CellBoxes:
         if self._kept_cells is None:
             return None
         kept, cells = self._kept_cells
+        if sel is self._kept_mask:  # (the same array object, never written after)
+            return cells
         ids = np.flatnonzero(sel) if np.asarray(sel).dtype == bool else np.asarray(sel)
         if len(ids) == len(kept) and np.array_equal(kept, ids):
             return cells
@@ -223,10 +231,10 @@ class CellBoxes:
         most 2^16 rows (:func:`predicates.compiled.cellsums.summary_block`: the boxes in
         registers, the values of :func:`summarize`; the exact sums' narrow parts, a
         block outside the narrow path summed from its boxes as before)."""
-        from predicates.compiled.cellsums import summary_block
         from predicates.registration.spatial import exactsum as xs
 
         d, P = self.d, self._given()
+        kernel = self._summary_kernel()
         lo_min, hi_max = np.full(d, np.inf), np.full(d, -np.inf)
         hist, sums = np.zeros(2048, dtype=np.int64), [ExactSum(True) for _ in range(d)]
         e_min, e_max = np.inf, -np.inf
@@ -234,8 +242,8 @@ class CellBoxes:
         for s, t in self.blocks.each(a, b):
             for u in range(s, t, 1 << 16):  # the narrow path's sums: ≤ 2^16 values
                 w = min(u + (1 << 16), t)
-                low, top = summary_block(P, self.cells[u:w], lo_min, hi_max, hist, status,
-                                         xs._BIG, xs._TINY, xs._SPREAD, xs._SPLIT)
+                low, top = kernel(P, self.cells[u:w], lo_min, hi_max, hist, status,
+                                  xs._BIG, xs._TINY, xs._SPREAD, xs._SPLIT)
                 for ax in range(d):
                     if not sums[ax].add_narrow(w - u, int(status[ax, 0]), status[ax, 1],
                                                status[ax, 2]):
@@ -245,6 +253,19 @@ class CellBoxes:
         ok = bool(np.isfinite(e_max)) and e_min >= 0
         return BoxSummary(b - a, lo_min, hi_max, float(e_max), sums, float(e_min),
                           hist if ok else None)
+
+    def _summary_kernel(self):
+        """The compiled summary of a block: tetrahedra over finite points take
+        :func:`predicates.compiled.tetsums.summary_tetrahedra` (the same values, about
+        half the time), any other cells or points
+        :func:`predicates.compiled.cellsums.summary_block`."""
+        from predicates.compiled.cellsums import summary_block
+        from predicates.compiled.tetsums import all_finite, summary_tetrahedra
+
+        if self._tetrahedra is None:  # (a race of two spans computes it twice: the same)
+            self._tetrahedra = (self.d == 3 and self.cells.shape[1] == 4
+                                and bool(all_finite(self._given())))
+        return summary_tetrahedra if self._tetrahedra else summary_block
 
     def column(self, side: int, ax: int) -> np.ndarray:
         """Axis ``ax`` of lo (side 0) or hi (side 1) for every cell (n floats)."""

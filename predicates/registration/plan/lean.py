@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from predicates.registration.spatial import blocks as blocks_module
 from predicates.registration.spatial.boxes import box_extent
 from predicates.registration.spatial.boxgrid import (
     BITS, cell_index, colmax, colmin, enlarge, mean_extent, ncells)
@@ -41,7 +42,7 @@ def near_all(boxes, lo_b: np.ndarray, hi_b: np.ndarray, pad: float, flags=near_f
     if na == 0 or nb == 0:
         return np.zeros(na, dtype=bool), np.zeros(nb, dtype=bool), 0.0
     S = boxes.summary()
-    lo_bx, hi_bx = enlarge(lo_b, hi_b, pad)
+    lo_bx, hi_bx = enlarge(lo_b, hi_b, pad, boxes.blocks.accelerate)
     origin = np.minimum(S.lo_min, colmin(lo_bx))
     top = np.maximum(S.hi_max, colmax(hi_bx))
     with np.errstate(over="ignore"):
@@ -89,15 +90,17 @@ def flag_pass(boxes, origin, h, G, table):
     d = len(G)
     near = np.zeros(len(boxes), dtype=bool) if table is not None else None
     if boxes.blocks.accelerate:  # the same values, one compiled GIL-free loop per block
-        span = _compiled_span(boxes, origin, h, G, table, near)
-        parts = boxes.blocks.map(span, len(boxes))
-        if table is not None and parts and parts[0][4] is not None:
-            kept = [np.concatenate([b for p in parts for b in p[4 + s]] or
-                                   [np.zeros((0, d))]) for s in (0, 1)]
+        span, indexed = _compiled_span(boxes, origin, h, G, table, near)
+        chunks = [(p[0], p[2], p[1]) for p in boxes.blocks.map(span, len(boxes))]
+        parts = [(c, [x[0] for x in ch], [x[1] for x in ch], e) for c, e, ch in chunks]
+        if table is not None and indexed:  # the flagged rows' boxes and ids, kept
             k = boxes.cells.shape[1]
-            cells = np.concatenate([c for p in parts for c in p[6]] or
-                                   [np.zeros((0, k), dtype=boxes.cells.dtype)])
-            boxes.keep(np.flatnonzero(near), *kept, cells)  # the flagged rows' boxes, ids
+            kept = [_joined([x[2 + s] for _, _, ch in chunks for x in ch],
+                            np.zeros((0, d))) for s in (0, 1)]
+            cells = _joined([x[4] for _, _, ch in chunks for x in ch],
+                            np.zeros((0, k), dtype=boxes.cells.dtype))
+            boxes.keep(np.flatnonzero(near), *kept, cells, mask=near)  # (near: not
+            # written after, so its rows are these)
         return _gathered(parts, table, near, d)
 
     def span(a: int, b: int):
@@ -124,20 +127,30 @@ def _gathered(parts, table, near, d):
     count = sum(p[0] for p in parts)
     if table is None:
         return count, None
-    r0 = [x for p in parts for x in p[1]] or [np.zeros((0, d), dtype=np.int32)]
-    r1 = [x for p in parts for x in p[2]] or [np.zeros((0, d), dtype=np.int32)]
-    return count, (near, np.concatenate(r0), np.concatenate(r1), max(p[3] for p in parts))
+    empty = np.zeros((0, d), dtype=np.int32)
+    r0, r1 = (_joined([x for p in parts for x in p[s]], empty) for s in (1, 2))
+    return count, (near, r0, r1, max(p[3] for p in parts))
+
+
+def _joined(pieces: list, empty: np.ndarray) -> np.ndarray:
+    """The pieces (row blocks) as one array: the piece itself when there is one (a
+    serial pass writes its flagged rows into one array: no copy), ``empty`` if none."""
+    if len(pieces) == 1:
+        return pieces[0]
+    return np.concatenate(pieces) if pieces else empty
 
 
 def _compiled_span(boxes, origin, h, G, table, near):
-    """:func:`flag_pass`'s span, each block one call of the fused kernel
-    (:func:`predicates.compiled.cells.flag_block`); the flagged rows' cell ranges go
-    to reused per-thread buffers, compacted, and are copied out. With at least as many
+    """(:func:`flag_pass`'s span, whether the flagged rows' boxes and ids are kept):
+    each block one call of the fused kernel (:func:`predicates.compiled.cells.
+    flag_block`), which writes the flagged rows' cell ranges (and boxes, ids)
+    compacted straight into the span's output arrays (no copies). With at least as many
     cells as points, the points' grid cells are computed first, once (N·d divisions
-    instead of 2·d per cell; ``flag_block_indexed``: the same values)."""
-    from predicates.compiled.buffers import buffer
+    instead of 2·d per cell; ``flag_block_indexed``: the same values), for tetrahedra
+    packed into one int64 a point (:mod:`predicates.compiled.flagpack`)."""
     from predicates.compiled.cells import (
         flag_block, flag_block_indexed, pair_bits, point_index)
+    from predicates.compiled.flagpack import flag_tetrahedra_packed, pack_index
 
     P = np.ascontiguousarray(boxes.points)
     o, G_ = np.asarray(origin, dtype=np.float64), np.asarray(G, dtype=np.int64)
@@ -145,44 +158,53 @@ def _compiled_span(boxes, origin, h, G, table, near):
     stride = _stride(G)
     flags = np.zeros(1, dtype=bool) if near is None else near
     index, bits = None, np.zeros(0, dtype=np.uint8)
+    packed = P.shape[1] == 3 and boxes.cells.shape[1] == 4  # tetrahedra: flagpack.py
     if len(boxes) >= len(P):  # (a worker's small chunk: per row, not all points)
-        index = np.empty(P.shape, dtype=np.int32)
-        boxes.blocks.rows(lambda a, b: point_index(P[a:b], o, float(h), G_, index[a:b]),
-                          len(P))
+        index = np.empty(len(P) if packed else P.shape, dtype=np.int64 if packed else np.int32)
+        fill = pack_index if packed else point_index
+        boxes.blocks.rows(lambda a, b: fill(P[a:b], o, float(h), G_, index[a:b]), len(P))
         if table is not None and len(boxes) >= len(table) // 8:  # a pass over the grid
             bits = np.zeros(len(table) // 8 + 1, dtype=np.uint8)
             pair_bits(S, G_, stride, bits)
+    indexed = index is not None
 
     def block(s: int, t: int, i0, i1, flo, fhi, fcells):
         out = flags[s:t] if near is not None else flags
         if index is not None:
-            return flag_block_indexed(P, index, boxes.cells[s:t], stride, S,
-                                      table is not None, i0, i1, out, flo, fhi, bits, fcells)
+            kernel = flag_tetrahedra_packed if packed else flag_block_indexed
+            return kernel(P, index, boxes.cells[s:t], stride, S, table is not None, i0, i1,
+                          out, flo, fhi, bits, fcells)
         return flag_block(P, boxes.cells[s:t], o, float(h), G_, stride, S,
                           table is not None, i0, i1, out)
 
     def span(a: int, b: int):
-        count, ext, r0, r1 = 0, 0.0, [], []
-        b0, b1, c0 = ([], [], []) if index is not None else (None, None, None)
+        count, ext, chunks, out, filled = 0, 0.0, [], None, 0
+        step = boxes.blocks.block or blocks_module.BLOCK
         for s, t in boxes.blocks.each(a, b):
-            i0 = buffer("flag_i0", t - s, np.int32, len(G))
-            i1 = buffer("flag_i1", t - s, np.int32, len(G))
-            flo = buffer("flag_lo", t - s, np.float64, len(G))
-            fhi = buffer("flag_hi", t - s, np.float64, len(G))
-            fcells = buffer("flag_cells", t - s, boxes.cells.dtype, boxes.cells.shape[1])
-            n, e, nf = block(s, t, i0, i1, flo, fhi, fcells)
+            if out is None or filled + (t - s) > len(out[0]):  # (a chunk is full)
+                if out is not None:
+                    chunks.append(tuple(x[:filled] for x in out))
+                out, filled = _outputs(max(t - s, (b - a) // 4 + step), indexed), 0
+            n, e, nf = block(s, t, *(x[filled:] for x in out))
             count += int(n)
-            if nf:  # the flagged rows' ranges (and boxes), compacted by the kernel
-                r0.append(i0[:nf].copy())
-                r1.append(i1[:nf].copy())
+            if nf:  # the kernel wrote the flagged rows compacted, from row ``filled``
+                filled += nf
                 ext = max(ext, float(e))
-                if b0 is not None:
-                    b0.append(flo[:nf].copy())
-                    b1.append(fhi[:nf].copy())
-                    c0.append(fcells[:nf].copy())
-        return count, r0, r1, ext, b0, b1, c0
+        if out is not None:
+            chunks.append(tuple(x[:filled] for x in out))
+        return count, chunks, ext
 
-    return span
+    def _outputs(rows: int, boxes_too: bool):
+        """Arrays for ``rows`` flagged rows: ranges i0, i1; boxes lo, hi and ids when
+        ``boxes_too``. Written in place by the kernel and returned as views: a serial
+        pass copies nothing (a quarter of the span's rows first: untouched pages of
+        np.empty cost no memory)."""
+        k, m = boxes.cells.shape[1], rows if boxes_too else 0
+        return (np.empty((rows, len(G)), np.int32), np.empty((rows, len(G)), np.int32),
+                np.empty((m, len(G))), np.empty((m, len(G))),
+                np.empty((m, k), dtype=boxes.cells.dtype))
+
+    return span, indexed
 
 
 def _occupied(i0, i1, G, blocks) -> np.ndarray:

@@ -127,7 +127,8 @@ def refine(points: np.ndarray, cells: np.ndarray, sim_lo: np.ndarray, sim_hi: np
     B = np.broadcast_to(np.eye(k), (len(C), k, k))
     if boxes is None and len(C):
         boxes = boxes_of(P, C, Blocks(accelerate=accelerate))
-    sim = _SimScale(sim_lo, sim_hi, *_reach(P, C, boxes), sim_stats) if len(C) else None
+    sim = _SimScale(sim_lo, sim_hi, *_reach(P, C, boxes, accelerate), sim_stats) \
+        if len(C) else None
     known = np.zeros(0, dtype=np.int64)  # keys of edges already tested (unmarked)
     rounds = 0
     while len(C) and (rounds or _can_mark(sim)):
@@ -291,16 +292,24 @@ class _SimScale:
         return self._index[name].marks(qlo, qhi, qext)
 
 
-def _reach(P, C, boxes=None):
+def _reach(P, C, boxes=None, accelerate: bool = False):
     """Per input cutting cell, a box holding the query box (:func:`_too_long`) of every
     edge refinement can make inside it: midpoints stay in their edge's box (rounding is
     monotone), so an edge's box lies in its cell's box and its box edge is at most the
     cell's; lo − ext and hi + ext are then bounded by the cell's (monotone rounding),
     widened by one ulp and 2^-1000 for halvings of subnormal coordinates. Returns
-    ((lo, hi), the cells' box edges); ``boxes``: the cells' (lo, hi) if known."""
+    ((lo, hi), the cells' box edges); ``boxes``: the cells' (lo, hi) if known;
+    ``accelerate``: one compiled pass (:func:`predicates.compiled.cellsums.widened`,
+    the same values)."""
     lo, hi = boxes_of(P, C) if boxes is None else boxes
     ext = box_extent(lo, hi)
     tiny = math.ldexp(1.0, -1000)
+    if accelerate and lo.dtype == hi.dtype == ext.dtype == np.float64:
+        from predicates.compiled.cellsums import widened
+
+        out = np.empty_like(lo), np.empty_like(hi)
+        widened(*(np.ascontiguousarray(x) for x in (lo, hi, ext)), tiny, *out)
+        return out, ext
     e = ext[:, None]
     return (np.nextafter(lo - e, -np.inf) - tiny, np.nextafter(hi + e, np.inf) + tiny), ext
 

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -30,6 +30,10 @@ from predicates.catalogue import kinds as catalogue_kinds
 from predicates.tolerances import tolerances as compute_tolerances
 from predicates.registration.plan.edges import shortest_edge  # noqa: F401 (re-exported)
 from predicates.registration.plan.lean import near_all
+from predicates.registration.plan.paircount import KEY_RADIX as _KEY_RADIX
+from predicates.registration.plan.paircount import cell_keys as _cell_keys
+from predicates.registration.plan.paircount import compiled_count
+from predicates.registration.plan.paircount import count_dot as _count_dot
 from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.boxes import box_extent, boxes_of
 from predicates.registration.spatial.boxgrid import colmax, colmin, rowwise
@@ -183,7 +187,8 @@ def consistent_scale(dim: int, sim_box, cut_box, dtype, max_rounds: int = MAX_RO
         La, Lb = _up(ext_s), _max_edge(ext_c, nxt_masks[1])
         if La + Lb == 0:  # nothing can meet: keep the last sound scale
             break
-        nxt = scale_for(dim, La, Lb, dtype, table)
+        nxt = (replace(cur, reach=dict(cur.reach)) if (La, Lb) == (cur.L_a, cur.L_b) else
+               scale_for(dim, La, Lb, dtype, table))  # (the same L: the same scale)
         if not nxt.pad <= cur.pad:  # L_k bounds pairs within cur.pad only
             break
         nxt.masks = tuple(nxt_masks)
@@ -204,6 +209,9 @@ def estimate_cell_pairs(lo_a, hi_a, lo_b, hi_b, pad: float, blocks: Blocks = SER
     counts' passes (compiled or threaded: the same integers)."""
     if len(lo_a) == 0 or len(lo_b) == 0:
         return 0
+    fast = compiled_count(lo_a, hi_a, lo_b, hi_b, pad) if blocks.accelerate else None
+    if fast is not None:  # the dense count, its indices never stored (paircount.py)
+        return fast
     grid = _compiled_grid if blocks.accelerate else _estimate_grid
     ia0, ia1, ib0, ib1, budget = grid(lo_a, hi_a, lo_b, hi_b, pad)
     fast = _dense_pair_count(ia0, ia1, ib0, ib1, budget, blocks)
@@ -266,19 +274,6 @@ def _compiled_grid(lo_a, hi_a, lo_b, hi_b, pad: float):
         g *= 2
 
 
-def _count_dot(x: np.ndarray, y: np.ndarray) -> int:
-    """Σ x·y of two non-negative integer arrays, exactly: int64 products summed in int64
-    when Σx · max y (a bound on every partial sum) is below 2^63 — integer sums are
-    exact in any order — else Python integers."""
-    if x.size == 0:
-        return 0
-    x, y = x.astype(np.int64, copy=False), y.astype(np.int64, copy=False)
-    if int(x.sum(dtype=np.int64)) * int(y.max()) < 2 ** 63:
-        return int(np.multiply(x, y).sum(dtype=np.int64))
-    nz = np.flatnonzero(x)
-    return sum(a * b for a, b in zip(x[nz].tolist(), y[nz].tolist()))
-
-
 def _dense_pair_count(ia0, ia1, ib0, ib1, budget: int, blocks: Blocks = SERIAL):
     """Σ over grid cells of (a boxes covering it) × (b boxes covering it) from two
     count grids (:func:`~predicates.registration.spatial.gridsums.coverage`),
@@ -299,24 +294,6 @@ def _dense_pair_count(ia0, ia1, ib0, ib1, budget: int, blocks: Blocks = SERIAL):
     na = len(ia0)
     return _count_dot(coverage(i0[:na], i1[:na], G, blocks).ravel(),
                       coverage(i0[na:], i1[na:], G, blocks).ravel())
-
-
-_KEY_RADIX = 1_000_003  # the per-axis radix of _cell_keys
-
-
-def _cell_keys(i0, i1):
-    """Keys (hashable int64 from the grid indices) of every grid cell each box covers."""
-    i0, i1 = i0.astype(np.int64), i1.astype(np.int64)
-    c = i1 - i0 + 1
-    per = np.prod(c, axis=1)
-    box = np.repeat(np.arange(len(c)), per)
-    t = np.arange(box.size, dtype=np.int64) - np.repeat(np.cumsum(per) - per, per)
-    key = np.zeros(box.size, dtype=np.int64)
-    for ax in range(c.shape[1]):
-        cb = c[box, ax]
-        key = key * _KEY_RADIX + (i0[box, ax] + t % cb)
-        t //= cb
-    return key
 
 
 def memory_limit() -> int:

@@ -38,12 +38,21 @@ def cell_index(x, origin, h, G, blocks: Blocks = SERIAL):
     return out
 
 
-def enlarge(lo_b, hi_b, pad):
+def enlarge(lo_b, hi_b, pad, accelerate: bool = False):
     """The boxes enlarged by ``pad``, rounded outwards (``nextafter``): they contain
-    every point within pad of the exact boxes."""
+    every point within pad of the exact boxes. ``accelerate``: binary64 (n, d) boxes
+    in one compiled pass (:func:`predicates.compiled.cellsums.widened`: the same
+    values; numpy's nextafter costs ~20 ns a value)."""
     pad = float(pad)
     if not pad >= 0:
         raise ValueError(f"pad must be a non-negative number, got {pad!r}")
+    if accelerate and lo_b.ndim == 2 and lo_b.dtype == hi_b.dtype == np.float64:
+        from predicates.compiled.cellsums import widened
+
+        out = np.empty_like(lo_b), np.empty_like(hi_b)
+        widened(np.ascontiguousarray(lo_b), np.ascontiguousarray(hi_b), np.array([pad]),
+                0.0, *out)
+        return out
     with np.errstate(over="ignore"):
         return np.nextafter(lo_b - pad, -np.inf), np.nextafter(hi_b + pad, np.inf)
 

@@ -1,0 +1,79 @@
+"""The report's pair estimate's dense count compiled without its grid indices in
+memory (:func:`predicates.registration.plan.paircount.compiled_count`): each padded
+box's cell range computed where it is used — the covered cells' total for the
+budget test and the ±1 at its corners of the coverage's difference array in one
+pass (:func:`pad_corners`; :func:`pad_total`, the total alone) — instead of four
+(n, d) index arrays, their int64 copies and a pass over each
+(:func:`predicates.compiled.cellsums.pad_index`, ``gridsums.coverage``). The ranges
+are ``pad_index``'s (the same expression in the same order), the counts integers:
+the same estimate.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .build import INLINE_OPTIONS, JIT_OPTIONS
+
+__all__ = ["pad_corners", "pad_total"]
+
+
+@njit(**INLINE_OPTIONS)
+def _cells(lo, hi, r, ax, h, origin, g):
+    """Box r's first and last cell on ``ax``: floor((lo − h − o)/g), floor((hi + h −
+    o)/g), as :func:`~predicates.compiled.cellsums.pad_index` rounds them."""
+    a = np.floor((lo[r, ax] - h - origin[ax]) / g)
+    b = np.floor((hi[r, ax] + h - origin[ax]) / g)
+    return a, b
+
+
+@njit(**JIT_OPTIONS)
+def pad_total(lo, hi, h, origin, g):
+    """:func:`~predicates.compiled.cellsums.pad_index`'s total (Σ over the boxes of
+    Π_axes (i1 − i0 + 1), a float sum in row order) without writing the indices."""
+    total = 0.0
+    for r in range(lo.shape[0]):
+        c = 1.0
+        for ax in range(lo.shape[1]):
+            a, b = _cells(lo, hi, r, ax, h, origin, g)
+            c = (b - a + 1) if ax == 0 else c * (b - a + 1)
+        total += c
+    return total
+
+
+@njit(**JIT_OPTIONS)
+def pad_corners(lo, hi, h, origin, g, stride, diff, flip):
+    """``add_corners(i0, i1, stride, diff, flip)`` of the padded boxes' cell ranges
+    (int64 of :func:`_cells`' integral floats, astype's conversion) for d = 2 and 3:
+    ±1 at the 2^d corners {i0, i1 + 1} of each range (integer adds: exact in any
+    order); returns :func:`pad_total` of the same ranges (each range computed once:
+    the divisions bound both passes)."""
+    v = -1 if flip else 1
+    d = lo.shape[1]
+    total = 0.0
+    for r in range(lo.shape[0]):
+        a, b = _cells(lo, hi, r, 0, h, origin, g)
+        c = b - a + 1
+        x0, x1 = np.int64(a) * stride[0], (np.int64(b) + 1) * stride[0]
+        a, b = _cells(lo, hi, r, 1, h, origin, g)
+        c = c * (b - a + 1)
+        y0, y1 = np.int64(a) * stride[1], (np.int64(b) + 1) * stride[1]
+        if d == 3:
+            a, b = _cells(lo, hi, r, 2, h, origin, g)
+            c = c * (b - a + 1)
+            z0, z1 = np.int64(a) * stride[2], (np.int64(b) + 1) * stride[2]
+            diff[x1 + y1 + z1] += v  # sign (−1)^(d − corners at i1 + 1)
+            diff[x0 + y1 + z1] -= v
+            diff[x1 + y0 + z1] -= v
+            diff[x1 + y1 + z0] -= v
+            diff[x0 + y0 + z1] += v
+            diff[x0 + y1 + z0] += v
+            diff[x1 + y0 + z0] += v
+            diff[x0 + y0 + z0] -= v
+        else:
+            diff[x1 + y1] += v
+            diff[x0 + y1] -= v
+            diff[x1 + y0] -= v
+            diff[x0 + y0] += v
+        total += c
+    return total

@@ -1,0 +1,124 @@
+"""The boxes' summary of tetrahedra over finite points in one compiled loop
+(:func:`summary_tetrahedra`): the values of
+:func:`predicates.compiled.cellsums.summary_block` for d = 3, k = 4 when every
+coordinate is finite (:func:`all_finite`; validation refuses any other used point,
+:mod:`predicates.registration.plan.inputs`), at about half its cost.
+
+Why it is faster (benchmarks/README.md, "Plan passes, eighth pass"): the general loop
+keeps numpy's NaN propagation in every min/max select (two more compares each) and
+folds the three axes' least positive extents into one running minimum — three
+dependent selects per row, a loop-carried chain that bounds the loop. On finite values
+``a if a < x else x`` is numpy's ``minimum(a, x)`` exactly (signed zeros included: the
+second operand among equals), so the NaN tests go; each axis keeps its own least
+positive extent (three independent chains, their minimum taken once per block: min is
+exact), and the largest positive extent is the largest box edge ``e_max`` itself.
+Every floating-point operation that makes a value (the extents y − x, the Veltkamp
+split, the sums in row order) is the general loop's, in its order.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .build import INLINE_OPTIONS, JIT_OPTIONS
+from .cellsums import _narrow_status
+
+__all__ = ["all_finite", "summary_tetrahedra"]
+
+
+@njit(**JIT_OPTIONS)
+def all_finite(points):
+    """Is every value of ``points`` (N, d) finite (x − x is 0 for finite x, NaN for
+    infinities and NaN)?"""
+    ok = True
+    for i in range(points.shape[0]):
+        for j in range(points.shape[1]):
+            x = np.float64(points[i, j])
+            ok &= x - x == 0.0
+    return ok
+
+
+@njit(**INLINE_OPTIONS)
+def _side(points, i, j, k, m, ax):
+    """min, max of four vertices' coordinates on ``ax`` (finite), numpy's fold: the
+    second operand among equals (:func:`~predicates.compiled.cellsums._side4`)."""
+    a = np.float64(points[i, ax])
+    b = a
+    x = np.float64(points[j, ax])
+    a = a if a < x else x
+    b = b if b > x else x
+    x = np.float64(points[k, ax])
+    a = a if a < x else x
+    b = b if b > x else x
+    x = np.float64(points[m, ax])
+    a = a if a < x else x
+    b = b if b > x else x
+    return a, b
+
+
+@njit(**INLINE_OPTIONS)
+def _split(e, split):
+    """Veltkamp's high and low parts of e + 0.0 (as ``narrow_sums`` splits it)."""
+    v = e + 0.0
+    c = v * split
+    h = c - (c - v)
+    return h, v - h
+
+
+@njit(**JIT_OPTIONS)
+def summary_tetrahedra(points, rows, lo_min, hi_max, hist, status, big, tiny, spread,
+                       split):
+    """:func:`~predicates.compiled.cellsums.summary_block` for tetrahedra ``rows``
+    (m, 4) over finite ``points`` (N, 3), the same arguments and values (module
+    docstring): the hull ``lo_min``/``hi_max`` updated, the largest extents' exponent
+    histogram ``hist`` (finite ones, counted by runs of one bin), per axis the narrow
+    sums' (status, Σ high parts, Σ low parts) into ``status`` (3, 3); returns (least,
+    largest) of the boxes' largest extents."""
+    e_min, e_max = np.inf, -np.inf
+    a0, a1, a2 = lo_min[0], lo_min[1], lo_min[2]
+    b0, b1, b2 = hi_max[0], hi_max[1], hi_max[2]
+    h0 = h1 = h2 = l0 = l1 = l2 = 0.0
+    p0 = p1 = p2 = np.inf  # each axis's least positive extent (independent chains)
+    last, run = 0, 0  # hist's current bin and its pending count
+    for r in range(rows.shape[0]):
+        i, j, k, m = rows[r, 0], rows[r, 1], rows[r, 2], rows[r, 3]
+        x0, y0 = _side(points, i, j, k, m, 0)
+        x1, y1 = _side(points, i, j, k, m, 1)
+        x2, y2 = _side(points, i, j, k, m, 2)
+        a0 = x0 if x0 < a0 else a0
+        a1 = x1 if x1 < a1 else a1
+        a2 = x2 if x2 < a2 else a2
+        b0 = y0 if y0 > b0 else b0
+        b1 = y1 if y1 > b1 else b1
+        b2 = y2 if y2 > b2 else b2
+        e0, e1, e2 = y0 - x0, y1 - x1, y2 - x2
+        p0 = e0 if (e0 > 0.0) & (e0 < p0) else p0
+        p1 = e1 if (e1 > 0.0) & (e1 < p1) else p1
+        p2 = e2 if (e2 > 0.0) & (e2 < p2) else p2
+        h, low = _split(e0, split)
+        h0, l0 = h0 + h, l0 + low
+        h, low = _split(e1, split)
+        h1, l1 = h1 + h, l1 + low
+        h, low = _split(e2, split)
+        h2, l2 = h2 + h, l2 + low
+        t = e0 if e0 > e1 else e1
+        top = (t if t > e2 else e2) + 0.0  # −0.0 to +0.0 (as summarize)
+        e_min = top if top < e_min else e_min
+        e_max = top if top > e_max else e_max
+        if top < np.inf:  # finite: counted, a run of one bin at a time
+            b = (np.int64(np.float64(top).view(np.int64)) >> 52) & 0x7FF
+            if b != last:
+                hist[last] += run
+                last, run = b, 0
+            run += 1
+    hist[last] += run
+    lo_min[0], lo_min[1], lo_min[2] = a0, a1, a2
+    hi_max[0], hi_max[1], hi_max[2] = b0, b1, b2
+    status[0, 1], status[1, 1], status[2, 1] = h0, h1, h2
+    status[0, 2], status[1, 2], status[2, 2] = l0, l1, l2
+    pmin = min(p0, min(p1, p2))
+    pmax = e_max if e_max > 0.0 else 0.0  # the largest extent is some box's largest
+    state = _narrow_status(not e_max < big, pmin, pmax, tiny, spread)
+    for ax in range(3):
+        status[ax, 0] = state
+    return e_min, e_max
