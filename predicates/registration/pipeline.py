@@ -352,8 +352,8 @@ def _ranked(plan: Plan, chunk: int, timings: dict) -> tuple[Registration, Plan]:
 
 def _held_much(plan: Plan) -> bool:
     """Whether giving the plan's freed memory back before the levels pays
-    (:func:`~predicates.registration.levels.loop.trim_freed`: a full collection, ~10-20 ms
-    with sympy loaded): for a mesh of 2^20 cells or more, whose serial peak it lowers."""
+    (:func:`~predicates.registration.levels.loop.trim_freed`: glibc's heap trimmed,
+    ~10 ms at W4): for a mesh of 2^20 cells or more, whose serial peak it lowers."""
     return len(plan.sim.cells) >= 2**20
 
 

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
-import gc
 import sys
 import time
 
@@ -65,11 +64,11 @@ class MemoryGuard:
 
 def trim_freed() -> None:
     """Return the memory freed before the levels to the system (a serial run's peak,
-    docs/partitioned.md section 2): collect reference cycles (a plan's cell boxes and
-    their views hold boxes and masks until the next full collection) and, with glibc,
-    trim its heap (blocks freed below its mmap threshold otherwise stay resident:
-    W4 ~95 MiB, benchmarks/README.md "Serial peak")."""
-    gc.collect()
+    docs/partitioned.md section 2): with glibc, trim its heap (blocks freed below its
+    mmap threshold otherwise stay resident: W4 ~95 MiB, benchmarks/README.md "Serial
+    peak"). No collection: a run makes no reference cycle (the plan's arrays are freed
+    as their last reference goes; tests/test_registration/test_no_cycles.py), and a
+    full collection cost ~60 ms at W4."""
     if sys.platform.startswith("linux"):
         with contextlib.suppress(OSError, AttributeError):  # not glibc: nothing to trim
             ctypes.CDLL(None).malloc_trim(0)

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from predicates.registration.plan.cellboxes import CellBoxes, _Side
+from predicates.registration.plan.cellboxes import CellBoxes
 from predicates.registration.plan.edges import edge_from, edge_shift, edge_summary
 from predicates.registration.plan.inputs import (
     MeshInput, MeshTypeError, _array, _checked_and_used, _points, cell_error, first_bad,
@@ -180,7 +180,6 @@ class RemoteCells(CellBoxes):
         import threading
 
         self._local = threading.local()
-        self.lo, self.hi = _Side(self, 0), _Side(self, 1)
         self.stats = {"tasks": 0, "bytes_back": 0,
                       "points_sent": "pieces" if self.pieces is not None else "broadcast"}
 

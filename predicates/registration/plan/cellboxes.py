@@ -105,7 +105,18 @@ class CellBoxes:
         self._kept_mask = None  # the mask whose rows the kept ones are (keep(mask=))
         self._cells_sel = None  # (selection, its cells) of the last cells_of
         self._local = threading.local()  # the last block computed, per thread
-        self.lo, self.hi = _Side(self, 0), _Side(self, 1)
+
+    # lo and hi are made when asked, not stored: a stored view referring back to its
+    # owner made a reference cycle that kept the boxes until a full collection
+    @property
+    def lo(self) -> _Side:
+        """The boxes' lower corners as an (n, d) array-like."""
+        return _Side(self, 0)
+
+    @property
+    def hi(self) -> _Side:
+        """The boxes' upper corners as an (n, d) array-like."""
+        return _Side(self, 1)
 
     def __len__(self) -> int:
         return self.n
