@@ -170,17 +170,26 @@ def crack_front_fill(tris, Y, checked, fill_part, thorough: bool = False):
             return found
         for _ in range(3):
             Y.pop()
-    return _split_fill(tris, upper, Y, centres, fill_part, checked, (False,))
+    found = _split_fill(tris, upper, Y, centres, fill_part, checked, (False,))
+    splits = [] if found is not None else _path_sides(tris, twins, upper, front)
+    for passes in ((False,), (True,)):  # every split cheaply first, then peeled
+        for sides, path in splits:
+            found = _split_fill(tris, sides, Y, [], fill_part, checked, passes, path[1:-1])
+            if found is not None:
+                return found
+    return found
 
 
-def _split_fill(tris, upper: np.ndarray, Y, centres: list, fill_part, checked, passes):
+def _split_fill(tris, upper: np.ndarray, Y, centres: list, fill_part, checked, passes,
+                apexes=None):
     """The region split by a fan D from a point of Q (an interior point x₀, or a point
     of the loop ∂T₊: a front passing close to a cell edge leaves Q a sliver around which
     no two apexes see D), the two parts — without a slit — filled by ``fill_part``."""
     up = upper.tolist()
     edges = Counter((t[k], t[(k + 1) % 3]) for t, u in zip(tris, up) if u for k in range(3))
     loop = [e for e, m in edges.items() for _ in range(m - edges.get(e[::-1], 0))]
-    mids = [Y.append(x0) for x0 in centres] + sorted({p for e in loop for p in e})
+    mids = [Y.append(x0) for x0 in centres] + (
+        sorted({p for e in loop for p in e}) if apexes is None else list(apexes))
     for thorough in passes:
         for mid in mids:
             disc = [(x, mid, y) for x, y in loop if mid not in (x, y)]
@@ -191,3 +200,87 @@ def _split_fill(tris, upper: np.ndarray, Y, centres: list, fill_part, checked, p
             if found is not None:
                 return found
     return None
+
+
+def _front_ends(front) -> list:
+    """The ends of the front polyline (points on one front edge): where it meets the
+    cell's boundary. Empty for a closed front (a crack entirely inside the cell)."""
+    deg = Counter(p for e in front for p in e[:2])
+    return sorted(p for p, k in deg.items() if k == 1)
+
+
+def _boundary_paths(tris, twins: set, a: int, b: int, longest: int = 4) -> list:
+    """Simple paths from a to b along edges of the boundary triangles that are not
+    sides of the slit (the cell's faces), shortest first, at most ``longest`` edges."""
+    nbr: dict = {}
+    for i, t in enumerate(tris):
+        if i not in twins:
+            for k in range(3):
+                x, y = t[k], t[(k + 1) % 3]
+                nbr.setdefault(x, set()).add(y)
+                nbr.setdefault(y, set()).add(x)
+    out, todo = [], [[a]]
+    while todo:
+        path = todo.pop(0)
+        for q in sorted(nbr.get(path[-1], ())):
+            if q == b:
+                out.append(path + [q])
+            elif q not in path and len(path) < longest:
+                todo.append(path + [q])
+    return out
+
+
+def _sides_of(tris, twins: set, cut: set, upper_twins: set):
+    """(T,) bool: the boundary triangles on the upper side of the surface made of the
+    slit and a loop ``cut`` (undirected edges): triangles joined across every other edge
+    they share with opposite directions — at a chord (an edge of a face and of the slit,
+    four uses) a face triangle to the slit side running it the other way. None unless
+    this splits the boundary in two, the slit's upper side in one part."""
+    uses: dict = {}
+    for i, t in enumerate(tris):
+        for k in range(3):
+            x, y = t[k], t[(k + 1) % 3]
+            uses.setdefault(frozenset((x, y)), []).append((i, x))
+    parent = list(range(len(tris)))
+
+    def root(i):
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for e, us in uses.items():
+        if e in cut:
+            continue
+        chord = any(i not in twins for i, _ in us) and any(i in twins for i, _ in us)
+        for i, x in us:
+            other = [j for j, y in us if y != x and set(tris[j]) != set(tris[i])
+                     and (not chord or (j in twins) != (i in twins))]
+            if len(us) not in (2, 4) or len(other) != 1:
+                return None
+            parent[root(i)] = root(other[0])
+    lab = [root(i) for i in range(len(tris))]
+    up = {lab[i] for i in upper_twins}
+    if len(set(lab)) != 2 or len(up) != 1:
+        return None
+    return np.array([x in up for x in lab], dtype=bool)
+
+
+def _path_sides(tris, twins, upper: np.ndarray, front) -> list:
+    """Splits of the boundary (:func:`_sides_of`) by the front closed through the cell's
+    faces along a path between its ends (a front whose arc no single point of the uncut
+    part sees, the crack inside one cell: docs/split.md, "Regions around a crack
+    front")."""
+    ends = _front_ends(front)
+    if len(ends) != 2:
+        return []
+    tw = set(twins)
+    front_edges = {frozenset(e[:2]) for e in front}
+    upper_twins = {i for i in twins if upper[i]}
+    out = []
+    for path in _boundary_paths(tris, tw, ends[0], ends[1]):
+        cut = front_edges | {frozenset(e) for e in zip(path, path[1:])}
+        sides = _sides_of(tris, tw, cut, upper_twins)
+        if sides is not None and not any(np.array_equal(sides, s) for s, _ in out):
+            out.append((sides, path))
+    return out
