@@ -28,7 +28,7 @@ from collections import Counter
 
 import numpy as np
 
-__all__ = ["crack_front_fill", "slit_twins"]
+__all__ = ["crack_front_fill", "merge_floating", "slit_twins"]
 
 
 def _canon(face) -> tuple:
@@ -41,6 +41,19 @@ def slit_twins(tris) -> list:
     two sides of a slit)."""
     keys = Counter(_canon(tuple(t)) for t in tris)
     return [i for i, t in enumerate(tris) if keys[_canon(tuple(t)[::-1])] > 0]
+
+
+def merge_floating(tris_of: dict) -> dict:
+    """The regions of one cell {region: outward triangles} with a crack entirely inside
+    the cell — a region bounded only by the two sides of a slit (zero volume, no cone
+    fills it) — joined to the region around it, when the cell has exactly one other
+    region (then that one holds it). Unchanged otherwise (a refusal names the cell)."""
+    floating = [f for f, t in tris_of.items()
+                if t and len(slit_twins([tuple(x) for x in t])) == len(t)]
+    solid = [f for f in tris_of if f not in floating]
+    if not floating or len(solid) != 1:
+        return tris_of
+    return {solid[0]: list(tris_of[solid[0]]) + [t for f in floating for t in tris_of[f]]}
 
 
 def _normals(tris, Z: np.ndarray) -> np.ndarray:
@@ -152,6 +165,8 @@ def crack_front_fill(tris, Y, checked, fill_part, thorough: bool = False):
     front = _front_edges(tris, set(twins), lower)
     if not front:
         return None
+    if not _front_ends(front):  # a crack entirely inside the cell
+        return _floating_fill(tris, twins, lower, Y, n, fill_part, checked)
     on_slit = np.array(sorted({p for i in twins for p in tris[i]}), dtype=np.int64)
     level = float((Z[on_slit] * n).sum(axis=1).mean())
     cen = Z[np.array(tris, dtype=np.int64)].sum(axis=1) / 3.0
@@ -284,3 +299,34 @@ def _path_sides(tris, twins, upper: np.ndarray, front) -> list:
         if sides is not None and not any(np.array_equal(sides, s) for s, _ in out):
             out.append((sides, path))
     return out
+
+
+def _floating_fill(tris, twins: list, lower: list, Y, n: np.ndarray, fill_part, checked):
+    """A crack entirely inside the cell (a closed front): a bipyramid over it, the cones
+    from p₊ just above the crack over its upper side and from p₋ below over its lower
+    side, and the shell between the bipyramid and the rest of the boundary filled by
+    ``fill_part`` (no slit left: its boundary is the cell's faces and the bipyramid's
+    side faces, reversed) by a cone or fan, else the backtracking search (:mod:`~.search`;
+    the caller checks the whole exactly)."""
+    from predicates.registration.split.search import _apply, _canon as canon, search_fill
+
+    Z = Y.array
+    on_slit = np.array(sorted({p for i in twins for p in tris[i]}), dtype=np.int64)
+    centre = Z[on_slit].sum(axis=0) / len(on_slit)
+    size = float(np.sqrt(((Z[on_slit] - centre) ** 2).sum(axis=1).max()))
+    low = set(lower)
+    for frac in (0.2, 0.05, 0.5):
+        hi, lo = Y.append(centre + frac * size * n), Y.append(centre - frac * size * n)
+        cones = [(t[2], t[1], t[0], lo if i in low else hi)
+                 for i, t in enumerate(tris) if i in set(twins)]
+        shell = Counter(canon(tuple(t)) for t in tris)
+        for tet in cones:
+            shell = _apply(shell, tet)[0]
+        shell = [t for t, m in shell.items() for _ in range(m)]
+        rest = fill_part(shell, False) or search_fill(shell, Y.array, budget=400)
+        found = None if rest is None else checked(cones + rest)
+        if found is not None:
+            return found
+        Y.pop()
+        Y.pop()
+    return None
