@@ -28,7 +28,10 @@ from collections import Counter
 
 import numpy as np
 
-__all__ = ["crack_front_fill", "merge_floating", "slit_twins"]
+__all__ = ["PEELS", "crack_front_fill", "merge_floating", "slit_twins"]
+
+#: the parts of a region peeled at most in the last pass (each may cost a second)
+PEELS = 16
 
 
 def _canon(face) -> tuple:
@@ -175,8 +178,11 @@ def crack_front_fill(tris, Y, checked, fill_part, thorough: bool = False):
     upper[[i for i in twins if i not in set(lower)]] = True
     cands = list(_apexes(front, tris, Z, n, level, set(twins)))
     centres = [pm for _, pm, _ in cands[:3]]
-    if thorough:
-        return _split_fill(tris, upper, Y, centres, fill_part, checked, (True,))
+    if thorough:  # peeling is the cost of a refusal: at most PEELS parts each way
+        found = _along_paths(tris, twins, upper, front, Y, _limited(fill_part), checked,
+                             True)
+        return found if found is not None else _split_fill(
+            tris, upper, Y, centres, _limited(fill_part), checked, (True,))
     for ph, pm, pl in cands:  # the surface between the cones a fan from x₀ in Q
         hi, mid, lo = Y.append(ph), Y.append(pm), Y.append(pl)
         tets = _tets(tris, upper, hi, mid, lo)
@@ -186,13 +192,30 @@ def crack_front_fill(tris, Y, checked, fill_part, thorough: bool = False):
         for _ in range(3):
             Y.pop()
     found = _split_fill(tris, upper, Y, centres, fill_part, checked, (False,))
-    splits = [] if found is not None else _path_sides(tris, twins, upper, front)
-    for passes in ((False,), (True,)):  # every split cheaply first, then peeled
-        for sides, path in splits:
-            found = _split_fill(tris, sides, Y, [], fill_part, checked, passes, path[1:-1])
-            if found is not None:
-                return found
-    return found
+    return found if found is not None else _along_paths(
+        tris, twins, upper, front, Y, fill_part, checked, False)
+
+
+def _along_paths(tris, twins, upper, front, Y, fill_part, checked, thorough: bool):
+    """The region split along the front closed by a path on the cell's faces
+    (:func:`_path_sides`), by the fan from each inner point of the path; the parts
+    filled by ``fill_part`` (peeled only if ``thorough``)."""
+    for sides, path in _path_sides(tris, twins, upper, front):
+        found = _split_fill(tris, sides, Y, [], fill_part, checked, (thorough,), path[1:-1])
+        if found is not None:
+            return found
+    return None
+
+
+def _limited(fill_part):
+    """``fill_part`` refusing after :data:`PEELS` calls (each may peel: about a second)."""
+    left = [PEELS]
+
+    def peeled(part, thorough: bool):
+        left[0] -= 1
+        return fill_part(part, thorough) if left[0] >= 0 else None
+
+    return peeled
 
 
 def _split_fill(tris, upper: np.ndarray, Y, centres: list, fill_part, checked, passes,
