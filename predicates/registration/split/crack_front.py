@@ -31,7 +31,7 @@ import numpy as np
 __all__ = ["PEELS", "crack_front_fill", "merge_floating", "slit_twins"]
 
 #: the parts of a region peeled at most in the last pass (each may cost a second)
-PEELS = 16
+PEELS = 8
 
 
 def _canon(face) -> tuple:
