@@ -21,6 +21,14 @@ rounded coordinates) and their faces pair up to exactly S (:func:`~.search.paire
 complex of positive tetrahedra with paired faces covers the region once, the slit's two
 sides included. The geometry here only proposes x₀ and the heights (a few candidates
 from the front's edges); it decides nothing.
+
+Two other shapes of front. A front running inside the cell from face to face along an
+arc no point of the uncut part sees (the disc of radius h/2 in Kuhn 4): the front is
+closed by a path on the cell's faces, the boundary split into the two sides of that loop
+(:func:`_sides_of`), and the region cut by the fan from a point of the path
+(:func:`_along_paths`). A closed front (a crack entirely inside the cell, its region
+joined to the cell's by :func:`merge_floating`): a bipyramid over the crack and the shell
+around it (:func:`_floating_fill`). docs/split.md, "Regions around a crack front".
 """
 from __future__ import annotations
 
