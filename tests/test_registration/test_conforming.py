@@ -204,8 +204,8 @@ def _crossed_cut_faces(cm, lo, hi) -> list:
     return out
 
 
-@pytest.mark.parametrize("radius", [0.5, 3.0])
-def test_a_disc_crack_opens_across_its_whole_area(radius):
+@pytest.mark.parametrize("n, radius", [(16, 0.5), (16, 3.0), (4, 0.5), (8, 0.5)])
+def test_a_disc_crack_opens_across_its_whole_area(n, radius):
     """A disc crack of radius h/2 (inside one cell's neighbourhood) and 3h (its front
     crossing dozens of cells: regions with a partial slit, filled around the front by two
     cones joined across the uncut part of the cell, split/crack_front.py) inside Kuhn 16:
@@ -214,8 +214,10 @@ def test_a_disc_crack_opens_across_its_whole_area(radius):
     two sides have different nodes at every vertex not on the disc's rim (the crack
     front): the material is separated across the whole crack, joined only around its
     front. Exact points of the disc (rational points of its fan triangles, Fraction) are
-    each met by a cut face whose two sides are separated there."""
-    n = 16
+    each met by a cut face whose two sides are separated there. At n = 4 and 8 the front
+    of the h/2 disc runs inside one cell from face to face, an arc no point of the uncut
+    part sees: that region is split along the front closed by a path on its faces
+    (split/crack_front.py; was refused)."""
     h = 1.0 / n
     P, C = cube_grid(n)
     Q, K = disc_crack(radius * h, (0.5 + 0.3 * h, 0.5 + 0.2 * h, 0.5 + 0.1 * h))
@@ -281,6 +283,38 @@ def test_a_disc_crack_opens_across_its_whole_area(radius):
                 assert opened, (t, w, f)
             met += 1
     assert met == len(K) * len(weights)
+
+
+@pytest.mark.parametrize("n, radius", [(4, 0.05), (8, 0.1)])
+def test_a_disc_crack_entirely_inside_one_cell(n, radius):
+    """A disc crack entirely inside one cell, off its centre (every registered point a
+    cutting vertex inside that one tetrahedron: a closed front). Its two sides alone made
+    a zero-volume region (refused); it is now part of the cell's region, filled by a
+    bipyramid over the disc and the shell around it (split/crack_front.py). Every
+    invariant exact (positive simplices, faces paired, no simplex across the crack, the
+    cube's volume), the cut faces tile the disc (exact Fraction area), and across every
+    cut face the disc's centre has a different node on each side: the crack opens."""
+    h = 1.0 / n
+    P, C = cube_grid(n)
+    Q, K = disc_crack(radius * h, (0.5 + 0.62 * h, 0.5 + 0.35 * h, 0.5 + 0.2 * h))
+    res = predicates.intersect(P, C, Q, K)
+    inside = res["tetrahedron_vertex"]
+    assert len(inside.sim) == len(Q) and len(np.unique(inside.sim, axis=0)) == 1
+    assert sum(len(res[k].sim) for k in res.kinds) == len(Q)
+    cm = res.split().tetrahedralize()
+    assert cm.n_pieces == 1
+    check(res, cm, {0: Fraction(1)})
+    X = cm.points[cm.cut_faces]
+    area = sum(polygon_area_3d(x) for x in X)
+    exact = sum(polygon_area_3d(Q[list(t)]) for t in K.tolist())
+    assert len(cm.cut_faces) == len(K) and abs(area - exact) <= 1e-12 * exact
+    centre = int(np.flatnonzero((cm.points == Q[0]).all(axis=1))[0])
+    _, node = cm.opened()
+    for f, (b, a) in zip(cm.cut_faces.tolist(), cm.cut_sides.tolist()):
+        if centre in f:
+            kb = cm.cells[b].tolist().index(centre)
+            ka = cm.cells[a].tolist().index(centre)
+            assert node[b, kb] != node[a, ka]
 
 
 def test_a_cutting_edge_within_tau_of_a_vertex_is_re_decided():

@@ -55,3 +55,32 @@ def test_cut_conforming_refuses_formats_without_cell_data(tmp_path, capsys):
     s, c = _write(tmp_path, cube_grid(2), grid_plane(2))
     assert _main("cut", s, c, "--conforming", "-o", str(tmp_path / "p.stl"), "--quiet") == 2
     assert "cell data" in capsys.readouterr().err
+
+
+def test_cut_conforming_disc_crack_inside_one_cell_through_the_cli(tmp_path):
+    """``fperr cut --conforming`` (a subprocess) on Kuhn 4 × the disc crack of radius h/2,
+    whose front runs inside one cell from face to face (was refused, exit 1): exit 0, the
+    file written and read back by meshio, every tetrahedron positive in exact arithmetic,
+    the cube's volume exactly (Fraction sum of the simplices' exact volumes: 1)."""
+    import subprocess
+    import sys
+    from fractions import Fraction
+    from pathlib import Path
+
+    from conform_check import exact_mesh_volume
+    from cut_cases import disc_crack
+
+    h = 0.25
+    s, c = _write(tmp_path, cube_grid(4),
+                  disc_crack(0.5 * h, (0.5 + 0.3 * h, 0.5 + 0.2 * h, 0.5 + 0.1 * h)))
+    out = tmp_path / "pieces.vtu"
+    root = Path(__file__).resolve().parents[2]
+    r = subprocess.run([sys.executable, "-m", "fperr", "cut", s, c, "--conforming", "-o",
+                        str(out), "--quiet"], cwd=root, capture_output=True, text=True,
+                       timeout=600)
+    assert r.returncode == 0, r.stderr
+    back = meshio.read(out)
+    T = back.cells_dict["tetra"]
+    assert np.all(orientation_signs(back.points, T) > 0)
+    assert exact_mesh_volume(back.points, T) == Fraction(1)
+    assert set(back.cell_data["piece"][0].tolist()) == {0}

@@ -319,6 +319,7 @@ def _why(tris, Y) -> str:
 def _collect(res, sm, cs, ctx):
     """Boundaries of the regions of the touched cells: ({region: outward simplices},
     cut records, {(cell, face): triangles}, region → (cell, fragment), problems)."""
+    from predicates.registration.split.crack_front import merge_floating
     from predicates.registration.split.polytri import NoEar
     from predicates.registration.split.regions import Unresolved
 
@@ -338,7 +339,7 @@ def _collect(res, sm, cs, ctx):
             problems.append((c, f"{type(e).__name__}: {e}"))
             continue
         where += [(c, owner[r]) for r in range(len(owner))]
-        for f, tris in cb.tris.items():
+        for f, tris in merge_floating(cb.tris).items():  # a crack inside the cell
             if not tris or not _closed(tris):
                 problems.append((c, f"region {f - base}: boundary not closed"))
             tris_of[f] = tris

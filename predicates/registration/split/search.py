@@ -39,6 +39,36 @@ _BOUND = 1e-14
 def orient_signs(P: np.ndarray) -> np.ndarray:
     """(k,) exact signs of ((B − A) × (C − A))·(D − A) for tetrahedra P (k, 4, 3): float
     with a static filter, ``Fraction`` where the filter cannot decide."""
+    v, perm = _filtered(P)
+    out = np.sign(v).astype(np.int64)
+    for k in np.flatnonzero(np.abs(v) <= _BOUND * perm).tolist():
+        out[k] = _exact_sign(P[k])
+    return out
+
+
+def _all_positive(P: np.ndarray) -> bool:
+    """Every exact sign of :func:`orient_signs` positive; the exact ``Fraction`` signs
+    are computed only when the filter finds no certainly negative or flat one (a boundary
+    point in the plane of many boundary triangles: most of a fan's candidates)."""
+    v, perm = _filtered(P)
+    sure = np.abs(v) > _BOUND * perm
+    if np.any(sure & (v < 0)):
+        return False
+    return all(_exact_sign(P[k]) > 0 for k in np.flatnonzero(~sure).tolist())
+
+
+def _exact_sign(T: np.ndarray) -> int:
+    """The exact orientation sign of one tetrahedron (4, 3), in ``Fraction``."""
+    Q = [[Fraction(float(x)) for x in p] for p in T]
+    e = [[a - b for a, b in zip(p, Q[0])] for p in Q[1:]]
+    det = (e[0][0] * (e[1][1] * e[2][2] - e[1][2] * e[2][1])
+           - e[0][1] * (e[1][0] * e[2][2] - e[1][2] * e[2][0])
+           + e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0]))
+    return (det > 0) - (det < 0)
+
+
+def _filtered(P: np.ndarray):
+    """(float determinants, their permanents) of tetrahedra P (k, 4, 3)."""
     E = P[:, 1:] - P[:, :1]
     m0 = E[:, 1, 1] * E[:, 2, 2] - E[:, 1, 2] * E[:, 2, 1]
     m1 = E[:, 1, 0] * E[:, 2, 2] - E[:, 1, 2] * E[:, 2, 0]
@@ -48,15 +78,7 @@ def orient_signs(P: np.ndarray) -> np.ndarray:
     perm = (A[:, 0, 0] * (A[:, 1, 1] * A[:, 2, 2] + A[:, 1, 2] * A[:, 2, 1])
             + A[:, 0, 1] * (A[:, 1, 0] * A[:, 2, 2] + A[:, 1, 2] * A[:, 2, 0])
             + A[:, 0, 2] * (A[:, 1, 0] * A[:, 2, 1] + A[:, 1, 1] * A[:, 2, 0]))
-    out = np.sign(v).astype(np.int64)
-    for k in np.flatnonzero(np.abs(v) <= _BOUND * perm).tolist():
-        Q = [[Fraction(float(x)) for x in p] for p in P[k]]
-        e = [[a - b for a, b in zip(p, Q[0])] for p in Q[1:]]
-        det = (e[0][0] * (e[1][1] * e[2][2] - e[1][2] * e[2][1])
-               - e[0][1] * (e[1][0] * e[2][2] - e[1][2] * e[2][0])
-               + e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0]))
-        out[k] = (det > 0) - (det < 0)
-    return out
+    return v, perm
 
 
 def _canon(face) -> tuple:
@@ -143,7 +165,7 @@ def fan_from_boundary(tris, Z: np.ndarray):
     pts = sorted({p for t in tris for p in t})
     for p in pts:
         cone = [tuple(t[::-1]) + (p,) for t in tris if p not in t]
-        if cone and np.all(orient_signs(Z[np.array(cone, dtype=np.int64)]) > 0):
+        if cone and _all_positive(Z[np.array(cone, dtype=np.int64)]):
             return cone
     return None
 
