@@ -3,7 +3,7 @@
 repeatedly in one process after two warm-up calls, process CPU per call, best and
 median, and each plan stage's wall time (best and median).
 
-    FPERR_ACCELERATE=1 python benchmarks/plan_time.py [W1|W4] [calls]
+    FPERR_ACCELERATE=1 python benchmarks/plan_time.py [W1|W4|tiny] [calls]
 
 Run it from the tree to measure (the tree's ``predicates`` is imported); compare two
 trees in fresh processes, alternating.
@@ -26,8 +26,9 @@ def main() -> None:
 
     w = sys.argv[1] if len(sys.argv) > 1 else "W1"
     calls = int(sys.argv[2]) if len(sys.argv) > 2 else 20
-    spec = ({"w": "W1", "n": 48, "subdivisions": 5} if w == "W1"
-            else {"w": "W4", "n": 120, "subdivisions": 7})
+    spec = {"W1": {"w": "W1", "n": 48, "subdivisions": 5},
+            "W4": {"w": "W4", "n": 120, "subdivisions": 7},
+            "tiny": {"w": "W1", "n": 8, "subdivisions": 2}}[w]  # tiny: the smoke test's
     sim, cut = meshes(spec)
 
     def plan() -> dict:

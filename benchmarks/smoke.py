@@ -49,9 +49,10 @@ TINY: dict[str, tuple[list[str], str]] = {
     "cut_bench.py": (["--repeat", "1", "--only", "2D", "--no-volumes"],
                     r"2D n=512: \d+ cells, \d+ pairs, \d+ new cells, 2 pieces"),
     "plan_memory.py": (["--n", "8", "--subdivisions", "2"], r"^digest [0-9a-f]{64}$"),
+    "plan_time.py": (["tiny", "2"], r"^tiny plan CPU best [\d.]+ s, median [\d.]+ s \(2 calls"),
     "conform_clip_bench.py": (["--n", "4", "--repeat", "1"],
                               r"^  fperr half 1: 192 tets, 0 zero-volume, 0 open edges$"),
-    # n = 16, not 4 or 8: there the disc R = h/2 is refused after ~30 s (no faster)
+    # n = 16: the case list's largest tiny size that also runs the gmsh-free cases fast
     "conform_cases_bench.py": (["--n", "16", "--no-gmsh"], r'rotated icosphere\(2\)".*"pieces": 2'),
     "speed_bench.py": (["--cases", "w5", "--w5-sizes", "100", "--no-naive"],
                        r"\| W5 N=100 \| 3,100 \| 3,100 \([\d,]+\) \| [\d,]+ \|"),

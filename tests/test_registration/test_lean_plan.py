@@ -83,7 +83,8 @@ def test_cellboxes_behave_as_the_arrays():
         assert np.array_equal(side[:, 2], ref[:, 2]) and np.array_equal(side[5:9, 1], ref[5:9, 1])
         assert np.array_equal(np.asarray(side), ref)
     lo_c, hi_c = cb
-    assert lo_c is cb.lo and cb[1] is cb.hi
+    # lo/hi are made when asked (no reference cycle back to the boxes): views of cb
+    assert (lo_c.owner, lo_c.side, cb[1].owner, cb[1].side) == (cb, 0, cb, 1)
     S = cb.summary()
     assert S.ext_max == box_extent(lo, hi).max() and S.ext_min == box_extent(lo, hi).min()
     assert np.array_equal(S.lo_min, lo.min(0)) and np.array_equal(S.hi_max, hi.max(0))
