@@ -11,6 +11,7 @@ from fractions import Fraction
 from pathlib import Path
 
 import matplotlib
+import matplotlib.collections
 import meshio
 import numpy as np
 import pytest
@@ -157,3 +158,29 @@ def test_cli_conforming_png_of_a_crack_shows_it(tmp_path, offset_crack):
         img = plt.imread(png)[..., :3]
         shares[cut] = _cut_coloured(img).mean()
     assert shares["crack"] > 0.02 and shares["plane"] == 0, shares
+
+
+def test_a_2d_crack_is_drawn_as_red_segments_over_its_piece():
+    """Square grid 8 × a polyline from grid vertex (¼, ½) to (¾, ½) (one piece): its cut
+    segments, drawn in the cut colour above the triangles, are exactly the crack faces'
+    (by coordinates, explode 0), which tile the polyline."""
+    from predicates.registration.examples import square_grid
+    from predicates.registration.pictures.conforming import CUT_RGB
+
+    Q = np.array([[0.25, 0.5], [0.5, 0.5625], [0.75, 0.5]])
+    cm = predicates.intersect(*square_grid(8), Q, np.array([[0, 1], [1, 2]])).split() \
+        .triangulate()
+    assert cm.n_pieces == 1
+    cracks = crack_faces(cm)
+    assert len(cracks) == len(cm.cut_faces) > 0
+    length = sum(np.sqrt(((cm.points[b] - cm.points[a]) ** 2).sum())
+                 for a, b in cm.cut_faces[cracks].tolist())
+    assert abs(length - 2 * np.sqrt(0.25 ** 2 + 0.0625 ** 2)) < 1e-12
+    plt, fig, ax = _draw(cm)
+    (lines,) = [c for c in ax.collections if isinstance(c, matplotlib.collections.LineCollection)]
+    assert lines.get_zorder() > max(c.get_zorder() for c in ax.collections if c is not lines)
+    assert np.allclose(lines.get_colors()[:, :3], CUT_RGB)
+    drawn = sorted(tuple(map(tuple, s.tolist())) for s in lines.get_segments())
+    assert drawn == sorted(tuple(map(tuple, cm.points[f].tolist()))
+                           for f in cm.cut_faces[cracks].tolist())
+    plt.close(fig)

@@ -4,7 +4,8 @@ every piece (faces of its simplices no other simplex of the piece shares), Lambe
 (elementwise, in a fixed order), the cut faces in a lighter tone of their piece,
 the pieces moved apart — pieces whose centroids nearly coincide (a ball in its cavity)
 side by side along x. ``clip`` keeps the simplices of some pieces on one side of an
-axis-aligned plane only, to look into a cavity. 2D: the triangles filled by piece. 3D is
+axis-aligned plane only, to look into a cavity. A crack (cut faces with one piece on
+both sides, so on no piece's boundary) is drawn in the cut colour over its piece. 2D: the triangles filled by piece. 3D is
 projected by an exact rotation and drawn back to front on plain 2D axes
 (:mod:`~predicates.registration.pictures.view`): the same pixels on every machine."""
 from __future__ import annotations
@@ -51,7 +52,9 @@ def draw_conforming(ax, cm, explode: float = 0.3, clip=None, light=(-0.4, -0.8, 
     """Draw ``cm`` into a plain 2D matplotlib axis; 3D in ``view`` (default mplot3d's
     default angles, projected by exact rotations: pictures/view.py). ``clip``: (pieces, axis,
     value): the simplices of those pieces whose centroid has coordinate ``axis`` ≥
-    ``value`` only."""
+    ``value`` only. A crack (:func:`crack_faces`) is drawn in the cut colour over its
+    piece: 3D opened (:func:`crack_sides`), the piece see-through; 2D its segments
+    (docs/split.md, "Pictures")."""
     off = _offsets(cm, explode)
     keep = np.ones(len(cm.cells), dtype=bool)
     if clip is not None:
@@ -66,6 +69,13 @@ def draw_conforming(ax, cm, explode: float = 0.3, clip=None, light=(-0.4, -0.8, 
             ax.add_collection(PolyCollection(cm.points[sel] + off[p], edgecolors="k",
                                              facecolors=PIECE_COLOURS[p % 10],
                                              linewidths=0.3, alpha=0.8))
+        cracks = crack_faces(cm, keep)
+        if len(cracks):  # a crack's segments, else drawn as any inner edge
+            from matplotlib.collections import LineCollection
+
+            move = off[cm.piece[cm.cut_sides[cracks, 0]]][:, None, :]
+            ax.add_collection(LineCollection(cm.points[cm.cut_faces[cracks]] + move,
+                                             colors=[CUT_RGB], linewidths=1.6, zorder=3))
         ax.set_aspect("equal")
         ax.autoscale_view()
         return
@@ -181,9 +191,9 @@ def plot_conforming(cm, path: str, explode: float = 0.3, clip=None,
     """Write a picture of ``cm`` to ``path`` (png, pdf or svg)."""
     plt, fig, (ax,) = _figure(cm.dim)
     draw_conforming(ax, cm, explode, clip)
-    cracks = len(crack_faces(cm)) if cm.dim == 3 else 0
-    inside = f"\n{cracks} of them a crack inside a piece (red, opened; the piece " \
-             f"see-through)" if cracks else ""
+    cracks = len(crack_faces(cm))
+    how = "opened; the piece see-through" if cm.dim == 3 else "over the piece"
+    inside = f"\n{cracks} of them a crack inside a piece (red, {how})" if cracks else ""
     ax.set_title(title or f"conforming: {cm.n_pieces} piece"
                           f"{'s' if cm.n_pieces != 1 else ''}, {len(cm.cells)} simplices, "
                           f"{len(cm.cut_faces)} cut faces (explode {explode:g}){inside}")
