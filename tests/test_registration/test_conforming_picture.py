@@ -184,3 +184,34 @@ def test_a_2d_crack_is_drawn_as_red_segments_over_its_piece():
     assert drawn == sorted(tuple(map(tuple, cm.points[f].tolist()))
                            for f in cm.cut_faces[cracks].tolist())
     plt.close(fig)
+
+
+def test_the_crack_picture_is_the_same_on_every_kernel(tmp_path, offset_crack):
+    """``fperr cut --conforming --png`` of the crack writes the same bytes under every
+    OpenBLAS kernel this CPU runs and every lower level of numpy's SIMD dispatch
+    (docs/design.md, "The same answer on every machine"): the opened sides and the
+    see-through shading are elementwise, in a fixed order (no BLAS, no transcendental
+    function)."""
+    import os
+
+    from blas_kernels import supported
+    from numpy_dispatch import settings
+
+    P, C, Q, K, _ = offset_crack
+    meshio.write(tmp_path / "sim.vtu", meshio.Mesh(P, [("tetra", C)]))
+    meshio.write(tmp_path / "crack.vtu", meshio.Mesh(Q, [("triangle", K)]))
+    base = {k: v for k, v in os.environ.items()
+            if k not in ("OPENBLAS_CORETYPE", "NPY_DISABLE_CPU_FEATURES")}
+    runs = [{}] + [{"OPENBLAS_CORETYPE": k} for k in supported()[0]] \
+        + [{"NPY_DISABLE_CPU_FEATURES": s} for s in settings()]
+    pictures = []
+    for n, extra in enumerate(runs):
+        png = tmp_path / f"crack{n}.png"
+        r = subprocess.run([sys.executable, "-m", "fperr", "cut", str(tmp_path / "sim.vtu"),
+                            str(tmp_path / "crack.vtu"), "--conforming", "--png", str(png),
+                            "--quiet"], cwd=ROOT, env={**base, **extra},
+                           capture_output=True, text=True, timeout=300)
+        assert r.returncode == 0, (extra, r.stderr[-2000:])
+        pictures.append(png.read_bytes())
+    assert pictures[0][:4] == b"\x89PNG" and len(runs) > 1
+    assert [extra for extra, p in zip(runs, pictures) if p != pictures[0]] == []
