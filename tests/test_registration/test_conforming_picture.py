@@ -151,8 +151,9 @@ def test_cli_conforming_png_of_a_crack_shows_it(tmp_path, offset_crack):
     shares = {}
     for cut in ("crack", "plane"):
         png = tmp_path / f"{cut}.png"
-        r = subprocess.run([FPERR, "cut", str(tmp_path / "sim.vtu"), str(tmp_path / f"{cut}.vtu"),
-                            "--conforming", "--png", str(png), "--quiet"], cwd=ROOT,
+        r = subprocess.run([FPERR, "cut", str(tmp_path / "sim.vtu"),
+                            str(tmp_path / f"{cut}.vtu"), "--conforming", "--png", str(png),
+                            "--quiet"], cwd=ROOT,
                            capture_output=True, text=True, timeout=300)
         assert r.returncode == 0, r.stderr[-2000:]
         img = plt.imread(png)[..., :3]
@@ -177,7 +178,8 @@ def test_a_2d_crack_is_drawn_as_red_segments_over_its_piece():
                  for a, b in cm.cut_faces[cracks].tolist())
     assert abs(length - 2 * np.sqrt(0.25 ** 2 + 0.0625 ** 2)) < 1e-12
     plt, fig, ax = _draw(cm)
-    (lines,) = [c for c in ax.collections if isinstance(c, matplotlib.collections.LineCollection)]
+    (lines,) = [c for c in ax.collections
+                if isinstance(c, matplotlib.collections.LineCollection)]
     assert lines.get_zorder() > max(c.get_zorder() for c in ax.collections if c is not lines)
     assert np.allclose(lines.get_colors()[:, :3], CUT_RGB)
     drawn = sorted(tuple(map(tuple, s.tolist())) for s in lines.get_segments())

@@ -5,9 +5,10 @@ every piece (faces of its simplices no other simplex of the piece shares), Lambe
 the pieces moved apart — pieces whose centroids nearly coincide (a ball in its cavity)
 side by side along x. ``clip`` keeps the simplices of some pieces on one side of an
 axis-aligned plane only, to look into a cavity. A crack (cut faces with one piece on
-both sides, so on no piece's boundary) is drawn in the cut colour over its piece. 2D: the triangles filled by piece. 3D is
-projected by an exact rotation and drawn back to front on plain 2D axes
-(:mod:`~predicates.registration.pictures.view`): the same pixels on every machine."""
+both sides, so on no piece's boundary) is drawn in the cut colour over its piece. 2D:
+the triangles filled by piece. 3D is projected by an exact rotation and drawn back to
+front on plain 2D axes (:mod:`~predicates.registration.pictures.view`): the same pixels
+on every machine."""
 from __future__ import annotations
 
 import numpy as np
@@ -96,7 +97,7 @@ def draw_conforming(ax, cm, explode: float = 0.3, clip=None, light=(-0.4, -0.8, 
     fit(ax, v.project(F)[0])
 
 
-def crack_faces(cm, keep=None) -> np.ndarray:
+def crack_faces(cm, keep: np.ndarray | None = None) -> np.ndarray:
     """Indices of the cut faces with a simplex on each side in one piece (both kept):
     a crack inside that piece (docs/split.md, "Pictures"). They are no face of the
     piece's boundary, so only :func:`crack_sides` draws them."""
@@ -121,7 +122,8 @@ def crack_sides(cm, faces: np.ndarray, gap: float) -> np.ndarray:
         cells = cm.cells[cm.cut_sides[faces, col]]
         apex = cells.sum(axis=1) - ids.sum(axis=1)  # the simplex's vertex off the face
         to_apex = cm.points[apex] - F[:, 0]
-        towards = (to_apex[:, 0] * n[:, 0] + to_apex[:, 1] * n[:, 1]) + to_apex[:, 2] * n[:, 2]
+        towards = ((to_apex[:, 0] * n[:, 0] + to_apex[:, 1] * n[:, 1])
+                   + to_apex[:, 2] * n[:, 2])
         out.append(F + (np.where(towards < 0, -gap, gap)[:, None] * n)[:, None, :])
     return np.stack(out)
 
@@ -204,7 +206,8 @@ def plot_conforming(cm, path: str, explode: float = 0.3, clip=None,
 
 def sphere_out_of_cube(path: str, n: int = 8, subdivisions: int = 2):
     """The demo picture: the cube (Kuhn n) cut by an icosphere, conforming; the cube with
-    its cavity (cut open at y = ½, the half towards the viewer removed) beside the ball. Returns the ConformingMesh."""
+    its cavity (cut open at y = ½, the half towards the viewer removed) beside the ball.
+    Returns the ConformingMesh."""
     from predicates import intersect
     from predicates.registration.examples import cube_grid, icosphere
 
