@@ -789,6 +789,29 @@ def test_occupied_table_is_the_cumulative_sums():
                           _occupied(i0, i1, G, SERIAL))
 
 
+def test_bucketed_renumbering_is_searchsorted():
+    """inputs.renumbered with ``fast`` (compiled.renumber: each id searched within its
+    bucket) gives np.searchsorted's positions as int32, for run vertices spread evenly,
+    clustered (most buckets empty, one crowded), a single vertex and huge ids; ids
+    absent from the vertices (below, between, above them) get numpy's left insertion
+    point too."""
+    from predicates.registration.plan.inputs import renumbered
+
+    rng = np.random.default_rng(13)
+    cases = [np.unique(rng.integers(0, 10 ** 6, size=5000)),
+             np.unique(np.concatenate([rng.integers(0, 50, size=400), [10 ** 9, 2 ** 40]])),
+             np.array([7]), np.unique(rng.integers(2 ** 60, 2 ** 62, size=300))]
+    for vertices in cases:
+        vertices = vertices.astype(np.int64)
+        present = rng.choice(vertices, size=(200, 4))
+        absent = np.concatenate([vertices - 1, vertices + 1, [0, vertices[-1] + 5]])
+        for cells in (present, rng.choice(absent, size=(100, 4))):
+            got = renumbered(cells, vertices, fast=True)
+            assert got.dtype == np.int32
+            assert np.array_equal(got, np.searchsorted(vertices, cells))
+            assert np.array_equal(got, renumbered(cells, vertices))
+
+
 def test_prefix_sums_are_the_box_sums():
     """compiled.prefix.prefix_sums: every cell the sum of the grid's cells at or below it
     on every axis (Python integers, from the definition), for 2D and 3D grids of int32
