@@ -61,7 +61,7 @@ def compiled_count(lo_a, hi_a, lo_b, hi_b, pad: float) -> int | None:
     if d not in (2, 3):
         return None
     h = 0.5 * pad
-    sides = [tuple(np.ascontiguousarray(x, dtype=np.float64) for x in s)
+    sides = [tuple(np.asarray(x, dtype=np.float64) for x in s)  # as laid out: no copies
              for s in ((lo_a, hi_a), (lo_b, hi_b))]
     ext = np.empty(len(lo_a) + len(lo_b))
     lo_min, hi_max = np.full(d, np.inf), np.full(d, -np.inf)
