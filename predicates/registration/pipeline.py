@@ -313,7 +313,7 @@ def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, 
     report = _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts, work)
     clock("plan_report")
     return Plan(dim, dtype, sim, cut, sc_, P_sim, P_cut,
-                run if keep is None else renumbered(run, keep), cut.cells[mc], tol_run, ts,
+                run if keep is None else renumbered(run, keep, fast), cut.cells[mc], tol_run, ts,
                 catalogue_kinds(dim), report, refinement, arrays, work.blocks.accelerate,
                 keep)
 

@@ -789,6 +789,61 @@ def test_occupied_table_is_the_cumulative_sums():
                           _occupied(i0, i1, G, SERIAL))
 
 
+def test_bucketed_renumbering_is_searchsorted():
+    """inputs.renumbered with ``fast`` (compiled.renumber: each id searched within its
+    bucket) gives np.searchsorted's positions as int32, for run vertices spread evenly,
+    clustered (most buckets empty, one crowded), a single vertex and huge ids; ids
+    absent from the vertices (below, between, above them) get numpy's left insertion
+    point too."""
+    from predicates.registration.plan.inputs import renumbered
+
+    rng = np.random.default_rng(13)
+    cases = [np.unique(rng.integers(0, 10 ** 6, size=5000)),
+             np.unique(np.concatenate([rng.integers(0, 50, size=400), [10 ** 9, 2 ** 40]])),
+             np.array([7]), np.unique(rng.integers(2 ** 60, 2 ** 62, size=300))]
+    for vertices in cases:
+        vertices = vertices.astype(np.int64)
+        present = rng.choice(vertices, size=(200, 4))
+        absent = np.concatenate([vertices - 1, vertices + 1, [0, vertices[-1] + 5]])
+        for cells in (present, rng.choice(absent, size=(100, 4))):
+            got = renumbered(cells, vertices, fast=True)
+            assert got.dtype == np.int32
+            assert np.array_equal(got, np.searchsorted(vertices, cells))
+            assert np.array_equal(got, renumbered(cells, vertices))
+
+
+def test_prefix_sums_are_the_box_sums():
+    """compiled.prefix.prefix_sums: every cell the sum of the grid's cells at or below it
+    on every axis (Python integers, from the definition), for 2D and 3D grids of int32
+    and int64 with negative entries, a non-contiguous grid (numpy's path) included; and
+    gridsums.coverage compiled counts, per cell, the boxes covering it (brute force)."""
+    from predicates.compiled.prefix import prefix_sums
+    from predicates.registration.spatial.gridsums import coverage
+
+    rng = np.random.default_rng(11)
+    for shape in ((1, 1), (4, 7), (1, 5, 1), (3, 4, 5), (6, 2, 9)):
+        for dtype in (np.int32, np.int64):
+            a = rng.integers(-5, 6, size=shape).astype(dtype)
+            want = np.empty(shape, dtype=object)
+            for idx in np.ndindex(*shape):
+                want[idx] = int(a[tuple(slice(0, i + 1) for i in idx)].astype(object).sum())
+            got = prefix_sums(a.copy())
+            assert got.dtype == dtype and got.tolist() == want.tolist()
+            strided = np.zeros(shape[:-1] + (2 * shape[-1],), dtype)[..., ::2]
+            strided[...] = a
+            assert prefix_sums(strided).tolist() == want.tolist()
+    for d in (2, 3):
+        G = rng.integers(1, 6, size=d)
+        i0 = rng.integers(0, G, size=(30, d))
+        i1 = np.minimum(i0 + rng.integers(0, 3, size=(30, d)), G - 1)
+        cover = coverage(i0, i1, G, Blocks(accelerate=True), np.int32)
+        assert np.array_equal(cover, coverage(i0, i1, G, SERIAL))
+        for cell in np.ndindex(*(G + 1)):  # cover's axes reversed; last rows unused
+            c = np.array(cell[::-1])
+            if np.all(c < G):
+                assert cover[cell] == int(np.all((i0 <= c) & (c <= i1), axis=1).sum())
+
+
 @_SLOW
 @given(st.data(), st.sampled_from([2, 3]))
 def test_compiled_edge_summary_is_numpys_and_the_definition(data, d):

@@ -384,11 +384,13 @@ def run_vertices(cells: np.ndarray, n_points: int) -> np.ndarray:
     return np.flatnonzero(used)
 
 
-def renumbered(cells: np.ndarray, vertices: np.ndarray) -> np.ndarray:
-    """``cells`` in the positions of their vertex ids in ``vertices`` (ascending, every
-    id of the cells in it): a monotone renumbering, so every comparison of vertex ids —
-    the registration's orders and tie-breaks — is unchanged (as for a partition's own
-    numbering, :mod:`~predicates.registration.partition.assign`)."""
+def renumbered(cells: np.ndarray, vertices: np.ndarray, fast: bool = False) -> np.ndarray:
+    """``cells`` in the positions of their ids in ``vertices`` (ascending, holding every id
+    of the cells): monotone, so every comparison of vertex ids (orders, tie-breaks) is
+    unchanged; ``fast``: searched by buckets (:mod:`predicates.compiled.renumber`)."""
+    if fast and len(vertices) and cells.dtype.kind == "i" and vertices.dtype == np.int64:
+        from predicates.compiled.renumber import searched
+        return searched(vertices, cells)
     out = np.searchsorted(vertices, cells)
     return out.astype(np.int32) if len(vertices) < 2 ** 31 else out
 
@@ -420,9 +422,7 @@ def _one_point(mesh, hull=None) -> bool:
     """Every vertex of the mesh's cells is the same point (in the working dtype): the
     hull of the cells' boxes (``hull`` = (lo_min, hi_max), or computed) is one point —
     it is the hull of the vertices the cells use; exact, no sort of the cells' ids."""
-    if hull is None:
-        lo, hi = boxes_of(mesh.points, mesh.cells)
-        hull = colmin(lo), colmax(hi)
+    hull = hull_of(*boxes_of(mesh.points, mesh.cells)) if hull is None else hull
     return bool(np.array_equal(*hull))
 
 

@@ -308,7 +308,7 @@ def _reach(P, C, boxes=None, accelerate: bool = False):
         from predicates.compiled.cellsums import widened
 
         out = np.empty_like(lo), np.empty_like(hi)
-        widened(*(np.ascontiguousarray(x) for x in (lo, hi, ext)), tiny, *out)
+        widened(lo, hi, ext, tiny, *out)  # as laid out: no C-ordered copies
         return out, ext
     e = ext[:, None]
     return (np.nextafter(lo - e, -np.inf) - tiny, np.nextafter(hi + e, np.inf) + tiny), ext

@@ -49,9 +49,9 @@ def enlarge(lo_b, hi_b, pad, accelerate: bool = False):
     if accelerate and lo_b.ndim == 2 and lo_b.dtype == hi_b.dtype == np.float64:
         from predicates.compiled.cellsums import widened
 
+        # the boxes as laid out (boxes_of's are column-major): no C-ordered copies
         out = np.empty_like(lo_b), np.empty_like(hi_b)
-        widened(np.ascontiguousarray(lo_b), np.ascontiguousarray(hi_b), np.array([pad]),
-                0.0, *out)
+        widened(lo_b, hi_b, np.array([pad]), 0.0, *out)
         return out
     with np.errstate(over="ignore"):
         return np.nextafter(lo_b - pad, -np.inf), np.nextafter(hi_b + pad, np.inf)

