@@ -269,8 +269,12 @@ def _fallback(tris, Y, d: int):
                                                       search_fill)
 
     cand = _apex_cone(tris, Y, d, kernel_point(tris, Y))
-    if cand is not None or d != 3:
+    if cand is not None:
         return cand
+    if d == 2:  # a crack tip inside the cell: a slit no cone fills (slit_fill.py)
+        from predicates.registration.split.slit_fill import fill_slit_region
+
+        return fill_slit_region(tris, Y.array)
 
     def try_cone(front):
         return (_apex_cone(front, Y, d, _mean(front, Y))
