@@ -2,8 +2,8 @@
 "A crack tip inside a cell"; split/slit_fill.py): the region holding the tip — the cell
 with a slit from an edge to an interior point — is triangulated, not refused. Every
 check exact: triangles positive (Fraction orientation), the square tiled (the triangles'
-exact areas sum to 1, faces paired; each cell's up to its edge points' rounding), no triangle's interior meets a cut face, the
-crack opens (distinct nodes on its two sides except at its tips)."""
+exact areas sum to 1, faces paired; each cell's up to its edge points' rounding), no
+triangle's interior meets a cut face, the crack opens (distinct nodes on its two sides except at its tips)."""
 from __future__ import annotations
 
 from fractions import Fraction

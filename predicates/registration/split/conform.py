@@ -254,9 +254,10 @@ def _mean(tris, Y):
 
 
 def _fallback(tris, Y, d: int):
-    """The cone from a kernel point (:mod:`~.kernel`), else, in a region around a crack
-    front, two cones on either side of the crack joined across the uncut part of the
-    cell (:mod:`~.crack_front`), else the cone from a boundary point
+    """2D, a region holding a slit (a crack tip inside the cell): its ear clipping
+    (:mod:`~.slit_fill`). Otherwise the cone from a kernel point (:mod:`~.kernel`),
+    else, in a region around a crack front, two cones on either side of the crack
+    joined across the uncut part of the cell (:mod:`~.crack_front`), else the cone from a boundary point
     (:func:`~.search.fan_from_boundary`: the triangles through it are skipped, the others
     must all give positive simplices), else peeling (:mod:`~.peel`), else the
     backtracking search (:mod:`~.search`), else the crack front's region split and its
@@ -268,13 +269,14 @@ def _fallback(tris, Y, d: int):
     from predicates.registration.split.search import (fan_from_boundary, folded_triangle,
                                                       search_fill)
 
-    cand = _apex_cone(tris, Y, d, kernel_point(tris, Y))
-    if cand is not None:
-        return cand
-    if d == 2:  # a crack tip inside the cell: a slit no cone fills (slit_fill.py)
+    if d == 2 and set(tris) & {t[::-1] for t in tris}:
+        # a crack tip inside the cell: a slit (both sides listed), which no cone fills
         from predicates.registration.split.slit_fill import fill_slit_region
 
         return fill_slit_region(tris, Y.array)
+    cand = _apex_cone(tris, Y, d, kernel_point(tris, Y))
+    if cand is not None or d != 3:
+        return cand
 
     def try_cone(front):
         return (_apex_cone(front, Y, d, _mean(front, Y))
