@@ -5,7 +5,9 @@ the cut ends inside the face (a crack front crossing it) a chain ends at a point
 the face. Such a dangling chain is kept as a *slit* of the region it starts in: the
 region's cycle runs along the chain to its end and back (… b, p₁, …, p_k, …, p₁, b …),
 so the cut polygons on the crack meet the face along edges of the face's triangles while
-the material around the front stays one region."""
+the material around the front stays one region. A chain with both ends inside the
+face (the front crossing the face twice, a disc of radius 1.2 h at Kuhn 4) is bridged to
+the face's region (:func:`_bridge`)."""
 from __future__ import annotations
 
 from predicates.registration.split.regions import Unresolved, _path, _split
@@ -23,7 +25,7 @@ def _chains(cycle, chords):
             continue
         adj.setdefault(a, set()).add(b)
         adj.setdefault(b, set()).add(a)
-    used, full, dangling = set(), [], []
+    used, full, dangling, floating = set(), [], [], []
     for p in cycle:
         for nb in sorted(adj.get(p, ()), key=repr):
             if frozenset((p, nb)) in used:
@@ -43,9 +45,22 @@ def _chains(cycle, chords):
                 full.append(line + [cur])
                 continue
             dangling.append(line)
+    for p in sorted(adj, key=repr):  # a chain with both ends inside the face
+        free = [x for x in adj[p] if frozenset((p, x)) not in used]
+        if len(free) != 1 or any(frozenset((p, x)) not in used for x in adj[p] - {free[0]}):
+            continue
+        line, cur = [p], p
+        while True:
+            rest = sorted((x for x in adj[cur] if frozenset((cur, x)) not in used), key=repr)
+            if not rest:
+                break
+            used.add(frozenset((cur, rest[0])))
+            cur = rest[0]
+            line.append(cur)
+        floating.append(line)
     if sum(len(v) for v in adj.values()) != 2 * len(used):
         raise Unresolved("a closed chord chain inside a face")
-    return full, dangling
+    return full, dangling, floating
 
 
 def _insert(regions, line):
@@ -56,6 +71,22 @@ def _insert(regions, line):
     r = holders[0]
     i = r.index(b)
     r[i + 1:i + 1] = line[1:] + line[-2::-1]
+
+
+def _bridge(region: list, line: list) -> None:
+    """Join a chain floating inside the face (both ends on the crack front: the front
+    crosses the face twice) to the region by a bridge from its smallest face corner to
+    the chain's smaller end, walked there and back like a slit. Canonical (ids only), so
+    both cells of the face get the same cycle up to orientation, hence the same
+    triangles. The bridge is not checked geometrically: a straight chain (a planar
+    crack: its points collinear in the face) never crosses it, but a chain curving round
+    the corner could, and the polygon would then not be weakly simple (docs/notes.md
+    item 29: an exact crossing test in the face's frame is left to do)."""
+    b = min((nd for nd in region if nd[0] == "v"), key=lambda nd: nd[1])
+    if repr(line[-1]) < repr(line[0]):
+        line = line[::-1]
+    i = region.index(b)
+    region[i + 1:i + 1] = line + line[-2::-1] + [b]
 
 
 def face_regions(corners, on_cut, T, polys, faces) -> list:
@@ -73,9 +104,13 @@ def face_regions(corners, on_cut, T, polys, faces) -> list:
                 pb = T.prim[b[1]] if b[0] == "h" else {b[1]}
                 if pa | pb <= fverts:
                     chords.append((a, b))
-        full, dangling = _chains(cycle, chords)
+        full, dangling, floating = _chains(cycle, chords)
         regions = _split(cycle, full)
         for line in dangling:
             _insert(regions, line)
+        for line in floating:
+            if len(regions) != 1:
+                raise Unresolved("a crack front chain floating in a face split by the cut")
+            _bridge(regions[0], line)
         out += regions
     return out
