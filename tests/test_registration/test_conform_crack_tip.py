@@ -142,3 +142,37 @@ def test_crack_tip_inside_a_cell_through_the_cli(tmp_path):
     X = back.points[:, :2]
     assert np.all(orientation_signs(X, T) > 0)
     assert exact_mesh_volume(X, T) == Fraction(1)
+
+
+def test_a_floating_face_chain_is_bridged_only_from_a_corner_that_sees_it():
+    """3D, split/slits.py: a chain inside a face with both ends on the crack front is
+    joined to the face's region by a bridge from a corner; a bridge meeting a chord is
+    rejected by exact signs in the face's frame and the next (corner, end) that sees is
+    taken; when none sees, the face is refused (Unresolved), never bridged across."""
+    from predicates.registration.split.regions import Unresolved
+    from predicates.registration.split.slits import _bridge, _clear
+
+    def at(x, y):  # frame weights of the point (x, y), corner 0 at the origin
+        return (1.0 - x - y, x, y)
+
+    v0, v1, v2 = ("v", 0), ("v", 1), ("v", 2)
+    e, m, f = ("h", 0), ("h", 1), ("h", 2)
+    ring = [("h", 3), ("h", 4), ("h", 5)]
+    pts = {e: (0.4, 0.4), m: (0.1, 0.5), f: (0.5, 0.1), ring[0]: (0.05, 0.05),
+           ring[1]: (0.8, 0.05), ring[2]: (0.05, 0.8)}
+    w = {v0: (1.0, 0.0, 0.0), v1: (0.0, 1.0, 0.0), v2: (0.0, 0.0, 1.0)}
+    w.update({k: at(*p) for k, p in pts.items()})
+    chain = [(e, m), (m, f)]
+    assert not _clear(v0, e, chain, w)  # corner 0 to e crosses m–f at (0.3, 0.3)
+    assert _clear(v0, f, chain, w)
+
+    class Cs:  # the hit rows: every point registered on the face (0, 1, 2)
+        sim = np.array([[0, 1, 2, -1]] * 6)
+        sim_weights = np.array([list(at(*pts[("h", h)])) + [0.0] for h in range(6)])
+
+    region = [v0, v1, v2]
+    _bridge(region, [e, m, f], chain, [0, 1, 2], Cs)
+    assert region == [v0, f, m, e, m, f, v0, v1, v2]
+    closed = chain + list(zip(ring, ring[1:] + ring[:1]))  # a ring round the chain
+    with pytest.raises(Unresolved):
+        _bridge([v0, v1, v2], [e, m, f], closed, [0, 1, 2], Cs)

@@ -169,7 +169,7 @@ def _pieces(c, ctx):
     if d == 2:
         faces = [r for _, r in ring_pieces(corners, 0, sm.on_cut, T, out)]
     else:
-        faces = face_regions(corners, sm.on_cut, T, polys, out)
+        faces = face_regions(corners, sm.on_cut, T, polys, out, ctx["cs"])
     pieces = cell_regions(faces, polys, d)
     frag_of = {v: s + j for j in range(nf) for k, v in enumerate(corners)
                if sm.material[s + j, k] and not sm.on_cut[v]}

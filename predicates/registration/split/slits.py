@@ -7,9 +7,10 @@ region's cycle runs along the chain to its end and back (… b, p₁, …, p_k, 
 so the cut polygons on the crack meet the face along edges of the face's triangles while
 the material around the front stays one region. A chain with both ends inside the
 face (the front crossing the face twice, a disc of radius 1.2 h at Kuhn 4) is bridged to
-the face's region (:func:`_bridge`)."""
+the face's region from a corner that sees it (:func:`_bridge`)."""
 from __future__ import annotations
 
+from predicates.registration.split.polytri import det_sign
 from predicates.registration.split.regions import Unresolved, _path, _split
 
 __all__ = ["face_regions"]
@@ -73,23 +74,54 @@ def _insert(regions, line):
     r[i + 1:i + 1] = line[1:] + line[-2::-1]
 
 
-def _bridge(region: list, line: list) -> None:
+def _weights(nd, frame: list, cs) -> tuple:
+    """A node's barycentric weights on the face's frame (sorted vertex ids)."""
+    out = [0.0, 0.0, 0.0]
+    if nd[0] == "v":
+        out[frame.index(nd[1])] = 1.0
+        return tuple(out)
+    for i, w in zip(cs.sim[nd[1]].tolist(), cs.sim_weights[nd[1]].tolist()):
+        if i >= 0:
+            out[frame.index(i)] += float(w)
+    return tuple(out)
+
+
+def _clear(b, e, chords, w) -> bool:
+    """The bridge segment b–e meets no chord of the face except at e, by exact signs in
+    the frame (conservative: touching or collinear counts as meeting)."""
+    for x, y in chords:
+        if b in (x, y) or e in (x, y):
+            o = y if x in (b, e) else x
+            if o not in (b, e) and det_sign(w[b], w[e], w[o]) == 0:
+                return False
+            continue
+        d1, d2 = det_sign(w[b], w[e], w[x]), det_sign(w[b], w[e], w[y])
+        d3, d4 = det_sign(w[x], w[y], w[b]), det_sign(w[x], w[y], w[e])
+        if d1 * d2 <= 0 and d3 * d4 <= 0:
+            return False
+    return True
+
+
+def _bridge(region: list, line: list, chords, frame: list, cs) -> None:
     """Join a chain floating inside the face (both ends on the crack front: the front
-    crosses the face twice) to the region by a bridge from its smallest face corner to
-    the chain's smaller end, walked there and back like a slit. Canonical (ids only), so
-    both cells of the face get the same cycle up to orientation, hence the same
-    triangles. The bridge is not checked geometrically: a straight chain (a planar
-    crack: its points collinear in the face) never crosses it, but a chain curving round
-    the corner could, and the polygon would then not be weakly simple (docs/notes.md
-    item 29: an exact crossing test in the face's frame is left to do)."""
-    b = min((nd for nd in region if nd[0] == "v"), key=lambda nd: nd[1])
-    if repr(line[-1]) < repr(line[0]):
-        line = line[::-1]
-    i = region.index(b)
-    region[i + 1:i + 1] = line + line[-2::-1] + [b]
+    crosses the face twice) to the region by a bridge from a face corner to one of the
+    chain's ends, walked there and back like a slit: the first (corner by id, then end
+    by node) whose segment meets no chord of the face, decided by exact signs in the
+    face's frame. Depends only on the face's shared data, so both cells of the face get
+    the same cycle up to orientation, hence the same triangles."""
+    nodes = {nd for ch in chords for nd in ch} | set(region)
+    w = {nd: _weights(nd, frame, cs) for nd in nodes}
+    for b in sorted((nd for nd in region if nd[0] == "v"), key=lambda nd: nd[1]):
+        for e in sorted((line[0], line[-1]), key=repr):
+            if _clear(b, e, chords, w):
+                seq = line if e == line[0] else line[::-1]
+                i = region.index(b)
+                region[i + 1:i + 1] = seq + seq[-2::-1] + [b]
+                return
+    raise Unresolved("a crack front chain inside a face that no corner of it sees")
 
 
-def face_regions(corners, on_cut, T, polys, faces) -> list:
+def face_regions(corners, on_cut, T, polys, faces, cs) -> list:
     """The node cycles of the regions of every face (outward), slits included."""
     out = []
     for face in faces:
@@ -111,6 +143,6 @@ def face_regions(corners, on_cut, T, polys, faces) -> list:
         for line in floating:
             if len(regions) != 1:
                 raise Unresolved("a crack front chain floating in a face split by the cut")
-            _bridge(regions[0], line)
+            _bridge(regions[0], line, chords, sorted(fverts), cs)
         out += regions
     return out
