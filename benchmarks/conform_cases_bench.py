@@ -2,7 +2,7 @@
 ("The conforming tetrahedralization", "Progressive cuts"), timed in the same run (figures in
 README.md, "The conforming cut on cracks and progressive cuts").
 
-Cases: Kuhn n (default 16) × a flat disc crack of radius 0.5 h and 3 h (the tests' disc:
+Cases: Kuhn n (default 16) × a flat disc crack of radius 0.5 h, 1.2 h and 3 h (the tests' disc:
 24 fan triangles, tilted by ``rotation(3, 7)``, centred at ½ + (0.3, 0.2, 0.1)·h) and of
 radius 0.05 h entirely inside one cell (centred at ½ + (0.62, 0.35, 0.2)·h); Kuhn n ×
 the rotated icosphere(2); the gmsh box (h 0.1, needs gmsh) cut by z = 0.546875, then x =
@@ -85,7 +85,7 @@ def main() -> None:
     S, T = icosphere(2)
     S = rotate(S - 0.5, rotation(3, 3)) + 0.5
     rows = [one_shot(f"Kuhn {a.n} × disc R = {r} h", P, C, *disc(r * h, centre), a.repeat)
-            for r in (0.5, 3.0)]
+            for r in (0.5, 1.2, 3.0)]
     inside = (0.5 + 0.62 * h, 0.5 + 0.35 * h, 0.5 + 0.2 * h)  # in one cell, off its centre
     rows.append(one_shot(f"Kuhn {a.n} × disc R = 0.05 h inside one cell", P, C,
                          *disc(0.05 * h, inside), a.repeat))

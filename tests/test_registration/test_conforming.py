@@ -204,7 +204,7 @@ def _crossed_cut_faces(cm, lo, hi) -> list:
     return out
 
 
-@pytest.mark.parametrize("n, radius", [(16, 0.5), (16, 3.0), (4, 0.5), (8, 0.5)])
+@pytest.mark.parametrize("n, radius", [(16, 0.5), (16, 3.0), (4, 0.5), (8, 0.5), (4, 1.2)])
 def test_a_disc_crack_opens_across_its_whole_area(n, radius):
     """A disc crack of radius h/2 (inside one cell's neighbourhood) and 3h (its front
     crossing dozens of cells: regions with a partial slit, filled around the front by two

@@ -169,7 +169,7 @@ def _pieces(c, ctx):
     if d == 2:
         faces = [r for _, r in ring_pieces(corners, 0, sm.on_cut, T, out)]
     else:
-        faces = face_regions(corners, sm.on_cut, T, polys, out)
+        faces = face_regions(corners, sm.on_cut, T, polys, out, ctx["cs"])
     pieces = cell_regions(faces, polys, d)
     frag_of = {v: s + j for j in range(nf) for k, v in enumerate(corners)
                if sm.material[s + j, k] and not sm.on_cut[v]}
@@ -254,9 +254,10 @@ def _mean(tris, Y):
 
 
 def _fallback(tris, Y, d: int):
-    """The cone from a kernel point (:mod:`~.kernel`), else, in a region around a crack
-    front, two cones on either side of the crack joined across the uncut part of the
-    cell (:mod:`~.crack_front`), else the cone from a boundary point
+    """2D, a region holding a slit (a crack tip inside the cell): its ear clipping
+    (:mod:`~.slit_fill`). Otherwise the cone from a kernel point (:mod:`~.kernel`),
+    else, in a region around a crack front, two cones on either side of the crack
+    joined across the uncut part of the cell (:mod:`~.crack_front`), else the cone from a boundary point
     (:func:`~.search.fan_from_boundary`: the triangles through it are skipped, the others
     must all give positive simplices), else peeling (:mod:`~.peel`), else the
     backtracking search (:mod:`~.search`), else the crack front's region split and its
@@ -268,6 +269,11 @@ def _fallback(tris, Y, d: int):
     from predicates.registration.split.search import (fan_from_boundary, folded_triangle,
                                                       search_fill)
 
+    if d == 2 and set(tris) & {t[::-1] for t in tris}:
+        # a crack tip inside the cell: a slit (both sides listed), which no cone fills
+        from predicates.registration.split.slit_fill import fill_slit_region
+
+        return fill_slit_region(tris, Y.array)
     cand = _apex_cone(tris, Y, d, kernel_point(tris, Y))
     if cand is not None or d != 3:
         return cand
