@@ -11,7 +11,7 @@ import numpy as np
 
 from predicates.registration.spatial.gridsums import _stride
 
-__all__ = ["KEY_RADIX", "cell_keys", "compiled_count", "count_dot"]
+__all__ = ["KEY_RADIX", "cell_keys", "compiled_count", "count_dot", "grid_start"]
 
 KEY_RADIX = 1_000_003  # the per-axis radix of cell_keys
 
@@ -44,6 +44,27 @@ def cell_keys(i0, i1):
     return key
 
 
+def grid_start(lo_a, hi_a, lo_b, hi_b, pad: float, as_array=np.asarray) -> tuple:
+    """What the compiled estimate grids start from (``resolution._compiled_grid``,
+    :func:`compiled_count`): h = pad/2, both sides' boxes as float64 (``as_array``), the
+    padded boxes' hull lo_min, hi_max and its span, in one pass per side
+    (:func:`predicates.compiled.cellsums.pad_extents`), the first cell size g (the padded
+    extents' median, at least the pad and 2^-20 of the span) and the budget of cells."""
+    from predicates.compiled.cellsums import pad_extents
+
+    d = lo_a.shape[1]
+    h = 0.5 * pad
+    sides = [tuple(as_array(x, dtype=np.float64) for x in s)
+             for s in ((lo_a, hi_a), (lo_b, hi_b))]
+    ext = np.empty(len(lo_a) + len(lo_b))
+    lo_min, hi_max = np.full(d, np.inf), np.full(d, -np.inf)
+    pad_extents(*sides[0], h, ext[:len(lo_a)], lo_min, hi_max)
+    pad_extents(*sides[1], h, ext[len(lo_a):], lo_min, hi_max)
+    span = float((hi_max - lo_min).max())
+    g = max(float(np.median(ext)), float(pad), span * 2.0 ** -20, 1e-300)
+    return h, sides, lo_min, hi_max, span, g, 8 * (len(lo_a) + len(lo_b)) + (1 << 20)
+
+
 def compiled_count(lo_a, hi_a, lo_b, hi_b, pad: float) -> int | None:
     """``estimate_cell_pairs``' dense count with compiled passes that never store the
     grid indices (:mod:`predicates.compiled.estimate`): ``_compiled_grid``'s cell size
@@ -53,25 +74,16 @@ def compiled_count(lo_a, hi_a, lo_b, hi_b, pad: float) -> int | None:
     straight from the boxes in the pass that sums the total. None (the caller counts
     as before) for d other than 2, 3, a hull not finite, or where ``_dense_pair_count``
     gives None."""
-    from predicates.compiled.cellsums import pad_extents
     from predicates.compiled.estimate import pad_corners, pad_total
     from predicates.compiled.prefix import prefix_sums
 
     d = lo_a.shape[1]
     if d not in (2, 3):
         return None
-    h = 0.5 * pad
-    sides = [tuple(np.asarray(x, dtype=np.float64) for x in s)  # as laid out: no copies
-             for s in ((lo_a, hi_a), (lo_b, hi_b))]
-    ext = np.empty(len(lo_a) + len(lo_b))
-    lo_min, hi_max = np.full(d, np.inf), np.full(d, -np.inf)
-    pad_extents(*sides[0], h, ext[:len(lo_a)], lo_min, hi_max)
-    pad_extents(*sides[1], h, ext[len(lo_a):], lo_min, hi_max)
-    span = float((hi_max - lo_min).max())
+    # the boxes as laid out: no copies
+    h, sides, lo_min, hi_max, span, g, budget = grid_start(lo_a, hi_a, lo_b, hi_b, pad)
     if not np.isfinite(span):  # (no grid: the keys' path decides, as before)
         return None
-    g = max(float(np.median(ext)), float(pad), span * 2.0 ** -20, 1e-300)
-    budget = 8 * (len(lo_a) + len(lo_b)) + (1 << 20)
     while True:  # _compiled_grid's doublings, each grid's coverage in the same pass
         G = np.floor((hi_max - lo_min) / g).astype(np.int64) + 1  # colmax(i1) + 1
         if not _dense(G, budget):  # the total alone: is this the last cell size?

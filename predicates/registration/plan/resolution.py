@@ -32,7 +32,7 @@ from predicates.registration.plan.edges import shortest_edge  # noqa: F401 (re-e
 from predicates.registration.plan.lean import near_all
 from predicates.registration.plan.paircount import KEY_RADIX as _KEY_RADIX
 from predicates.registration.plan.paircount import cell_keys as _cell_keys
-from predicates.registration.plan.paircount import compiled_count
+from predicates.registration.plan.paircount import compiled_count, grid_start
 from predicates.registration.plan.paircount import count_dot as _count_dot
 from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.boxes import box_extent, boxes_of
@@ -252,19 +252,11 @@ def _compiled_grid(lo_a, hi_a, lo_b, hi_b, pad: float):
     """:func:`_estimate_grid`'s values by two compiled passes per side and cell size
     (:mod:`predicates.compiled.cellsums`: the padded boxes are never stored): the same
     indices, and the same coarsening decisions (integer counts, exact sums)."""
-    from predicates.compiled.cellsums import pad_extents, pad_index
+    from predicates.compiled.cellsums import pad_index
 
-    h = 0.5 * pad
     d = lo_a.shape[1]
-    sides = [tuple(np.ascontiguousarray(x, dtype=np.float64) for x in s)
-             for s in ((lo_a, hi_a), (lo_b, hi_b))]
-    ext = np.empty(len(lo_a) + len(lo_b))
-    lo_min, hi_max = np.full(d, np.inf), np.full(d, -np.inf)
-    pad_extents(*sides[0], h, ext[:len(lo_a)], lo_min, hi_max)
-    pad_extents(*sides[1], h, ext[len(lo_a):], lo_min, hi_max)
-    span = float((hi_max - lo_min).max())
-    g = max(float(np.median(ext)), float(pad), span * 2.0 ** -20, 1e-300)
-    budget = 8 * (len(lo_a) + len(lo_b)) + (1 << 20)
+    h, sides, lo_min, hi_max, _, g, budget = grid_start(lo_a, hi_a, lo_b, hi_b, pad,
+                                                        np.ascontiguousarray)
     out = [np.empty((len(lo), d)) for lo, _ in sides for _ in (0, 1)]
     while True:
         total = sum(pad_index(*side, h, lo_min, g, *out[2 * s:2 * s + 2])
