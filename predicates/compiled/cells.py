@@ -18,6 +18,7 @@ import numpy as np
 from numba import njit
 
 from .build import INLINE_OPTIONS, JIT_OPTIONS
+from .corners import corners2, corners3
 
 __all__ = ["add_corners", "cell_index", "fill_boxes", "flag_block", "flag_block_indexed",
            "pair_bits", "point_index", "least_square_edge", "look_corners"]
@@ -98,21 +99,11 @@ def add_corners(i0, i1, stride, diff, flip):
             x0, x1 = _terms(i0, i1, r, 0, stride)
             y0, y1 = _terms(i0, i1, r, 1, stride)
             z0, z1 = _terms(i0, i1, r, 2, stride)
-            diff[x1 + y1 + z1] += v  # sign (−1)^(d − corners at i1 + 1)
-            diff[x0 + y1 + z1] -= v
-            diff[x1 + y0 + z1] -= v
-            diff[x1 + y1 + z0] -= v
-            diff[x0 + y0 + z1] += v
-            diff[x0 + y1 + z0] += v
-            diff[x1 + y0 + z0] += v
-            diff[x0 + y0 + z0] -= v
+            corners3(diff, x0, x1, y0, y1, z0, z1, v)
         elif d == 2:
             x0, x1 = _terms(i0, i1, r, 0, stride)
             y0, y1 = _terms(i0, i1, r, 1, stride)
-            diff[x1 + y1] += v
-            diff[x0 + y1] -= v
-            diff[x1 + y0] -= v
-            diff[x0 + y0] += v
+            corners2(diff, x0, x1, y0, y1, v)
         else:
             for pick in range(1 << d):
                 key, sign = _key(i0, i1, r, pick, stride)

@@ -14,6 +14,7 @@ import numpy as np
 from numba import njit
 
 from .build import INLINE_OPTIONS, JIT_OPTIONS
+from .corners import corners2, corners3
 
 __all__ = ["pad_corners", "pad_total"]
 
@@ -62,18 +63,8 @@ def pad_corners(lo, hi, h, origin, g, stride, diff, flip):
             a, b = _cells(lo, hi, r, 2, h, origin, g)
             c = c * (b - a + 1)
             z0, z1 = np.int64(a) * stride[2], (np.int64(b) + 1) * stride[2]
-            diff[x1 + y1 + z1] += v  # sign (−1)^(d − corners at i1 + 1)
-            diff[x0 + y1 + z1] -= v
-            diff[x1 + y0 + z1] -= v
-            diff[x1 + y1 + z0] -= v
-            diff[x0 + y0 + z1] += v
-            diff[x0 + y1 + z0] += v
-            diff[x1 + y0 + z0] += v
-            diff[x0 + y0 + z0] -= v
+            corners3(diff, x0, x1, y0, y1, z0, z1, v)
         else:
-            diff[x1 + y1] += v
-            diff[x0 + y1] -= v
-            diff[x1 + y0] -= v
-            diff[x0 + y0] += v
+            corners2(diff, x0, x1, y0, y1, v)
         total += c
     return total
