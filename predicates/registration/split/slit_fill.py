@@ -10,8 +10,8 @@ left and turns into a slit before passing it) and triangulated by ear clipping o
 exact orientation of the stored coordinates: an ear is a strictly positive corner (a, b,
 c) with a ≠ c and no other point of the polygon in its closed triangle. When the slit is
 a straight segment from an edge to the tip inside a convex cell this is the fan from the
-tip the brief of docs/notes.md item 29 names; a bent slit or a non-convex region gets
-the same construction.
+tip over the region's boundary; a bent slit or a non-convex region gets the same
+construction.
 
 Correct by check, not by trust: the triangles are returned only when every one is
 positive by exact orientation and their edges pair up to exactly the boundary (each
