@@ -291,12 +291,9 @@ def flag_block_indexed(points, index, rows, stride, S, has_table, i0, i1, near, 
     ``bits`` (:func:`pair_bits`, or empty: not used) decides rows spanning at most two
     cells per axis without the table's 2^d scattered look-ups; the flagged rows' vertex
     ids into the first rows of ``fcells`` (m, k) (the run's cells, gathered here while
-    the block is in cache). Returns as flag_block.
-    Tetrahedra in 3D take a loop with the four ids read once and the ranges in scalars
-    (the generic loop's per-axis re-reads cost 1.5–2.8× the pass on W4)."""
-    if points.shape[1] == 3 and rows.shape[1] == 4:
-        return _flag_tetrahedra(points, index, rows, stride, S, has_table, i0, i1, near,
-                                flo, fhi, bits, fcells)
+    the block is in cache). Returns as flag_block. Tetrahedra in 3D take
+    :func:`predicates.compiled.flagpack.flag_tetrahedra_packed` instead (the plan's
+    choice: the same values from one packed index a point)."""
     return _flag_rows(points, index, rows, stride, S, has_table, i0, i1, near, flo, fhi,
                       bits, fcells)
 
@@ -315,59 +312,6 @@ def _flagged(points, rows, m, nf, flo, fhi, fcells, ext):
         x = b - a
         e = x if ax == 0 else (e if (e > x) | (e != e) else x)
     return e if e > ext else ext
-
-
-@njit(**INLINE_OPTIONS)
-def _range4(index, v0, v1, v2, v3, ax):
-    """Least and largest grid index on ``ax`` of four vertices."""
-    j0 = index[v0, ax]
-    j1 = j0
-    for v in (v1, v2, v3):
-        j = index[v, ax]
-        j0 = j if j < j0 else j0
-        j1 = j if j > j1 else j1
-    return j0, j1
-
-
-@njit(**INLINE_OPTIONS)
-def _flag_tetrahedra(points, index, rows, stride, S, has_table, i0, i1, near, flo, fhi,
-                     bits, fcells):
-    """:func:`_flag_rows` for d = 3, k = 4 (the same values): the flagged rows' ranges
-    written when flagged only."""
-    low_term = np.empty(3, dtype=np.int64)
-    up_term = np.empty(3, dtype=np.int64)
-    s0, s1, s2 = stride[0], stride[1], stride[2]
-    covered = 0
-    ext = 0.0
-    nf = 0
-    use_bits = bits.shape[0] > 0
-    for m in range(rows.shape[0]):
-        v0, v1, v2, v3 = rows[m, 0], rows[m, 1], rows[m, 2], rows[m, 3]
-        x0, x1 = _range4(index, v0, v1, v2, v3, 0)
-        y0, y1 = _range4(index, v0, v1, v2, v3, 1)
-        z0, z1 = _range4(index, v0, v1, v2, v3, 2)
-        covered += (np.int64(x1) - x0 + 1) * (np.int64(y1) - y0 + 1) * (np.int64(z1) - z0 + 1)
-        if not has_table:
-            continue
-        key = np.int64(x0) * s0 + np.int64(y0) * s1 + np.int64(z0) * s2
-        small = (x1 - x0 <= 1) & (y1 - y0 <= 1) & (z1 - z0 <= 1)
-        if use_bits and small and (bits[key >> 3] >> (key & 7)) & 1 == 0:
-            near[m] = False  # nothing occupied in the 2^d block holding the range
-            continue
-        low_term[0] = np.int64(x0) * s0
-        low_term[1] = np.int64(y0) * s1
-        low_term[2] = np.int64(z0) * s2
-        up_term[0] = (np.int64(x1) + 1) * s0
-        up_term[1] = (np.int64(y1) + 1) * s1
-        up_term[2] = (np.int64(z1) + 1) * s2
-        count = _corner_sum(S, low_term, up_term)
-        near[m] = count > 0
-        if count > 0:
-            i0[nf, 0], i0[nf, 1], i0[nf, 2] = x0, y0, z0
-            i1[nf, 0], i1[nf, 1], i1[nf, 2] = x1, y1, z1
-            ext = _flagged(points, rows, m, nf, flo, fhi, fcells, ext)
-            nf += 1
-    return covered, ext, nf
 
 
 @njit(**INLINE_OPTIONS)
