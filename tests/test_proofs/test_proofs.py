@@ -246,7 +246,6 @@ def _edge_edge_variant(extra_rounding: bool, sign_test: bool = False):
         n = cross3(r, w)
         a_hat = ctx.name("a_hat", dot(n, v))
         b_hat = ctx.name("b_hat", dot(n, u))
-        one = ctx.const(1)
         # one more rounding: ×3 (×1 or ×2^k would be exact: rules S/SD)
         a_bar = ctx.name("a_bar", m2 - ((a_hat * ctx.const(3)) * ctx.const(Fraction(1, 3))
                                         if extra_rounding else a_hat))
