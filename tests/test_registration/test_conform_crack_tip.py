@@ -43,9 +43,11 @@ def _crosses(tri, seg) -> bool:
     return True
 
 
-def check_crack(P, C, Q, K):
+def check_crack(P, C, Q, K, tips=None, opens: bool = True):
     """Conform the cut (Q, K) of (P, C) and check every property of the module
-    docstring exactly; returns the conforming mesh."""
+    docstring exactly; returns the conforming mesh. ``tips``: the crack's ends (its
+    first and last point by default; none for a closed crack); ``opens``: some node
+    of the crack, not a tip, is duplicated (a single segment has none)."""
     res = predicates.intersect(P, C, Q, K)
     cm = res.split().tetrahedralize()
     assert np.all(orientation_signs(cm.points, cm.cells) > 0)
@@ -67,8 +69,9 @@ def check_crack(P, C, Q, K):
                               & np.all(box.max(axis=1) >= lo, axis=1))
         for t in near.tolist():
             assert not _crosses([F[v] for v in cm.cells[t]], [F[v] for v in f]), (t, f)
+    ends = (Q[0], Q[-1]) if tips is None else tips
     tips = {int(v) for v in range(len(cm.points))
-            for e in (Q[0], Q[-1]) if np.array_equal(cm.points[v], e)}
+            for e in ends if np.array_equal(cm.points[v], e)}
     _, node = cm.opened()
     opened = 0
     for f, (b, a) in zip(cm.cut_faces.tolist(), cm.cut_sides.tolist()):
@@ -79,7 +82,7 @@ def check_crack(P, C, Q, K):
             kb, ka = cm.cells[b].tolist().index(v), cm.cells[a].tolist().index(v)
             assert node[b, kb] != node[a, ka], (f, v)
             opened += 1
-    assert opened > 0 and len(cm.cut_faces) >= len(K)
+    assert (opened > 0) == opens and len(cm.cut_faces) >= len(K)
     return cm
 
 
@@ -176,3 +179,98 @@ def test_a_floating_face_chain_is_bridged_only_from_a_corner_that_sees_it():
     closed = chain + list(zip(ring, ring[1:] + ring[:1]))  # a ring round the chain
     with pytest.raises(Unresolved):
         _bridge([v0, v1, v2], [e, m, f], closed, [0, 1, 2], Cs)
+
+
+def _at(P, C, c, k) -> np.ndarray:
+    """The point of cell c with barycentric weights k/16 (exact on the 1/8 grid)."""
+    x = np.zeros(2)
+    for i in range(3):
+        x = x + (k[i] / 16.0) * P[C[c, i]]
+    return x
+
+
+def _simple(Q, K) -> bool:
+    """No two non-adjacent segments of the chain meet, and no two adjacent ones fold
+    back onto each other (exact orientations)."""
+    F = [[Fraction(float(x)) for x in q] for q in Q]
+    for i, (a, b) in enumerate(K.tolist()):
+        for p, q in K.tolist()[i + 1:]:
+            shared = {a, b} & {p, q}
+            o = (_orient(F[a], F[b], F[p]), _orient(F[a], F[b], F[q]),
+                 _orient(F[p], F[q], F[a]), _orient(F[p], F[q], F[b]))
+            if not shared and o[0] * o[1] <= 0 and o[2] * o[3] <= 0:
+                return False
+            if shared and all(x == 0 for x in o):
+                return False
+    return True
+
+
+@pytest.mark.parametrize("m", [1, 2, 3])
+def test_a_crack_entirely_inside_one_triangle(m):
+    """Square grid 8 × an open chain of m segments touching no edge of cell 10: the
+    slit floats inside the region (split/slit_fill.py bridges it to the cell's boundary
+    by a segment crossing nothing, exactly); before, one segment raised IndexError and a
+    longer chain was refused (NotConforming)."""
+    P, C = square_grid(8)
+    k = [(8, 4, 4), (4, 8, 4), (5, 5, 6), (4, 4, 8)][:m + 1]
+    Q = np.array([_at(P, C, 10, w) for w in k])
+    K = np.array([[i, i + 1] for i in range(m)])
+    cm = check_crack(P, C, Q, K, opens=m > 1)
+    assert cm.n_pieces == 1 and set(cm.cell_origin[cm.cut_sides.ravel()].tolist()) == {10}
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_floating_cracks_at_random_interior_points(seed):
+    """Seeded sample: a simple open chain of 1–3 segments between random interior points
+    of one random cell (chains crossing themselves are not a cut: drawn again)."""
+    rng = np.random.default_rng(seed)
+    P, C = square_grid(8)
+    c = int(rng.integers(len(C)))
+    while True:
+        m = int(rng.integers(1, 4))
+        Q = np.array([_interior_point(P, C, c, rng) for _ in range(m + 1)])
+        K = np.array([[i, i + 1] for i in range(m)])
+        if len(np.unique(Q, axis=0)) == len(Q) and _simple(Q, K):
+            break
+    cm = check_crack(P, C, Q, K, opens=m > 1)
+    assert cm.n_pieces == 1
+
+
+def test_a_closed_crack_inside_one_triangle_bounds_an_island():
+    """A triangle of cracks inside cell 108: the island is a piece of its own whose
+    exact area is the loop's, and the material around it one piece with a hole (the
+    hole's side of the loop joined to the cell's region: split/slit_fill.merge_holes)."""
+    P, C = square_grid(8)
+    Q = np.array([_at(P, C, 108, w) for w in ((8, 4, 4), (4, 8, 4), (4, 4, 8))])
+    K = np.array([[0, 1], [1, 2], [2, 0]])
+    cm = check_crack(P, C, Q, K, tips=())
+    assert cm.n_pieces == 2
+    F = [[Fraction(float(x)) for x in q] for q in Q]
+    loop = abs(_orient(F[0], F[1], F[2])) / 2
+    areas = sorted(exact_mesh_volume(cm.points, cm.cells[cm.piece == p])
+                   for p in range(cm.n_pieces))
+    assert areas == [loop, 1 - loop]
+
+
+def test_crack_inside_one_triangle_through_the_cli(tmp_path):
+    """``fperr cut SIM CUT --conforming -o out.vtu`` on one segment inside a cell: exit
+    0 (it raised IndexError before: exit 1, an internal error), every triangle positive,
+    the square's area exactly 1."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    P, C = square_grid(8)
+    Q = np.array([_at(P, C, 10, w) for w in ((8, 4, 4), (4, 8, 4))])
+    s, c, out = tmp_path / "sim.vtu", tmp_path / "cut.vtu", tmp_path / "out.vtu"
+    meshio.Mesh(np.column_stack([P, np.zeros(len(P))]), [("triangle", C)]).write(s)
+    meshio.Mesh(np.column_stack([Q, np.zeros(2)]), [("line", np.array([[0, 1]]))]).write(c)
+    root = Path(__file__).resolve().parents[2]
+    r = subprocess.run([sys.executable, "-m", "fperr", "cut", str(s), str(c),
+                        "--conforming", "-o", str(out), "--quiet"], cwd=root,
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    back = meshio.read(out)
+    T, X = back.cells_dict["triangle"], back.points[:, :2]
+    assert np.all(orientation_signs(X, T) > 0)
+    assert exact_mesh_volume(X, T) == Fraction(1)

@@ -269,13 +269,17 @@ def _fallback(tris, Y, d: int):
     from predicates.registration.split.search import (fan_from_boundary, folded_triangle,
                                                       search_fill)
 
-    if d == 2 and set(tris) & {t[::-1] for t in tris}:
-        # a crack tip inside the cell: a slit (both sides listed), which no cone fills
+    if d == 2:
+        # a slit (a crack tip or a crack inside the cell: both sides listed), which no
+        # cone fills, or a boundary in pieces (a hole): ear clipping, bridged
         from predicates.registration.split.slit_fill import fill_slit_region
 
-        return fill_slit_region(tris, Y.array)
+        if set(tris) & {t[::-1] for t in tris}:
+            return fill_slit_region(tris, Y.array)
+        return (_apex_cone(tris, Y, d, kernel_point(tris, Y))
+                or fill_slit_region(tris, Y.array))
     cand = _apex_cone(tris, Y, d, kernel_point(tris, Y))
-    if cand is not None or d != 3:
+    if cand is not None:
         return cand
 
     def try_cone(front):
@@ -391,6 +395,10 @@ def conforming_mesh(res, sm, cs=None) -> ConformingMesh:
         raise NotConforming(_report(problems))
     X, n, d = ctx["X"], ctx["n"], ctx["d"]
     Y = Points(np.concatenate([X, on_cut_points(res, cs)]))
+    if d == 2:  # an island's surroundings, listed as two regions, made one
+        from predicates.registration.split.slit_fill import merge_holes
+
+        frag_tris = merge_holes(frag_tris, where, Y.array)
     filled, bad = _fill(frag_tris, Y, d)
     bad, moved = _repair(res, cs, frag_tris, Y, filled, bad, n, d)
     if bad:

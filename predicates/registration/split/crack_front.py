@@ -43,6 +43,10 @@ PEELS = 8
 
 
 def _canon(face) -> tuple:
+    """A face up to rotation, orientation kept: a triangle's cyclic rotations are one
+    face; a directed segment (2D) is its own key (its rotation is its reversal)."""
+    if len(face) == 2:
+        return tuple(face)
     k = face.index(min(face))
     return tuple(face[k:]) + tuple(face[:k])
 

@@ -25,12 +25,13 @@ sides); the slit's two sides belong to different triangles, so the cut opens the
 from __future__ import annotations
 
 from collections import Counter
+from fractions import Fraction
 
 import numpy as np
 
 from predicates.registration.split.tetra_faces import positive
 
-__all__ = ["fill_slit_region", "paired_edges"]
+__all__ = ["fill_slit_region", "merge_holes", "paired_edges"]
 
 
 def _pseudo_angle(dx: float, dy: float) -> float:
@@ -110,7 +111,96 @@ def paired_edges(tris: list, edges: list) -> bool:
 def fill_slit_region(edges: list, Z: np.ndarray):
     """Positive triangles tiling the 2D region bounded by the directed ``edges`` (the
     region on their left; a slit's two sides both listed), or None when the walk or the
-    ear clipping finds none that passes the exact checks (module docstring)."""
+    ear clipping finds none that passes the exact checks (module docstring). A boundary
+    in several pieces (a crack floating inside the cell, a hole) is first joined into
+    one walk by bridges (:func:`_bridged`); each choice is kept only if the checks pass."""
+    edges = [tuple(e) for e in edges]
+    if _walk(edges, Z) is not None:
+        return _clipped(edges, Z)
+    for joined in _bridged(edges, Z):
+        tris = _clipped(joined, Z)
+        if tris is not None:
+            return tris
+    return None
+
+
+def _components(edges: list) -> list:
+    """The boundary's connected pieces (points joined by an edge), as sorted point lists,
+    ordered by their smallest point."""
+    parent: dict = {}
+
+    def root(x):
+        while parent.setdefault(x, x) != x:
+            x = parent[x]
+        return x
+
+    for a, b in edges:
+        parent[root(a)] = root(b)
+    groups: dict = {}
+    for x in sorted(parent):
+        groups.setdefault(root(x), []).append(x)
+    return sorted(groups.values())
+
+
+def _area2(edges: list, points: set, F: dict) -> Fraction:
+    """Twice the exact signed area the directed edges among ``points`` enclose (a slit's
+    two sides cancel: 0; the outer boundary > 0; a hole < 0)."""
+    return sum((F[a][0] * F[b][1] - F[a][1] * F[b][0] for a, b in edges if a in points),
+               Fraction(0))
+
+
+def _orient(F: dict, a, b, c) -> Fraction:
+    (ax, ay), (bx, by), (cx, cy) = F[a], F[b], F[c]
+    return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+
+
+def _clear(v, a, edges: list, F: dict) -> bool:
+    """The closed segment v–a meets the boundary only at v and a, exactly: no other point
+    on it, no edge crossing it (orientations of the stored coordinates, as Fractions)."""
+    (vx, vy), (ax, ay) = F[v], F[a]
+    for p in F:
+        if p in (v, a) or _orient(F, v, a, p) != 0:
+            continue
+        if min(vx, ax) <= F[p][0] <= max(vx, ax) and min(vy, ay) <= F[p][1] <= max(vy, ay):
+            return False
+    for p, q in edges:
+        if {p, q} & {v, a}:
+            continue
+        if (_orient(F, v, a, p) * _orient(F, v, a, q) < 0
+                and _orient(F, p, q, v) * _orient(F, p, q, a) < 0):
+            return False
+    return True
+
+
+def _bridged(edges: list, Z: np.ndarray):
+    """Candidate edge lists with every other piece of the boundary joined to the outer
+    one (the single piece enclosing positive area) by a bridge traversed both ways, from
+    the first pair of points (smallest ids first) whose segment is clear (:func:`_clear`);
+    yields one list per choice of the first bridge (the later ones greedy). Nothing when
+    the outer piece is not unique."""
+    pts = sorted({p for e in edges for p in e})
+    F = {p: (Fraction(float(Z[p][0])), Fraction(float(Z[p][1]))) for p in pts}
+    comps = _components(edges)
+    outer = [c for c in comps if _area2(edges, set(c), F) > 0]
+    if len(outer) != 1 or len(comps) > 8:
+        return
+    rest = [c for c in comps if c is not outer[0]]
+    first = [(v, a) for v in outer[0] for a in rest[0] if _clear(v, a, edges, F)]
+    for v, a in first[:16]:
+        joined, main = edges + [(v, a), (a, v)], set(outer[0]) | set(rest[0])
+        for comp in rest[1:]:
+            pick = next(((u, b) for u in sorted(main) for b in comp
+                         if _clear(u, b, joined, F)), None)
+            if pick is None:
+                break
+            joined += [pick, pick[::-1]]
+            main |= set(comp)
+        else:
+            yield joined
+
+
+def _clipped(edges: list, Z: np.ndarray):
+    """Ear clipping of the one walk of ``edges``, kept if the exact checks pass."""
     ring = _walk(edges, Z)
     if ring is None:
         return None
@@ -125,3 +215,41 @@ def fill_slit_region(edges: list, Z: np.ndarray):
     if not paired_edges(tris, edges) or not np.all(_signs(tris, Z) > 0):
         return None
     return tris
+
+
+def _winding(edges: list, p, F: dict) -> int:
+    """The winding number of the directed ``edges`` around point ``p`` (not on them),
+    exactly (crossings of the ray to +x, signs by exact orientation)."""
+    w, (_, py) = 0, F[p]
+    for a, b in edges:
+        ay, by = F[a][1], F[b][1]
+        if ay <= py < by and _orient(F, a, b, p) > 0:
+            w += 1
+        elif by <= py < ay and _orient(F, a, b, p) < 0:
+            w -= 1
+    return w
+
+
+def merge_holes(frag_tris: dict, where: list, Z: np.ndarray) -> dict:
+    """2D: a closed crack inside one triangle bounds an island, and the material around
+    it is bounded by the cell's edges *and* the crack's other side — which the regions
+    list apart (a piece enclosing negative area: a hole). Each hole joins the one region
+    of its cell (``where[f][0]``) whose boundary winds around it, decided exactly;
+    :func:`fill_slit_region` then bridges the two. Unchanged where no region or more
+    than one does (a refusal names the cell)."""
+    by_cell: dict = {}
+    for f in frag_tris:
+        by_cell.setdefault(where[f][0], []).append(f)
+    out = dict(frag_tris)
+    for fs in (fs for fs in by_cell.values() if len(fs) > 1):
+        pts = sorted({p for f in fs for e in frag_tris[f] for p in e})
+        F = {p: (Fraction(float(Z[p][0])), Fraction(float(Z[p][1]))) for p in pts}
+        area = {f: _area2(frag_tris[f], set(pts), F) for f in fs}
+        for h in (f for f in fs if area[f] < 0):
+            p = frag_tris[h][0][0]
+            hosts = [f for f in fs if area[f] > 0 and f in out
+                     and all(p not in e for e in frag_tris[f])
+                     and _winding(frag_tris[f], p, F) != 0]
+            if len(hosts) == 1:
+                out[hosts[0]] = list(out[hosts[0]]) + list(out.pop(h))
+    return out
