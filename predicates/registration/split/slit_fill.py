@@ -26,6 +26,7 @@ from __future__ import annotations
 
 from collections import Counter
 from fractions import Fraction
+from itertools import islice
 
 import numpy as np
 
@@ -185,8 +186,8 @@ def _bridged(edges: list, Z: np.ndarray):
     if len(outer) != 1 or len(comps) > 8:
         return
     rest = [c for c in comps if c is not outer[0]]
-    first = [(v, a) for v in outer[0] for a in rest[0] if _clear(v, a, edges, F)]
-    for v, a in first[:16]:
+    first = ((v, a) for v in outer[0] for a in rest[0] if _clear(v, a, edges, F))
+    for v, a in islice(first, 16):  # lazily: each test is a pass over the boundary
         joined, main = edges + [(v, a), (a, v)], set(outer[0]) | set(rest[0])
         for comp in rest[1:]:
             pick = next(((u, b) for u in sorted(main) for b in comp
