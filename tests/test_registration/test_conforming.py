@@ -354,3 +354,30 @@ def test_a_cutting_edge_within_tau_of_a_vertex_is_re_decided():
     vol = sorted(cm.piece_volumes().tolist())
     assert abs(sum(vol) - 1.0) <= 1e-12
     assert all(abs(g - w) <= 1e-6 for g, w in zip(vol, sorted([1 - c, c]))), vol
+
+
+@pytest.mark.parametrize("subdivisions, cell, radius", [(0, 37, 0.01), (1, 37, 0.01),
+                                                        (1, 200, 0.002), (2, 91, 0.005)])
+def test_a_closed_surface_inside_one_cell_bounds_an_inclusion(subdivisions, cell, radius):
+    """An icosphere strictly inside one tetrahedron of Kuhn 4 (an inclusion smaller than a
+    cell; every registered point a cutting vertex inside that one cell). The material
+    around it was refused (no cone fills a cell with a cavity); it is now filled by the
+    beneath-beyond construction from the cavity (split/enclosed.py). Every invariant
+    exact; two pieces, the inclusion's exact volume the polyhedron's (Fraction), the
+    cube's exactly 1; every point of the surface has a different node on each side."""
+    P, C = cube_grid(4)
+    Q, K = icosphere(subdivisions)
+    Q = P[C[cell]].mean(axis=0) + radius * Q
+    res = predicates.intersect(P, C, Q, K)
+    assert len(res["tetrahedron_vertex"].sim) == len(Q)
+    assert np.all(res["tetrahedron_vertex"].sim[:, 0] == res["tetrahedron_vertex"].sim[0, 0])
+    cm = res.split().tetrahedralize()
+    assert cm.n_pieces == 2
+    check(res, cm, {})
+    vols = sorted(exact_mesh_volume(cm.points, cm.cells[cm.piece == p]) for p in (0, 1))
+    assert vols == [closed_surface_volume(Q, K), 1 - closed_surface_volume(Q, K)]
+    _, node = cm.opened()
+    for f, (b, a) in zip(cm.cut_faces.tolist(), cm.cut_sides.tolist()):
+        for v in f:
+            assert node[b, cm.cells[b].tolist().index(v)] != node[a, cm.cells[a].tolist().index(v)]
+    assert len(cm.cut_faces) == len(K)

@@ -137,6 +137,21 @@ def test_pieces_without_a_crack_stay_opaque():
     plt.close(fig)
 
 
+def test_an_inclusion_drawn_in_place_shows_through_its_see_through_host():
+    """A small icosphere inside cell 0 of Kuhn 4 (an inclusion, split/enclosed.py), far
+    from the centre, so drawn in place: the cube piece around it is see-through and the
+    inclusion's 80 faces are the only opaque ones (before, the opaque cube hid it)."""
+    P, C = cube_grid(4)
+    Q, K = icosphere(1)
+    cm = predicates.intersect(P, C, P[C[0]].mean(axis=0) + 0.01 * Q, K).split().tetrahedralize()
+    assert cm.n_pieces == 2
+    plt, fig, ax = _draw(cm, explode=0.3)
+    (coll,) = ax.collections
+    alpha = coll.get_facecolors()[:, 3]
+    assert (alpha == 1).sum() == len(K) and (alpha[alpha < 1] < 0.5).all()
+    plt.close(fig)
+
+
 def test_cli_conforming_png_of_a_crack_shows_it(tmp_path, offset_crack):
     """``fperr cut SIM CUT --conforming --png``: exit 0, the picture written, a visible
     share of its pixels in the cut's reds; the same cube cut by a plane through it (two

@@ -40,6 +40,25 @@ def _offsets(cm, factor: float) -> np.ndarray:
     return off
 
 
+def _hiding(cm, off: np.ndarray) -> np.ndarray:
+    """The pieces that hide an island drawn in place (3D): a piece every boundary face of
+    which is cut lies inside the piece on the other side of those faces; unless the two
+    were set apart (:func:`_offsets`: by more than the mesh's extent), that piece is
+    drawn see-through so the island shows."""
+    cut = {tuple(sorted(f)) for f in cm.cut_faces.tolist()}
+    ext = float((cm.points.max(axis=0) - cm.points.min(axis=0)).max())
+    sides = cm.piece[cm.cut_sides]
+    out = set()
+    for p in range(cm.n_pieces):
+        faces = _piece_boundary(cm.cells[cm.piece == p]).tolist()
+        if not faces or any(tuple(sorted(f)) not in cut for f in faces):
+            continue
+        for q in set(sides[(sides == p).any(axis=1)].ravel().tolist()) - {p}:
+            if np.abs(off[q] - off[p]).max() < ext:
+                out.add(q)
+    return np.array(sorted(out), dtype=np.int64)
+
+
 def _piece_boundary(cells: np.ndarray):
     faces = np.concatenate([cells[:, [1, 2, 3]], cells[:, [0, 3, 2]], cells[:, [0, 1, 3]],
                             cells[:, [0, 2, 1]]])
@@ -84,7 +103,8 @@ def draw_conforming(ax, cm, explode: float = 0.3, clip=None, light=(-0.4, -0.8, 
 
     v = view or DEFAULT_VIEW
     cracks = crack_faces(cm, keep)
-    F, rgba, edges = _piece_faces(cm, keep, off, light, cm.piece[cm.cut_sides[cracks, 0]])
+    pale = np.concatenate([cm.piece[cm.cut_sides[cracks, 0]], _hiding(cm, off)])
+    F, rgba, edges = _piece_faces(cm, keep, off, light, pale)
     ax.set_axis_off()
     if len(F) == 0:
         return
@@ -131,7 +151,7 @@ def crack_sides(cm, faces: np.ndarray, gap: float) -> np.ndarray:
 def _piece_faces(cm, keep, off, light, cracked_pieces):
     """Every piece's boundary faces, their RGBA and edge colours: Lambert-shaded, cut
     faces lighter; the pieces in ``cracked_pieces`` pale and see-through, so the crack
-    inside shows."""
+    or the island inside shows."""
     from matplotlib.colors import to_rgb
 
     from predicates.registration.pictures.view import lambert
@@ -196,6 +216,8 @@ def plot_conforming(cm, path: str, explode: float = 0.3, clip=None,
     cracks = len(crack_faces(cm))
     how = "opened; the piece see-through" if cm.dim == 3 else "over the piece"
     inside = f"\n{cracks} of them a crack inside a piece (red, {how})" if cracks else ""
+    if cm.dim == 3 and not inside and len(_hiding(cm, _offsets(cm, explode))):
+        inside = "\nan island inside a piece (the piece see-through)"
     ax.set_title(title or f"conforming: {cm.n_pieces} piece"
                           f"{'s' if cm.n_pieces != 1 else ''}, {len(cm.cells)} simplices, "
                           f"{len(cm.cut_faces)} cut faces (explode {explode:g}){inside}")

@@ -34,6 +34,7 @@ import numpy as np
 
 from fperr.warnings import ResolutionError
 from predicates.registration.split import rules as R
+from predicates.registration.split.enclosed import cavity_fill, merge_enclosed
 from predicates.registration.split.tetra_faces import (OUTWARD, Points, cell_boundary,
                                                        on_cut_points, positive,
                                                        ring_pieces)
@@ -278,7 +279,8 @@ def _fallback(tris, Y, d: int):
             return fill_slit_region(tris, Y.array)
         return (_apex_cone(tris, Y, d, kernel_point(tris, Y))
                 or fill_slit_region(tris, Y.array))
-    cand = _apex_cone(tris, Y, d, kernel_point(tris, Y))
+    cand = (_apex_cone(tris, Y, d, kernel_point(tris, Y))
+            or _checked(cavity_fill(tris, Y.array), Y, tris))  # around an inclusion
     if cand is not None:
         return cand
 
@@ -395,10 +397,7 @@ def conforming_mesh(res, sm, cs=None) -> ConformingMesh:
         raise NotConforming(_report(problems))
     X, n, d = ctx["X"], ctx["n"], ctx["d"]
     Y = Points(np.concatenate([X, on_cut_points(res, cs)]))
-    if d == 2:  # an island's surroundings, listed as two regions, made one
-        from predicates.registration.split.slit_fill import merge_holes
-
-        frag_tris = merge_holes(frag_tris, where, Y.array)
+    frag_tris = merge_enclosed(frag_tris, where, Y.array, d)  # an island's surroundings
     filled, bad = _fill(frag_tris, Y, d)
     bad, moved = _repair(res, cs, frag_tris, Y, filled, bad, n, d)
     if bad:
