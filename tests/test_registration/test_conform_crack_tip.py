@@ -274,3 +274,30 @@ def test_crack_inside_one_triangle_through_the_cli(tmp_path):
     T, X = back.cells_dict["triangle"], back.points[:, :2]
     assert np.all(orientation_signs(X, T) > 0)
     assert exact_mesh_volume(X, T) == Fraction(1)
+
+
+def test_a_curve_meeting_itself_inside_a_cell_is_refused_by_name(tmp_path):
+    """A chain whose third segment passes through its first point (a T inside cell 38:
+    not a cut) is refused naming why, not as "no apex …": NotConforming from the
+    library; through the CLI exit 1 and nothing written."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from predicates.registration.split.conform import NotConforming
+
+    P, C = square_grid(8)
+    Q = np.array([(0.828125, 0.53125), (0.8515625, 0.546875), (0.8046875, 0.53125),
+                  (0.84375, 0.53125)])
+    K = np.array([[0, 1], [1, 2], [2, 3]])
+    with pytest.raises(NotConforming, match="crosses or touches itself"):
+        predicates.intersect(P, C, Q, K).split().tetrahedralize()
+    s, c, out = tmp_path / "sim.vtu", tmp_path / "cut.vtu", tmp_path / "out.vtu"
+    meshio.Mesh(np.column_stack([P, np.zeros(len(P))]), [("triangle", C)]).write(s)
+    meshio.Mesh(np.column_stack([Q, np.zeros(4)]), [("line", K)]).write(c)
+    root = Path(__file__).resolve().parents[2]
+    r = subprocess.run([sys.executable, "-m", "fperr", "cut", str(s), str(c),
+                        "--conforming", "-o", str(out), "--quiet"], cwd=root,
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 1 and "crosses or touches itself" in r.stderr, r.stderr
+    assert not out.exists()

@@ -35,6 +35,7 @@ import numpy as np
 from fperr.warnings import ResolutionError
 from predicates.registration.split import rules as R
 from predicates.registration.split.enclosed import cavity_fill, merge_enclosed
+from predicates.registration.split.search import refusal_reason
 from predicates.registration.split.tetra_faces import (OUTWARD, Points, cell_boundary,
                                                        on_cut_points, positive,
                                                        ring_pieces)
@@ -317,17 +318,6 @@ def _checked(tets, Y, tris):
     return tets if ok else None
 
 
-def _why(tris, Y) -> str:
-    """Why a region was refused, for the report (:func:`~.search.folded_triangle`)."""
-    from predicates.registration.split.search import folded_triangle
-
-    if len(tris[0]) == 3 and folded_triangle(tris, Y.array) is not None:
-        return ("its boundary folds onto itself (a zero-thickness flap: registered points "
-                "merged within the tolerances, placed on the cut), which no positive "
-                "tetrahedra can fill")
-    return "no apex, peeling or search fills it with positive simplices"
-
-
 def _collect(res, sm, cs, ctx):
     """Boundaries of the regions of the touched cells: ({region: outward simplices},
     cut records, {(cell, face): triangles}, region → (cell, fragment), problems)."""
@@ -403,7 +393,8 @@ def conforming_mesh(res, sm, cs=None) -> ConformingMesh:
     if bad:
         why = {}
         for f in bad:
-            why.setdefault(where[f][0], _why(frag_tris[f], Y))
+            cell = [t for g, ts in frag_tris.items() if where[g][0] == where[f][0] for t in ts]
+            why.setdefault(where[f][0], refusal_reason(frag_tris[f], Y.array, cell))
         raise NotConforming(_report(sorted(why.items())))
     fields = assemble(res, sm, cs, ctx, filled, Y.array, cuts, faces, where)
     hit = fields["point_hit"]

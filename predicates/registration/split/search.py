@@ -29,7 +29,8 @@ from fractions import Fraction
 
 import numpy as np
 
-__all__ = ["fan_from_boundary", "folded_triangle", "orient_signs", "paired", "search_fill"]
+__all__ = ["fan_from_boundary", "folded_triangle", "orient_signs", "paired", "refusal_reason",
+           "search_fill"]
 
 _OUT = ((1, 2, 3), (0, 3, 2), (0, 1, 3), (0, 2, 1))
 #: far above the rounding error of the float determinant below (Shewchuk: 7.8e-16)
@@ -198,3 +199,21 @@ def folded_triangle(tris, Z: np.ndarray):
         if w == [0, 0]:
             return tuple(tris[i])
     return None
+
+
+def refusal_reason(tris, Z: np.ndarray, cell_tris=None) -> str:
+    """Why a region was refused, for the report: a 3D boundary folding onto itself
+    (:func:`folded_triangle`), in 2D two boundary segments of its cell's regions
+    (``cell_tris``, default its own) crossing (:func:`~.slit_fill.crossing_segments`:
+    the cutting curve crosses itself in the cell), else no filler."""
+    if len(tris[0]) == 3 and folded_triangle(tris, Z) is not None:
+        return ("its boundary folds onto itself (a zero-thickness flap: registered points "
+                "merged within the tolerances, placed on the cut), which no positive "
+                "tetrahedra can fill")
+    if len(tris[0]) == 2:
+        from predicates.registration.split.slit_fill import crossing_segments
+
+        if crossing_segments(tris if cell_tris is None else cell_tris, Z) is not None:
+            return ("its boundary meets itself: the cutting curve crosses or touches itself "
+                    "inside the cell, which is not a cut (split the curve where it meets)")
+    return "no apex, peeling or search fills it with positive simplices"

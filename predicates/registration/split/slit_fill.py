@@ -32,7 +32,7 @@ import numpy as np
 
 from predicates.registration.split.tetra_faces import positive
 
-__all__ = ["fill_slit_region", "merge_holes", "paired_edges"]
+__all__ = ["crossing_segments", "fill_slit_region", "merge_holes", "paired_edges"]
 
 
 def _pseudo_angle(dx: float, dy: float) -> float:
@@ -254,3 +254,25 @@ def merge_holes(frag_tris: dict, where: list, Z: np.ndarray) -> dict:
             if len(hosts) == 1:
                 out[hosts[0]] = list(out[hosts[0]]) + list(out.pop(h))
     return out
+
+
+def crossing_segments(edges: list, Z: np.ndarray):
+    """Two boundary edges without a common point that meet — their open segments cross,
+    or an end of one lies inside the other — exactly (orientations of the stored
+    coordinates as Fractions), or None."""
+    edges = sorted({tuple(sorted(e)) for e in edges})
+    F = {p: (Fraction(float(Z[p][0])), Fraction(float(Z[p][1]))) for e in edges for p in e}
+
+    def inside(p, a, b):  # p in the open segment a–b
+        return _orient(F, a, b, p) == 0 and min(F[a], F[b]) < F[p] < max(F[a], F[b])
+
+    for i, (a, b) in enumerate(edges):
+        for p, q in edges[i + 1:]:
+            if {a, b} & {p, q}:
+                continue
+            o = (_orient(F, a, b, p), _orient(F, a, b, q), _orient(F, p, q, a),
+                 _orient(F, p, q, b))
+            if (o[0] * o[1] < 0 and o[2] * o[3] < 0) or inside(p, a, b) or inside(
+                    q, a, b) or inside(a, p, q) or inside(b, p, q):
+                return (a, b), (p, q)
+    return None
