@@ -88,7 +88,7 @@ def joined(parts: list, empty: np.ndarray) -> np.ndarray:
 def owned_table(F: np.ndarray, n_faces: int) -> np.ndarray:
     """``F`` (n_cells, m): the face ids of each cell. Returns the same table with −1
     where the cell does not own the face: every face is owned by exactly one of the
-    cells containing it (which one does not matter)."""
+    cells containing it (which one does not matter). int32 when the face ids fit."""
     n, m = F.shape
     owner = np.full(n_faces, -1, dtype=np.int64)
     # a repeated index receives one of the values written to it: one cell holding it
@@ -131,6 +131,7 @@ def _slices(fs: list, cs: list, step: int, consume: bool = False):
 
 
 def _cat(parts: list) -> np.ndarray:
+    """The one part as it is (a view), or the parts concatenated."""
     return parts[0] if len(parts) == 1 else np.concatenate(parts)
 
 
