@@ -155,3 +155,62 @@ def test_joined_is_concatenate_without_holding_the_blocks_twice():
         assert np.array_equal(got, want) and list_ == []
     empty = np.zeros((0, 2))
     assert joined([], empty) is empty
+
+
+def test_stage1_slices_are_the_blocks_of_the_concatenation():
+    """facepairs._slices gives the blocks ``step`` by ``step`` of the parts'
+    concatenation (the blocks the kinds read before stage 1 was kept in parts): the
+    same values, dtypes and boundaries, for steps below, at and above the parts'
+    lengths and empty parts; ``consume`` empties the lists as it goes."""
+    from predicates.registration.levels.facepairs import _slices
+
+    rng = np.random.default_rng(11)
+    lengths = [5, 0, 3, 12, 1, 0, 7]
+    fs = [rng.integers(0, 99, n).astype(np.int32) for n in lengths]
+    cs = [rng.integers(0, 99, n).astype(np.int32) for n in lengths]
+    f_all, c_all = np.concatenate(fs), np.concatenate(cs)
+    for step in (1, 2, 3, 5, 7, 28, 100):
+        want = [(f_all[lo: lo + step], c_all[lo: lo + step])
+                for lo in range(0, len(f_all), step)]
+        for consume in (False, True):
+            fl, cl = list(fs), list(cs)
+            got = list(_slices(fl, cl, step, consume))
+            assert len(got) == len(want), (step, consume)
+            for (f, c), (wf, wc) in zip(got, want):
+                assert f.dtype == np.int32 and c.dtype == np.int32
+                assert np.array_equal(f, wf) and np.array_equal(c, wc), (step, consume)
+            if consume:
+                assert fl == [None] * len(fs) and cl == [None] * len(cs)
+            else:  # the parts left as they were
+                assert all(a is b for a, b in zip(fl + cl, fs + cs)) and len(fl) == len(fs)
+    assert list(_slices([], [], 4)) == []
+
+
+def test_suppression_keys_of_int32_ids_do_not_wrap():
+    """Stage 1's ids are int32 (half its memory): the numpy suppression look-up's keys
+    s * n_cut + c exceed 2^31 on large meshes and must be formed in int64 — here
+    against the keys in Python integers, with a registered lower pair (a = i: the
+    simplex itself, int32) whose key is above 2^31 and one whose int32 product wraps
+    onto a registered key."""
+    from types import SimpleNamespace
+
+    from predicates.registration.levels.loop import Registration
+
+    n_cut_vertices = 3_000_000  # s * n ≥ 2^31 for s ≥ 716
+    face = np.array([[0, 1], [1, 2], [2, 3]] * 400, dtype=np.int64)  # edge -> vertices
+    cut = SimpleNamespace(count=lambda b: n_cut_vertices if b == 0 else len(face),
+                          cx=SimpleNamespace(face=lambda k, j: face))
+    s = np.array([5, 800, 1000, 1100], dtype=np.int32)  # simulation edges
+    c = np.array([0, 7, 2, 9], dtype=np.int32)  # cutting edges
+    wrapped = int(np.array([1000 * n_cut_vertices]).astype(np.int32)[0])
+    registered = [800 * n_cut_vertices + 2,  # (edge 800, vertex 2): c = 7 has it
+                  wrapped + 3]  # (edge 1000, vertex 3) in int32: c = 2 has vertex 3
+    sim = SimpleNamespace(cx=SimpleNamespace(face=lambda k, j: None))  # a = i: not read
+    reg = SimpleNamespace(accelerate=False, sim=sim, cut=cut,
+                          registered={(1, 0): np.array(sorted(registered), np.int64)})
+    suspects = ([(1, 0)], np.ones(1200, bool), np.ones(1200, bool))
+    got = Registration._blocked(reg, 1, 1, s, c, suspects)
+    keys = set(registered)
+    want = [any(int(a) * n_cut_vertices + int(b) in keys for b in face[g])
+            for a, g in zip(s, c)]
+    assert got.tolist() == want == [False, True, False, False]

@@ -49,10 +49,9 @@ def cell_pairs(P_sim, sim_cells, P_cut, cut_cells, pad: float, chunk: int,
     else:
         T = np.concatenate([p[0] for p in parts]) if parts else np.zeros(0, np.int64)
         C = np.concatenate([p[1] for p in parts]) if parts else np.zeros(0, np.int64)
-    # compiled: int32 ids when they fit (the kernels take either; half the fresh
-    # memory of the largest arrays)
-    ids = [np.int32 if accelerate and len(x) < 2 ** 31 else np.int64
-           for x in (sim_cells, cut_cells)]
+    # int32 ids when they fit (the compiled kernels take either; numpy's gathers
+    # too): half the memory the levels hold (W4: 4.5 M pairs, 34 MiB saved)
+    ids = [np.int32 if len(x) < 2 ** 31 else np.int64 for x in (sim_cells, cut_cells)]
     if accelerate and T.dtype == ids[0] and C.dtype == ids[1]:
         from predicates.compiled.boxtest import kept_ids
 
@@ -89,12 +88,14 @@ def joined(parts: list, empty: np.ndarray) -> np.ndarray:
 def owned_table(F: np.ndarray, n_faces: int) -> np.ndarray:
     """``F`` (n_cells, m): the face ids of each cell. Returns the same table with −1
     where the cell does not own the face: every face is owned by exactly one of the
-    cells containing it (which one does not matter)."""
+    cells containing it (which one does not matter). int32 when the face ids fit."""
     n, m = F.shape
     owner = np.full(n_faces, -1, dtype=np.int64)
     # a repeated index receives one of the values written to it: one cell holding it
     owner[F.ravel()] = np.repeat(np.arange(n, dtype=np.int64), m)
-    return np.where(owner[F] == np.arange(n)[:, None], F, -1)
+    # int32 face ids when they fit: stage 1's pairs are made of them (half its memory)
+    ids = np.int32 if n_faces < 2 ** 31 else np.int64
+    return np.where(owner[F] == np.arange(n)[:, None], F, -1).astype(ids, copy=False)
 
 
 def _owned(tab, cells):
@@ -103,6 +104,35 @@ def _owned(tab, cells):
     A = tab.take(cells, axis=0)
     flat = np.flatnonzero(A >= 0)  # flat: ~4x faster than a 2D nonzero + 2D indexing
     return A.ravel().take(flat), flat // A.shape[1]
+
+
+def _slices(fs: list, cs: list, step: int, consume: bool = False):
+    """Consecutive blocks (f, C) of ``step`` pairs of the stage-1 parts ``fs``, ``cs``:
+    the slices of their concatenation (a block across parts joined, a block within one
+    a view), without the concatenation held (a serial run's peak: W4's level 2 is 5.6 M
+    pairs; docs/partitioned.md section 2). ``consume``: each part dropped from the
+    lists once read (the level's last kind)."""
+    held_f, held_c, n = [], [], 0
+    for k in range(len(fs)):
+        f, c = fs[k], cs[k]
+        if consume:
+            fs[k] = cs[k] = None
+        lo = 0
+        while lo < len(f):
+            take = min(step - n, len(f) - lo)
+            held_f.append(f[lo: lo + take])
+            held_c.append(c[lo: lo + take])
+            n, lo = n + take, lo + take
+            if n == step:
+                yield _cat(held_f), _cat(held_c)
+                held_f, held_c, n = [], [], 0
+    if n:
+        yield _cat(held_f), _cat(held_c)
+
+
+def _cat(parts: list) -> np.ndarray:
+    """The one part as it is (a view), or the parts concatenated."""
+    return parts[0] if len(parts) == 1 else np.concatenate(parts)
 
 
 def _columns(points, rows, blocks: Blocks):
@@ -127,7 +157,7 @@ class FacePairs:
         self.top_s, self.top_c = sim.cx.top, cut.cx.top
         self._boxes = {}  # (side, level) -> (lo, hi) columns
         self._tables = {}  # (side, level) -> owned table
-        self._stage1 = {}  # sim level i -> (f, C)
+        self._stage1 = {}  # sim level i -> (f, C) as lists of parts (_slices)
         self._pending = {}  # sim level i -> kinds still to ask for it
         for k in kinds:
             self._pending[k.i] = self._pending.get(k.i, 0) + 1
@@ -193,10 +223,10 @@ class FacePairs:
         return owned_pairs(tab, side, A, B, pad, self._box("sim", i), self._box("cut", j_box))
 
     def _first(self, i):
-        """Stage 1 for simulation level i: (f, C), f an i-face owned by T, (T, C) a
-        cell pair, f's box within the level's largest reach of C's box."""
+        """Stage 1 for simulation level i: (f, C) as lists of parts, f an i-face owned
+        by T, (T, C) a cell pair, f's box within the level's largest reach of C's box."""
         if i == self.top_s:  # the cell itself: the cell pairs, tested in stage 2
-            return self.T, self.C
+            return [self.T], [self.C]
         if self.accelerate:  # every level still to come in one compiled pass
             levels = sorted(k for k, left in self._pending.items()
                             if left and k != self.top_s and k not in self._stage1)
@@ -213,7 +243,7 @@ class FacePairs:
             fs.append(f)
             cs.append(C)
         self._first_done.add(i)
-        return joined(fs, np.zeros(0, np.int64)), joined(cs, np.zeros(0, np.int64))
+        return fs, cs  # not joined: the kinds read them as blocks (_slices)
 
     def _first_levels(self, levels: list) -> dict:
         """Stage 1 of the simulation ``levels`` in one compiled pass over the cell pairs
@@ -227,7 +257,7 @@ class FacePairs:
                                               (self.sim.P, self.sim.cx.S[i]))
                 for i in levels]
         got = owned_levels(self.T, self.C, self._box("cut", self.top_c), spec)
-        return dict(zip(levels, got))
+        return {level: ([f], [C]) for level, (f, C) in zip(levels, got)}
 
     def blocks(self, kind: str, i: int, j: int, lists: bool = False):
         """Yield (f, C, tab, pad): blocks of the stage-1 pairs of level i (f an i-face,
@@ -237,9 +267,10 @@ class FacePairs:
         expands and tests them."""
         if i not in self._stage1:
             self._stage1[i] = self._first(i)
-        f_all, C_all = self._stage1[i]
+        fs, cs = self._stage1[i]
         self._pending[i] -= 1
-        if self._pending[i] == 0:  # the last kind of this simulation level
+        last = self._pending[i] == 0  # the last kind of this simulation level
+        if last:
             del self._stage1[i]
         pad = self.reach[kind]
         if j == self.top_c:  # the cutting cell itself
@@ -247,8 +278,8 @@ class FacePairs:
         else:
             tab = self._lists("cut", j) if lists else self._table("cut", j)
             step = max(1, self.chunk // (max(1, tab[2]) if lists else tab.shape[1]))
-        for lo in range(0, len(f_all), step):
-            yield f_all[lo: lo + step], C_all[lo: lo + step], tab, pad
+        for f, C in _slices(fs, cs, step, consume=last):
+            yield f, C, tab, pad
         self._left.remove((i, j))  # this kind is done: what no later kind reads goes
         self._release()
 

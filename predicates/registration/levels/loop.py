@@ -174,7 +174,8 @@ class Registration:
             blocked[maybe] = hit
             return blocked
         for a, b in lower:
-            A = _faces(self.sim.cx, i, a, s)
+            # int64 keys: s may be int32 (stage 1's ids), whose product would wrap
+            A = _faces(self.sim.cx, i, a, s).astype(np.int64, copy=False)
             B = _faces(self.cut.cx, j, b, c)
             keys = (A[:, :, None] * self.cut.count(b) + B[:, None, :]).reshape(len(s), -1)
             R = self.registered[a, b]
