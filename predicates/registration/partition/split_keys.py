@@ -17,6 +17,7 @@ finds the k runs of the Morton order from small per-chunk answers.
 """
 from __future__ import annotations
 
+import time
 from typing import NamedTuple
 
 import numpy as np
@@ -43,6 +44,7 @@ class ChunkRun(NamedTuple):
     coords: np.ndarray
     first: np.ndarray
     codes: np.ndarray | None = None
+    cpu: float = 0.0
 
 
 def chunk_run(source, points, rowbits: np.ndarray, offset: int, e: int, dtype,
@@ -53,6 +55,7 @@ def chunk_run(source, points, rowbits: np.ndarray, offset: int, e: int, dtype,
     points cast to ``dtype`` as the plan casts every point); ``rowbits``: the plan's run
     mask over the chunk's rows, packed. The coordinates are scaled by 2^-e as
     ``inputs.scale_points`` does (element-wise: the plan's ``P_sim`` rows)."""
+    c = time.thread_time()
     if piece:
         own_points, local, cells = source
         n_rows = len(cells)
@@ -71,7 +74,7 @@ def chunk_run(source, points, rowbits: np.ndarray, offset: int, e: int, dtype,
     coords = times_pow2(given, -e)
     first = np.ascontiguousarray(
         coords[np.searchsorted(vids, run[:, 0])].astype(np.float64).T)
-    return ChunkRun(rows + offset, run, vids, coords, first)
+    return ChunkRun(rows + offset, run, vids, coords, first, None, time.thread_time() - c)
 
 
 def first_hull(run: ChunkRun):

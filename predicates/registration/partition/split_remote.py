@@ -52,33 +52,44 @@ def _parts(run, boundaries: list) -> np.ndarray:
 
 def _firsts(run, parts: np.ndarray, bounds: np.ndarray) -> tuple:
     """Per range of vertex ids ``bounds``: the chunk's vertices there (ascending), for
-    each its smallest run cell index here and that cell's partition."""
+    each its smallest run cell index here and that cell's partition (and the chunk's
+    CPU seconds so far: the critical path's, :func:`assemble`)."""
+    c = time.thread_time()
     w = run.cells.shape[1]
     v = run.cells.ravel()
     order = np.lexsort((np.repeat(run.rows, w), v))
     first = order[np.searchsorted(v[order], run.vids)]  # the smallest cell per vertex
     cell, part = run.rows[first // w], parts[first // w]
     cut = np.searchsorted(run.vids, bounds)
-    return tuple((run.vids[a:b], cell[a:b], part[a:b]) for a, b in zip(cut[:-1], cut[1:]))
+    cpu = run.cpu + time.thread_time() - c
+    return tuple((run.vids[a:b], cell[a:b], part[a:b], cpu)
+                 for a, b in zip(cut[:-1], cut[1:]))
 
 
 def _owners(*pieces) -> tuple:
     """A range's owners: each vertex's partition is that of its smallest cell over the
-    chunks (``pieces``, one per chunk); per chunk, the owners of its vertices here."""
+    chunks (``pieces``, one per chunk); per chunk, the owners of its vertices here
+    (and the CPU seconds of the longest path to here)."""
+    c = time.thread_time()
     vids = np.concatenate([p[0] for p in pieces])
     cell = np.concatenate([p[1] for p in pieces])
     part = np.concatenate([p[2] for p in pieces])
     order = np.lexsort((cell, vids))
     ids, at = np.unique(vids[order], return_index=True)
     owner = part[order][at]
-    return tuple(owner[np.searchsorted(ids, p[0])] for p in pieces)
+    got = [owner[np.searchsorted(ids, p[0])] for p in pieces]
+    path = max(p[3] for p in pieces) + time.thread_time() - c
+    return tuple((g, path) for g in got)
 
 
 def _route(run, parts: np.ndarray, k: int, *owners) -> tuple:
     """What the chunk sends each of the k partitions: (global cell indices, cells in
     global vertex ids, those vertices (ascending), their scaled coordinates, owned by
-    the partition, the count of the chunk's cells the partition owns)."""
-    owner = np.concatenate(owners + (np.zeros(0, np.int64),)).astype(np.int64)
+    the partition, the count of the chunk's cells the partition owns, the CPU seconds
+    of the longest path to here)."""
+    c = time.thread_time()
+    owner = np.concatenate([o[0] for o in owners] + [np.zeros(0, np.int64)]
+                           ).astype(np.int64)
     m, w = run.cells.shape
     at = np.searchsorted(run.vids, run.cells)  # each cell's vertices' rows
     rows = np.repeat(np.arange(m, dtype=np.int64), w)
@@ -89,9 +100,10 @@ def _route(run, parts: np.ndarray, k: int, *owners) -> tuple:
         sel = halo[starts[r]:starts[r + 1]]
         used = np.zeros(len(run.vids), dtype=bool)
         used[at[sel].ravel()] = True
-        out.append((run.rows[sel], run.cells[sel], run.vids[used], run.coords[used],
-                    owner[used] == r, int(owned[r])))
-    return tuple(out)
+        out.append([run.rows[sel], run.cells[sel], run.vids[used], run.coords[used],
+                    owner[used] == r, int(owned[r])])
+    path = max((o[1] for o in owners), default=run.cpu) + time.thread_time() - c
+    return tuple(tuple(o) + (path,) for o in out)
 
 
 def assemble(r: int, *routes) -> Part | None:
@@ -128,7 +140,9 @@ def _assembled_run(r: int, args: tuple, side: CutSide, *routes):
         return None
     cpu = time.thread_time() - c
     pairs, stats = run_part(part, *args)
-    stats.update(bytes_in=bytes_in, cpu_slice_s=cpu, cpu_s=stats["cpu_s"] + cpu)
+    # cpu_split_path: the chunks' and ranges' steps before this task, on its longest path
+    stats.update(bytes_in=bytes_in, cpu_slice_s=cpu, cpu_s=stats["cpu_s"] + cpu,
+                 cpu_split_path=max(g[6] for g in routes))
     return pairs, stats
 
 
