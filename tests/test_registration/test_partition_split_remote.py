@@ -192,3 +192,46 @@ def test_processes_and_a_cluster_send_no_part(monkeypatch):
             mask_bytes = sum(-(-c // 8) for c in cells.chunks[0])
             assert split["where"] == "workers"
             assert split["sent_bytes"] <= mask_bytes + 16 * k + 64 * (split["chunks"] + 1)
+
+
+def _pieces(tmp_path, sp, sc, rng, count: int):
+    """The mesh in ``count`` .vtu pieces of random cells with their global point ids
+    (each piece's points in a random order); the cells in the pieces' order."""
+    import meshio
+
+    from predicates.registration.partition.pieces import GLOBAL_IDS
+
+    order = rng.permutation(len(sc))
+    cuts = np.sort(rng.choice(np.arange(1, len(sc)), count - 1, replace=False))
+    paths = []
+    for i, rows in enumerate(np.split(order, cuts)):
+        ids = rng.permutation(np.unique(sc[rows])).astype(np.int64)
+        local = np.empty(len(sp), dtype=np.int64)
+        local[ids] = np.arange(len(ids))
+        paths.append(tmp_path / f"piece{i}.vtu")
+        meshio.Mesh(sp[ids], [("tetra", local[sc[rows]])],
+                    point_data={GLOBAL_IDS: ids}).write(paths[-1])
+    return paths, sc[order]
+
+
+@pytest.mark.filterwarnings("ignore::fperr.ResolutionWarning")  # float32 is coarse here
+def test_pieces_on_a_cluster_split_on_the_workers(tmp_path, monkeypatch):
+    """Pieces read by the workers (their points on the workers too): the split runs
+    where they are — no Layout, no Part from the client — and the result is the serial
+    run's on the same mesh, in float64 and float32, for several k."""
+    distributed = pytest.importorskip("distributed")
+    from predicates.registration.partition.pieces import read_pieces_on_workers
+
+    _no_client_split(monkeypatch)
+    sp, sc, cp, cc = _case("sphere", 6, angle=2, subdivisions=2)
+    paths, cells = _pieces(tmp_path, sp, sc, np.random.default_rng(3), 4)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        got = read_pieces_on_workers(paths, client)
+        for dtype, k in ((np.float64, 3), (np.float32, 5), (np.float64, 1)):
+            ref = predicates.intersect(sp, cells, cp, cc, dtype=dtype)
+            res = predicates.intersect(got.points, got.cells, cp, cc, dtype=dtype,
+                                       partitions=k, scheduler=client)
+            assert_identical(ref, res)
+            assert res.timings["split"]["where"] == "workers"

@@ -33,15 +33,19 @@ STEP, FETCH = 16, 4096
 
 
 class ChunkRun(NamedTuple):
-    """A chunk's run cells: ``rows`` their global cell indices (ascending), ``cells``
-    their global vertex ids (int64), ``vids`` those vertices (ascending) with their
-    scaled coordinates ``coords``, ``first`` the first vertices' coordinates as float64,
-    one row per axis, and ``codes`` their Morton codes (None until known)."""
+    """A chunk's run cells: ``rows`` their global cell indices (ascending), ``vids``
+    their vertices' global ids (ascending) with their scaled coordinates ``coords``,
+    ``at`` the cells in rows of ``vids``, ``first_row`` per vertex the position of its
+    first (smallest) cell here, ``first`` the cells' first vertices' coordinates as
+    float64, one row per axis, ``codes`` their Morton codes (None until known); ``cpu``:
+    the thread CPU seconds spent on them so far (the split's share of the critical
+    path)."""
 
     rows: np.ndarray
-    cells: np.ndarray
     vids: np.ndarray
     coords: np.ndarray
+    at: np.ndarray
+    first_row: np.ndarray
     first: np.ndarray
     codes: np.ndarray | None = None
     cpu: float = 0.0
@@ -54,27 +58,37 @@ def chunk_run(source, points, rowbits: np.ndarray, offset: int, e: int, dtype,
     piece's own (points as given, cells in its numbering, cells in global ids; its
     points cast to ``dtype`` as the plan casts every point); ``rowbits``: the plan's run
     mask over the chunk's rows, packed. The coordinates are scaled by 2^-e as
-    ``inputs.scale_points`` does (element-wise: the plan's ``P_sim`` rows)."""
+    ``inputs.scale_points`` does (element-wise: the plan's ``P_sim`` rows). Marks over
+    the chunk's points, no sort of the cells' vertex ids."""
     c = time.thread_time()
-    if piece:
-        own_points, local, cells = source
-        n_rows = len(cells)
-    else:
-        cells = np.asarray(source)
-        n_rows = len(cells)
-    rows = np.flatnonzero(np.unpackbits(rowbits, count=n_rows).astype(bool))
-    run = cells[rows].astype(np.int64)
-    vids, first_at = np.unique(run.ravel(), return_index=True)
-    if piece:
-        at = local[rows].ravel()[first_at]
+    cells = source[2] if piece else np.asarray(source)
+    rows = np.flatnonzero(np.unpackbits(rowbits, count=len(cells)).astype(bool))
+    # the run cells in the numbering of the points at hand: the piece's own or global
+    run = (source[1] if piece else cells)[rows]
+    n_here = len(source[0]) if piece else len(points)
+    used = np.zeros(n_here, dtype=bool)
+    used[run.ravel()] = True
+    here = np.flatnonzero(used)
+    if piece:  # their global ids, ascending (the piece's numbering is not monotone)
+        gid = np.empty(n_here, dtype=np.int64)
+        gid[run.ravel()] = cells[rows].ravel()
+        here = here[np.argsort(gid[here], kind="stable")]
+        vids = gid[here]
         with np.errstate(all="ignore"):  # the plan's cast (checked there)
-            given = own_points[at].astype(dtype, copy=False)
+            given = source[0][here].astype(dtype, copy=False)
     else:
-        given = np.asarray(points[vids])
+        vids = here.astype(np.int64)
+        given = np.asarray(points[here])
+    pos = np.empty(n_here, dtype=np.int32 if len(here) < 2 ** 31 else np.int64)
+    pos[here] = np.arange(len(here))
+    at = pos[run]
+    m, w = at.shape
+    first_row = np.full(len(vids), m, dtype=np.int64)
+    np.minimum.at(first_row, at.ravel(), np.repeat(np.arange(m, dtype=np.int64), w))
     coords = times_pow2(given, -e)
-    first = np.ascontiguousarray(
-        coords[np.searchsorted(vids, run[:, 0])].astype(np.float64).T)
-    return ChunkRun(rows + offset, run, vids, coords, first, None, time.thread_time() - c)
+    first = np.ascontiguousarray(coords[at[:, 0]].astype(np.float64).T)
+    return ChunkRun(rows + offset, vids, coords, at, first_row, first, None,
+                    time.thread_time() - c)
 
 
 def first_hull(run: ChunkRun):

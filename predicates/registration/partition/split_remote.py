@@ -7,10 +7,10 @@ sends no Part and holds no run cell for the split.
    min/max and an exact selection of the k − 1 boundary keys — each cell's partition
    is :func:`.assign.assign`'s, whatever the chunking);
 2. vertex owners by an exchange between workers: each chunk sends each range of
-   vertex ids, per vertex of its run cells, its smallest cell index and that cell's
-   partition; each range keeps the smallest (section 3: a vertex is owned by the
-   partition owning the smallest-index cell containing it) and sends each chunk the
-   owners of its vertices;
+   vertex ids, per vertex of its run cells, the partition of its smallest cell there;
+   each range keeps the first chunk's (section 3: a vertex is owned by the partition
+   owning the smallest-index cell containing it; the chunks hold increasing indices)
+   and sends each chunk the owners of its vertices;
 3. each chunk sends partition r every run cell with a vertex r owns (section 4's lemma
    as :func:`.slices.owner_halos` states it) with its vertices' scaled coordinates and
    owned flags; partition r's task assembles its Part — local numbering in increasing
@@ -52,34 +52,43 @@ def _parts(run, boundaries: list) -> np.ndarray:
 
 def _firsts(run, parts: np.ndarray, bounds: np.ndarray) -> tuple:
     """Per range of vertex ids ``bounds``: the chunk's vertices there (ascending), for
-    each its smallest run cell index here and that cell's partition (and the chunk's
-    CPU seconds so far: the critical path's, :func:`assemble`)."""
+    each the partition of its smallest run cell here (and the chunk's CPU seconds so
+    far: the critical path's, :func:`assemble`)."""
     c = time.thread_time()
-    w = run.cells.shape[1]
-    v = run.cells.ravel()
-    order = np.lexsort((np.repeat(run.rows, w), v))
-    first = order[np.searchsorted(v[order], run.vids)]  # the smallest cell per vertex
-    cell, part = run.rows[first // w], parts[first // w]
+    part = parts[run.first_row]
     cut = np.searchsorted(run.vids, bounds)
     cpu = run.cpu + time.thread_time() - c
-    return tuple((run.vids[a:b], cell[a:b], part[a:b], cpu)
-                 for a, b in zip(cut[:-1], cut[1:]))
+    return tuple((run.vids[a:b], part[a:b], cpu) for a, b in zip(cut[:-1], cut[1:]))
 
 
 def _owners(*pieces) -> tuple:
-    """A range's owners: each vertex's partition is that of its smallest cell over the
-    chunks (``pieces``, one per chunk); per chunk, the owners of its vertices here
-    (and the CPU seconds of the longest path to here)."""
+    """A range's owners (``pieces``: the chunks' :func:`_firsts` here, in the chunks'
+    order): each vertex's partition is that of its smallest run cell — the chunks come
+    in increasing cell index, so it is the first chunk holding the vertex that says it
+    (np.unique's first occurrence). Per chunk, the owners of its vertices here (and the
+    CPU seconds of the longest path to here)."""
     c = time.thread_time()
     vids = np.concatenate([p[0] for p in pieces])
-    cell = np.concatenate([p[1] for p in pieces])
-    part = np.concatenate([p[2] for p in pieces])
-    order = np.lexsort((cell, vids))
-    ids, at = np.unique(vids[order], return_index=True)
-    owner = part[order][at]
+    part = np.concatenate([p[1] for p in pieces])
+    ids, at = np.unique(vids, return_index=True)
+    owner = part[at]
     got = [owner[np.searchsorted(ids, p[0])] for p in pieces]
-    path = max(p[3] for p in pieces) + time.thread_time() - c
+    path = max(p[2] for p in pieces) + time.thread_time() - c
     return tuple((g, path) for g in got)
+
+
+def _destinations(owners: np.ndarray, k: int):
+    """(cell positions, starts): partition r's cells — those with a vertex it owns
+    (``owners``: per cell, its vertices' owners) — are ``ids[starts[r]:starts[r+1]]``,
+    ascending. Most cells have one owner for all their vertices: those are grouped by a
+    sort of one key each, only the others by every (cell, owner) pair."""
+    m = len(owners)
+    same = np.all(owners == owners[:, :1], axis=1)
+    one = np.flatnonzero(same)
+    other = np.flatnonzero(~same)
+    keys = [owners[one, 0] * max(m, 1) + one,
+            (owners[other] * max(m, 1) + other[:, None]).ravel()]
+    return _grouped(np.concatenate(keys), k, max(m, 1))
 
 
 def _route(run, parts: np.ndarray, k: int, *owners) -> tuple:
@@ -90,17 +99,14 @@ def _route(run, parts: np.ndarray, k: int, *owners) -> tuple:
     c = time.thread_time()
     owner = np.concatenate([o[0] for o in owners] + [np.zeros(0, np.int64)]
                            ).astype(np.int64)
-    m, w = run.cells.shape
-    at = np.searchsorted(run.vids, run.cells)  # each cell's vertices' rows
-    rows = np.repeat(np.arange(m, dtype=np.int64), w)
-    halo, starts = _grouped(owner[at.ravel()] * max(m, 1) + rows, k, max(m, 1))
+    halo, starts = _destinations(owner[run.at], k)
     owned = np.bincount(parts, minlength=k)
     out = []
     for r in range(k):
         sel = halo[starts[r]:starts[r + 1]]
         used = np.zeros(len(run.vids), dtype=bool)
-        used[at[sel].ravel()] = True
-        out.append([run.rows[sel], run.cells[sel], run.vids[used], run.coords[used],
+        used[run.at[sel].ravel()] = True
+        out.append([run.rows[sel], run.vids[run.at[sel]], run.vids[used], run.coords[used],
                     owner[used] == r, int(owned[r])])
     path = max((o[1] for o in owners), default=run.cpu) + time.thread_time() - c
     return tuple(tuple(o) + (path,) for o in out)
