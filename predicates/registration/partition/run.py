@@ -332,7 +332,7 @@ def _split_there(dask, client, plan, k, scheduler, chunk, timings, bar, timeout,
     cells stay where they are, each partition's task assembles its Part there."""
     args = (plan.dim, plan.tol, plan.scale.reach, chunk, plan.accelerate)
     tasks = split_on_workers(plan, k, max(plan.scale.reach.values()), args, client,
-                             scheduler, timings)
+                             scheduler or "threads", timings)
     clock("partition")
     if client is not None:
         out = _gather(tasks, bar, timeout, list(range(k)))

@@ -33,7 +33,7 @@ from predicates import compiled
 from predicates.registration.partition.assign import CutSide, Part, cut_slice
 from predicates.registration.partition.slices import _grouped
 from predicates.registration.partition.split_keys import (
-    chunk_run, first_hull, partition_of, select_boundaries, with_codes)
+    answer, chunk_run, first_hull, partition_of, select_boundaries, with_codes)
 from predicates.registration.partition.task import run_part
 from predicates.registration.spatial.blocks import Blocks
 
@@ -182,7 +182,6 @@ def split_on_workers(plan, k: int, pad: float, args: tuple, client, scheduler,
 
     def ask(queries):
         rounds[0] += 1
-        from predicates.registration.partition.split_keys import answer
         return _compute([d(answer)(r, n_bits, queries) for r in runs], client, scheduler)
 
     boundaries = select_boundaries(ask, m, k, n_bits)
