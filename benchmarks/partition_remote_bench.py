@@ -279,12 +279,18 @@ def record_partitions(out: dict, res) -> None:
         "seconds", "cpu_s", "cpu_slice_s", "cpu_owned_s", "file_bytes", "cpu_file_s")} for p in res.timings["partitions"]]
     # CPU seconds on the critical path (load-independent; docs/partitioned.md 5b): the
     # client's, the plan's per-chunk passes (largest chunk each), the busiest task
+    # client, the plan's per-chunk passes (largest chunk each), the busiest task — with
+    # the split on the workers (split_remote), the chunks' and ranges' steps on that
+    # task's longest path ("cpu_split_path") before it
     remote = res.timings.get("plan_remote") or {}
     out["critical_cpu"] = {
         "client": out["cpu"][-1],
         "plan_on_workers": sum(c for _, c in remote.get("worker_cpu", [])),
-        "busiest_task": max(p["cpu_s"] for p in res.timings["partitions"])}
+        "busiest_task": max(p["cpu_s"] + p.get("cpu_split_path", 0.0)
+                            for p in res.timings["partitions"]),
+        "split_path": max(p.get("cpu_split_path", 0.0) for p in res.timings["partitions"])}
     out["plan_remote"] = remote or None
+    out["split"] = res.timings.get("split")  # where, rounds, the client's bytes in the graph
 
 
 def summarise(got: dict) -> None:

@@ -16,6 +16,8 @@ then computed on the workers), one byte per cell (the masks) and those cells.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from predicates.registration.plan.cellboxes import CellBoxes
@@ -150,6 +152,16 @@ def _cpu_timed(f, *args):
     return out, time.thread_time() - c
 
 
+@dataclass
+class CellsOnWorkers(MeshInput):
+    """The validated simulation mesh with its cells on the workers: ``held`` is
+    (the cells kept there (a persisted dask array on a Client), each chunk's piece or
+    None, every point in the working dtype there (None for pieces: their own)) — what
+    the split on the workers reads (:mod:`.split_remote`)."""
+
+    held: tuple = ()
+
+
 class RemoteCells(CellBoxes):
     """A :class:`~predicates.registration.plan.cellboxes.CellBoxes` whose cells stay on
     the workers: ``summary`` and ``flag_pass`` are tasks per chunk; rows outside the
@@ -182,6 +194,10 @@ class RemoteCells(CellBoxes):
         self._local = threading.local()
         self.stats = {"tasks": 0, "bytes_back": 0,
                       "points_sent": "pieces" if self.pieces is not None else "broadcast"}
+
+    def handles(self) -> tuple:
+        """(the cells as kept, the pieces or None, the points as shared or None)."""
+        return self.cells_da, self.pieces, self._pts
 
     def _share(self, x):
         """``x`` for the tasks: on a distributed Client scattered once to every worker."""
@@ -389,7 +405,7 @@ def validate_remote(points, cells, dim: int, dtype, scheduler, blocks: Blocks = 
     else:
         pts, rounded = _points(arr, used, "simulation", dtype)
     remote.points = pts  # the same boxes as from ``work`` (the used rows are equal)
-    return MeshInput(pts, cells, "simulation", rounded), remote
+    return CellsOnWorkers(pts, cells, "simulation", rounded, remote.handles()), remote
 
 
 def validate_pair_remote(sp, sc, cp, cc, dtype, scheduler, blocks: Blocks = SERIAL):

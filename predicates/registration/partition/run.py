@@ -22,6 +22,7 @@ from predicates.registration.partition.assign import CutSide, Part, merge, split
 from predicates.registration.partition.counts import (  # noqa: F401 (re-exported)
     CELLS_PER_PART, slots, count_partitions)
 from predicates.registration.partition.outputs import PartFiles, Staged
+from predicates.registration.partition.split_remote import on_workers, split_on_workers
 from predicates.registration.partition.task import run_part
 
 __all__ = ["DaskMissingError", "LOCAL_SCHEDULERS", "PartitionError", "check_timeout",
@@ -279,6 +280,9 @@ def _tasks(dask, client, plan, k, scheduler, chunk, timings, bar, timeout=None,
     clock = _Clock(timings)
     reach = plan.scale.reach
     pad = max(reach.values())
+    if staged is None and on_workers(plan) and len(plan.cut_cells) and len(plan.sim_cells):
+        return _split_there(dask, client, plan, k, scheduler, chunk, timings, bar,
+                            timeout, clock)
     owner, write = (None, None) if staged is None else (staged.owner, staged.write)
     # on a Client the tasks cut their own cutting slices (the mesh sent once per worker)
     parts = () if len(plan.cut_cells) == 0 or len(plan.sim_cells) == 0 else (
@@ -315,6 +319,27 @@ def _tasks(dask, client, plan, k, scheduler, chunk, timings, bar, timeout=None,
         with _finished(bar, {t.key for t in tasks}):
             out = dask.compute(*tasks, scheduler=scheduler or "threads") if tasks else []
         del parts, tasks
+    clock("dask")
+    pairs = merge(plan.kinds, [o[0] for o in out], plan.dtype)
+    clock("merge")
+    timings["partitions"] = [o[1] for o in out]
+    return pairs
+
+
+def _split_there(dask, client, plan, k, scheduler, chunk, timings, bar, timeout,
+                 clock) -> dict:
+    """:func:`_tasks` with the split on the workers (:mod:`.split_remote`): the run
+    cells stay where they are, each partition's task assembles its Part there."""
+    args = (plan.dim, plan.tol, plan.scale.reach, chunk, plan.accelerate)
+    tasks = split_on_workers(plan, k, max(plan.scale.reach.values()), args, client,
+                             scheduler or "threads", timings)
+    clock("partition")
+    if client is not None:
+        out = _gather(tasks, bar, timeout, list(range(k)))
+    else:
+        with _finished(bar, {t.key for t in tasks}):
+            out = dask.compute(*tasks, scheduler=scheduler or "threads")
+    out = [o for o in out if o is not None]  # no cell, or no cutting cell within reach
     clock("dask")
     pairs = merge(plan.kinds, [o[0] for o in out], plan.dtype)
     clock("merge")
