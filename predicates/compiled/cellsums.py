@@ -351,32 +351,39 @@ def occupied_table(cover, S):
                               + S[i - 1, j - 1, k - 1])
 
 
-@njit(**JIT_OPTIONS)
-def used_renumbered(cells, n_points):
+def used_renumbered(cells, n_points: int):
     """(ids, C): the vertices ``cells`` (m, k) use, ascending (np.flatnonzero of the
     used mask), and the cells' ids renumbered into them, transposed to (k, m) — what
     :func:`predicates.registration.plan.edges.edge_summary` builds in numpy with a mask,
     a scatter and two gathers (three passes over the cells, ~25 ms on W4's run), here two
-    passes over the cells and two over the points; integers only."""
+    passes over the cells and one over the points (:func:`_renumber`; its local ids in
+    int32 below 2^31 points: half the memory traffic); integers only."""
+    local = np.full(n_points, -1, np.int32 if n_points < 2 ** 31 else np.int64)
+    ids = np.empty(min(n_points, cells.size), np.int64)
+    count, C = _renumber(cells, local, ids)
+    return ids[:count].copy(), C
+
+
+@njit(**JIT_OPTIONS)
+def _renumber(cells, local, ids):
+    """:func:`used_renumbered`'s passes: ``local`` (all −1 on entry) marks the used
+    vertices, then numbers them in ascending order into ``ids``; returns (their
+    count, the cells renumbered, (k, m) int64)."""
     m, k = cells.shape
-    local = np.full(n_points, -1, np.int64)
     for r in range(m):
         for v in range(k):
             local[cells[r, v]] = 0
     count = 0
-    for i in range(n_points):
+    for i in range(local.shape[0]):  # ascending: the used vertices numbered in order
         if local[i] == 0:
             local[i] = count
+            ids[count] = i
             count += 1
-    ids = np.empty(count, np.int64)
-    for i in range(n_points):
-        if local[i] >= 0:
-            ids[local[i]] = i
     C = np.empty((k, m), np.int64)
     for r in range(m):
         for v in range(k):
             C[v, r] = local[cells[r, v]]
-    return ids, C
+    return count, C
 
 
 @njit(**INLINE_OPTIONS)

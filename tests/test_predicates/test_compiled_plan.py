@@ -727,6 +727,8 @@ def test_plan_float_kernels_have_no_fma():
         (K.pad_index, (P, P + 1, 0.1, np.zeros(3), 0.25, np.empty((8, 3)),
                        np.empty((8, 3)))),
         (least_square_edge, (P, C.T.copy(), 0, 2)),
+        (cells.least_square_tetrahedra, (P, C.T.copy(), 0, 2)),
+        (cells.least_square_triangles, (P, C[:, :3].T.copy(), 0, 2)),
         (T.summary_tetrahedra, (P, C, np.full(3, np.inf), np.full(3, -np.inf),
                                 np.zeros(2048, np.int64), np.empty((3, 3)), xs._BIG,
                                 xs._TINY, xs._SPREAD, xs._SPLIT)),
@@ -883,3 +885,28 @@ def test_compiled_edge_summary_is_numpys_and_the_definition(data, d):
         lower, upper = np.nextafter(float(h), 0), np.nextafter(float(h), np.inf)
         off = [abs(Fraction(x) ** 2 - Fraction(least)) for x in (lower, upper)]
         assert abs(h * h - Fraction(least)) <= min(off)
+
+
+@_SLOW
+@given(st.data(), st.sampled_from([3, 4]))
+def test_unrolled_least_square_is_the_general_kernel(data, k):
+    """cells.least_square_tetrahedra and least_square_triangles (3D, each vertex read
+    once) give least_square_edge's value on adversarial coordinates (signed zeros,
+    infinities, NaN, ties, repeated vertices) for every span [a, b) of cells, and
+    least_square_kernel picks them exactly for 3D cells of 4 and 3 vertices."""
+    from predicates.compiled.cells import (
+        least_square_edge, least_square_kernel, least_square_tetrahedra,
+        least_square_triangles)
+
+    P, cells, rng = _mesh(data, 3)
+    P = P.astype(np.float64)
+    special = rng.random(P.shape) < 0.05
+    P[special] = rng.choice([np.nan, np.inf, -np.inf, -0.0], size=int(special.sum()))
+    C = np.ascontiguousarray(cells[:, :k].T.astype(np.int64))
+    fast = least_square_tetrahedra if k == 4 else least_square_triangles
+    assert least_square_kernel(3, k) is fast
+    assert least_square_kernel(2, k - 1) is least_square_edge
+    m = C.shape[1]
+    for a, b in ((0, m), (0, 0), (m // 2, m), (m - 1, m)):
+        want, got = least_square_edge(P, C, a, b), fast(P, C, a, b)
+        assert want == got or (np.isnan(want) and np.isnan(got)), (a, b, want, got)

@@ -99,8 +99,8 @@ def flag_pass(boxes, origin, h, G, table):
                             np.zeros((0, d))) for s in (0, 1)]
             cells = _joined([x[4] for _, _, ch in chunks for x in ch],
                             np.zeros((0, k), dtype=boxes.cells.dtype))
-            boxes.keep(np.flatnonzero(near), *kept, cells, mask=near)  # (near: not
-            # written after, so its rows are these)
+            boxes.keep(None, *kept, cells, mask=near)  # (near: not written after,
+            # so its rows are these; their ids found only if asked for)
         return _gathered(parts, table, near, d)
 
     def span(a: int, b: int):
