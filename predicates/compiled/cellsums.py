@@ -275,13 +275,22 @@ def summary_block(points, rows, lo_min, hi_max, hist, status, big, tiny, spread,
     return e_min, e_max
 
 
-@njit(**JIT_OPTIONS)
 def scale_exact(points, out, factor, back, limit):
     """``out`` = ``points``·``factor`` (a power of two, a normal number of the points'
     dtype: one correctly rounded multiplication, as
     :func:`predicates.registration.plan.inputs.times_pow2`) and the two refusals of
     ``inputs._check_scaled`` in the same pass: (some scaled value is not finite or
-    beyond ``limit``, some is inexact: y·``back`` ≠ x with back = 1/factor)."""
+    beyond ``limit``, some is inexact: y·``back`` ≠ x with back = 1/factor). C-ordered
+    arrays go to :func:`_scale_rows` as one row (one long loop: ~20 % less time on W4's
+    points than rows of three; elementwise, the same values)."""
+    if points.flags.c_contiguous and out.flags.c_contiguous:
+        return _scale_rows(points.reshape(1, -1), out.reshape(1, -1), factor, back, limit)
+    return _scale_rows(points, out, factor, back, limit)
+
+
+@njit(**JIT_OPTIONS)
+def _scale_rows(points, out, factor, back, limit):
+    """:func:`scale_exact` on (n, d) arrays, row by row."""
     over = False
     inexact = False
     for i in range(points.shape[0]):

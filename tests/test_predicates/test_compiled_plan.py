@@ -721,7 +721,7 @@ def test_plan_float_kernels_have_no_fma():
                            np.zeros(2048, np.int64), np.empty((3, 3)), xs._BIG, xs._TINY,
                            xs._SPREAD, xs._SPLIT)),
         (K.narrow_sums, (P[:, 0].copy(), xs._BIG, xs._TINY, xs._SPREAD, xs._SPLIT)),
-        (K.scale_exact, (P, np.empty_like(P), 0.5, 2.0, 1e300)),
+        (K._scale_rows, (P, np.empty_like(P), 0.5, 2.0, 1e300)),
         (K.pad_extents, (P, P + 1, 0.1, np.empty(8), np.full(3, np.inf),
                          np.full(3, -np.inf))),
         (K.pad_index, (P, P + 1, 0.1, np.zeros(3), 0.25, np.empty((8, 3)),
@@ -755,6 +755,7 @@ def test_plan_float_kernels_have_no_fma():
                                 np.array([1, 11, 121], np.int64), np.zeros(1331, np.int64),
                                 1)),
         (flagpack.pack_index, (P, o, 0.25, G, np.empty(8, np.int64))),
+        (flagpack.range_total, (np.zeros((8, 3), np.int32), np.ones((8, 3), np.int32))),
         (flagpack.flag_tetrahedra_packed, (P, np.zeros(8, np.int64), C, stride, S, True,
                                            *ranges, np.empty((m, 3)), np.empty((m, 3)),
                                            np.zeros(0, np.uint8), np.empty_like(C))),
@@ -910,3 +911,28 @@ def test_unrolled_least_square_is_the_general_kernel(data, k):
     for a, b in ((0, m), (0, 0), (m // 2, m), (m - 1, m)):
         want, got = least_square_edge(P, C, a, b), fast(P, C, a, b)
         assert want == got or (np.isnan(want) and np.isnan(got)), (a, b, want, got)
+
+
+def test_range_total_is_the_cells_covered():
+    """flagpack.range_total (the cutting side's covered cells in the first round's
+    budget test) is boxgrid.ncells(i0, i1).sum() in 2D and 3D, for ranges up to the
+    grid's 2^20 + 1 cells per axis (products beyond 2^32) and for no boxes; the
+    scaling kernel's one-row call (cellsums.scale_exact on C-ordered points) gives the
+    row-by-row values and refusals."""
+    from predicates.compiled.cellsums import _scale_rows, scale_exact
+    from predicates.compiled.flagpack import range_total
+    from predicates.registration.spatial.boxgrid import ncells
+
+    rng = np.random.default_rng(11)
+    for d in (2, 3):
+        for top in (3, 1000, 2 ** 20):
+            i0 = rng.integers(0, top, size=(500, d)).astype(np.int32)
+            i1 = np.minimum(i0 + rng.integers(0, top, size=(500, d)), 2 ** 20).astype(np.int32)
+            assert range_total(i0, i1) == int(ncells(i0, i1).sum())
+            assert range_total(i0[:0], i1[:0]) == 0
+    P = rng.choice(_VALUES, size=(300, 3))
+    P = P[np.isfinite(P).all(axis=1)]
+    for factor, back in ((0.5, 2.0), (2.0 ** -1000, 2.0 ** 1000), (2.0 ** 600, 2.0 ** -600)):
+        a, b = np.empty_like(P), np.empty_like(P)
+        assert scale_exact(P, a, factor, back, 1e300) == _scale_rows(P, b, factor, back, 1e300)
+        assert np.array_equal(a, b, equal_nan=True)
