@@ -374,8 +374,8 @@ def _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts,
     # passes, serially: a pool thread waiting on spans submitted to its own pool could starve it
     serial = Blocks(accelerate=work.blocks.accelerate)
     run_box = sim_box.rows(ms) if hasattr(sim_box, "rows") else (sim_box[0][ms], sim_box[1][ms])
-    pairs = work.submit(estimate_cell_pairs, *run_box, cut_box[0][mc], cut_box[1][mc],
-                        sc_.pad, serial)
+    cut_run = cut_box if mc.all() else (cut_box[0][mc], cut_box[1][mc])  # (no copy of all)
+    pairs = work.submit(estimate_cell_pairs, *run_box, *cut_run, sc_.pad, serial)
     # near the cut: the run's cells (flagged at the final pad or a larger one: a superset
     # of the cells within σ+); flagged at the pad if no round was kept (masks: all cells)
     if len(sc_.history) == 1:  # round one's flags were at this pad: not computed again
