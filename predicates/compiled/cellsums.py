@@ -368,20 +368,23 @@ def used_renumbered(cells, n_points: int):
     passes over the cells and one over the points (:func:`_renumber`; its local ids in
     int32 below 2^31 points: half the memory traffic); integers only."""
     local = np.full(n_points, -1, np.int32 if n_points < 2 ** 31 else np.int64)
-    ids = np.empty(min(n_points, cells.size), np.int64)
-    count, C = _renumber(cells, local, ids)
-    return ids[:count].copy(), C
+    return _renumber(cells, local)
 
 
 @njit(**JIT_OPTIONS)
-def _renumber(cells, local, ids):
+def _renumber(cells, local):
     """:func:`used_renumbered`'s passes: ``local`` (all −1 on entry) marks the used
-    vertices, then numbers them in ascending order into ``ids``; returns (their
-    count, the cells renumbered, (k, m) int64)."""
+    vertices (counted as they are first marked: ``ids`` allocated at its size — an
+    array of every point, mostly untouched, cost W4's run ~8 ms more), then numbers
+    them in ascending order; returns (ids, the cells renumbered, (k, m) int64)."""
     m, k = cells.shape
+    count = 0
     for r in range(m):
         for v in range(k):
-            local[cells[r, v]] = 0
+            c = cells[r, v]
+            count += local[c] != 0
+            local[c] = 0
+    ids = np.empty(count, np.int64)
     count = 0
     for i in range(local.shape[0]):  # ascending: the used vertices numbered in order
         if local[i] == 0:
@@ -392,7 +395,7 @@ def _renumber(cells, local, ids):
     for r in range(m):
         for v in range(k):
             C[v, r] = local[cells[r, v]]
-    return count, C
+    return ids, C
 
 
 @njit(**INLINE_OPTIONS)
