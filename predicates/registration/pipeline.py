@@ -370,17 +370,17 @@ def _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts,
     ``work``: its independent parts run concurrently on a threaded plan's pool."""
     work = plan_threads.Work() if work is None else work
     ms, mc = sc_.masks
-    # its occupancy counts compiled as the plan's passes, serially: a pool thread
-    # waiting on spans submitted to its own pool could starve it
-    run_box = sim_box.rows(ms) if hasattr(sim_box, "rows") else (sim_box[0][ms],
-                                                                   sim_box[1][ms])
-    pairs = work.submit(estimate_cell_pairs, *run_box, cut_box[0][mc], cut_box[1][mc],
-                        sc_.pad, Blocks(accelerate=work.blocks.accelerate))
+    # its occupancy counts and the cutting side's shortest edge compiled as the plan's
+    # passes, serially: a pool thread waiting on spans submitted to its own pool could starve it
+    serial = Blocks(accelerate=work.blocks.accelerate)
+    run_box = sim_box.rows(ms) if hasattr(sim_box, "rows") else (sim_box[0][ms], sim_box[1][ms])
+    cut_run = cut_box if mc.all() else (cut_box[0][mc], cut_box[1][mc])  # (no copy of all)
+    pairs = work.submit(estimate_cell_pairs, *run_box, *cut_run, sc_.pad, serial)
     # near the cut: the run's cells (flagged at the final pad or a larger one: a superset
     # of the cells within σ+); flagged at the pad if no round was kept (masks: all cells)
     if len(sc_.history) == 1:  # round one's flags were at this pad: not computed again
         ms, mc = sc_.first or near_cells(sim_box, cut_box, sc_.pad, sc_.masks, work.flags)
-    h_cut = work.submit(shortest_edge, cut.points, cut.cells, mc)
+    h_cut = work.submit(shortest_edge, cut.points, cut.cells, mc, serial)
     h_sim = getattr(sim_box, "shortest_edge", lambda _: None)(ms)  # workers' summaries
     if h_sim is None:  # here, on the same cells in the same order as sim.cells[ms]
         run = sim_box.cells_of(ms)

@@ -721,12 +721,14 @@ def test_plan_float_kernels_have_no_fma():
                            np.zeros(2048, np.int64), np.empty((3, 3)), xs._BIG, xs._TINY,
                            xs._SPREAD, xs._SPLIT)),
         (K.narrow_sums, (P[:, 0].copy(), xs._BIG, xs._TINY, xs._SPREAD, xs._SPLIT)),
-        (K.scale_exact, (P, np.empty_like(P), 0.5, 2.0, 1e300)),
+        (K._scale_rows, (P, np.empty_like(P), 0.5, 2.0, 1e300)),
         (K.pad_extents, (P, P + 1, 0.1, np.empty(8), np.full(3, np.inf),
                          np.full(3, -np.inf))),
         (K.pad_index, (P, P + 1, 0.1, np.zeros(3), 0.25, np.empty((8, 3)),
                        np.empty((8, 3)))),
         (least_square_edge, (P, C.T.copy(), 0, 2)),
+        (cells.least_square_tetrahedra, (P, C.T.copy(), 0, 2)),
+        (cells.least_square_triangles, (P, C[:, :3].T.copy(), 0, 2)),
         (T.summary_tetrahedra, (P, C, np.full(3, np.inf), np.full(3, -np.inf),
                                 np.zeros(2048, np.int64), np.empty((3, 3)), xs._BIG,
                                 xs._TINY, xs._SPREAD, xs._SPLIT)),
@@ -753,6 +755,7 @@ def test_plan_float_kernels_have_no_fma():
                                 np.array([1, 11, 121], np.int64), np.zeros(1331, np.int64),
                                 1)),
         (flagpack.pack_index, (P, o, 0.25, G, np.empty(8, np.int64))),
+        (flagpack.range_total, (np.zeros((8, 3), np.int32), np.ones((8, 3), np.int32))),
         (flagpack.flag_tetrahedra_packed, (P, np.zeros(8, np.int64), C, stride, S, True,
                                            *ranges, np.empty((m, 3)), np.empty((m, 3)),
                                            np.zeros(0, np.uint8), np.empty_like(C))),
@@ -883,3 +886,53 @@ def test_compiled_edge_summary_is_numpys_and_the_definition(data, d):
         lower, upper = np.nextafter(float(h), 0), np.nextafter(float(h), np.inf)
         off = [abs(Fraction(x) ** 2 - Fraction(least)) for x in (lower, upper)]
         assert abs(h * h - Fraction(least)) <= min(off)
+
+
+@_SLOW
+@given(st.data(), st.sampled_from([3, 4]))
+def test_unrolled_least_square_is_the_general_kernel(data, k):
+    """cells.least_square_tetrahedra and least_square_triangles (3D, each vertex read
+    once) give least_square_edge's value on adversarial coordinates (signed zeros,
+    infinities, NaN, ties, repeated vertices) for every span [a, b) of cells, and
+    least_square_kernel picks them exactly for 3D cells of 4 and 3 vertices."""
+    from predicates.compiled.cells import (
+        least_square_edge, least_square_kernel, least_square_tetrahedra,
+        least_square_triangles)
+
+    P, cells, rng = _mesh(data, 3)
+    P = P.astype(np.float64)
+    special = rng.random(P.shape) < 0.05
+    P[special] = rng.choice([np.nan, np.inf, -np.inf, -0.0], size=int(special.sum()))
+    C = np.ascontiguousarray(cells[:, :k].T.astype(np.int64))
+    fast = least_square_tetrahedra if k == 4 else least_square_triangles
+    assert least_square_kernel(3, k) is fast
+    assert least_square_kernel(2, k - 1) is least_square_edge
+    m = C.shape[1]
+    for a, b in ((0, m), (0, 0), (m // 2, m), (m - 1, m)):
+        want, got = least_square_edge(P, C, a, b), fast(P, C, a, b)
+        assert want == got or (np.isnan(want) and np.isnan(got)), (a, b, want, got)
+
+
+def test_range_total_is_the_cells_covered():
+    """flagpack.range_total (the cutting side's covered cells in the first round's
+    budget test) is boxgrid.ncells(i0, i1).sum() in 2D and 3D, for ranges up to the
+    grid's 2^20 + 1 cells per axis (products beyond 2^32) and for no boxes; the
+    scaling kernel's one-row call (cellsums.scale_exact on C-ordered points) gives the
+    row-by-row values and refusals."""
+    from predicates.compiled.cellsums import _scale_rows, scale_exact
+    from predicates.compiled.flagpack import range_total
+    from predicates.registration.spatial.boxgrid import ncells
+
+    rng = np.random.default_rng(11)
+    for d in (2, 3):
+        for top in (3, 1000, 2 ** 20):
+            i0 = rng.integers(0, top, size=(500, d)).astype(np.int32)
+            i1 = np.minimum(i0 + rng.integers(0, top, size=(500, d)), 2 ** 20).astype(np.int32)
+            assert range_total(i0, i1) == int(ncells(i0, i1).sum())
+            assert range_total(i0[:0], i1[:0]) == 0
+    P = rng.choice(_VALUES, size=(300, 3))
+    P = P[np.isfinite(P).all(axis=1)]
+    for factor, back in ((0.5, 2.0), (2.0 ** -1000, 2.0 ** 1000), (2.0 ** 600, 2.0 ** -600)):
+        a, b = np.empty_like(P), np.empty_like(P)
+        assert scale_exact(P, a, factor, back, 1e300) == _scale_rows(P, b, factor, back, 1e300)
+        assert np.array_equal(a, b, equal_nan=True)

@@ -118,3 +118,44 @@ def test_out_of_memory_in_the_plan_is_a_clear_refusal(monkeypatch):
         predicates.intersect(*ex["sim"], *ex["cut"])
     with pytest.raises(MemoryError):  # still a MemoryError for callers that catch it
         predicates.intersect(*ex["sim"], *ex["cut"])
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_kept_rows_by_mask_give_the_gathered_boxes_and_cells(seed):
+    """The compiled first round keeps its flagged rows by their mask, their ids found
+    only when another selection is asked for (CellBoxes.keep(None, ..., mask=)): the
+    boxes and cells of the mask itself, of subsets of it (later rounds), of a selection
+    reaching outside it and of ascending ids are the gathered ones; and the whole
+    fixed point on these boxes (L, e, pad, history, masks) is the stored boxes' one, on
+    a grid of tetrahedra (more cells than points: the indexed pass, which keeps its
+    rows) with a few large cells away from the cut, so that L shrinks between rounds."""
+    from predicates.registration.examples import cube_grid
+
+    rng = np.random.default_rng(seed)
+    P, C = cube_grid(6)
+    far = np.flatnonzero((P > 0.5).all(axis=1))
+    C = np.concatenate([C, [rng.choice(far, 4, replace=False) for _ in range(1 + seed)]])
+    lo, hi = boxes_of(P, C)
+    cut_lo = rng.random((5 + 5 * seed, 3)) * 0.6
+    cut = (cut_lo, cut_lo + rng.uniform(0.005, 0.1) * rng.random(cut_lo.shape))
+    cb = CellBoxes(P, C, B.Blocks(block=64, accelerate=True))
+    pad = [0.0, 1e-3, 0.05][seed % 3]
+    near_a, near_b, _ = near_all(cb, *cut, pad)
+    ref_a, ref_b = near_flags(lo, hi, *cut, pad)
+    assert np.array_equal(near_a, ref_a) and np.array_equal(near_b, ref_b)
+    assert 0 < near_a.sum() < len(C)
+    assert cb._kept_mask is near_a and cb._kept[0] is None  # kept by mask, no ids yet
+    sub = near_a & (rng.random(len(C)) < 0.5)
+    wider = near_a | (rng.random(len(C)) < 0.1)
+    for sel in (near_a, sub, np.flatnonzero(sub), wider, near_a.copy()):
+        got_lo, got_hi = cb.rows(sel)
+        assert np.array_equal(got_lo, lo[sel]) and np.array_equal(got_hi, hi[sel])
+        assert np.array_equal(cb.cells_of(sel), C[sel])
+    for block in (7, None):
+        ref = consistent_scale(3, (lo, hi), cut, np.float64)
+        got = consistent_scale(3, CellBoxes(P, C, B.Blocks(block=block, accelerate=True)),
+                               cut, np.float64)
+        assert len(ref.history) >= 3  # (L changed after round one)
+        assert (got.L_a, got.L_b, got.e, got.pad, got.history) == \
+            (ref.L_a, ref.L_b, ref.e, ref.pad, ref.history)
+        assert all(np.array_equal(a, b) for a, b in zip(got.masks, ref.masks))

@@ -160,6 +160,9 @@ class CellBoxes:
         ids = np.flatnonzero(sel) if np.asarray(sel).dtype == bool else np.asarray(sel)
         if self._kept is not None:
             kept, lo, hi = self._kept
+            if kept is None:  # kept by mask (keep): its rows found now, once
+                kept = np.flatnonzero(self._kept_mask)
+                self._kept = (kept, lo, hi)
             if len(ids) == len(kept) and np.array_equal(kept, ids):
                 return lo, hi  # the kept rows themselves (no copies)
             pos = np.searchsorted(kept, ids)
@@ -172,16 +175,18 @@ class CellBoxes:
         self._kept, self._kept_mask = (ids, lo, hi), None
         return lo, hi
 
-    def keep(self, ids: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+    def keep(self, ids: np.ndarray | None, lo: np.ndarray, hi: np.ndarray,
              cells: np.ndarray | None = None, mask: np.ndarray | None = None) -> None:
         """Keep the boxes ``lo``, ``hi`` of the rows ``ids`` (ascending), computed by a
         pass that had them (the first round's flagged cells), and their ``cells``:
         :meth:`rows` and :meth:`cells_of` of them, or of a subset, then gather
         nothing from every cell. ``mask``: the boolean mask whose rows ``ids`` are,
         recognised as that object later without a look-up (the plan's masks are never
-        written once made)."""
+        written once made); ``ids`` None: the rows of ``mask``, found only if another
+        selection is asked for (``np.flatnonzero`` of a mask of every cell: ~5 ms on
+        W4, and the plan asks with the mask itself)."""
         self._kept, self._kept_mask = (ids, lo, hi), mask
-        self._kept_cells = None if cells is None else (ids, cells)
+        self._kept_cells = None if cells is None else (ids, cells, mask)
 
     def cells_of(self, sel) -> np.ndarray:
         """The cells (vertex ids) of the rows ``sel`` (a mask or ascending ids); the
@@ -200,9 +205,12 @@ class CellBoxes:
         else None."""
         if self._kept_cells is None:
             return None
-        kept, cells = self._kept_cells
-        if sel is self._kept_mask:  # (the same array object, never written after)
+        kept, cells, mask = self._kept_cells
+        if sel is mask and mask is not None:  # (the same array object, never written)
             return cells
+        if kept is None:  # kept by mask: its rows found now, once
+            kept = np.flatnonzero(mask)
+            self._kept_cells = (kept, cells, mask)
         ids = np.flatnonzero(sel) if np.asarray(sel).dtype == bool else np.asarray(sel)
         if len(ids) == len(kept) and np.array_equal(kept, ids):
             return cells

@@ -77,10 +77,10 @@ def _least_square(coords: np.ndarray, C: np.ndarray, blocks: Blocks) -> float:
     k, dim = C.shape[0], coords.shape[0]  # (dim: the numpy path's)
 
     def span(a: int, b: int) -> float:
-        if blocks.accelerate:  # the same sums, compiled (GIL-free)
-            from predicates.compiled.cells import least_square_edge
+        if blocks.accelerate:  # the same sums, compiled (GIL-free; 3D tetrahedra and
+            from predicates.compiled.cells import least_square_kernel  # triangles unrolled)
 
-            return float(least_square_edge(coords, C, a, b))
+            return float(least_square_kernel(coords.shape[1], k)(coords, C, a, b))
         best = np.inf
         for lo, hi in blocks.each(a, b):
             # per axis 1D takes (no (n, k, d) gather); the squares summed axis by axis

@@ -62,7 +62,7 @@ def near_all(boxes, lo_b: np.ndarray, hi_b: np.ndarray, pad: float, flags=near_f
         dense = _dense(G + 1, na + nb)
         table = _occupied(ib0, ib1, G, boxes.blocks) if dense else None
         covered, got = boxes.flag_pass(origin, h, G, table)
-        if covered + ncells(ib0, ib1).sum() <= budget or np.all(G == 1):
+        if covered + _range_total(ib0, ib1, boxes.blocks) <= budget or np.all(G == 1):
             break
         h *= 2
     if not dense:  # as near_flags on a sparse grid (the same grid: it recomputes it)
@@ -99,8 +99,8 @@ def flag_pass(boxes, origin, h, G, table):
                             np.zeros((0, d))) for s in (0, 1)]
             cells = _joined([x[4] for _, _, ch in chunks for x in ch],
                             np.zeros((0, k), dtype=boxes.cells.dtype))
-            boxes.keep(np.flatnonzero(near), *kept, cells, mask=near)  # (near: not
-            # written after, so its rows are these)
+            boxes.keep(None, *kept, cells, mask=near)  # (near: not written after,
+            # so its rows are these; their ids found only if asked for)
         return _gathered(parts, table, near, d)
 
     def span(a: int, b: int):
@@ -205,6 +205,16 @@ def _compiled_span(boxes, origin, h, G, table, near):
                 np.empty((m, k), dtype=boxes.cells.dtype))
 
     return span, indexed
+
+
+def _range_total(i0, i1, blocks) -> int:
+    """``ncells(i0, i1).sum()``: compiled without temporaries
+    (:func:`predicates.compiled.flagpack.range_total`, the same integer)."""
+    if not blocks.accelerate:
+        return int(ncells(i0, i1).sum())
+    from predicates.compiled.flagpack import range_total
+
+    return int(range_total(i0, i1))
 
 
 def _occupied(i0, i1, G, blocks) -> np.ndarray:
