@@ -33,3 +33,13 @@ def rotated_case(name: str, n: int, angle=None, **kw):
         R = portable.rotation(ex["dim"], angle)
         sp, cp = portable.rotate(sp, R), portable.rotate(cp, R)
     return sp, np.asarray(sc), cp, cc
+
+
+def chunked_cells(cells, rng, parts: int):
+    """A dask array of the cells in ``parts`` random row chunks (dask must be installed)."""
+    import dask.array as da
+
+    cuts = np.sort(rng.choice(np.arange(1, len(cells)), min(parts, len(cells)) - 1,
+                              replace=False)) if parts > 1 else []
+    sizes = tuple(np.diff(np.concatenate([[0], cuts, [len(cells)]])).tolist())
+    return da.from_array(cells, chunks=(sizes, cells.shape[1]))

@@ -122,10 +122,10 @@ def test_crack_tips_at_random_interior_points(seed, bent):
     assert cm.n_pieces == 1
 
 
-def test_crack_tip_inside_a_cell_through_the_cli(tmp_path):
-    """``fperr cut SIM CUT --conforming -o out.vtu`` (a subprocess) on the polyline case:
-    exit 0, the file written and read back by meshio, every triangle positive (exact),
-    the square's area exactly 1 (Fraction)."""
+def _cut_cli(tmp_path, Q, K, check: bool = True):
+    """``fperr cut SIM CUT --conforming -o out.vtu`` (a subprocess) on square grid 8 × the
+    chain (Q, K); ``check``: exit 0, the file read back by meshio, every triangle
+    positive (exact), the square's area exactly 1 (Fraction). Returns (process, out)."""
     import subprocess
     import sys
     from pathlib import Path
@@ -133,18 +133,23 @@ def test_crack_tip_inside_a_cell_through_the_cli(tmp_path):
     P, C = square_grid(8)
     s, c, out = tmp_path / "sim.vtu", tmp_path / "cut.vtu", tmp_path / "out.vtu"
     meshio.Mesh(np.column_stack([P, np.zeros(len(P))]), [("triangle", C)]).write(s)
-    meshio.Mesh(np.column_stack([POLYLINE, np.zeros(3)]),
-                [("line", np.array([[0, 1], [1, 2]]))]).write(c)
+    meshio.Mesh(np.column_stack([Q, np.zeros(len(Q))]), [("line", K)]).write(c)
     root = Path(__file__).resolve().parents[2]
     r = subprocess.run([sys.executable, "-m", "fperr", "cut", str(s), str(c),
                         "--conforming", "-o", str(out), "--quiet"], cwd=root,
                        capture_output=True, text=True, timeout=600)
-    assert r.returncode == 0, r.stderr
-    back = meshio.read(out)
-    T = back.cells_dict["triangle"]
-    X = back.points[:, :2]
-    assert np.all(orientation_signs(X, T) > 0)
-    assert exact_mesh_volume(X, T) == Fraction(1)
+    if check:
+        assert r.returncode == 0, r.stderr
+        back = meshio.read(out)
+        T, X = back.cells_dict["triangle"], back.points[:, :2]
+        assert np.all(orientation_signs(X, T) > 0)
+        assert exact_mesh_volume(X, T) == Fraction(1)
+    return r, out
+
+
+def test_crack_tip_inside_a_cell_through_the_cli(tmp_path):
+    """The CLI on the polyline case (:func:`_cut_cli`'s checks)."""
+    _cut_cli(tmp_path, POLYLINE, np.array([[0, 1], [1, 2]]))
 
 
 def test_a_floating_face_chain_is_bridged_only_from_a_corner_that_sees_it():
@@ -253,37 +258,17 @@ def test_a_closed_crack_inside_one_triangle_bounds_an_island():
 
 
 def test_crack_inside_one_triangle_through_the_cli(tmp_path):
-    """``fperr cut SIM CUT --conforming -o out.vtu`` on one segment inside a cell: exit
-    0 (it raised IndexError before: exit 1, an internal error), every triangle positive,
-    the square's area exactly 1."""
-    import subprocess
-    import sys
-    from pathlib import Path
-
+    """The CLI on one segment inside a cell (:func:`_cut_cli`'s checks; it raised
+    IndexError before: exit 1, an internal error)."""
     P, C = square_grid(8)
-    Q = np.array([_at(P, C, 10, w) for w in ((8, 4, 4), (4, 8, 4))])
-    s, c, out = tmp_path / "sim.vtu", tmp_path / "cut.vtu", tmp_path / "out.vtu"
-    meshio.Mesh(np.column_stack([P, np.zeros(len(P))]), [("triangle", C)]).write(s)
-    meshio.Mesh(np.column_stack([Q, np.zeros(2)]), [("line", np.array([[0, 1]]))]).write(c)
-    root = Path(__file__).resolve().parents[2]
-    r = subprocess.run([sys.executable, "-m", "fperr", "cut", str(s), str(c),
-                        "--conforming", "-o", str(out), "--quiet"], cwd=root,
-                       capture_output=True, text=True, timeout=600)
-    assert r.returncode == 0, r.stderr
-    back = meshio.read(out)
-    T, X = back.cells_dict["triangle"], back.points[:, :2]
-    assert np.all(orientation_signs(X, T) > 0)
-    assert exact_mesh_volume(X, T) == Fraction(1)
+    _cut_cli(tmp_path, np.array([_at(P, C, 10, w) for w in ((8, 4, 4), (4, 8, 4))]),
+             np.array([[0, 1]]))
 
 
 def test_a_curve_meeting_itself_inside_a_cell_is_refused_by_name(tmp_path):
     """A chain whose third segment passes through its first point (a T inside cell 38:
     not a cut) is refused naming why, not as "no apex …": NotConforming from the
     library; through the CLI exit 1 and nothing written."""
-    import subprocess
-    import sys
-    from pathlib import Path
-
     from predicates.registration.split.conform import NotConforming
 
     P, C = square_grid(8)
@@ -292,12 +277,6 @@ def test_a_curve_meeting_itself_inside_a_cell_is_refused_by_name(tmp_path):
     K = np.array([[0, 1], [1, 2], [2, 3]])
     with pytest.raises(NotConforming, match="crosses or touches itself"):
         predicates.intersect(P, C, Q, K).split().tetrahedralize()
-    s, c, out = tmp_path / "sim.vtu", tmp_path / "cut.vtu", tmp_path / "out.vtu"
-    meshio.Mesh(np.column_stack([P, np.zeros(len(P))]), [("triangle", C)]).write(s)
-    meshio.Mesh(np.column_stack([Q, np.zeros(4)]), [("line", K)]).write(c)
-    root = Path(__file__).resolve().parents[2]
-    r = subprocess.run([sys.executable, "-m", "fperr", "cut", str(s), str(c),
-                        "--conforming", "-o", str(out), "--quiet"], cwd=root,
-                       capture_output=True, text=True, timeout=600)
+    r, out = _cut_cli(tmp_path, Q, K, check=False)
     assert r.returncode == 1 and "crosses or touches itself" in r.stderr, r.stderr
     assert not out.exists()

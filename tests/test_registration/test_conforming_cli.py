@@ -57,57 +57,45 @@ def test_cut_conforming_refuses_formats_without_cell_data(tmp_path, capsys):
     assert "cell data" in capsys.readouterr().err
 
 
-def test_cut_conforming_disc_crack_inside_one_cell_through_the_cli(tmp_path):
-    """``fperr cut --conforming`` (a subprocess) on Kuhn 4 × the disc crack of radius h/2,
-    whose front runs inside one cell from face to face (was refused, exit 1): exit 0, the
-    file written and read back by meshio, every tetrahedron positive in exact arithmetic,
-    the cube's volume exactly (Fraction sum of the simplices' exact volumes: 1)."""
+def _cut_cli(tmp_path, cut, pieces: set) -> None:
+    """``fperr cut --conforming`` (a subprocess) on Kuhn 4 × ``cut``: exit 0, the file
+    written and read back by meshio, every tetrahedron positive in exact arithmetic, the
+    cube's volume exactly (Fraction sum of the simplices' exact volumes: 1), the pieces
+    ``pieces``."""
     import subprocess
     import sys
     from fractions import Fraction
     from pathlib import Path
 
     from conform_check import exact_mesh_volume
+
+    s, c = _write(tmp_path, cube_grid(4), cut)
+    out = tmp_path / "pieces.vtu"
+    root = Path(__file__).resolve().parents[2]
+    r = subprocess.run([sys.executable, "-m", "fperr", "cut", s, c, "--conforming", "-o",
+                        str(out), "--quiet"], cwd=root, capture_output=True, text=True,
+                       timeout=600)
+    assert r.returncode == 0, r.stderr
+    back = meshio.read(out)
+    T = back.cells_dict["tetra"]
+    assert np.all(orientation_signs(back.points, T) > 0)
+    assert exact_mesh_volume(back.points, T) == Fraction(1)
+    assert set(back.cell_data["piece"][0].tolist()) == pieces
+
+
+def test_cut_conforming_disc_crack_inside_one_cell_through_the_cli(tmp_path):
+    """Kuhn 4 × the disc crack of radius h/2, whose front runs inside one cell from face
+    to face (was refused, exit 1): one piece (:func:`_cut_cli`'s checks)."""
     from cut_cases import disc_crack
 
     h = 0.25
-    s, c = _write(tmp_path, cube_grid(4),
-                  disc_crack(0.5 * h, (0.5 + 0.3 * h, 0.5 + 0.2 * h, 0.5 + 0.1 * h)))
-    out = tmp_path / "pieces.vtu"
-    root = Path(__file__).resolve().parents[2]
-    r = subprocess.run([sys.executable, "-m", "fperr", "cut", s, c, "--conforming", "-o",
-                        str(out), "--quiet"], cwd=root, capture_output=True, text=True,
-                       timeout=600)
-    assert r.returncode == 0, r.stderr
-    back = meshio.read(out)
-    T = back.cells_dict["tetra"]
-    assert np.all(orientation_signs(back.points, T) > 0)
-    assert exact_mesh_volume(back.points, T) == Fraction(1)
-    assert set(back.cell_data["piece"][0].tolist()) == {0}
+    _cut_cli(tmp_path, disc_crack(0.5 * h, (0.5 + 0.3 * h, 0.5 + 0.2 * h, 0.5 + 0.1 * h)),
+             {0})
 
 
 def test_cut_conforming_an_inclusion_inside_one_cell_through_the_cli(tmp_path):
-    """``fperr cut --conforming`` (a subprocess) on Kuhn 4 × an icosphere of radius 0.01
-    inside cell 37 (was refused, exit 1: a cell with a cavity): exit 0, two pieces, every
-    tetrahedron positive in exact arithmetic, the cube's volume exactly 1."""
-    import subprocess
-    import sys
-    from fractions import Fraction
-    from pathlib import Path
-
-    from conform_check import exact_mesh_volume
-
+    """Kuhn 4 × an icosphere of radius 0.01 inside cell 37 (was refused, exit 1: a cell
+    with a cavity): two pieces (:func:`_cut_cli`'s checks)."""
     P, C = cube_grid(4)
     Q, K = icosphere(1)
-    s, c = _write(tmp_path, (P, C), (P[C[37]].mean(axis=0) + 0.01 * Q, K))
-    out = tmp_path / "pieces.vtu"
-    root = Path(__file__).resolve().parents[2]
-    r = subprocess.run([sys.executable, "-m", "fperr", "cut", s, c, "--conforming", "-o",
-                        str(out), "--quiet"], cwd=root, capture_output=True, text=True,
-                       timeout=600)
-    assert r.returncode == 0, r.stderr
-    back = meshio.read(out)
-    T = back.cells_dict["tetra"]
-    assert np.all(orientation_signs(back.points, T) > 0)
-    assert exact_mesh_volume(back.points, T) == Fraction(1)
-    assert set(back.cell_data["piece"][0].tolist()) == {0, 1}
+    _cut_cli(tmp_path, (P[C[37]].mean(axis=0) + 0.01 * Q, K), {0, 1})

@@ -19,7 +19,7 @@ from predicates.registration.partition.split_keys import (
 from predicates.registration.partition.split_remote import (
     _firsts, _owners, _route, assemble)
 from predicates.registration.plan.inputs import renumbered, run_vertices, times_pow2
-from same_result import assert_identical, rotated_case as _case
+from same_result import assert_identical, chunked_cells as _chunked, rotated_case as _case
 
 da = pytest.importorskip("dask.array")
 
@@ -131,34 +131,6 @@ def test_select_boundaries_takes_several_rounds_and_ties():
         pos[order] = np.arange(m)
         assert np.array_equal(parts, pos * k // m)
     assert max(len(c) for c in calls) >= 1 and len(calls) >= 6  # several rounds each
-
-
-CASES = [("sphere", 5, dict(subdivisions=1)), ("plane", 4, {}),
-         ("circle", 8, dict(segments=24))]
-
-
-def _chunked(cells, rng, parts):
-    cuts = np.sort(rng.choice(np.arange(1, len(cells)), min(parts, len(cells)) - 1,
-                              replace=False)) if parts > 1 else []
-    sizes = tuple(np.diff(np.concatenate([[0], cuts, [len(cells)]])).tolist())
-    return da.from_array(cells, chunks=(sizes, cells.shape[1]))
-
-
-@pytest.mark.filterwarnings("ignore::fperr.ResolutionWarning")  # float32 is coarse here
-@settings(max_examples=12, deadline=None, suppress_health_check=list(HealthCheck))
-@given(st.sampled_from(range(len(CASES))), st.integers(1, 9), st.integers(1, 12),
-       st.sampled_from(["synchronous", "threads"]), st.integers(0, 2**32 - 1),
-       st.sampled_from([np.float64, np.float32]))
-def test_the_split_on_the_workers_gives_the_serial_result(case, parts, k, sched, seed,
-                                                          dtype):
-    name, n, kw = CASES[case]
-    sp, sc, cp, cc = _case(name, n, angle=seed % 7 or None, **kw)
-    ref = predicates.intersect(sp, sc, cp, cc, dtype=dtype)
-    cells = _chunked(sc, np.random.default_rng(seed), parts)
-    res = predicates.intersect(sp, cells, cp, cc, dtype=dtype, partitions=k,
-                               scheduler=sched)
-    assert_identical(ref, res)
-    assert res.timings["split"]["where"] == "workers"
 
 
 def _no_client_split(monkeypatch):
