@@ -62,14 +62,70 @@ def _mark(rows, order, first, inv):
     return nu
 
 
+#: the longest run of rows sharing a first id that :func:`_by_first` sorts by insertion
+_RUN = 64
+
+
+@njit(**JIT_OPTIONS)
+def _by_first(rows, n, start, key, idx, first, inv):
+    """Unique rows in one counting pass on the first column: each row placed in its
+    first id's run by insertion on the packed rest (``key``: columns 1… as one int64,
+    read in sequence) — the run's rows stay a few cache lines, where every column's
+    pass of :func:`_lex_order` reads the rows through the order. Then ``first`` and
+    ``inv`` as :func:`_mark` writes them. Returns the number of distinct rows, or −1
+    (nothing written) when a run is longer than ``_RUN``."""
+    m, w = rows.shape
+    for i in range(m):
+        start[rows[i, 0] + 1] += 1
+    most = 0
+    for v in range(n):
+        most = max(most, start[v + 1])
+        start[v + 1] += start[v]
+    if most > _RUN:
+        return -1
+    end = start[:n].copy()  # the next free slot of each run
+    for i in range(m):
+        v = rows[i, 0]
+        p = end[v]
+        end[v] = p + 1
+        k = 0
+        for c in range(1, w):
+            k = k * n + rows[i, c]
+        s = start[v]
+        while p > s and key[p - 1] > k:  # strict: equal rows keep their order
+            key[p] = key[p - 1]
+            idx[p] = idx[p - 1]
+            p -= 1
+        key[p] = k
+        idx[p] = i
+    nu = 0
+    v = 0
+    for q in range(m):
+        r = idx[q]
+        while q >= start[v + 1]:  # q's run: its first id (no read of rows)
+            v += 1
+        if q == start[v] or key[q] != key[q - 1]:
+            first[nu] = r
+            nu += 1
+        inv[r] = nu - 1
+    return nu
+
+
 def unique_rows(rows: np.ndarray, n: int):
     """(unique rows sorted lexicographically, inverse map) of ``rows`` (ids < n), as
-    :func:`predicates.registration.levels.complex.unique_rows` returns them."""
+    :func:`predicates.registration.levels.complex.unique_rows` returns them: by
+    :func:`_by_first` when the rest of a row packs into an int64 and no first id
+    starts more than ``_RUN`` rows (a complex's faces: W1's 176 k triangles 6.7 ->
+    3.7 ms), else by :func:`_lex_order` — the same rows and map either way."""
     rows = np.ascontiguousarray(rows)
-    order = _lex_order(rows, n)
     first = np.empty(len(rows), dtype=np.int64)
     inv = np.empty(len(rows), dtype=np.int64)
-    nu = _mark(rows, order, first, inv)
+    nu = -1
+    if rows.shape[1] > 1 and n ** (rows.shape[1] - 1) < 2 ** 62:
+        key, idx = np.empty(len(rows), np.int64), np.empty(len(rows), np.int64)
+        nu = _by_first(rows, n, np.zeros(n + 1, np.int64), key, idx, first, inv)
+    if nu < 0:
+        nu = _mark(rows, _lex_order(rows, n), first, inv)
     return rows.take(first[:nu], axis=0), inv
 
 
