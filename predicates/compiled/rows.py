@@ -67,16 +67,18 @@ _RUN = 64
 
 
 @njit(**JIT_OPTIONS)
-def _by_first(rows, n, start, key, idx, first, inv):
+def _by_first(rows, combos, n, start, key, idx, first, inv):
     """Unique rows in one counting pass on the first column: each row placed in its
     first id's run by insertion on the packed rest (``key``: columns 1… as one int64,
     read in sequence) — the run's rows stay a few cache lines, where every column's
-    pass of :func:`_lex_order` reads the rows through the order. Then ``first`` and
-    ``inv`` as :func:`_mark` writes them. Returns the number of distinct rows, or −1
-    (nothing written) when a run is longer than ``_RUN``."""
-    m, w = rows.shape
-    for i in range(m):
-        start[rows[i, 0] + 1] += 1
+    pass of :func:`_lex_order` reads the rows through the order. Row i·g + p is
+    rows[i, combos[p]] (g = len(combos): a simplex's faces, not gathered first). Then
+    ``first`` and ``inv`` as :func:`_mark` writes them. Returns the number of distinct
+    rows, or −1 (nothing written) when a run is longer than ``_RUN``."""
+    g, w = combos.shape
+    for r in range(rows.shape[0]):
+        for p in range(g):
+            start[rows[r, combos[p, 0]] + 1] += 1
     most = 0
     for v in range(n):
         most = max(most, start[v + 1])
@@ -84,20 +86,24 @@ def _by_first(rows, n, start, key, idx, first, inv):
     if most > _RUN:
         return -1
     end = start[:n].copy()  # the next free slot of each run
-    for i in range(m):
-        v = rows[i, 0]
-        p = end[v]
-        end[v] = p + 1
-        k = 0
-        for c in range(1, w):
-            k = k * n + rows[i, c]
-        s = start[v]
-        while p > s and key[p - 1] > k:  # strict: equal rows keep their order
-            key[p] = key[p - 1]
-            idx[p] = idx[p - 1]
-            p -= 1
-        key[p] = k
-        idx[p] = i
+    i = 0  # the row's number: r·g + p
+    for r in range(rows.shape[0]):
+        for p in range(g):
+            v = rows[r, combos[p, 0]]
+            q = end[v]
+            end[v] = q + 1
+            k = 0
+            for c in range(1, w):
+                k = k * n + rows[r, combos[p, c]]
+            s = start[v]
+            while q > s and key[q - 1] > k:  # strict: equal rows keep their order
+                key[q] = key[q - 1]
+                idx[q] = idx[q - 1]
+                q -= 1
+            key[q] = k
+            idx[q] = i
+            i += 1
+    m = i
     nu = 0
     v = 0
     for q in range(m):
@@ -111,22 +117,73 @@ def _by_first(rows, n, start, key, idx, first, inv):
     return nu
 
 
+@njit(**JIT_OPTIONS)
+def _by_flags(rows, combos, n, seen, rank, ids, inv):
+    """Unique single ids (w = 1; row r·g + p is rows[r, combos[p, 0]]): flagged, then
+    numbered in ascending order into ``ids`` — the sorted unique rows and the map with
+    no sort. Returns their number."""
+    g = combos.shape[0]
+    for r in range(rows.shape[0]):
+        for p in range(g):
+            seen[rows[r, combos[p, 0]]] = True
+    nu = 0
+    for v in range(n):
+        if seen[v]:
+            rank[v] = nu
+            ids[nu] = v
+            nu += 1
+    i = 0
+    for r in range(rows.shape[0]):
+        for p in range(g):
+            inv[i] = rank[rows[r, combos[p, 0]]]
+            i += 1
+    return nu
+
+
+@njit(**JIT_OPTIONS)
+def _gather(rows, combos, first, out):
+    g = combos.shape[0]
+    for u in range(out.shape[0]):
+        r, p = first[u] // g, first[u] % g
+        for c in range(out.shape[1]):
+            out[u, c] = rows[r, combos[p, c]]
+
+
+def unique_faces(rows: np.ndarray, combos: np.ndarray, n: int):
+    """:func:`unique_rows` of ``rows[:, combos].reshape(-1, w)`` (ids < n; row i·g + p
+    the columns combos[p] of rows[i]: a complex's faces of its simplices) without
+    gathering them first: by :func:`_by_first` when the rest of a row packs into an
+    int64 and no first id starts more than ``_RUN`` rows (W1's 176 k triangles 6.7 ->
+    3.7 ms hot), single ids by flags, else by :func:`_lex_order` on the gathered rows
+    — the same rows and map either way."""
+    rows = np.ascontiguousarray(rows)
+    combos = np.ascontiguousarray(combos, dtype=np.int64)
+    g, w = combos.shape
+    m = len(rows) * g
+    inv = np.empty(m, dtype=np.int64)
+    if w == 1:
+        ids = np.empty(n, dtype=rows.dtype)
+        nu = _by_flags(rows, combos, n, np.zeros(n, bool), np.empty(n, np.int64), ids, inv)
+        return ids[:nu].reshape(nu, 1).copy(), inv
+    first = np.empty(m, dtype=np.int64)
+    nu = -1
+    if int(n) ** (w - 1) < 2 ** 62:
+        key, idx = np.empty(m, np.int64), np.empty(m, np.int64)
+        nu = _by_first(rows, combos, n, np.zeros(n + 1, np.int64), key, idx, first, inv)
+    if nu < 0:
+        flat = rows[:, combos].reshape(m, w) if g > 1 or w < rows.shape[1] else rows
+        nu = _mark(flat, _lex_order(flat, n), first, inv)
+    out = np.empty((nu, w), dtype=rows.dtype)
+    _gather(rows, combos, first, out)
+    return out, inv
+
+
 def unique_rows(rows: np.ndarray, n: int):
     """(unique rows sorted lexicographically, inverse map) of ``rows`` (ids < n), as
-    :func:`predicates.registration.levels.complex.unique_rows` returns them: by
-    :func:`_by_first` when the rest of a row packs into an int64 and no first id
-    starts more than ``_RUN`` rows (a complex's faces: W1's 176 k triangles 6.7 ->
-    3.7 ms), else by :func:`_lex_order` — the same rows and map either way."""
+    :func:`predicates.registration.levels.complex.unique_rows` returns them
+    (:func:`unique_faces` of the rows themselves)."""
     rows = np.ascontiguousarray(rows)
-    first = np.empty(len(rows), dtype=np.int64)
-    inv = np.empty(len(rows), dtype=np.int64)
-    nu = -1
-    if rows.shape[1] > 1 and n ** (rows.shape[1] - 1) < 2 ** 62:
-        key, idx = np.empty(len(rows), np.int64), np.empty(len(rows), np.int64)
-        nu = _by_first(rows, n, np.zeros(n + 1, np.int64), key, idx, first, inv)
-    if nu < 0:
-        nu = _mark(rows, _lex_order(rows, n), first, inv)
-    return rows.take(first[:nu], axis=0), inv
+    return unique_faces(rows, np.arange(rows.shape[1])[None, :], n)
 
 
 @njit(**JIT_OPTIONS)

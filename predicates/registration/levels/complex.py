@@ -108,6 +108,17 @@ def unique_rows(rows: np.ndarray, n: int, accelerate: bool = False):
     return _unique_keys(packed_keys(rows, n), rows)
 
 
+def _unique_faces(rows: np.ndarray, combos: list, n: int, accelerate: bool):
+    """:func:`unique_rows` of the faces ``rows[:, combos]`` (one row per simplex and
+    combination); compiled (``accelerate``, as there) without gathering them first."""
+    m = len(rows) * len(combos)
+    if accelerate and m and n <= 4 * m + (1 << 16):
+        from predicates.compiled.rows import unique_faces
+
+        return unique_faces(rows, np.array(combos, dtype=np.int64), n)
+    return unique_rows(rows[:, combos].reshape(m, -1), n, accelerate)
+
+
 def _unique_keys(keys: list, rows: np.ndarray):
     """``np.unique`` of the rows encoded by ``keys`` (lexicographic: the first key
     most significant), with the inverse map, without np.unique's stable (merge) sort or
@@ -142,8 +153,7 @@ class Complex:
         for k in range(top, 0, -1):
             rows = self.S[k]
             combos = list(itertools.combinations(range(k + 1), k))
-            sub = rows[:, combos].reshape(-1, k)
-            self.S[k - 1], inv = unique_rows(sub, n, accelerate)
+            self.S[k - 1], inv = _unique_faces(rows, combos, n, accelerate)
             self.F[k, k - 1] = inv.reshape(len(rows), k + 1)
         # vertices: a rank -> vertex id table (rows ascend, so do their ids): no sort
         vid = np.zeros(n, dtype=np.int64)
