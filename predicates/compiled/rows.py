@@ -14,7 +14,8 @@ from numba import njit
 
 from .build import INLINE_OPTIONS, JIT_OPTIONS
 
-__all__ = ["any_flagged", "distinct_lex_order", "hits_in_order", "unique_rows"]
+__all__ = ["any_flagged", "distinct_lex_order", "hits_in_order", "ranked_rows", "unique_faces",
+           "unique_rows", "used_flags"]
 
 
 @njit(**JIT_OPTIONS)
@@ -328,4 +329,40 @@ def any_flagged(flags: np.ndarray, rows: np.ndarray) -> np.ndarray:
     one of them flagged), compiled: one pass over the rows, no column copies."""
     out = np.empty(len(rows), dtype=bool)
     _any_flagged(flags, rows, out)
+    return out
+
+
+@njit(**JIT_OPTIONS)
+def _used_flags(cells, used):
+    for r in range(cells.shape[0]):
+        for c in range(cells.shape[1]):
+            used[cells[r, c]] = True
+
+
+def used_flags(cells: np.ndarray, n: int) -> np.ndarray:
+    """Per vertex id < n: does a row of ``cells`` hold it (``used[cells.ravel()] =
+    True``, one pass, no flattened copy)."""
+    used = np.zeros(n, dtype=bool)
+    _used_flags(np.ascontiguousarray(cells), used)
+    return used
+
+
+@njit(**JIT_OPTIONS)
+def _ranked_rows(rank, cells, out):
+    w = cells.shape[1]
+    for r in range(cells.shape[0]):
+        for p in range(w):  # insertion sort of a few ranks
+            v = rank[cells[r, p]]
+            u = p
+            while u > 0 and out[r, u - 1] > v:
+                out[r, u] = out[r, u - 1]
+                u -= 1
+            out[r, u] = v
+
+
+def ranked_rows(rank: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """``sorted_rows(rank.take(cells))`` (each cell's vertex ranks, ascending; complex.py)
+    in one pass: no gathered copy, no column temporaries — integers, the same rows."""
+    out = np.empty(cells.shape, dtype=rank.dtype)
+    _ranked_rows(rank, np.ascontiguousarray(cells), out)
     return out
