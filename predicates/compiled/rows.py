@@ -1,11 +1,16 @@
 """Sorted unique rows of vertex ids (the simplicial complexes' faces,
 :func:`predicates.registration.levels.complex.unique_rows`) and the registered pairs'
 final order (:func:`~predicates.registration.levels.complex.distinct_lex_order`),
-compiled. The unique rows: a stable
-least-significant-column counting sort (radix n, the number of vertices: no comparison
-sort) and one pass marking each row that differs from the previous. The unique rows
-come out sorted lexicographically with the same inverse map as numpy's argsort of the
-packed keys — one answer, whatever the sort — so the complexes are identical.
+compiled. The unique rows: one counting pass on the first id (radix n, the number of
+vertices), each row inserted into its first id's run on the rest packed into an int64
+(a complex's runs are a few rows); single ids by flags, with no sort; a stable
+least-significant-column counting sort when a run is long or the rest does not pack.
+Then one pass marking each row that differs from the previous. The unique rows come
+out sorted lexicographically with the same inverse map as numpy's argsort of the packed
+keys — one answer, whatever the sort — so the complexes are identical. A complex's
+faces are read from its simplices' rows in the kernel (no gathered copy), and its face
+tables via a middle level gathered in one pass (docs/design.md, "Compiled candidate
+chain"). Also each cell's sorted vertex ranks and the used vertices (``Side``).
 """
 from __future__ import annotations
 
