@@ -1,11 +1,16 @@
 """Sorted unique rows of vertex ids (the simplicial complexes' faces,
 :func:`predicates.registration.levels.complex.unique_rows`) and the registered pairs'
 final order (:func:`~predicates.registration.levels.complex.distinct_lex_order`),
-compiled. The unique rows: a stable
-least-significant-column counting sort (radix n, the number of vertices: no comparison
-sort) and one pass marking each row that differs from the previous. The unique rows
-come out sorted lexicographically with the same inverse map as numpy's argsort of the
-packed keys — one answer, whatever the sort — so the complexes are identical.
+compiled. The unique rows: one counting pass on the first id (radix n, the number of
+vertices), each row inserted into its first id's run on the rest packed into an int64
+(a complex's runs are a few rows); single ids by flags, with no sort; a stable
+least-significant-column counting sort when a run is long or the rest does not pack.
+Then one pass marking each row that differs from the previous. The unique rows come
+out sorted lexicographically with the same inverse map as numpy's argsort of the packed
+keys — one answer, whatever the sort — so the complexes are identical. A complex's
+faces are read from its simplices' rows in the kernel (no gathered copy), and its face
+tables via a middle level gathered in one pass (docs/design.md, "Compiled candidate
+chain"). Also each cell's sorted vertex ranks and the used vertices (``Side``).
 """
 from __future__ import annotations
 
@@ -14,7 +19,8 @@ from numba import njit
 
 from .build import INLINE_OPTIONS, JIT_OPTIONS
 
-__all__ = ["any_flagged", "distinct_lex_order", "hits_in_order", "unique_rows"]
+__all__ = ["any_flagged", "distinct_lex_order", "hits_in_order", "faces_via", "ranked_rows", "unique_faces",
+           "unique_rows", "used_flags"]
 
 
 @njit(**JIT_OPTIONS)
@@ -62,15 +68,128 @@ def _mark(rows, order, first, inv):
     return nu
 
 
+#: the longest run of rows sharing a first id that :func:`_by_first` sorts by insertion
+_RUN = 64
+
+
+@njit(**JIT_OPTIONS)
+def _by_first(rows, combos, n, start, key, idx, first, inv):
+    """Unique rows in one counting pass on the first column: each row placed in its
+    first id's run by insertion on the packed rest (``key``: columns 1… as one int64,
+    read in sequence) — the run's rows stay a few cache lines, where every column's
+    pass of :func:`_lex_order` reads the rows through the order. Row i·g + p is
+    rows[i, combos[p]] (g = len(combos): a simplex's faces, not gathered first). Then
+    ``first`` and ``inv`` as :func:`_mark` writes them. Returns the number of distinct
+    rows, or −1 (nothing written) when a run is longer than ``_RUN``."""
+    g, w = combos.shape
+    for r in range(rows.shape[0]):
+        for p in range(g):
+            start[rows[r, combos[p, 0]] + 1] += 1
+    most = 0
+    for v in range(n):
+        most = max(most, start[v + 1])
+        start[v + 1] += start[v]
+    if most > _RUN:
+        return -1
+    end = start[:n].copy()  # the next free slot of each run
+    i = 0  # the row's number: r·g + p
+    for r in range(rows.shape[0]):
+        for p in range(g):
+            v = rows[r, combos[p, 0]]
+            q = end[v]
+            end[v] = q + 1
+            k = 0
+            for c in range(1, w):
+                k = k * n + rows[r, combos[p, c]]
+            s = start[v]
+            while q > s and key[q - 1] > k:  # strict: equal rows keep their order
+                key[q] = key[q - 1]
+                idx[q] = idx[q - 1]
+                q -= 1
+            key[q] = k
+            idx[q] = i
+            i += 1
+    m = i
+    nu = 0
+    v = 0
+    for q in range(m):
+        r = idx[q]
+        while q >= start[v + 1]:  # q's run: its first id (no read of rows)
+            v += 1
+        if q == start[v] or key[q] != key[q - 1]:
+            first[nu] = r
+            nu += 1
+        inv[r] = nu - 1
+    return nu
+
+
+@njit(**JIT_OPTIONS)
+def _by_flags(rows, combos, n, seen, rank, ids, inv):
+    """Unique single ids (w = 1; row r·g + p is rows[r, combos[p, 0]]): flagged, then
+    numbered in ascending order into ``ids`` — the sorted unique rows and the map with
+    no sort. Returns their number."""
+    g = combos.shape[0]
+    for r in range(rows.shape[0]):
+        for p in range(g):
+            seen[rows[r, combos[p, 0]]] = True
+    nu = 0
+    for v in range(n):
+        if seen[v]:
+            rank[v] = nu
+            ids[nu] = v
+            nu += 1
+    i = 0
+    for r in range(rows.shape[0]):
+        for p in range(g):
+            inv[i] = rank[rows[r, combos[p, 0]]]
+            i += 1
+    return nu
+
+
+@njit(**JIT_OPTIONS)
+def _gather(rows, combos, first, out):
+    g = combos.shape[0]
+    for u in range(out.shape[0]):
+        r, p = first[u] // g, first[u] % g
+        for c in range(out.shape[1]):
+            out[u, c] = rows[r, combos[p, c]]
+
+
+def unique_faces(rows: np.ndarray, combos: np.ndarray, n: int):
+    """:func:`unique_rows` of ``rows[:, combos].reshape(-1, w)`` (ids < n; row i·g + p
+    the columns combos[p] of rows[i]: a complex's faces of its simplices) without
+    gathering them first: by :func:`_by_first` when the rest of a row packs into an
+    int64 and no first id starts more than ``_RUN`` rows (W1's 176 k triangles 6.7 ->
+    3.7 ms hot), single ids by flags, else by :func:`_lex_order` on the gathered rows
+    — the same rows and map either way."""
+    rows = np.ascontiguousarray(rows)
+    combos = np.ascontiguousarray(combos, dtype=np.int64)
+    g, w = combos.shape
+    m = len(rows) * g
+    inv = np.empty(m, dtype=np.int64)
+    if w == 1:
+        ids = np.empty(n, dtype=rows.dtype)
+        nu = _by_flags(rows, combos, n, np.zeros(n, bool), np.empty(n, np.int64), ids, inv)
+        return ids[:nu].reshape(nu, 1).copy(), inv
+    first = np.empty(m, dtype=np.int64)
+    nu = -1
+    if int(n) ** (w - 1) < 2 ** 62:
+        key, idx = np.empty(m, np.int64), np.empty(m, np.int64)
+        nu = _by_first(rows, combos, n, np.zeros(n + 1, np.int64), key, idx, first, inv)
+    if nu < 0:
+        flat = rows[:, combos].reshape(m, w) if g > 1 or w < rows.shape[1] else rows
+        nu = _mark(flat, _lex_order(flat, n), first, inv)
+    out = np.empty((nu, w), dtype=rows.dtype)
+    _gather(rows, combos, first, out)
+    return out, inv
+
+
 def unique_rows(rows: np.ndarray, n: int):
     """(unique rows sorted lexicographically, inverse map) of ``rows`` (ids < n), as
-    :func:`predicates.registration.levels.complex.unique_rows` returns them."""
+    :func:`predicates.registration.levels.complex.unique_rows` returns them
+    (:func:`unique_faces` of the rows themselves)."""
     rows = np.ascontiguousarray(rows)
-    order = _lex_order(rows, n)
-    first = np.empty(len(rows), dtype=np.int64)
-    inv = np.empty(len(rows), dtype=np.int64)
-    nu = _mark(rows, order, first, inv)
-    return rows.take(first[:nu], axis=0), inv
+    return unique_faces(rows, np.arange(rows.shape[1])[None, :], n)
 
 
 @njit(**JIT_OPTIONS)
@@ -215,4 +334,56 @@ def any_flagged(flags: np.ndarray, rows: np.ndarray) -> np.ndarray:
     one of them flagged), compiled: one pass over the rows, no column copies."""
     out = np.empty(len(rows), dtype=bool)
     _any_flagged(flags, rows, out)
+    return out
+
+
+@njit(**JIT_OPTIONS)
+def _used_flags(cells, used):
+    for r in range(cells.shape[0]):
+        for c in range(cells.shape[1]):
+            used[cells[r, c]] = True
+
+
+def used_flags(cells: np.ndarray, n: int) -> np.ndarray:
+    """Per vertex id < n: does a row of ``cells`` hold it (``used[cells.ravel()] =
+    True``, one pass, no flattened copy)."""
+    used = np.zeros(n, dtype=bool)
+    _used_flags(np.ascontiguousarray(cells), used)
+    return used
+
+
+@njit(**JIT_OPTIONS)
+def _ranked_rows(rank, cells, out):
+    w = cells.shape[1]
+    for r in range(cells.shape[0]):
+        for p in range(w):  # insertion sort of a few ranks
+            v = rank[cells[r, p]]
+            u = p
+            while u > 0 and out[r, u - 1] > v:
+                out[r, u] = out[r, u - 1]
+                u -= 1
+            out[r, u] = v
+
+
+def ranked_rows(rank: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """``sorted_rows(rank.take(cells))`` (each cell's vertex ranks, ascending; complex.py)
+    in one pass: no gathered copy, no column temporaries — integers, the same rows."""
+    out = np.empty(cells.shape, dtype=rank.dtype)
+    _ranked_rows(rank, np.ascontiguousarray(cells), out)
+    return out
+
+
+@njit(**JIT_OPTIONS)
+def _faces_via(upper, lower, via, local, out):
+    for r in range(upper.shape[0]):
+        for p in range(via.shape[0]):
+            out[r, p] = lower[upper[r, via[p]], local[p]]
+
+
+def faces_via(upper: np.ndarray, lower: np.ndarray, via: list, local: list) -> np.ndarray:
+    """Column p = ``lower[:, local[p]].take(upper[:, via[p]])`` for every p, stacked
+    (:meth:`predicates.registration.levels.complex.Complex._faces_via`'s gathers) in
+    one pass: no column temporaries, no stack — integers, the same table."""
+    out = np.empty((len(upper), len(via)), dtype=np.result_type(lower, np.int64))
+    _faces_via(upper, lower, np.asarray(via, np.int64), np.asarray(local, np.int64), out)
     return out

@@ -108,6 +108,17 @@ def unique_rows(rows: np.ndarray, n: int, accelerate: bool = False):
     return _unique_keys(packed_keys(rows, n), rows)
 
 
+def _unique_faces(rows: np.ndarray, combos: list, n: int, accelerate: bool):
+    """:func:`unique_rows` of the faces ``rows[:, combos]`` (one row per simplex and
+    combination); compiled (``accelerate``, as there) without gathering them first."""
+    m = len(rows) * len(combos)
+    if accelerate and m and n <= 4 * m + (1 << 16):
+        from predicates.compiled.rows import unique_faces
+
+        return unique_faces(rows, np.array(combos, dtype=np.int64), n)
+    return unique_rows(rows[:, combos].reshape(m, -1), n, accelerate)
+
+
 def _unique_keys(keys: list, rows: np.ndarray):
     """``np.unique`` of the rows encoded by ``keys`` (lexicographic: the first key
     most significant), with the inverse map, without np.unique's stable (merge) sort or
@@ -134,6 +145,7 @@ class Complex:
     def __init__(self, cells: np.ndarray, n: int, unique: bool = False,
                  accelerate: bool = False):
         self.top = cells.shape[1] - 1
+        self.accelerate = accelerate
         top = self.top
         self.S = {}
         self.F = {}
@@ -142,8 +154,7 @@ class Complex:
         for k in range(top, 0, -1):
             rows = self.S[k]
             combos = list(itertools.combinations(range(k + 1), k))
-            sub = rows[:, combos].reshape(-1, k)
-            self.S[k - 1], inv = unique_rows(sub, n, accelerate)
+            self.S[k - 1], inv = _unique_faces(rows, combos, n, accelerate)
             self.F[k, k - 1] = inv.reshape(len(rows), k + 1)
         # vertices: a rank -> vertex id table (rows ascend, so do their ids): no sort
         vid = np.zeros(n, dtype=np.int64)
@@ -162,13 +173,18 @@ class Complex:
         vertex): gathers of columns, no sort."""
         faces_k = list(itertools.combinations(range(k + 1), k))
         sub_j = list(itertools.combinations(range(k), j + 1))
-        cols = []
+        via, local = [], []
         for P in itertools.combinations(range(k + 1), j + 1):
             out = max(set(range(k + 1)) - set(P))
             face = tuple(v for v in range(k + 1) if v != out)
-            local = sub_j.index(tuple(face.index(v) for v in P))
-            cols.append(self.F[k - 1, j][:, local].take(self.F[k, k - 1][:, faces_k.index(face)]))
-        return np.stack(cols, axis=1)
+            via.append(faces_k.index(face))
+            local.append(sub_j.index(tuple(face.index(v) for v in P)))
+        upper, lower = self.F[k, k - 1], self.F[k - 1, j]
+        if self.accelerate:  # the same gathers in one compiled pass
+            from predicates.compiled.rows import faces_via
+
+            return faces_via(upper, lower, via, local)
+        return np.stack([lower[:, b].take(upper[:, a]) for a, b in zip(via, local)], axis=1)
 
     def face(self, k: int, j: int) -> np.ndarray:
         if j == k:
@@ -181,12 +197,17 @@ class Side:
     the cells (rows of increasing rank), the simplicial complex of the cells that
     matter (built by :meth:`build`), and the map back to the input's vertex ids."""
 
-    def __init__(self, P: np.ndarray, cells: np.ndarray):
+    def __init__(self, P: np.ndarray, cells: np.ndarray, accelerate: bool = False):
         # rank only the vertices the cells use (the plan's cells near the cut: a small
         # share of a large mesh's vertices); their relative order is that of ranking
         # all of them, so every complex, simplex order and result is the same
-        used = np.zeros(len(P), dtype=bool)
-        used[cells.ravel()] = True
+        if accelerate:  # the same flags and rows in one compiled pass each
+            from predicates.compiled.rows import ranked_rows, used_flags
+
+            used = used_flags(cells, len(P))
+        else:
+            used = np.zeros(len(P), dtype=bool)
+            used[cells.ravel()] = True
         vids = np.flatnonzero(used)
         order = vids.take(np.lexsort(P.take(vids, axis=0).T[::-1]))  # x primary; ties: ids
         n = len(order)
@@ -196,9 +217,11 @@ class Side:
         self.order = order  # rank -> input vertex id
         self.n_input = len(P)  # input ids are < n_input (the output's packed keys)
         self.P = np.ascontiguousarray(P.take(order, axis=0))
-        self.cells = sorted_rows(rank.take(cells))  # np.sort(axis=1), ~5x faster
+        # np.sort(axis=1) of the ranks: a sorting network (~5x faster) or compiled
+        self.cells = (ranked_rows(rank, cells) if accelerate
+                      else sorted_rows(rank.take(cells)))
         self.cx = None
-        self.accelerate = False  # complexes by the compiled unique_rows (same rows)
+        self.accelerate = accelerate  # complexes by the compiled unique_rows (same rows)
 
     def build(self, mask):
         """The complex of the cells selected by ``mask`` (all their faces)."""

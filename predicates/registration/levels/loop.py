@@ -82,9 +82,8 @@ class Registration:
         self.dim, self.tol, self.reach, self.chunk = dim, tol, reach, chunk
         self.accelerate = accelerate  # the compiled chain (predicates.compiled)
         self.dtype = P_sim.dtype
-        self.sim = Side(P_sim, sim_cells)
-        self.cut = Side(P_cut, cut_cells)
-        self.sim.accelerate = self.cut.accelerate = accelerate
+        self.sim = Side(P_sim, sim_cells, accelerate)
+        self.cut = Side(P_cut, cut_cells, accelerate)
         self.registered = {}  # (i, j) -> sorted int64 keys s * n_cut[j] + c
         self.later = None  # the kinds still to come (i, j), set by run(); None: all
         self.sim_involved = {}  # i -> bool per sim i-simplex: in some registered pair

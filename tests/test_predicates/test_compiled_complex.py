@@ -1,0 +1,97 @@
+"""The complexes' compiled passes (predicates.compiled.rows: unique faces, face tables,
+ranked cells) equal their numpy twins array for array (docs/design.md, "Compiled
+candidate chain"), on both of unique_faces' routes (short runs by insertion, long runs
+by the column counting sort) and on single ids (flags); each against np.unique or a
+plain numpy reference."""
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+pytest.importorskip("numba")
+
+from predicates.compiled import rows as compiled_rows  # noqa: E402
+from predicates.registration.levels.complex import Complex, Side  # noqa: E402
+
+
+@settings(deadline=None)
+@given(seed=st.integers(0, 2 ** 32 - 1), k=st.integers(1, 3),
+       n=st.sampled_from([2, 5, 40, 3000]), m=st.integers(1, 300),
+       dtype=st.sampled_from([np.int32, np.int64]))
+def test_unique_faces_equal_numpy_unique(seed, k, n, m, dtype):
+    """unique_faces(rows, combos) = np.unique of the gathered faces (rows and inverse
+    map), the rows' ids unsorted and repeated; n = 2, 5 give runs longer than _RUN (the
+    counting-sort route), n = 3000 short runs (insertion)."""
+    rng = np.random.default_rng(seed)
+    rows = rng.integers(0, n, size=(m, k + 1)).astype(dtype)
+    rows[rng.random(m) < 0.2] = rows[0]
+    for width in range(1, k + 1):
+        combos = np.array(list(itertools.combinations(range(k + 1), width)))
+        faces = rows[:, combos].reshape(-1, width)
+        want, inv = np.unique(faces, axis=0, return_inverse=True)
+        got, got_inv = compiled_rows.unique_faces(rows, combos, n)
+        assert got.dtype == rows.dtype and np.array_equal(got, want)
+        assert np.array_equal(got_inv, inv.ravel())
+
+
+def test_unique_faces_takes_both_routes():
+    """The insertion route refuses a run longer than _RUN (and then the counting sort
+    answers), takes short runs: the test above exercises both."""
+    n = 3000
+    short = np.arange(2 * n).reshape(-1, 2) % n
+    long_ = np.zeros((compiled_rows._RUN + 1, 2), dtype=np.int64)
+    long_[:, 1] = np.arange(len(long_))
+    for rows, route in ((short, True), (long_, False)):
+        m = len(rows)
+        out = [np.empty(m, np.int64) for _ in range(4)]
+        nu = compiled_rows._by_first(rows, np.arange(2)[None, :], n,
+                                     np.zeros(n + 1, np.int64), *out)
+        assert (nu >= 0) == route
+        assert np.array_equal(compiled_rows.unique_rows(rows, n)[0], np.unique(rows, axis=0))
+
+
+@settings(deadline=None)
+@given(seed=st.integers(0, 2 ** 32 - 1), d=st.sampled_from([2, 3]),
+       n=st.sampled_from([6, 60, 2000]), m=st.integers(1, 200))
+def test_compiled_sides_and_complexes_are_numpys(seed, d, n, m):
+    """Side(..., accelerate=True) (used vertices, each cell's sorted ranks) and its
+    complex (unique faces, face tables via a middle level) equal the numpy path's,
+    every array; repeated and degenerate cells, points with equal coordinates."""
+    rng = np.random.default_rng(seed)
+    P = rng.integers(0, 4, size=(n, d)).astype(np.float64)
+    cells = rng.integers(0, n, size=(m, d + 1))
+    a, b = Side(P, cells), Side(P, cells, accelerate=True)
+    assert np.array_equal(a.cells, b.cells) and a.cells.dtype == b.cells.dtype
+    assert np.array_equal(a.order, b.order) and np.array_equal(a.P, b.P)
+    tops = a.unique_cells()
+    assert np.array_equal(tops, b.unique_cells())
+    a.build_unique(tops)
+    b.build_unique(tops)
+    assert a.cx.S.keys() == b.cx.S.keys() and a.cx.F.keys() == b.cx.F.keys()
+    for key in a.cx.S:
+        assert np.array_equal(a.cx.S[key], b.cx.S[key])
+    for key in a.cx.F:
+        assert a.cx.F[key].dtype == b.cx.F[key].dtype
+        assert np.array_equal(a.cx.F[key], b.cx.F[key])
+    # the face tables' meaning: each listed face's vertices are among the simplex's
+    cx = b.cx
+    for (k, j), F in cx.F.items():
+        for r in range(min(len(F), 20)):
+            assert set(cx.S[j][F[r]].ravel()) <= set(cx.S[k][r])
+
+
+def test_complex_numpy_path_without_compiled_kernels():
+    """The numpy path's complex (accelerate=False) never calls the compiled passes."""
+    cells = np.array([[0, 1, 2, 3], [1, 2, 3, 4]])
+    called = []
+    orig = compiled_rows.faces_via
+    compiled_rows.faces_via = lambda *a: called.append(1) or orig(*a)
+    try:
+        Complex(cells, 5)
+    finally:
+        compiled_rows.faces_via = orig
+    assert not called
