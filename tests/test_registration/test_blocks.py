@@ -7,7 +7,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import example, given, settings, strategies as st
 
 from predicates.registration.spatial import blocks as B
 from predicates.registration.plan.inputs import validate_pair
@@ -107,6 +107,7 @@ def test_validation_keeps_the_cells_whatever_the_blocks(small_spans):
 
 @settings(max_examples=30, deadline=None)
 @given(st.integers(0, 2**32 - 1), st.sampled_from([2, 3]))
+@example(63823, 3)
 def test_shortest_edge_is_the_definition(seed, dim):
     """The shortest edge of the selected cells: min over cells and vertex pairs of
     sqrt of the squared differences summed axis by axis (the same float expression),
@@ -116,8 +117,10 @@ def test_shortest_edge_is_the_definition(seed, dim):
     C = np.array([rng.permutation(40)[:dim + 1] for _ in range(int(rng.integers(1, 30)))])
     mask = rng.random(len(C)) < 0.7
     mask[int(rng.integers(len(C)))] = True
-    ref = min(math.sqrt(sum((float(P[c[u], ax]) - float(P[c[v], ax])) ** 2
-                            for ax in range(dim)))
+    # d * d, not d ** 2: CPython's float ** calls the C library's pow, which is not
+    # correctly rounded everywhere (seed 63823: one square 1 ulp off on this machine)
+    ref = min(math.sqrt(sum(d * d for d in (float(P[c[u], ax]) - float(P[c[v], ax])
+                                            for ax in range(dim))))
               for c in C[mask] for u in range(dim + 1) for v in range(u + 1, dim + 1))
     old = B.MIN_SPAN
     B.MIN_SPAN = 2
