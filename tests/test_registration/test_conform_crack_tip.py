@@ -244,7 +244,7 @@ def test_floating_cracks_at_random_interior_points(seed):
 def test_a_closed_crack_inside_one_triangle_bounds_an_island():
     """A triangle of cracks inside cell 108: the island is a piece of its own whose
     exact area is the loop's, and the material around it one piece with a hole (the
-    hole's side of the loop joined to the cell's region: split/slit_fill.merge_holes)."""
+    hole's side of the loop joined to the cell's region: split/enclosed.merge_enclosed)."""
     P, C = square_grid(8)
     Q = np.array([_at(P, C, 108, w) for w in ((8, 4, 4), (4, 8, 4), (4, 4, 8))])
     K = np.array([[0, 1], [1, 2], [2, 0]])

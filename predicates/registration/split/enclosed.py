@@ -5,7 +5,9 @@ touching the cell's boundary (docs/split.md, "A crack entirely inside one triang
 A closed cutting curve (2D) or surface (3D) strictly inside a cell bounds an island,
 a piece of its own. The material around it is bounded by the cell's faces *and* the
 island's other side, which the regions list apart: a region enclosing negative area or
-volume (a hole, a cavity). :func:`merge_enclosed` joins it to the region around it.
+volume (a hole, a cavity). :func:`merge_enclosed` joins it to the region around it. The
+exact primitives on a region's boundary (its pieces, signed measure, orientations) are
+here too, for the 2D bridging of :mod:`~.slit_fill`.
 
 Filling the region around a cavity (3D): no cone fills it (the cavity hides part of its
 boundary from any apex). When the cavity is convex and the outer boundary is the convex
@@ -26,11 +28,42 @@ import numpy as np
 
 from predicates.registration.split.tetra_faces import positive
 
-__all__ = ["cavity_fill", "merge_enclosed"]
+__all__ = ["area2", "cavity_fill", "connected", "exact_coords", "merge_enclosed", "orient2"]
 
 
-def _exact(points, Z: np.ndarray) -> dict:
+def exact_coords(points, Z: np.ndarray) -> dict:
+    """{point: its stored coordinates as Fractions} (exact arithmetic on them)."""
     return {p: tuple(Fraction(float(x)) for x in Z[p]) for p in points}
+
+
+def connected(simplices) -> list:
+    """The boundary simplices' connected pieces (sharing a point), as lists of tuples."""
+    parent: dict = {}
+
+    def root(x):
+        while parent.setdefault(x, x) != x:
+            x = parent[x]
+        return x
+
+    for t in simplices:
+        for p in t[1:]:
+            parent[root(p)] = root(t[0])
+    groups: dict = {}
+    for t in simplices:
+        groups.setdefault(root(t[0]), []).append(tuple(t))
+    return list(groups.values())
+
+
+def orient2(F: dict, a, b, c) -> Fraction:
+    """Twice the signed area of the triangle (a, b, c), exactly."""
+    (ax, ay), (bx, by), (cx, cy) = F[a], F[b], F[c]
+    return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+
+
+def area2(edges, F: dict) -> Fraction:
+    """Twice the exact signed area the directed edges enclose (a slit's two sides
+    cancel: 0; an outer boundary > 0; a hole < 0)."""
+    return sum((F[a][0] * F[b][1] - F[a][1] * F[b][0] for a, b in edges), Fraction(0))
 
 
 def _volume6(tris, F: dict) -> Fraction:
@@ -43,48 +76,49 @@ def _volume6(tris, F: dict) -> Fraction:
     return total
 
 
-def merge_enclosed(frag_tris: dict, where: list, Z: np.ndarray, d: int) -> dict:
-    """Each region enclosing negative measure (a hole, a cavity) joined to the region of
-    its cell around it: in 2D the one whose boundary winds around it
-    (:func:`~.slit_fill.merge_holes`); in 3D the one region of the cell with positive
-    volume that shares no point with it (more than one: unchanged, a refusal names the
-    cell)."""
-    if d == 2:
-        from predicates.registration.split.slit_fill import merge_holes
+def _winding(edges, p, F: dict) -> int:
+    """The winding number of the directed ``edges`` around point ``p`` (not on them),
+    exactly (crossings of the ray to +x, signs by exact orientation)."""
+    w, (_, py) = 0, F[p]
+    for a, b in edges:
+        ay, by = F[a][1], F[b][1]
+        if ay <= py < by and orient2(F, a, b, p) > 0:
+            w += 1
+        elif by <= py < ay and orient2(F, a, b, p) < 0:
+            w -= 1
+    return w
 
-        return merge_holes(frag_tris, where, Z)
+
+def _encloses(host, hole, F: dict, d: int) -> bool:
+    """2D: the host's boundary winds around the hole's first point, not on it; 3D: the
+    host shares no point with the cavity (the cell's one other region around it)."""
+    if d == 2:
+        p = hole[0][0]
+        return all(p not in e for e in host) and _winding(host, p, F) != 0
+    mine = {p for t in hole for p in t}
+    return not mine & {p for t in host for p in t}
+
+
+def merge_enclosed(frag_tris: dict, where: list, Z: np.ndarray, d: int) -> dict:
+    """Each region enclosing negative measure (a hole, a cavity) joined to the one
+    region of its cell (``where[f][0]``) with positive measure around it
+    (:func:`_encloses`, decided exactly); :func:`~.slit_fill.fill_slit_region` then
+    bridges a hole, :func:`cavity_fill` fills around a cavity. Unchanged where no
+    region or more than one qualifies (a refusal names the cell)."""
+    measure = area2 if d == 2 else _volume6
     by_cell: dict = {}
     for f in frag_tris:
         by_cell.setdefault(where[f][0], []).append(f)
     out = dict(frag_tris)
-    for fs in (fs for fs in by_cell.values() if len(fs) > 2):
-        F = _exact(sorted({p for f in fs for t in frag_tris[f] for p in t}), Z)
-        vol = {f: _volume6(frag_tris[f], F) for f in fs}
-        for h in (f for f in fs if vol[f] < 0):
-            mine = {p for t in frag_tris[h] for p in t}
-            hosts = [f for f in fs if vol[f] > 0 and f in out
-                     and not mine & {p for t in frag_tris[f] for p in t}]
+    for fs in (fs for fs in by_cell.values() if len(fs) > d - 1):
+        F = exact_coords(sorted({p for f in fs for t in frag_tris[f] for p in t}), Z)
+        size = {f: measure(frag_tris[f], F) for f in fs}
+        for h in (f for f in fs if size[f] < 0):
+            hosts = [f for f in fs if size[f] > 0 and f in out
+                     and _encloses(frag_tris[f], frag_tris[h], F, d)]
             if len(hosts) == 1:
                 out[hosts[0]] = list(out[hosts[0]]) + list(out.pop(h))
     return out
-
-
-def _pieces(tris) -> list:
-    """The triangles' connected pieces (sharing a point), as lists of triangles."""
-    parent: dict = {}
-
-    def root(x):
-        while parent.setdefault(x, x) != x:
-            x = parent[x]
-        return x
-
-    for t in tris:
-        for p in t[1:]:
-            parent[root(p)] = root(t[0])
-    groups: dict = {}
-    for t in tris:
-        groups.setdefault(root(t[0]), []).append(tuple(t))
-    return list(groups.values())
 
 
 def cavity_fill(tris, Z: np.ndarray):
@@ -92,10 +126,10 @@ def cavity_fill(tris, Z: np.ndarray):
     docstring: beneath-beyond from the cavity), or None when the boundary is not two
     pieces, one enclosing positive and one negative volume, or an outer point sees no
     face of the current hull. Unchecked: the caller checks positivity and pairing."""
-    pieces = _pieces(tris)
+    pieces = connected(tris)
     if len(pieces) != 2:
         return None
-    F = _exact(sorted({p for t in tris for p in t}), Z)
+    F = exact_coords(sorted({p for t in tris for p in t}), Z)
     vol = [_volume6(p, F) for p in pieces]
     if not (min(vol) < 0 < max(vol)):
         return None

@@ -25,14 +25,15 @@ sides); the slit's two sides belong to different triangles, so the cut opens the
 from __future__ import annotations
 
 from collections import Counter
-from fractions import Fraction
 from itertools import islice
 
 import numpy as np
 
+from predicates.registration.split.enclosed import (area2, connected, exact_coords,
+                                                    orient2 as _orient)
 from predicates.registration.split.tetra_faces import positive
 
-__all__ = ["crossing_segments", "fill_slit_region", "merge_holes", "paired_edges"]
+__all__ = ["crossing_segments", "fill_slit_region", "paired_edges"]
 
 
 def _pseudo_angle(dx: float, dy: float) -> float:
@@ -125,36 +126,6 @@ def fill_slit_region(edges: list, Z: np.ndarray):
     return None
 
 
-def _components(edges: list) -> list:
-    """The boundary's connected pieces (points joined by an edge), as sorted point lists,
-    ordered by their smallest point."""
-    parent: dict = {}
-
-    def root(x):
-        while parent.setdefault(x, x) != x:
-            x = parent[x]
-        return x
-
-    for a, b in edges:
-        parent[root(a)] = root(b)
-    groups: dict = {}
-    for x in sorted(parent):
-        groups.setdefault(root(x), []).append(x)
-    return sorted(groups.values())
-
-
-def _area2(edges: list, points: set, F: dict) -> Fraction:
-    """Twice the exact signed area the directed edges among ``points`` enclose (a slit's
-    two sides cancel: 0; the outer boundary > 0; a hole < 0)."""
-    return sum((F[a][0] * F[b][1] - F[a][1] * F[b][0] for a, b in edges if a in points),
-               Fraction(0))
-
-
-def _orient(F: dict, a, b, c) -> Fraction:
-    (ax, ay), (bx, by), (cx, cy) = F[a], F[b], F[c]
-    return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
-
-
 def _clear(v, a, edges: list, F: dict) -> bool:
     """The closed segment v–a meets the boundary only at v and a, exactly: no other point
     on it, no edge crossing it (orientations of the stored coordinates, as Fractions)."""
@@ -167,10 +138,15 @@ def _clear(v, a, edges: list, F: dict) -> bool:
     for p, q in edges:
         if {p, q} & {v, a}:
             continue
-        if (_orient(F, v, a, p) * _orient(F, v, a, q) < 0
-                and _orient(F, p, q, v) * _orient(F, p, q, a) < 0):
+        if _cross(F, v, a, p, q):
             return False
     return True
+
+
+def _cross(F: dict, a, b, p, q) -> bool:
+    """The open segments a–b and p–q cross at one interior point of both, exactly."""
+    return (_orient(F, a, b, p) * _orient(F, a, b, q) < 0
+            and _orient(F, p, q, a) * _orient(F, p, q, b) < 0)
 
 
 def _bridged(edges: list, Z: np.ndarray):
@@ -179,10 +155,10 @@ def _bridged(edges: list, Z: np.ndarray):
     the first pair of points (smallest ids first) whose segment is clear (:func:`_clear`);
     yields one list per choice of the first bridge (the later ones greedy). Nothing when
     the outer piece is not unique."""
-    pts = sorted({p for e in edges for p in e})
-    F = {p: (Fraction(float(Z[p][0])), Fraction(float(Z[p][1]))) for p in pts}
-    comps = _components(edges)
-    outer = [c for c in comps if _area2(edges, set(c), F) > 0]
+    F = exact_coords(sorted({p for e in edges for p in e}), Z)
+    pieces = sorted(connected(edges), key=lambda g: min(p for e in g for p in e))
+    comps = [sorted({p for e in g for p in e}) for g in pieces]
+    outer = [c for c, g in zip(comps, pieces) if area2(g, F) > 0]
     if len(outer) != 1 or len(comps) > 8:
         return
     rest = [c for c in comps if c is not outer[0]]
@@ -218,50 +194,12 @@ def _clipped(edges: list, Z: np.ndarray):
     return tris
 
 
-def _winding(edges: list, p, F: dict) -> int:
-    """The winding number of the directed ``edges`` around point ``p`` (not on them),
-    exactly (crossings of the ray to +x, signs by exact orientation)."""
-    w, (_, py) = 0, F[p]
-    for a, b in edges:
-        ay, by = F[a][1], F[b][1]
-        if ay <= py < by and _orient(F, a, b, p) > 0:
-            w += 1
-        elif by <= py < ay and _orient(F, a, b, p) < 0:
-            w -= 1
-    return w
-
-
-def merge_holes(frag_tris: dict, where: list, Z: np.ndarray) -> dict:
-    """2D: a closed crack inside one triangle bounds an island, and the material around
-    it is bounded by the cell's edges *and* the crack's other side — which the regions
-    list apart (a piece enclosing negative area: a hole). Each hole joins the one region
-    of its cell (``where[f][0]``) whose boundary winds around it, decided exactly;
-    :func:`fill_slit_region` then bridges the two. Unchanged where no region or more
-    than one does (a refusal names the cell)."""
-    by_cell: dict = {}
-    for f in frag_tris:
-        by_cell.setdefault(where[f][0], []).append(f)
-    out = dict(frag_tris)
-    for fs in (fs for fs in by_cell.values() if len(fs) > 1):
-        pts = sorted({p for f in fs for e in frag_tris[f] for p in e})
-        F = {p: (Fraction(float(Z[p][0])), Fraction(float(Z[p][1]))) for p in pts}
-        area = {f: _area2(frag_tris[f], set(pts), F) for f in fs}
-        for h in (f for f in fs if area[f] < 0):
-            p = frag_tris[h][0][0]
-            hosts = [f for f in fs if area[f] > 0 and f in out
-                     and all(p not in e for e in frag_tris[f])
-                     and _winding(frag_tris[f], p, F) != 0]
-            if len(hosts) == 1:
-                out[hosts[0]] = list(out[hosts[0]]) + list(out.pop(h))
-    return out
-
-
 def crossing_segments(edges: list, Z: np.ndarray):
     """Two boundary edges without a common point that meet — their open segments cross,
     or an end of one lies inside the other — exactly (orientations of the stored
     coordinates as Fractions), or None."""
     edges = sorted({tuple(sorted(e)) for e in edges})
-    F = {p: (Fraction(float(Z[p][0])), Fraction(float(Z[p][1]))) for e in edges for p in e}
+    F = exact_coords({p for e in edges for p in e}, Z)
 
     def inside(p, a, b):  # p in the open segment a–b
         return _orient(F, a, b, p) == 0 and min(F[a], F[b]) < F[p] < max(F[a], F[b])
@@ -270,9 +208,7 @@ def crossing_segments(edges: list, Z: np.ndarray):
         for p, q in edges[i + 1:]:
             if {a, b} & {p, q}:
                 continue
-            o = (_orient(F, a, b, p), _orient(F, a, b, q), _orient(F, p, q, a),
-                 _orient(F, p, q, b))
-            if (o[0] * o[1] < 0 and o[2] * o[3] < 0) or inside(p, a, b) or inside(
-                    q, a, b) or inside(a, p, q) or inside(b, p, q):
+            if _cross(F, a, b, p, q) or inside(p, a, b) or inside(q, a, b) or inside(
+                    a, p, q) or inside(b, p, q):
                 return (a, b), (p, q)
     return None
