@@ -318,7 +318,8 @@ def _add_cut(sub) -> None:
             "(a partitioned run), 2 bad arguments or unusable input (one line on stderr)."),
         epilog=("examples:\n"
                 "  fperr cut cube.vtu sphere.stl -o pieces.vtu --png pieces.png --explode 0.3\n"
-                "  fperr cut square.msh polyline.vtk -o pieces.vtu"))
+                "  fperr cut square.msh polyline.vtk -o pieces.vtu\n"
+                "  fperr cut cube.vtu plane_x.stl --then plane_z.stl -o quarters.vtu"))
     _registration_options(p)
     p.add_argument("-o", "--output", metavar="PIECES.vtu",
                    help="write the split mesh with its cell data (.vtu)")
@@ -338,6 +339,10 @@ def _add_cut(sub) -> None:
                    help="write each piece as tetrahedra (2D: triangles) conforming to the "
                         "cut, cell data piece, cell_origin, fragment, side (docs/split.md); "
                         "exit 1 if some cell cannot be filled")
+    p.add_argument("--then", action="append", default=[], metavar="CUT",
+                   help="cut the conforming mesh again with this cutting mesh (repeat for "
+                        "more, in order; implies --conforming; registered serially). "
+                        "Crossing sheets, which one cut cannot split, cut one at a time")
     p.set_defaults(_run=_run_cut)
 
 
@@ -349,9 +354,11 @@ def _run_cut(args) -> int:
                    surface=args.surface, volumes=not args.no_volumes)
 
     def work(**options):
-        return cut_files(sim, args.cut, **outputs, conforming=args.conforming, **options)
+        return cut_files(sim, args.cut, **outputs, conforming=args.conforming,
+                         then=args.then, **options)
 
     checked = {k: v for k, v in outputs.items() if k != "volumes"}
+    checked["then"] = args.then
     status, out = _register(args, work, lambda: check_cut_outputs(sim, args.cut, **checked))
     if status is not None:
         return status
@@ -371,7 +378,8 @@ def _run_cut(args) -> int:
         c = cm.summary()
         what = (f"conforming: {c['simplices']} simplices, {c['points']} points "
                 f"({c['interior_points']} interior), {c['cut_faces']} cut faces, "
-                f"{cm.n_pieces} pieces")
+                f"{cm.n_pieces} pieces"
+                + (f" after {len(args.then) + 1} cuts" if args.then else ""))
     written = [(f, what) for f, what in (
         (args.output, what),
         (args.surface, f"{len(cs) if cs is not None else 0} cut polygons"),

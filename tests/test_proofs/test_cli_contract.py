@@ -334,7 +334,7 @@ def _options(cmd: str) -> set:
 def test_cut_has_intersects_inputs_and_options():
     only_intersect = {"--output", "--sim-output", "--plot", "--naive"}
     only_cut = {"--output", "--explode", "--png", "--plot", "--surface", "--no-volumes",
-                "--conforming"}
+                "--conforming", "--then"}
     shared = _options("intersect") - only_intersect
     assert shared == _options("cut") - only_cut
     assert {"--sim-region", "--cut-region", "--format", "--strict", "--no-refine-cut",

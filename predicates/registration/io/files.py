@@ -17,8 +17,8 @@ from predicates.registration.io.write import (
     MESH_FORMATS, PLOT_FORMATS, check_output, check_outputs, write_meshio, write_mesh)
 
 __all__ = ["MESH_FORMATS", "PLOT_FORMATS", "MeshFileError", "check_output", "check_outputs",
-           "input_roles", "load_pair", "merge_pieces", "read_mesh", "write_mesh",
-           "write_results"]
+           "converted_cut", "input_roles", "load_pair", "merge_pieces", "read_mesh",
+           "write_mesh", "write_results"]
 
 
 def load_pair(sim, cut: str | os.PathLike, *, dtype="float64", sim_region=None,
@@ -52,12 +52,30 @@ def load_pair(sim, cut: str | os.PathLike, *, dtype="float64", sim_region=None,
     return Arrays((s.points, s.cells, c.points, c.cells), notes, plane)
 
 
-def input_roles(sim, cut) -> dict:
-    """The input files by role ("SIM", or "SIM piece i" for the pieces of one mesh, and
-    "CUT"), for :func:`check_outputs` (an output never overwrites an input)."""
+def converted_cut(path, mesh, dim: int, dtype, plane: float | None):
+    """(points, cells) of a further cutting mesh read from ``path`` (``mesh``: its
+    :func:`read_mesh`) for a ``dim``-D simulation mesh in the plane z = ``plane``:
+    converted and validated as :func:`load_pair` does its cutting mesh; any problem
+    raises :class:`MeshFileError` naming the file."""
+    try:
+        c = convert_cut(mesh, dim)
+        validate_mesh(c.points, c.cells, "cutting", dim, np.dtype(dtype), allow_empty=True)
+        if plane is not None and c.plane is not None and c.plane != plane and len(c.cells):
+            raise ValueError(f"it lies in the plane z = {c.plane:g}, the simulation mesh "
+                             f"in z = {plane:g}")
+    except (ValueError, TypeError) as e:
+        raise MeshFileError(path, e) from None
+    return c.points, c.cells
+
+
+def input_roles(sim, cut, then=()) -> dict:
+    """The input files by role ("SIM", or "SIM piece i" for the pieces of one mesh,
+    "CUT", and "--then i" for further cuts), for :func:`check_outputs` (an output never
+    overwrites an input)."""
     sims = [sim] if isinstance(sim, (str, os.PathLike)) else list(sim)
     names = ["SIM"] if len(sims) == 1 else [f"SIM piece {i + 1}" for i in range(len(sims))]
-    return {**dict(zip(names, sims)), "CUT": cut}
+    later = {f"--then {i + 1}": p for i, p in enumerate(then)}
+    return {**dict(zip(names, sims)), "CUT": cut, **later}
 
 
 def _pieces_on_workers(sim, scheduler, region):

@@ -434,6 +434,13 @@ def _repair(res, cs, frag_tris: dict, Y, filled: dict, bad: list, n: int, d: int
 
 
 def _report(problems) -> str:
-    head = "; ".join(f"cell {c}: {why}" for c, why in problems[:8])
-    more = f" (and {len(problems) - 8} more)" if len(problems) > 8 else ""
-    return f"conforming tetrahedralization refused in {len(problems)} cell(s): {head}{more}"
+    """The refused cells grouped by reason (each reason said once, up to 8 cells named)."""
+    by_why = {}
+    for c, why in problems:
+        by_why.setdefault(str(why), []).append(c)
+    parts = []
+    for why, cells in by_why.items():
+        more = f" and {len(cells) - 8} more" if len(cells) > 8 else ""
+        name = "cell" if len(cells) == 1 else "cells"
+        parts.append(f"{name} {', '.join(map(str, cells[:8]))}{more}: {why}")
+    return f"conforming tetrahedralization refused in {len(problems)} cell(s): " + "; ".join(parts)

@@ -9,6 +9,13 @@ from __future__ import annotations
 __all__ = ["Unresolved", "cell_pieces"]
 
 
+CROSSING = ("the cut crosses itself in a face (two chains of cut chords cross, or one "
+            "returns to its start): the cutting surface meets itself or another of its "
+            "sheets inside the cell, at a point no registered pair gives; cut with one "
+            "sheet, then cut the conforming mesh again with the other (fperr cut --then, "
+            "split.progressive.recut)")
+
+
 class Unresolved(Exception):
     """The cell's fragments cannot be given their own boundaries."""
 
@@ -74,7 +81,9 @@ def _split(cycle, lines):
                 regions[k:k + 1] = [pq + inner[::-1], qp + inner]
                 break
         else:
-            raise Unresolved("a polyline joins two regions of a face")
+            # another chain separates p from q along the face's boundary: the chains
+            # cross at a point no registered pair gives (two sheets of the cut meet)
+            raise Unresolved(CROSSING)
     return regions
 
 
