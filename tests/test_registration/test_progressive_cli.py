@@ -93,3 +93,32 @@ def test_bad_further_cuts_exit_2_and_write_nothing(tmp_path):
         assert r.returncode == 2, (extra, r.stderr)
         assert named in r.stderr and "Traceback" not in r.stderr, (extra, r.stderr)
         assert not (tmp_path / "q.vtu").exists() and not (tmp_path / "s.vtu").exists()
+
+
+def test_crossing_curves_in_2d(tmp_path):
+    """Square grid 8 × the lines x = 0.52 and y = 0.47: one at a time four pieces whose
+    exact areas are the quadrants' within σ (each triangle positive); both in one cutting
+    mesh refused in the cell where they cross, naming ``--then``, nothing written."""
+    from predicates.registration.examples import square_grid
+
+    P, C = square_grid(8)
+    z = np.zeros((2, 1))
+    meshio.Mesh(np.column_stack([P, np.zeros(len(P))]), [("triangle", C)]).write(
+        tmp_path / "sq.vtu")
+    lines = {"lx.vtu": [(X0, -0.1), (X0, 1.1)], "ly.vtu": [(-0.1, Z0), (1.1, Z0)]}
+    for name, ends in lines.items():
+        meshio.Mesh(np.hstack([ends, z]), [("line", np.array([[0, 1]]))]).write(
+            tmp_path / name)
+    both = np.hstack([lines["lx.vtu"] + lines["ly.vtu"], np.zeros((4, 1))])
+    meshio.Mesh(both, [("line", np.array([[0, 1], [2, 3]]))]).write(tmp_path / "lxy.vtu")
+    r = _cut(tmp_path, "sq.vtu", "lx.vtu", "--then", "ly.vtu", "-o", "q.vtu")
+    assert r.returncode == 0, r.stderr
+    back = meshio.read(tmp_path / "q.vtu")
+    T, piece, X = back.cells_dict["triangle"], back.cell_data["piece"][0], back.points[:, :2]
+    assert np.all(orientation_signs(X, T) > 0)
+    areas = sorted(float(exact_mesh_volume(X, T[piece == p])) for p in range(4))
+    want = sorted(a * b for a in (X0, 1 - X0) for b in (Z0, 1 - Z0))
+    assert np.allclose(areas, want, rtol=0, atol=1e-3) and len(set(piece.tolist())) == 4
+    r = _cut(tmp_path, "sq.vtu", "lxy.vtu", "--conforming", "-o", "q2.vtu")
+    assert r.returncode == 1 and "--then" in r.stderr, r.stderr
+    assert not (tmp_path / "q2.vtu").exists()

@@ -215,5 +215,7 @@ def refusal_reason(tris, Z: np.ndarray, cell_tris=None) -> str:
 
         if crossing_segments(tris if cell_tris is None else cell_tris, Z) is not None:
             return ("its boundary meets itself: the cutting curve crosses or touches itself "
-                    "inside the cell, which is not a cut (split the curve where it meets)")
+                    "(or another of its curves) inside the cell, at a point no registered "
+                    "pair gives; cut with one curve, then cut the conforming mesh again "
+                    "with the other (fperr cut --then, split.progressive.recut)")
     return "no apex, peeling or search fills it with positive simplices"
