@@ -166,7 +166,7 @@ def _pair_list(parts) -> list:
 @_SLOW
 @given(data=st.data(), d=st.sampled_from([2, 3]))
 def test_grid_join_pairs_are_box_pairs(data, d):
-    """box_pairs compiled (its dense-grid join, predicates.compiled.boxtest.grid_join)
+    """box_pairs compiled (its dense-grid join, predicates.compiled.gridjoin.grid_join)
     reports exactly the pairs of the exact test (brute force), each once, as the numpy
     path does — on adversarial boxes: signed zeros, repeated and degenerate boxes, boxes
     many cells wide, pads 0 and positive (NaN: the grid refuses it on both paths)."""
@@ -190,7 +190,7 @@ def test_grid_join_defers_a_crowded_grid():
     """Past its proposal budget (tiny boxes crowded in a cell of a grid sized by large
     ones) the compiled join returns None and box_pairs refines as on the numpy path:
     the same pairs as brute force."""
-    from predicates.compiled.boxtest import grid_join
+    from predicates.compiled.gridjoin import grid_join
     from predicates.registration.spatial.boxgrid import grid
     from predicates.registration.spatial.broadphase import box_pairs
 

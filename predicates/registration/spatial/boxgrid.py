@@ -136,21 +136,29 @@ def extent_sums(lo, hi, cap=np.inf, blocks: Blocks = SERIAL) -> list:
     return parts[0]
 
 
-def fit(lo_a, hi_a, lo_bx, hi_bx, origin, top, h, budget, blocks: Blocks = SERIAL):
+def fit(lo_a, hi_a, lo_bx, hi_bx, origin, top, h, budget, blocks: Blocks = SERIAL,
+        b_side: Blocks = SERIAL):
     """Grid over [origin, top] with cell size h, doubled until the boxes cover at most
-    ``budget`` cells: (G, h, ia0, ia1, ib0, ib1)."""
+    ``budget`` cells: (G, h, ia0, ia1, ib0, ib1). ``blocks``, ``b_side``: how the passes
+    over the a and the b boxes run (the same values either way)."""
     while True:
         G = (np.floor((top - origin) / h).astype(np.int64) + 1).clip(1, (1 << BITS) + 1)
         ia0, ia1 = (cell_index(x, origin, h, G, blocks) for x in (lo_a, hi_a))
-        ib0, ib1 = cell_index(lo_bx, origin, h, G), cell_index(hi_bx, origin, h, G)
-        total = covered(ia0, ia1, blocks) + ncells(ib0, ib1).sum()
+        ib0, ib1 = (cell_index(x, origin, h, G, b_side) for x in (lo_bx, hi_bx))
+        total = covered(ia0, ia1, blocks) + covered(ib0, ib1, b_side)
         if total <= budget or np.all(G == 1):
             return G, h, ia0, ia1, ib0, ib1
         h *= 2
 
 
 def covered(i0, i1, blocks: Blocks = SERIAL) -> int:
-    """Σ cells covered by the boxes (:func:`ncells`), block by block."""
+    """Σ cells covered by the boxes (:func:`ncells`), block by block; compiled in one
+    pass when ``blocks.accelerate`` (the same integers)."""
+    if blocks.accelerate and blocks.pool is None and i0.ndim == 2:
+        from predicates.compiled.gridjoin import covered_cells
+
+        return covered_cells(i0, i1)
+
     def span(a: int, b: int) -> int:
         return sum(int(ncells(i0[lo:hi], i1[lo:hi]).sum()) for lo, hi in blocks.each(a, b))
 
@@ -162,7 +170,10 @@ def grid(lo_a, hi_a, lo_b, hi_b, pad, blocks: Blocks = SERIAL):
     (lo_bx, hi_bx, origin, G, h, ia0, ia1, ib0, ib1). ``blocks``: how the passes over
     the a boxes (the many: the simulation cells) run; the same values either way."""
     na, nb = len(lo_a), len(lo_b)
-    lo_bx, hi_bx = enlarge(lo_b, hi_b, pad)
+    # the b side (few boxes) without a pool, but compiled when the a side is: the same
+    # values (W1's 20 k cutting boxes: ~2 ms of numpy passes, benchmarks/README.md)
+    b_side = Blocks(accelerate=blocks.accelerate) if blocks.accelerate else SERIAL
+    lo_bx, hi_bx = enlarge(lo_b, hi_b, pad, accelerate=blocks.accelerate)
     origin = np.minimum(colmin(lo_a), colmin(lo_bx))
     top = np.maximum(colmax(hi_a), colmax(hi_bx))
     with np.errstate(over="ignore"):
@@ -170,10 +181,10 @@ def grid(lo_a, hi_a, lo_b, hi_b, pad, blocks: Blocks = SERIAL):
     if not np.isfinite(span):
         raise ValueError("coordinates too large for the broad phase (their range "
                          "overflows the floating-point format)")
-    h = max(mean_extent(lo_a, hi_a, blocks=blocks), mean_extent(lo_bx, hi_bx))
+    h = max(mean_extent(lo_a, hi_a, blocks=blocks), mean_extent(lo_bx, hi_bx, blocks=b_side))
     if h <= 0:
         h = span / max(1.0, (na + nb) ** (1 / lo_a.shape[1]))
     h = max(h, span * 2.0 ** -BITS, np.finfo(np.float64).tiny)
     G, h, *ranges = fit(lo_a, hi_a, lo_bx, hi_bx, origin, top, h, 16 * (na + nb) + (1 << 20),
-                         blocks)
+                         blocks, b_side)
     return (lo_bx, hi_bx, origin, G, h, *ranges)

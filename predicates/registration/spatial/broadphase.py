@@ -187,7 +187,7 @@ def box_pairs(lo_a, hi_a, lo_b, hi_b, pad: float, chunk: int = 1 << 22,
               accelerate: bool = False):
     """Yield (ia, ib) index arrays, together every pair of boxes a, b within ``pad``
     (see module docstring), each pair exactly once. Boxes are (n, d) arrays.
-    ``accelerate``: compiled (:mod:`predicates.compiled.boxtest`): on a dense grid one
+    ``accelerate``: compiled (:mod:`predicates.compiled.gridjoin`): on a dense grid one
     bucketing and join pass (the same pairs, a ascending, in one part), else the
     cells' joins below (the same pairs in the same order)."""
     lo_a, hi_a, lo_b, hi_b = (np.asarray(x, dtype=np.float64) for x in (lo_a, hi_a, lo_b, hi_b))
@@ -199,7 +199,7 @@ def box_pairs(lo_a, hi_a, lo_b, hi_b, pad: float, chunk: int = 1 << 22,
     cols = tuple(np.ascontiguousarray(x.T) for x in (lo_a, hi_a, lo_b, hi_b))
     boxes_ = (lo_a, hi_a, lo_b, hi_b, lo_bx, hi_bx, pad, cols, accelerate)
     if accelerate and _dense(G + 1, len(lo_a) + len(lo_b)):
-        from predicates.compiled.boxtest import grid_join
+        from predicates.compiled.gridjoin import grid_join
 
         # the same pairs on the same grid (a ascending), bucketed and joined in one
         # compiled pass; None: a crowded grid, left to the refining join below

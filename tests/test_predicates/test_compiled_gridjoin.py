@@ -1,0 +1,111 @@
+"""The compiled dense-grid join (predicates.compiled.gridjoin) repeats the pairs of an a
+box equal to the previous one instead of joining it again: the same pairs in the same
+order as joining every a box on its own (the join's definition), on boxes with runs of
+equal boxes (signed zeros included), and the same count and written prefix when the
+output is too short (the caller's retry)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+pytest.importorskip("numba")
+
+from predicates.compiled.gridjoin import _bucket_b, _grid_join, grid_join  # noqa: E402
+from predicates.registration.spatial.boxgrid import grid  # noqa: E402
+from predicates.registration.spatial.broadphase import box_pairs_bruteforce  # noqa: E402
+
+_SLOW = settings(max_examples=40, deadline=None,
+                 suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+
+
+def _boxes(rng, n: int, d: int, runs: bool):
+    """n boxes on a few coarse values (boxes on grid lines, signed zeros); ``runs``:
+    each box repeated 1–6 times in a row (as a Kuhn cube's six tetrahedra), a repeated
+    zero bound sometimes with the other sign."""
+    lo = rng.choice([-0.0, 0.0, 0.25, 0.5, 1.0, 1.5], size=(n, d)) + rng.random((n, d)) * (
+        rng.random((n, 1)) < 0.5)
+    hi = lo + rng.choice([0.0, 2.0 ** -40, 0.25, 0.5, 1.25], size=(n, 1))
+    if runs:
+        reps = rng.integers(1, 7, size=n)
+        lo, hi = np.repeat(lo, reps, axis=0), np.repeat(hi, reps, axis=0)
+        flip = (lo == 0.0) & (rng.random(lo.shape) < 0.5)
+        lo[flip] = -lo[flip]
+    return lo, hi
+
+
+def _setup(lo_a, hi_a, lo_b, hi_b, pad):
+    *_, G, _, ia0, ia1, ib0, ib1 = grid(lo_a, hi_a, lo_b, hi_b, pad)
+    cols = tuple(np.ascontiguousarray(x.T) for x in (lo_a, hi_a, lo_b, hi_b))
+    return (ia0, ia1, ib0, ib1), np.asarray(G, dtype=np.int64), cols
+
+
+def _one_by_one(ranges, G, pad, cols):
+    """The join of each a box alone on the same grid, concatenated: no previous box."""
+    ia0, ia1, ib0, ib1 = ranges
+    lo_a, hi_a, lo_b, hi_b = cols
+    pairs = []
+    for a in range(len(ia0)):
+        got = grid_join((ia0[a:a + 1], ia1[a:a + 1], ib0, ib1), G, pad,
+                        (lo_a[:, a:a + 1], hi_a[:, a:a + 1], lo_b, hi_b), 1 << 40)
+        pairs += [(a, int(b)) for b in got[1]] if got is not None and len(got[0]) else []
+    return pairs
+
+
+@_SLOW
+@given(seed=st.integers(0, 2 ** 32 - 1), d=st.sampled_from([2, 3]),
+       pad=st.sampled_from([0.0, 2.0 ** -30, 0.05]))
+def test_repeated_boxes_give_the_pairs_of_joining_each_alone(seed, d, pad):
+    rng = np.random.default_rng(seed)
+    lo_a, hi_a = _boxes(rng, int(rng.integers(1, 60)), d, runs=True)
+    lo_b, hi_b = _boxes(rng, int(rng.integers(1, 40)), d, runs=False)
+    ranges, G, cols = _setup(lo_a, hi_a, lo_b, hi_b, pad)
+    got = grid_join(ranges, G, pad, cols, 1 << 40)
+    pairs = [(int(a), int(b)) for a, b in zip(*got)]
+    assert pairs == _one_by_one(ranges, G, pad, cols)
+    want = set(zip(*(x.tolist() for x in box_pairs_bruteforce(lo_a, hi_a, lo_b, hi_b, pad))))
+    assert set(pairs) == want and len(pairs) == len(want)
+
+
+def test_a_short_output_counts_every_pair_and_writes_its_prefix():
+    """Copies past the output's end are counted, not written; what is written is the
+    full join's prefix (grid_join then retries with the count)."""
+    rng = np.random.default_rng(7)
+    lo_a, hi_a = _boxes(rng, 80, 3, runs=True)
+    lo_b, hi_b = _boxes(rng, 60, 3, runs=False)
+    same = np.all(lo_a[1:] == lo_a[:-1], axis=1) & np.all(hi_a[1:] == hi_a[:-1], axis=1)
+    assert same.sum() > 20  # the repeat path runs, also near the output's end
+    (ia0, ia1, ib0, ib1), G, cols = _setup(lo_a, hi_a, lo_b, hi_b, 0.05)
+    start = np.zeros(int(np.prod(G)) + 1, dtype=np.int64)
+    n_entries = int((ib1.astype(np.int64) - ib0 + 1).prod(axis=1).sum())
+    ids, first = np.empty(n_entries, np.int64), np.empty(n_entries, np.uint8)
+    _bucket_b(ib0, ib1, G, start, ids, first)
+    full = [np.empty(1 << 16, np.int64) for _ in range(2)]
+    n, props = _grid_join(ia0, ia1, G, start, ids, first, 0.05, *cols, 1 << 40, *full)
+    assert n > 40 and props >= n
+    for size in (1, n // 3, n - 1):
+        short = [np.full(size, -1, np.int64) for _ in range(2)]
+        m, p = _grid_join(ia0, ia1, G, start, ids, first, 0.05, *cols, 1 << 40, *short)
+        assert (m, p) == (n, props)
+        assert all(np.array_equal(s, f[:size]) for s, f in zip(short, full))
+    # past the proposal limit: refused whether the limit falls in a repeated box or not
+    assert all(_grid_join(ia0, ia1, G, start, ids, first, 0.05, *cols, lim, *full)[0] == -1
+               for lim in range(0, props, max(1, props // 17)))
+
+
+def test_covered_cells_is_the_numpy_sum():
+    """The grid's covered-cell count compiled (gridjoin.covered_cells via
+    boxgrid.covered) equals numpy's block sums; 2D and 3D, empty, and boxes many cells
+    wide."""
+    from predicates.registration.spatial.blocks import Blocks
+    from predicates.registration.spatial.boxgrid import covered
+
+    rng = np.random.default_rng(11)
+    for d, n in ((2, 0), (2, 1000), (3, 70000)):
+        i0 = rng.integers(0, 1 << 19, size=(n, d)).astype(np.int32)
+        i1 = (i0 + rng.integers(0, 300, size=(n, d)) * (rng.random((n, 1)) < 0.1)).astype(
+            np.int32)
+        want = covered(i0, i1)
+        assert covered(i0, i1, Blocks(accelerate=True)) == want
+        assert want == int((i1.astype(np.int64) - i0 + 1).prod(axis=1).sum())
