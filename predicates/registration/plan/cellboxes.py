@@ -93,11 +93,12 @@ class CellBoxes:
     [a, b)), :meth:`rows` (a mask or ids; the last subset is kept), :meth:`summary`
     (one pass, cached); ``lo``, ``hi``: array-like views (module docstring)."""
 
-    def __init__(self, points: np.ndarray, cells: np.ndarray, blocks: Blocks = SERIAL):
+    def __init__(self, points: np.ndarray, cells: np.ndarray, blocks: Blocks = SERIAL,
+                 summary: BoxSummary | None = None):
         self.points, self.cells, self.blocks = points, cells, blocks
         self.n, self.d = len(cells), points.shape[1]
         self.cols = None  # the points by axis in binary64, made by the numpy blocks
-        self._summary = None
+        self._summary = summary  # (validation's, when it made it: checked_summary)
         self._tetrahedra = None  # tetrahedra over finite points (compiled summary)
         self._points_c = None  # the points C-contiguous, when a compiled pass asks
         self._kept = None  # (ids, lo, hi) of the last subset gathered
@@ -245,15 +246,37 @@ class CellBoxes:
             self._summary = out
         return self._summary
 
-    def _compiled_summary(self, a: int, b: int) -> BoxSummary:
+    def checked_summary(self, used: np.ndarray) -> BoxSummary | None:
+        """Validation's cell check and :meth:`summary` in one pass (tetrahedra over
+        finite points, compiled: :func:`predicates.compiled.tetsums.
+        checked_summary_tetrahedra`), marking ``used`` (one bool per point): the
+        summary (kept), or None at a row with an id outside [0, len(used)) or a
+        repeated id — the cells are then checked as before, which names it."""
+        def span(a: int, b: int) -> BoxSummary | None:
+            return self._compiled_summary(a, b, used)
+
+        parts = self.blocks.map(span, self.n)
+        if any(p is None for p in parts):
+            return None
+        out = parts[0]
+        for p in parts[1:]:
+            out = out.merge(p)
+        self._summary = out
+        return out
+
+    def _compiled_summary(self, a: int, b: int, used: np.ndarray | None = None
+                          ) -> BoxSummary | None:
         """The :class:`BoxSummary` of rows [a, b) in one compiled loop per block of at
         most 2^16 rows (:func:`predicates.compiled.cellsums.summary_block`: the boxes in
         registers, the values of :func:`summarize`; the exact sums' narrow parts, a
-        block outside the narrow path summed from its boxes as before)."""
+        block outside the narrow path summed from its boxes as before). ``used``: with
+        validation's check (:meth:`checked_summary`; None at a row that fails it)."""
+        from predicates.compiled.tetsums import checked_summary_tetrahedra
         from predicates.registration.spatial import exactsum as xs
 
         d, P = self.d, self._given()
-        kernel = self._summary_kernel()
+        kernel = self._summary_kernel() if used is None else (
+            lambda P, rows, *rest: checked_summary_tetrahedra(P, rows, used, *rest))
         lo_min, hi_max = np.full(d, np.inf), np.full(d, -np.inf)
         hist, sums = np.zeros(2048, dtype=np.int64), [ExactSum(True) for _ in range(d)]
         e_min, e_max = np.inf, -np.inf
@@ -261,8 +284,11 @@ class CellBoxes:
         for s, t in self.blocks.each(a, b):
             for u in range(s, t, 1 << 16):  # the narrow path's sums: ≤ 2^16 values
                 w = min(u + (1 << 16), t)
-                low, top = kernel(P, self.cells[u:w], lo_min, hi_max, hist, status,
-                                  xs._BIG, xs._TINY, xs._SPREAD, xs._SPLIT)
+                got = kernel(P, self.cells[u:w], lo_min, hi_max, hist, status, xs._BIG,
+                             xs._TINY, xs._SPREAD, xs._SPLIT)
+                if used is not None and got[0] < w - u:  # a row validation refuses
+                    return None
+                low, top = got[-2:]
                 for ax in range(d):
                     if not sums[ax].add_narrow(w - u, int(status[ax, 0]), status[ax, 1],
                                                status[ax, 2]):

@@ -30,6 +30,7 @@ class MeshInput:
     cells: np.ndarray
     role: str
     rounded: bool = False  # were the coordinates rounded into the working dtype?
+    summary: object = None  # the cells' BoxSummary when validation made it (tetrahedra)
 
 
 class MeshTypeError(TypeError):
@@ -76,12 +77,16 @@ def _points(arr, used, role, dtype):
     return out, rounded
 
 
-def _cells(cells, role, width, n_points, what, blocks: Blocks = SERIAL, used=None):
+def _cells(cells, role, width, n_points, what, blocks: Blocks = SERIAL, used=None,
+           points=None):
     """The cells as given when they are an integer array (no copy, the dtype kept; int64
     for an empty or non-array input), checked block by block: negative, out-of-range
     and repeated vertex ids are refused at their first cell, in that order. ``used``
     (n_points bools, compiled blocks): also marked with the vertices the cells use, in
-    the same pass; returned as None when not marked."""
+    the same pass; returned as None when not marked. ``points`` (finite, C-ordered, in
+    the working dtype; tetrahedra): the boxes' summary made in the same pass
+    (:meth:`~predicates.registration.plan.cellboxes.CellBoxes.checked_summary`),
+    returned third (else None)."""
     name = f"{role} cells"
     try:
         arr = np.asarray(cells)
@@ -93,14 +98,21 @@ def _cells(cells, role, width, n_points, what, blocks: Blocks = SERIAL, used=Non
         raise MeshTypeError(f"{name} must be integer vertex indices, got dtype {arr.dtype}")
     if arr.ndim != 2 or arr.shape[1] != width:
         raise ValueError(f"{name} must have shape (M, {width}) ({what}), got {arr.shape}")
+    summary = None
     if used is not None and blocks.accelerate and arr.dtype.kind == "i" and arr.size:
-        found = _checked_and_used(arr, n_points, blocks, used)
+        if points is not None and width == 4:  # the ids read once for both
+            from predicates.registration.plan.cellboxes import CellBoxes
+
+            summary = CellBoxes(points, arr, blocks).checked_summary(used)
+        # a refused row (summary None) is found and named by the check alone
+        found = [None] * 3 if summary is not None else \
+            _checked_and_used(arr, n_points, blocks, used)
     else:
         found, used = first_bad(arr, width, n_points, blocks), None
     for t in range(3):  # the checks in this order, each at its first cell
         if found[t] is not None:
             raise cell_error(role, t, found[t], arr[found[t]].tolist(), n_points)
-    return arr, used
+    return arr, used, summary
 
 
 def _checked_and_used(arr: np.ndarray, n_points: int, blocks: Blocks, used) -> list:
@@ -161,8 +173,11 @@ def cell_error(role: str, t: int, i: int, row: list, n_points: int) -> ValueErro
                        f"{name}: cell {i} repeats a vertex: {row}")[t])
 
 
-def validate_mesh(points, cells, role, dim, dtype, allow_empty, blocks: Blocks = SERIAL):
-    """Check one mesh; returns a :class:`MeshInput` in the working ``dtype``."""
+def validate_mesh(points, cells, role, dim, dtype, allow_empty, blocks: Blocks = SERIAL,
+                  summarize: bool = False):
+    """Check one mesh; returns a :class:`MeshInput` in the working ``dtype``;
+    ``summarize``: with its boxes' summary when the cell check can make it in the same
+    pass (:func:`_finite_as_given`; the plan's simulation mesh)."""
     arr = _array(points, role)
     if arr.shape[1] != dim:
         raise ValueError(f"mixed dimensions: the simulation mesh is {dim}D but the "
@@ -170,8 +185,9 @@ def validate_mesh(points, cells, role, dim, dtype, allow_empty, blocks: Blocks =
     k = dim + 1 if role == "simulation" else dim
     what = {(2, 3): "triangles", (2, 2): "segments", (3, 4): "tetrahedra",
             (3, 3): "triangles"}[dim, k]
-    c, used = _cells(cells, role, k, len(arr), f"{what} of a {dim}D {role} mesh", blocks,
-                     np.zeros(len(arr), dtype=bool))
+    c, used, summary = _cells(cells, role, k, len(arr), f"{what} of a {dim}D {role} mesh",
+                              blocks, np.zeros(len(arr), dtype=bool),
+                              _finite_as_given(arr, dtype, blocks, k) if summarize else None)
     if len(c) == 0 and not allow_empty:
         raise ValueError(f"the {role} mesh is empty (0 cells)")
     if used is None:  # not marked by the compiled check
@@ -179,7 +195,20 @@ def validate_mesh(points, cells, role, dim, dtype, allow_empty, blocks: Blocks =
         for col in range(c.shape[1]):  # column by column: no copy of the cells
             used[c[:, col]] = True
     pts, rounded = _points(arr, used, role, dtype)
-    return MeshInput(pts, c, role, rounded)
+    return MeshInput(pts, c, role, rounded, summary)
+
+
+def _finite_as_given(arr: np.ndarray, dtype, blocks: Blocks, k: int):
+    """3D points the boxes' summary can read during the cell check (docs/partitioned.md
+    section 2): compiled, for tetrahedra, already in the working ``dtype`` (the points
+    validation keeps, unchanged on every used row) and all finite (the summary's
+    kernel assumes it; any other points are checked first, as before); else None."""
+    if not (blocks.accelerate and k == 4 and arr.shape[1] == 3 and arr.dtype == dtype
+            and arr.flags.c_contiguous and len(arr)):
+        return None
+    from predicates.compiled.tetsums import all_finite
+
+    return arr if all_finite(arr) else None
 
 
 def validate_pair(sim_points, sim_cells, cut_points, cut_cells, dtype,
@@ -194,7 +223,7 @@ def validate_pair(sim_points, sim_cells, cut_points, cut_cells, dtype,
         _array(sim_points, "simulation")  # raises the right error
     dim = sp.shape[1]
     sim = validate_mesh(sim_points, sim_cells, "simulation", dim, dtype, allow_empty=False,
-                        blocks=blocks)
+                        blocks=blocks, summarize=True)
     cut = validate_mesh(cut_points, cut_cells, "cutting", dim, dtype, allow_empty=True,
                         blocks=blocks)
     return dim, sim, cut
