@@ -191,9 +191,7 @@ def validate_mesh(points, cells, role, dim, dtype, allow_empty, blocks: Blocks =
     if len(c) == 0 and not allow_empty:
         raise ValueError(f"the {role} mesh is empty (0 cells)")
     if used is None:  # not marked by the compiled check
-        used = np.zeros(len(arr), dtype=bool)
-        for col in range(c.shape[1]):  # column by column: no copy of the cells
-            used[c[:, col]] = True
+        used = _marked(c, len(arr))
     pts, rounded = _points(arr, used, role, dtype)
     return MeshInput(pts, c, role, rounded, summary)
 
@@ -342,12 +340,19 @@ def max_box_edge(points: np.ndarray, cells: np.ndarray) -> float:
 
 
 def run_vertices(cells: np.ndarray, n_points: int) -> np.ndarray:
-    """The vertex ids ``cells`` use, ascending (a mask of the points, column by column:
-    no sort of the ids, no copy of the cells)."""
+    """The vertex ids ``cells`` use, ascending (a mask of the points: no sort of the
+    ids)."""
+    return np.flatnonzero(_marked(cells, n_points))
+
+
+def _marked(cells: np.ndarray, n_points: int) -> np.ndarray:
+    """The mask of the ``n_points`` points the (checked) ``cells`` use: one scatter per
+    block of 2^16 rows read as laid out (a strided column's scatter cost 3× on W4's
+    10 M tetrahedra: 330 vs 110 ms), no copy of the cells beyond a block."""
     used = np.zeros(n_points, dtype=bool)
-    for c in range(cells.shape[1]):
-        used[cells[:, c]] = True
-    return np.flatnonzero(used)
+    for a in range(0, len(cells), 1 << 16):
+        used[cells[a:a + (1 << 16)].reshape(-1)] = True
+    return used
 
 
 def renumbered(cells: np.ndarray, vertices: np.ndarray, fast: bool = False) -> np.ndarray:
