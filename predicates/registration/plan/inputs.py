@@ -53,13 +53,14 @@ def _array(points, role):
     return arr
 
 
-def _points(arr, used, role, dtype):
+def _points(arr, used, role, dtype, finite: bool = False):
     """``arr`` in ``dtype``; only the ``used`` rows (referenced by a cell) are checked,
-    the others are set to 0: an unreferenced vertex never matters."""
+    the others are set to 0: an unreferenced vertex never matters. ``finite``: every
+    value of ``arr`` is known finite (not tested again)."""
     name = f"{role} points"
     every = bool(used.all())  # the common case: no selection copies
     sel = arr if every else arr[used]
-    if sel.dtype.kind == "f" and not np.isfinite(sel).all():
+    if sel.dtype.kind == "f" and not finite and not np.isfinite(sel).all():
         bad = int(np.flatnonzero(used)[np.argwhere(~np.isfinite(sel))[0, 0]])
         raise ValueError(f"{name} contain NaN or infinity (point {bad}: {arr[bad]})")
     with np.errstate(all="ignore"):  # no copy when every point is used and in dtype
@@ -192,7 +193,8 @@ def validate_mesh(points, cells, role, dim, dtype, allow_empty, blocks: Blocks =
         raise ValueError(f"the {role} mesh is empty (0 cells)")
     if used is None:  # not marked by the compiled check
         used = _marked(c, len(arr))
-    pts, rounded = _points(arr, used, role, dtype)
+    # (a summary was made only over finite points, _finite_as_given)
+    pts, rounded = _points(arr, used, role, dtype, finite=summary is not None)
     return MeshInput(pts, c, role, rounded, summary)
 
 
