@@ -121,3 +121,24 @@ def test_validate_pair_hands_the_summary_to_the_plan(data):
     assert box.summary() is sim.summary
     assert _summary_bytes(sim.summary) == _summary_bytes(
         CellBoxes(sim.points, sim.cells, fast).summary())
+
+
+@_SLOW
+@given(data=st.data())
+def test_checked_numpy_blocks_are_boxes_of(data):
+    """The plan's numpy blocks for validated cells (``checked``: takes without numpy's
+    bounds check) are the unchecked blocks and boxes_of's boxes, bit for bit (signed
+    zeros included), and so is the summary made from them."""
+    from predicates.registration.spatial.boxes import boxes_of
+
+    P, cells = _tetrahedra(data)
+    P = np.where(np.isfinite(P), P, -0.0)
+    cells = np.abs(cells) % len(P)
+    lo, hi = boxes_of(P, cells)
+    plain, checked = CellBoxes(P, cells), CellBoxes(P, cells, checked=True)
+    for a, b in ((0, len(cells)), (0, len(cells) // 2), (len(cells) // 3, len(cells))):
+        want, got = plain.block(a, b), checked.block(a, b)
+        for s in (0, 1):
+            assert got[s].tobytes() == want[s].tobytes()
+            assert got[s].tobytes() == np.ascontiguousarray((lo, hi)[s][a:b]).tobytes()
+    assert _summary_bytes(checked.summary()) == _summary_bytes(plain.summary())
