@@ -20,7 +20,7 @@ import numpy as np
 
 from predicates.registration.plan.refine_scan import stats_from
 from predicates.registration.spatial.blocks import SERIAL, Blocks
-from predicates.registration.spatial.boxes import box_extent, boxes_of, fill_boxes
+from predicates.registration.spatial.boxes import boxes_of, fill_boxes
 from predicates.registration.spatial.exactsum import ExactSum
 
 __all__ = ["BoxSummary", "CellBoxes"]
@@ -77,8 +77,11 @@ def summarize(lo: np.ndarray, hi: np.ndarray, accelerate: bool = False) -> BoxSu
     if len(lo) == 0:
         return BoxSummary(0, np.full(d, np.inf), np.full(d, -np.inf), 0.0,
                           [ExactSum() for _ in range(d)])
-    sums = [ExactSum(accelerate).add(hi[:, ax] - lo[:, ax]) for ax in range(d)]
-    e = box_extent(lo, hi)
+    ext = [hi[:, ax] - lo[:, ax] for ax in range(d)]
+    sums = [ExactSum(accelerate).add(x) for x in ext]
+    e = np.maximum(ext[0], ext[1])  # box_extent's values from the extents already made
+    for x in ext[2:]:
+        np.maximum(e, x, out=e)
     e += 0.0  # -0.0 to +0.0, as the refinement's scan counts exponents
     e_min, e_max = float(e.min()), float(e.max())
     hist = np.bincount(e.view(np.int64) >> 52, minlength=2048) \
