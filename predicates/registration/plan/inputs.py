@@ -7,7 +7,7 @@ names the mesh, the array and the problem, before any work is done.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -30,7 +30,9 @@ class MeshInput:
     cells: np.ndarray
     role: str
     rounded: bool = False  # were the coordinates rounded into the working dtype?
-    summary: object = None  # the cells' BoxSummary when validation made it (tetrahedra)
+    # the cells' BoxSummary when validation made it (tetrahedra); keyword-only: a
+    # subclass's positional fields keep their places
+    summary: object = field(default=None, kw_only=True)
 
 
 class MeshTypeError(TypeError):
@@ -195,7 +197,7 @@ def validate_mesh(points, cells, role, dim, dtype, allow_empty, blocks: Blocks =
         used = _marked(c, len(arr))
     # (a summary was made only over finite points, _finite_as_given)
     pts, rounded = _points(arr, used, role, dtype, finite=summary is not None)
-    return MeshInput(pts, c, role, rounded, summary)
+    return MeshInput(pts, c, role, rounded, summary=summary)
 
 
 def _finite_as_given(arr: np.ndarray, dtype, blocks: Blocks, k: int):
