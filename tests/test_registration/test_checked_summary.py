@@ -142,3 +142,15 @@ def test_checked_numpy_blocks_are_boxes_of(data):
             assert got[s].tobytes() == want[s].tobytes()
             assert got[s].tobytes() == np.ascontiguousarray((lo, hi)[s][a:b]).tobytes()
     assert _summary_bytes(checked.summary()) == _summary_bytes(plain.summary())
+
+
+def test_summary_field_keeps_the_subclass_positions():
+    """MeshInput's summary is keyword-only: the remote mesh's positional ``held``
+    (partition/remote.py) still lands in ``held``, which the split on the workers
+    reads."""
+    from predicates.registration.partition.remote import CellsOnWorkers
+
+    held = ("cells", None, "points")
+    mesh = CellsOnWorkers(np.zeros((4, 3)), np.array([[0, 1, 2, 3]]), "simulation",
+                          False, held)
+    assert mesh.held is held and mesh.summary is None
