@@ -14,6 +14,11 @@ positive extent (three independent chains, their minimum taken once per block: m
 exact), and the largest positive extent is the largest box edge ``e_max`` itself.
 Every floating-point operation that makes a value (the extents y − x, the Veltkamp
 split, the sums in row order) is the general loop's, in its order.
+
+:func:`checked_summary_tetrahedra` runs the same loop with validation's clean-row test
+and the used-vertex marks (:func:`predicates.compiled.cellsums.check_cells`' fast path)
+before each row's points are read: the plan reads the cells once for both
+(docs/partitioned.md section 2; benchmarks/README.md, "Plan passes, eleventh pass").
 """
 from __future__ import annotations
 
