@@ -283,7 +283,7 @@ def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, 
     else:
         dim, sim, cut = validate_pair(sp, sc, cp, cc, dtype, work.blocks)
         # its boxes never stored: computed per block where needed, the run's kept once
-        sim_box = CellBoxes(sim.points, sim.cells, work.blocks)
+        sim_box = CellBoxes(sim.points, sim.cells, work.blocks, sim.summary, checked=True)
     clock("plan_validate")
     S, cut_box = sim_box.summary(), work.boxes(cut.points, cut.cells)  # the input's
     check_extent("simulation", sim, sp, dtype, (S.lo_min, S.hi_max))

@@ -7,13 +7,15 @@ names the mesh, the array and the problem, before any work is done.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.boxgrid import colmax, colmin
 from predicates.registration.spatial.broadphase import boxes_of
+from predicates.registration.plan.scaling import (  # noqa: F401 (re-exported)
+    _check_scaled, scale_points, times_pow2, times_pow2_quiet)
 
 __all__ = ["Arrays", "MeshInput", "check_extent", "hull_of", "MeshTypeError", "from_meshio", "max_box_edge", "mesh_arrays",
            "renumbered", "run_vertices", "scale_points", "times_pow2", "cell_error", "first_bad", "validate_mesh", "validate_options", "validate_pair"]
@@ -28,6 +30,9 @@ class MeshInput:
     cells: np.ndarray
     role: str
     rounded: bool = False  # were the coordinates rounded into the working dtype?
+    # the cells' BoxSummary when validation made it (tetrahedra); keyword-only: a
+    # subclass's positional fields keep their places
+    summary: object = field(default=None, kw_only=True)
 
 
 class MeshTypeError(TypeError):
@@ -50,13 +55,14 @@ def _array(points, role):
     return arr
 
 
-def _points(arr, used, role, dtype):
+def _points(arr, used, role, dtype, finite: bool = False):
     """``arr`` in ``dtype``; only the ``used`` rows (referenced by a cell) are checked,
-    the others are set to 0: an unreferenced vertex never matters."""
+    the others are set to 0: an unreferenced vertex never matters. ``finite``: every
+    value of ``arr`` is known finite (not tested again)."""
     name = f"{role} points"
     every = bool(used.all())  # the common case: no selection copies
     sel = arr if every else arr[used]
-    if sel.dtype.kind == "f" and not np.isfinite(sel).all():
+    if sel.dtype.kind == "f" and not finite and not np.isfinite(sel).all():
         bad = int(np.flatnonzero(used)[np.argwhere(~np.isfinite(sel))[0, 0]])
         raise ValueError(f"{name} contain NaN or infinity (point {bad}: {arr[bad]})")
     with np.errstate(all="ignore"):  # no copy when every point is used and in dtype
@@ -74,12 +80,16 @@ def _points(arr, used, role, dtype):
     return out, rounded
 
 
-def _cells(cells, role, width, n_points, what, blocks: Blocks = SERIAL, used=None):
+def _cells(cells, role, width, n_points, what, blocks: Blocks = SERIAL, used=None,
+           points=None):
     """The cells as given when they are an integer array (no copy, the dtype kept; int64
     for an empty or non-array input), checked block by block: negative, out-of-range
     and repeated vertex ids are refused at their first cell, in that order. ``used``
     (n_points bools, compiled blocks): also marked with the vertices the cells use, in
-    the same pass; returned as None when not marked."""
+    the same pass; returned as None when not marked. ``points`` (finite, C-ordered, in
+    the working dtype; tetrahedra): the boxes' summary made in the same pass
+    (:meth:`~predicates.registration.plan.cellboxes.CellBoxes.checked_summary`),
+    returned third (else None)."""
     name = f"{role} cells"
     try:
         arr = np.asarray(cells)
@@ -91,14 +101,21 @@ def _cells(cells, role, width, n_points, what, blocks: Blocks = SERIAL, used=Non
         raise MeshTypeError(f"{name} must be integer vertex indices, got dtype {arr.dtype}")
     if arr.ndim != 2 or arr.shape[1] != width:
         raise ValueError(f"{name} must have shape (M, {width}) ({what}), got {arr.shape}")
+    summary = None
     if used is not None and blocks.accelerate and arr.dtype.kind == "i" and arr.size:
-        found = _checked_and_used(arr, n_points, blocks, used)
+        if points is not None and width == 4:  # the ids read once for both
+            from predicates.registration.plan.cellboxes import CellBoxes
+
+            summary = CellBoxes(points, arr, blocks).checked_summary(used)
+        # a refused row (summary None) is found and named by the check alone
+        found = [None] * 3 if summary is not None else \
+            _checked_and_used(arr, n_points, blocks, used)
     else:
         found, used = first_bad(arr, width, n_points, blocks), None
     for t in range(3):  # the checks in this order, each at its first cell
         if found[t] is not None:
             raise cell_error(role, t, found[t], arr[found[t]].tolist(), n_points)
-    return arr, used
+    return arr, used, summary
 
 
 def _checked_and_used(arr: np.ndarray, n_points: int, blocks: Blocks, used) -> list:
@@ -159,8 +176,11 @@ def cell_error(role: str, t: int, i: int, row: list, n_points: int) -> ValueErro
                        f"{name}: cell {i} repeats a vertex: {row}")[t])
 
 
-def validate_mesh(points, cells, role, dim, dtype, allow_empty, blocks: Blocks = SERIAL):
-    """Check one mesh; returns a :class:`MeshInput` in the working ``dtype``."""
+def validate_mesh(points, cells, role, dim, dtype, allow_empty, blocks: Blocks = SERIAL,
+                  summarize: bool = False):
+    """Check one mesh; returns a :class:`MeshInput` in the working ``dtype``;
+    ``summarize``: with its boxes' summary when the cell check can make it in the same
+    pass (:func:`_finite_as_given`; the plan's simulation mesh)."""
     arr = _array(points, role)
     if arr.shape[1] != dim:
         raise ValueError(f"mixed dimensions: the simulation mesh is {dim}D but the "
@@ -168,16 +188,29 @@ def validate_mesh(points, cells, role, dim, dtype, allow_empty, blocks: Blocks =
     k = dim + 1 if role == "simulation" else dim
     what = {(2, 3): "triangles", (2, 2): "segments", (3, 4): "tetrahedra",
             (3, 3): "triangles"}[dim, k]
-    c, used = _cells(cells, role, k, len(arr), f"{what} of a {dim}D {role} mesh", blocks,
-                     np.zeros(len(arr), dtype=bool))
+    c, used, summary = _cells(cells, role, k, len(arr), f"{what} of a {dim}D {role} mesh",
+                              blocks, np.zeros(len(arr), dtype=bool),
+                              _finite_as_given(arr, dtype, blocks, k) if summarize else None)
     if len(c) == 0 and not allow_empty:
         raise ValueError(f"the {role} mesh is empty (0 cells)")
     if used is None:  # not marked by the compiled check
-        used = np.zeros(len(arr), dtype=bool)
-        for col in range(c.shape[1]):  # column by column: no copy of the cells
-            used[c[:, col]] = True
-    pts, rounded = _points(arr, used, role, dtype)
-    return MeshInput(pts, c, role, rounded)
+        used = _marked(c, len(arr))
+    # (a summary was made only over finite points, _finite_as_given)
+    pts, rounded = _points(arr, used, role, dtype, finite=summary is not None)
+    return MeshInput(pts, c, role, rounded, summary=summary)
+
+
+def _finite_as_given(arr: np.ndarray, dtype, blocks: Blocks, k: int):
+    """3D points the boxes' summary can read during the cell check (docs/partitioned.md
+    section 2): compiled, for tetrahedra, already in the working ``dtype`` (the points
+    validation keeps, unchanged on every used row) and all finite (the summary's
+    kernel assumes it; any other points are checked first, as before); else None."""
+    if not (blocks.accelerate and k == 4 and arr.shape[1] == 3 and arr.dtype == dtype
+            and arr.flags.c_contiguous and len(arr)):
+        return None
+    from predicates.compiled.tetsums import all_finite
+
+    return arr if all_finite(arr) else None
 
 
 def validate_pair(sim_points, sim_cells, cut_points, cut_cells, dtype,
@@ -192,7 +225,7 @@ def validate_pair(sim_points, sim_cells, cut_points, cut_cells, dtype,
         _array(sim_points, "simulation")  # raises the right error
     dim = sp.shape[1]
     sim = validate_mesh(sim_points, sim_cells, "simulation", dim, dtype, allow_empty=False,
-                        blocks=blocks)
+                        blocks=blocks, summarize=True)
     cut = validate_mesh(cut_points, cut_cells, "cutting", dim, dtype, allow_empty=True,
                         blocks=blocks)
     return dim, sim, cut
@@ -310,78 +343,20 @@ def max_box_edge(points: np.ndarray, cells: np.ndarray) -> float:
     return float(np.nextafter(d, np.inf)) if d > 0 else 0.0
 
 
-def scale_points(points: np.ndarray, e: int, role: str,
-                 keep: np.ndarray | None = None, accelerate: bool = False) -> np.ndarray:
-    """``points``·2^-e, refused unless exact (no overflow, no bit lost to underflow).
-    ``keep`` (ascending row ids): every row is checked, block by block, but only the
-    rows ``keep`` are returned scaled — the same refusals as for the whole array,
-    without a scaled copy of every point (a partitioned run's plan keeps the run's
-    vertices only: docs/partitioned.md 6). ``accelerate``: the scaling and both checks
-    in one compiled pass (:func:`predicates.compiled.cellsums.scale_exact`: the same
-    values and refusals, no temporaries)."""
-    fi = np.finfo(points.dtype)
-    if accelerate and keep is None and fi.minexp < -abs(e) and abs(e) < fi.maxexp:
-        from predicates.compiled.cellsums import scale_exact
-
-        out = np.empty_like(points)
-        ty = points.dtype.type
-        over, inexact = scale_exact(points, out, ty(2.0 ** -e), ty(2.0 ** e),
-                                    float(fi.max / 16))
-        if over or inexact:  # the numpy checks' refusal, in their order
-            _check_scaled(points, out, e, role)
-        return out
-    if keep is not None:
-        step, inexact = 1 << 16, None  # (each block's check is the whole array's on its rows)
-        for a in range(0, len(points), step):
-            block = points[a:a + step]
-            out = times_pow2_quiet(block, -e)
-            _check_scaled(block, out, e, role, exact=False)  # an overflow anywhere first
-            if inexact is None:
-                try:
-                    _check_scaled(block, out, e, role, overflow=False)
-                except ValueError as err:
-                    inexact = err
-        if inexact is not None:
-            raise inexact
-        return times_pow2(points[keep], -e)
-    out = times_pow2_quiet(points, -e)
-    _check_scaled(points, out, e, role)
-    return out
-
-
-def times_pow2_quiet(x: np.ndarray, k: int) -> np.ndarray:
-    """:func:`times_pow2` with floating-point warnings off (the caller checks)."""
-    with np.errstate(all="ignore"):
-        return times_pow2(x, k)
-
-
-def _check_scaled(points: np.ndarray, out: np.ndarray, e: int, role: str,
-                  overflow: bool = True, exact: bool = True) -> None:
-    """Refuse ``out`` = ``points``·2^-e if it overflowed or (``exact``) lost a bit."""
-    limit = np.finfo(points.dtype).max / 16
-    if overflow and not (np.isfinite(out).all() and np.all(np.abs(out) <= limit)):
-        raise ValueError(f"the {role} coordinates are too large relative to the cells' size "
-                         f"(scaling the cells to unit size by 2^{-e} overflows "
-                         f"{points.dtype.name}): translate the meshes closer to the origin")
-    if not exact:
-        return
-    step = 1 << 16  # scaled back block by block: no second array of the points
-    with np.errstate(all="ignore"):
-        exact = all(np.array_equal(times_pow2(out[a:a + step], e), points[a:a + step])
-                    for a in range(0, len(points), step))
-    if not exact:
-        raise ValueError(f"the {role} coordinates cannot be scaled exactly by 2^{-e} (to "
-                         f"unit-size cells): some are so small relative to the cells that "
-                         f"they underflow {points.dtype.name}; round them to zero first")
-
-
 def run_vertices(cells: np.ndarray, n_points: int) -> np.ndarray:
-    """The vertex ids ``cells`` use, ascending (a mask of the points, column by column:
-    no sort of the ids, no copy of the cells)."""
+    """The vertex ids ``cells`` use, ascending (a mask of the points: no sort of the
+    ids)."""
+    return np.flatnonzero(_marked(cells, n_points))
+
+
+def _marked(cells: np.ndarray, n_points: int) -> np.ndarray:
+    """The mask of the ``n_points`` points the (checked) ``cells`` use: one scatter per
+    block of 2^16 rows read as laid out (a strided column's scatter cost 3× on W4's
+    10 M tetrahedra: 330 vs 110 ms), no copy of the cells beyond a block."""
     used = np.zeros(n_points, dtype=bool)
-    for c in range(cells.shape[1]):
-        used[cells[:, c]] = True
-    return np.flatnonzero(used)
+    for a in range(0, len(cells), 1 << 16):
+        used[cells[a:a + (1 << 16)].reshape(-1)] = True
+    return used
 
 
 def renumbered(cells: np.ndarray, vertices: np.ndarray, fast: bool = False) -> np.ndarray:
@@ -393,16 +368,6 @@ def renumbered(cells: np.ndarray, vertices: np.ndarray, fast: bool = False) -> n
         return searched(vertices, cells)
     out = np.searchsorted(vertices, cells)
     return out.astype(np.int32) if len(vertices) < 2 ** 31 else out
-
-
-def times_pow2(x: np.ndarray, k: int) -> np.ndarray:
-    """``np.ldexp(x, k)`` (x·2^k correctly rounded, in x's dtype), as a multiplication
-    by the power of two when 2^k is a normal number of that dtype — the same values
-    (one correctly rounded operation either way), several times faster than ldexp."""
-    fi = np.finfo(x.dtype)
-    if fi.minexp < k < fi.maxexp:
-        return x * x.dtype.type(2.0 ** k)
-    return np.ldexp(x, k)
 
 
 def check_extent(name: str, mesh: MeshInput, given, dtype, hull=None) -> None:
