@@ -76,13 +76,13 @@ def _check(chunk, points, n_points: int, mark_used: bool = True,
 def _flags(chunk, points, origin, h, G, table, accelerate: bool = False):
     """A chunk's first-round flags (:func:`~predicates.registration.plan.lean.flag_pass`)
     as (count, flagged rows (int32 below 2^31 rows), their ranges i0, i1, largest edge,
-    their vertex ids, the flagged cells'
-    :func:`~predicates.registration.plan.edges.edge_summary` or None, their boxes
-    (lo, hi)): the report's shortest edge of the run's cells rides on this task, as
-    those cells are round one's flags unless a later round shrinks them; the boxes are
-    the compiled pass's own (kept by the kernel, :meth:`CellBoxes.keep`) or computed
-    here — not on the client (docs/partitioned.md 5a). ``accelerate``: the compiled
-    pass, as the plan's (the same values: :mod:`predicates.compiled`)."""
+    their vertex ids (the kernel's kept rows when it kept them: no gather), the flagged
+    cells' :func:`~predicates.registration.plan.edges.edge_summary` or None, None):
+    the report's shortest edge of the run's cells rides on this task, as those cells
+    are round one's flags unless a later round shrinks them. Their boxes are not sent:
+    the client computes them from its points as fast as it receives 48 bytes a cell
+    (docs/partitioned.md 5a, measured). ``accelerate``: the compiled pass, as the
+    plan's (the same values: :mod:`predicates.compiled`)."""
     from predicates import compiled
 
     blocks = Blocks(accelerate=accelerate and compiled.available())
@@ -95,10 +95,9 @@ def _flags(chunk, points, origin, h, G, table, accelerate: bool = False):
     ids = np.flatnonzero(near)
     cells = boxes.cells_of(near)  # the kernel's kept rows when it kept them: no gather
     edge = edge_summary(points, cells, blocks) if len(ids) else None
-    rows = boxes.rows(near)  # (lo, hi), the same values as boxes_of on the client
     if len(chunk) < 2 ** 31:
         ids = ids.astype(np.int32)  # (the client adds the chunk's int64 offset)
-    return count, (ids, i0, i1, ext, cells, edge, rows)
+    return count, (ids, i0, i1, ext, cells, edge, None)
 
 
 def _row_boxes(chunk, points, rows: np.ndarray):
@@ -135,9 +134,9 @@ def _on_piece(f, own, dtype, *args):
         count, got = _flags(local, pts, *args)
         if got is None:
             return count, None
-        ids, i0, i1, ext, _, edge, rows = got
-        # the flagged cells in global ids; their boxes from the piece's points
-        return count, (ids, i0, i1, ext, cells[ids], edge, rows)
+        ids, i0, i1, ext, _, edge, _ = got
+        # the flagged cells' boxes here, from the piece's points: the client has none
+        return count, (ids, i0, i1, ext, cells[ids], edge, boxes_of(pts, local[ids]))
     return f(local, pts, *args)  # _near_scan: row ids only; _row_boxes: boxes
 
 
@@ -259,9 +258,12 @@ class RemoteCells(CellBoxes):
         near[ids] = True
         cells = np.concatenate([g[1][4] for g in got])
         self.stats["bytes_back"] += sum(sum(a.nbytes for a in g[1][:3] + g[1][4:5]
-                                            + g[1][6]) for g in got)
-        lo = np.concatenate([g[1][6][0] for g in got])  # computed on the workers
-        hi = np.concatenate([g[1][6][1] for g in got])
+                                            + (g[1][6] or ())) for g in got)
+        if all(g[1][6] is not None for g in got):  # computed where the pieces are
+            lo = np.concatenate([g[1][6][0] for g in got])
+            hi = np.concatenate([g[1][6][1] for g in got])
+        else:
+            lo, hi = boxes_of(self.points, cells, self.blocks)  # compiled when the plan is
         self._kept, self._kept_cells = (ids, lo, hi), cells
         self._edges = (ids, [g[1][5] for g in got if g[1][5] is not None])
         i0 = np.concatenate([g[1][1] for g in got])

@@ -1,5 +1,5 @@
-"""A partitioned plan's run arrays (docs/partitioned.md, section 2, "The plan on the
-workers"): the scaled coordinates of the run cells' vertices (``Plan.P_sim``), their
+"""A partitioned plan's run arrays (docs/partitioned.md, section 5a, "The client's
+share"): the scaled coordinates of the run cells' vertices (``Plan.P_sim``), their
 global ids (``Plan.sim_vertex_ids``) and the run cells renumbered to them
 (``Plan.sim_cells``).
 
