@@ -13,7 +13,8 @@ clock ticks of 10 ms: "pool", the rest, can come out a tick below zero on tiny r
     cd TREE && PYTHONPATH=TREE:TREE/benchmarks FPERR_ACCELERATE=1 \\
         python benchmarks/partition_client_cpu.py [--n 120] [--subdivisions 7] [--calls 5]
 
-(the workers import the tree on PYTHONPATH, and ``benchmarks`` for the cells' builder).
+(the workers import the tree on PYTHONPATH, and ``benchmarks`` for the cells' builder;
+another tree's code is timed by putting it on PYTHONPATH, this script from here).
 """
 from __future__ import annotations
 
@@ -25,9 +26,9 @@ from pathlib import Path
 
 import numpy as np
 
+# after PYTHONPATH: an A/B run of another tree puts that tree first (its workers too)
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "benchmarks"))
+sys.path += [str(ROOT), str(ROOT / "benchmarks")]
 
 
 def thread_cpu() -> dict:
