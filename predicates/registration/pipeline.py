@@ -239,8 +239,8 @@ class Plan(NamedTuple):
     refinement: object
     arrays: object  # inputs.Arrays: the meshes as arrays, with notes and plane
     accelerate: bool = False  # the compiled candidate chain (predicates.compiled)
-    # a partitioned run's plan: P_sim holds only the run's vertices, these global ids
-    # ascending, and sim_cells is in their positions (None: every point, global ids)
+    # partitioned: P_sim holds only the run's vertices, these global ids ascending,
+    # sim_cells in their positions (None: every point; run_arrays.DeferredRun: not yet)
     sim_vertex_ids: np.ndarray | None = None
 
 
