@@ -70,6 +70,8 @@ TINY: dict[str, tuple[list[str], str]] = {
                             "--reps", "1", "--rounds", "1"], r"^\| 2 \| .*\| yes \|"),
     "partition_remote_bench.py": (["--n", "8", "--subdivisions", "2", "--reps", "1"],
                                   r"identical results: True"),
+    "partition_client_cpu.py": (["--n", "8", "--subdivisions", "2", "--calls", "1"],
+                                r"^median: client [\d.]+ \(plan [\d.]+\) .* digest [0-9a-f]{16}"),
     "intersect_bench.py": (["-c", "import intersect_bench as b; "
                             "print('runner', callable(b.child), callable(b.run_cases))"],
                            r"^runner True True$"),

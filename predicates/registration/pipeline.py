@@ -74,11 +74,11 @@ from predicates.registration.plan import threads as plan_threads
 from predicates.registration.plan import resolution
 from predicates.registration.plan.cellboxes import CellBoxes
 from predicates.registration.plan.inputs import (
-    check_extent, hull_of, mesh_arrays, renumbered, scale_points, validate_options,
+    check_extent, hull_of, mesh_arrays, scale_points, validate_options,
     validate_pair)
 from predicates.registration.levels.loop import (
     MemoryGuard, Registration, RegistrationMemoryError)
-from predicates.registration.partition import remote  # the plan on the workers, no Dask
+from predicates.registration.partition import remote, run_arrays  # no Dask
 from predicates.registration.plan.refine import refine
 from predicates.registration.plan.resolution import (
     Resolution, consistent_scale, estimate_cell_pairs, memory_error, near_cells,
@@ -239,8 +239,8 @@ class Plan(NamedTuple):
     refinement: object
     arrays: object  # inputs.Arrays: the meshes as arrays, with notes and plane
     accelerate: bool = False  # the compiled candidate chain (predicates.compiled)
-    # a partitioned run's plan: P_sim holds only the run's vertices, these global ids
-    # ascending, and sim_cells is in their positions (None: every point, global ids)
+    # partitioned: P_sim holds only the run's vertices, these global ids ascending,
+    # sim_cells in their positions (None: every point; run_arrays.DeferredRun: not yet)
     sim_vertex_ids: np.ndarray | None = None
 
 
@@ -304,16 +304,16 @@ def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, 
     run = sim_box.cells_of(ms)
     # partitioned: every point checked (a piece's on the workers, partition/points.py),
     # only the run's vertices scaled and kept, the run's cells renumbered to them
-    # (docs/partitioned.md 6); serial: every point
+    # (docs/partitioned.md 6), deferred when the split is the workers'; serial: every point
     fast = work.blocks.accelerate
-    keep, P_sim = remote.scaled_points(sim.points, run, sc_.e, scheduler is not None, fast)
+    keep, P_sim, run = run_arrays.run_arrays(sim, run, sc_.e, scheduler is not None, fast,
+                                             isinstance(sim, remote.CellsOnWorkers))
     P_cut = scale_points(cut.points, sc_.e, "cutting", accelerate=fast)
     tol_run = sc_.tol if ts == 1 else sc_.tol.scaled(dtype.type(ts))
     clock("plan_scale")
     report = _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts, work)
     clock("plan_report")
-    return Plan(dim, dtype, sim, cut, sc_, P_sim, P_cut,
-                run if keep is None else renumbered(run, keep, fast), cut.cells[mc], tol_run, ts,
+    return Plan(dim, dtype, sim, cut, sc_, P_sim, P_cut, run, cut.cells[mc], tol_run, ts,
                 catalogue_kinds(dim), report, refinement, arrays, work.blocks.accelerate,
                 keep)
 

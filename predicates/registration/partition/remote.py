@@ -23,14 +23,12 @@ import numpy as np
 from predicates.registration.plan.cellboxes import CellBoxes
 from predicates.registration.plan.edges import edge_from, edge_shift, edge_summary
 from predicates.registration.plan.inputs import (
-    MeshInput, MeshTypeError, _array, _checked_and_used, _points, cell_error, first_bad,
-    run_vertices, scale_points)
+    MeshInput, MeshTypeError, _array, _checked_and_used, _points, cell_error, first_bad)
 from predicates.registration.partition.points import RemotePoints
 from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.boxes import boxes_of
 
-__all__ = ["RemoteCells", "is_remote", "scaled_points", "validate_pair_remote",
-           "validate_remote"]
+__all__ = ["RemoteCells", "is_remote", "validate_pair_remote", "validate_remote"]
 
 _LOCAL = ("threads", "processes", "synchronous", "sync", "single-threaded")
 
@@ -77,22 +75,28 @@ def _check(chunk, points, n_points: int, mark_used: bool = True,
 
 def _flags(chunk, points, origin, h, G, table, accelerate: bool = False):
     """A chunk's first-round flags (:func:`~predicates.registration.plan.lean.flag_pass`)
-    as (count, flagged rows, their ranges i0, i1, largest edge, their vertex ids, the
-    flagged cells' :func:`~predicates.registration.plan.edges.edge_summary` or None):
+    as (count, flagged rows (int32 below 2^31 rows), their ranges i0, i1, largest edge,
+    their vertex ids (the kernel's kept rows when it kept them: no gather), the flagged
+    cells' :func:`~predicates.registration.plan.edges.edge_summary` or None, None):
     the report's shortest edge of the run's cells rides on this task, as those cells
-    are round one's flags unless a later round shrinks them. ``accelerate``: the
-    compiled pass, as the plan's (the same values: :mod:`predicates.compiled`)."""
+    are round one's flags unless a later round shrinks them. Their boxes are not sent:
+    the client computes them from its points as fast as it receives 48 bytes a cell
+    (docs/partitioned.md 5a, measured). ``accelerate``: the compiled pass, as the
+    plan's (the same values: :mod:`predicates.compiled`)."""
     from predicates import compiled
 
     blocks = Blocks(accelerate=accelerate and compiled.available())
     chunk = np.asarray(chunk)
-    count, got = CellBoxes(points, chunk, blocks).flag_pass(origin, h, G, table)
+    boxes = CellBoxes(points, chunk, blocks)
+    count, got = boxes.flag_pass(origin, h, G, table)
     if got is None:
         return count, None
     near, i0, i1, ext = got
     ids = np.flatnonzero(near)
-    cells = chunk[ids]
+    cells = boxes.cells_of(near)  # the kernel's kept rows when it kept them: no gather
     edge = edge_summary(points, cells, blocks) if len(ids) else None
+    if len(chunk) < 2 ** 31:
+        ids = ids.astype(np.int32)  # (the client adds the chunk's int64 offset)
     return count, (ids, i0, i1, ext, cells, edge, None)
 
 
@@ -253,8 +257,8 @@ class RemoteCells(CellBoxes):
         ids = np.concatenate([o + g[1][0] for o, g in zip(self.offsets, got)])
         near[ids] = True
         cells = np.concatenate([g[1][4] for g in got])
-        self.stats["bytes_back"] += sum(sum(a.nbytes for a in g[1][:3] + g[1][4:5])
-                                        for g in got)
+        self.stats["bytes_back"] += sum(sum(a.nbytes for a in g[1][:3] + g[1][4:5]
+                                            + (g[1][6] or ())) for g in got)
         if all(g[1][6] is not None for g in got):  # computed where the pieces are
             lo = np.concatenate([g[1][6][0] for g in got])
             hi = np.concatenate([g[1][6][1] for g in got])
@@ -356,20 +360,6 @@ class RemoteCells(CellBoxes):
         lo, hi = self._boxes(np.arange(a, b))
         self._local.last = (a, b, lo, hi)
         return lo, hi
-
-
-def scaled_points(points, run: np.ndarray, e: int, partitioned: bool,
-                  accelerate: bool = False):
-    """(the run's vertices (ascending global ids) or None, the simulation points scaled
-    by 2^-e): ``inputs.scale_points`` — every point checked, a partitioned run's plan
-    keeping only the vertices of its cells ``run`` — or, for points on the workers
-    (:class:`~.points.RemotePoints`), checked and scaled there, only those rows back;
-    ``accelerate``: scale_points' compiled pass (the same values and refusals)."""
-    if isinstance(points, RemotePoints):
-        keep = np.unique(run).astype(np.int64)  # the run's vertices: no mask of N
-        return keep, points.scaled(e, "simulation", keep)
-    keep = run_vertices(run, len(points)) if partitioned else None
-    return keep, scale_points(points, e, "simulation", keep, accelerate=accelerate)
 
 
 def validate_remote(points, cells, dim: int, dtype, scheduler, blocks: Blocks = SERIAL):

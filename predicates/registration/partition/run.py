@@ -22,6 +22,7 @@ from predicates.registration.partition.assign import CutSide, Part, merge, split
 from predicates.registration.partition.counts import (  # noqa: F401 (re-exported)
     CELLS_PER_PART, slots, count_partitions)
 from predicates.registration.partition.outputs import PartFiles, Staged
+from predicates.registration.partition.run_arrays import materialised
 from predicates.registration.partition.split_remote import on_workers, split_on_workers
 from predicates.registration.partition.task import run_part
 
@@ -257,6 +258,7 @@ def _run(dask, client, plan, partitions, scheduler, chunk, timings, check, progr
     timings["partition_count"] = k  # (per-partition output: one file per partition)
     if check is not None:  # before any work
         check(share=min(k, slots(client, scheduler)) / k, stacklevel=5)
+    plan = materialised(plan) if files else plan  # the client's split: its run arrays
     # the files' paths checked and their owners computed, before any task
     staged = files and Staged(files, k, plan, client or scheduler or "threads")
     with _bar(progress, k) as bar:
@@ -283,6 +285,7 @@ def _tasks(dask, client, plan, k, scheduler, chunk, timings, bar, timeout=None,
     if staged is None and on_workers(plan) and len(plan.cut_cells) and len(plan.sim_cells):
         return _split_there(dask, client, plan, k, scheduler, chunk, timings, bar,
                             timeout, clock)
+    plan = materialised(plan)  # deferred when the cells are on the workers (run_arrays.py)
     owner, write = (None, None) if staged is None else (staged.owner, staged.write)
     # on a Client the tasks cut their own cutting slices (the mesh sent once per worker)
     parts = () if len(plan.cut_cells) == 0 or len(plan.sim_cells) == 0 else (
