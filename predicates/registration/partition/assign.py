@@ -187,11 +187,11 @@ class CutSide:
         self.__init__(state["P_cut"], state["cut_cells"], state["pad"])
 
     def boxes(self, blocks: Blocks = SERIAL):
-        """(lo, hi, wide lo, wide hi) of every cutting cell (:func:`.slices.wide`);
-        ``blocks``: compiled or not, the same boxes."""
+        """(wide lo, wide hi) of every cutting cell (:func:`.slices.wide`); ``blocks``:
+        compiled or not, the same boxes."""
         if self._boxes is None:  # exact (min, max) and elementwise: the client's values
             clo, chi = boxes_of(self.P_cut, self.cut_cells, blocks)
-            self._boxes = (clo, chi, *wide(clo, chi, self.pad))
+            self._boxes = wide(clo, chi, self.pad, blocks.accelerate)
         return self._boxes
 
 
@@ -205,7 +205,7 @@ def cut_slice(part: Part, side: CutSide, blocks: Blocks = SERIAL) -> Part:
     if not part.cut_pending:
         return part
     lo, hi = boxes_of(part.P_sim, part.sim_cells, blocks)
-    keep = cut_near(lo, hi, *side.boxes(blocks), side.pad, blocks)
+    keep = cut_near(lo, hi, *side.boxes(blocks), blocks)
     Pc, cc, cid = _local(side.P_cut, side.cut_cells, keep)
     # a new Part: the one received may be a scattered object the worker keeps
     return replace(part, P_cut=Pc, cut_cells=cc, cut_ids=cid, cut_pending=False)
@@ -277,8 +277,7 @@ class Layout:
             self.hull = None if len(used) == 0 else wide(colmin(used)[None],
                                                          colmax(used)[None], pad)
         else:
-            self.clo, self.chi = boxes_of(P_cut, cut_cells)
-            self.wide = wide(self.clo, self.chi, pad)
+            self.wide = wide(*boxes_of(P_cut, cut_cells), pad)
 
     def part(self, r: int) -> Part | None:
         """Partition r's :class:`Part` (None: it holds no cell)."""
@@ -292,8 +291,7 @@ class Layout:
         else:
             if self.lo is None:
                 self.lo, self.hi = boxes_of(self.P_sim, self.sim_cells)
-            cut_keep = cut_near(self.lo[halo], self.hi[halo], self.clo, self.chi,
-                                *self.wide, self.pad)
+            cut_keep = cut_near(self.lo[halo], self.hi[halo], *self.wide)
         Pc, cc, cid = _local(self.P_cut, self.cut_cells, cut_keep)
         gid = sid if self.vertex_ids is None else _global(self.vertex_ids, sid)
         part = Part(r, Ps, cs, gid, self.owner[sid] == r, Pc, cc, cid, int(self.owned[r]),
