@@ -117,7 +117,7 @@ def order_of(code: np.ndarray) -> np.ndarray:
 def _local(P, cells, keep):
     """The rows ``keep`` of ``cells`` renumbered to their vertices (global ids
     increasing) and those vertices' coordinates."""
-    sub = cells[keep]
+    sub = np.take(cells, keep, axis=0)  # (take: the rows of fancy indexing, faster)
     used = np.zeros(len(P), dtype=bool)
     used[sub.ravel()] = True
     ids = np.flatnonzero(used)
@@ -126,7 +126,8 @@ def _local(P, cells, keep):
     loc[ids] = np.arange(len(ids))
     # int32 global ids too: the owned pairs go back in them (a quarter fewer bytes
     # returned; the merge's concatenation with int64 widens them, same values)
-    return P[ids], loc[sub], ids.astype(np.int32) if len(P) <= 2 ** 31 else ids
+    return (np.take(P, ids, axis=0), np.take(loc, sub),
+            ids.astype(np.int32) if len(P) <= 2 ** 31 else ids)
 
 
 def _global(vertex_ids: np.ndarray, sid: np.ndarray) -> np.ndarray:
@@ -320,9 +321,11 @@ def owned(part: Part, pairs: dict) -> dict:
     out = {}
     for kind, p in pairs.items():
         keep = part.own_vertex[rowwise(np.minimum, p.sim)] if len(p) else np.zeros(0, dtype=bool)
-        out[kind] = KindPairs(kind, part.sim_ids[p.sim[keep]], part.cut_ids[p.cut[keep]],
-                              p.sim_weights[keep], p.cut_weights[keep],
-                              candidates=p.candidates, suppressed=p.suppressed)
+        # compress and take: the rows and ids of fancy indexing, in half its time
+        sim, cut, sw, cw = (np.compress(keep, a, axis=0)
+                            for a in (p.sim, p.cut, p.sim_weights, p.cut_weights))
+        out[kind] = KindPairs(kind, np.take(part.sim_ids, sim), np.take(part.cut_ids, cut),
+                              sw, cw, candidates=p.candidates, suppressed=p.suppressed)
     return out
 
 
