@@ -48,8 +48,8 @@ def _cells_holding(cells: np.ndarray, prims: np.ndarray) -> np.ndarray:
     return hold
 
 
-@settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow,
-                                                                 HealthCheck.function_scoped_fixture])
+@settings(max_examples=20, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 @given(name=st.sampled_from(list(CASES)), seed=st.integers(0, 10**6), k=st.integers(2, 24),
        remote=st.booleans())
 def test_each_slice_holds_the_cutting_cells_of_its_owned_pairs(monkeypatch, name, seed, k,

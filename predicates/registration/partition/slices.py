@@ -21,7 +21,8 @@ from __future__ import annotations
 import numpy as np
 
 from predicates.registration.spatial.blocks import SERIAL, Blocks
-from predicates.registration.spatial.boxgrid import BITS, cell_index, colmax, colmin, enlarge, expand
+from predicates.registration.spatial.boxgrid import (
+    BITS, cell_index, colmax, colmin, enlarge, expand)
 from predicates.registration.spatial.broadphase import runs
 from predicates.registration.spatial.gridsums import any_in, occupancy
 
