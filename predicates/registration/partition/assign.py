@@ -117,7 +117,7 @@ def order_of(code: np.ndarray) -> np.ndarray:
 def _local(P, cells, keep):
     """The rows ``keep`` of ``cells`` renumbered to their vertices (global ids
     increasing) and those vertices' coordinates."""
-    sub = cells[keep]
+    sub = np.take(cells, keep, axis=0)  # (take: the rows of fancy indexing, faster)
     used = np.zeros(len(P), dtype=bool)
     used[sub.ravel()] = True
     ids = np.flatnonzero(used)
@@ -126,7 +126,8 @@ def _local(P, cells, keep):
     loc[ids] = np.arange(len(ids))
     # int32 global ids too: the owned pairs go back in them (a quarter fewer bytes
     # returned; the merge's concatenation with int64 widens them, same values)
-    return P[ids], loc[sub], ids.astype(np.int32) if len(P) <= 2 ** 31 else ids
+    return (np.take(P, ids, axis=0), np.take(loc, sub),
+            ids.astype(np.int32) if len(P) <= 2 ** 31 else ids)
 
 
 def _global(vertex_ids: np.ndarray, sid: np.ndarray) -> np.ndarray:
@@ -187,11 +188,11 @@ class CutSide:
         self.__init__(state["P_cut"], state["cut_cells"], state["pad"])
 
     def boxes(self, blocks: Blocks = SERIAL):
-        """(lo, hi, wide lo, wide hi) of every cutting cell (:func:`.slices.wide`);
-        ``blocks``: compiled or not, the same boxes."""
+        """(wide lo, wide hi) of every cutting cell (:func:`.slices.wide`); ``blocks``:
+        compiled or not, the same boxes."""
         if self._boxes is None:  # exact (min, max) and elementwise: the client's values
             clo, chi = boxes_of(self.P_cut, self.cut_cells, blocks)
-            self._boxes = (clo, chi, *wide(clo, chi, self.pad))
+            self._boxes = wide(clo, chi, self.pad, blocks.accelerate)
         return self._boxes
 
 
@@ -205,7 +206,7 @@ def cut_slice(part: Part, side: CutSide, blocks: Blocks = SERIAL) -> Part:
     if not part.cut_pending:
         return part
     lo, hi = boxes_of(part.P_sim, part.sim_cells, blocks)
-    keep = cut_near(lo, hi, *side.boxes(blocks), side.pad, blocks)
+    keep = cut_near(lo, hi, *side.boxes(blocks), blocks)
     Pc, cc, cid = _local(side.P_cut, side.cut_cells, keep)
     # a new Part: the one received may be a scattered object the worker keeps
     return replace(part, P_cut=Pc, cut_cells=cc, cut_ids=cid, cut_pending=False)
@@ -277,8 +278,7 @@ class Layout:
             self.hull = None if len(used) == 0 else wide(colmin(used)[None],
                                                          colmax(used)[None], pad)
         else:
-            self.clo, self.chi = boxes_of(P_cut, cut_cells)
-            self.wide = wide(self.clo, self.chi, pad)
+            self.wide = wide(*boxes_of(P_cut, cut_cells), pad)
 
     def part(self, r: int) -> Part | None:
         """Partition r's :class:`Part` (None: it holds no cell)."""
@@ -292,8 +292,7 @@ class Layout:
         else:
             if self.lo is None:
                 self.lo, self.hi = boxes_of(self.P_sim, self.sim_cells)
-            cut_keep = cut_near(self.lo[halo], self.hi[halo], self.clo, self.chi,
-                                *self.wide, self.pad)
+            cut_keep = cut_near(self.lo[halo], self.hi[halo], *self.wide)
         Pc, cc, cid = _local(self.P_cut, self.cut_cells, cut_keep)
         gid = sid if self.vertex_ids is None else _global(self.vertex_ids, sid)
         part = Part(r, Ps, cs, gid, self.owner[sid] == r, Pc, cc, cid, int(self.owned[r]),
@@ -322,9 +321,11 @@ def owned(part: Part, pairs: dict) -> dict:
     out = {}
     for kind, p in pairs.items():
         keep = part.own_vertex[rowwise(np.minimum, p.sim)] if len(p) else np.zeros(0, dtype=bool)
-        out[kind] = KindPairs(kind, part.sim_ids[p.sim[keep]], part.cut_ids[p.cut[keep]],
-                              p.sim_weights[keep], p.cut_weights[keep],
-                              candidates=p.candidates, suppressed=p.suppressed)
+        # compress and take: the rows and ids of fancy indexing, in half its time
+        sim, cut, sw, cw = (np.compress(keep, a, axis=0)
+                            for a in (p.sim, p.cut, p.sim_weights, p.cut_weights))
+        out[kind] = KindPairs(kind, np.take(part.sim_ids, sim), np.take(part.cut_ids, cut),
+                              sw, cw, candidates=p.candidates, suppressed=p.suppressed)
     return out
 
 

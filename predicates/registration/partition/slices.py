@@ -12,17 +12,19 @@ W1 and ~0.15 s on W4, so the client's split grew with the number of workers (W1,
   with a vertex of several partitions ("border" vertices) join other halos. One pass,
   O(n log n) for any k; grouped by partition, ascending, as CSR arrays
   (``ids[starts[r]:starts[r + 1]]``).
-* **cutting slice** (:func:`cut_near`): the broad phase's grid test of the halo's boxes
-  against the cutting boxes enlarged by the pad, on the cutting cells whose box (wider
-  still) meets the halo's bounding box.
+* **cutting slice** (:func:`cut_near`): the cutting cells whose doubly padded box
+  meets the halo's bounding box and shares a cell of a grid over that box with one of
+  the halo's cell boxes (docs/partitioned.md 3).
 """
 from __future__ import annotations
 
 import numpy as np
 
 from predicates.registration.spatial.blocks import SERIAL, Blocks
-from predicates.registration.spatial.boxgrid import colmax, colmin, enlarge, expand
-from predicates.registration.spatial.broadphase import near_flags, runs
+from predicates.registration.spatial.boxgrid import (
+    BITS, cell_index, colmax, colmin, enlarge, expand)
+from predicates.registration.spatial.broadphase import runs
+from predicates.registration.spatial.gridsums import any_in, occupancy
 
 __all__ = ["cut_near", "halos", "owner_halos", "wide"]
 
@@ -78,34 +80,62 @@ def owner_halos(cells: np.ndarray, owner: np.ndarray, k: int):
     return _grouped(owner[cells.ravel()].astype(np.int64) * m + rows, k, m)
 
 
-def wide(clo: np.ndarray, chi: np.ndarray, pad: float):
+def wide(clo: np.ndarray, chi: np.ndarray, pad: float, accelerate: bool = False):
     """The cutting boxes enlarged by 2·pad, rounded outwards: :func:`cut_near`'s
-    first, coarse test (a cutting cell within pad of a cell meets this box with room
-    to spare for the float test's rounding)."""
-    return enlarge(clo, chi, 2 * pad)
+    boxes (a cutting cell within pad of a cell meets this box with room to spare for
+    the float test's rounding). ``accelerate``: one compiled pass (the same values)."""
+    return enlarge(clo, chi, 2 * pad, accelerate)
 
 
-def cut_near(lo, hi, clo, chi, wide_lo, wide_hi, pad: float,
-             blocks: Blocks = SERIAL) -> np.ndarray:
-    """Indices (ascending) of the cutting cells (boxes ``clo``, ``chi``; ``wide`` of
-    them: ``wide_lo``, ``wide_hi``) that share a broad-phase grid cell with one of the
-    halo cells' boxes ``lo``, ``hi``, the cutting boxes enlarged by ``pad``
-    (:func:`~predicates.registration.spatial.broadphase.near_flags`), among those whose wide box
-    meets the halo's bounding box: a superset of the cutting cells within ``pad`` of a
-    halo cell (the same float test), and a tight one — the grid is about a cell's size,
-    so a partition gets the cutting cells over its own region plus a border. The
-    bounding-box test first makes the grid's work proportional to the partition, not
-    to the whole cutting mesh. ``blocks``: near_flags' passes (compiled in a task of a
-    compiled run: the same flags)."""
-    if len(clo) == 0 or len(lo) == 0:
+def cut_near(lo, hi, wide_lo, wide_hi, blocks: Blocks = SERIAL) -> np.ndarray:
+    """Indices (ascending) of the cutting cells whose :func:`wide` boxes ``wide_lo``,
+    ``wide_hi`` meet the bounding box of the halo cells' boxes ``lo``, ``hi`` and
+    share a cell of a grid over that bounding box with one of them: a superset of the
+    cutting cells within pad of a halo cell (docs/partitioned.md 3: such a cell's wide
+    box meets the halo cell's box; a box's cells are its corners' cells and the cell
+    index is monotone, so two boxes that meet share a cell), and a tight one — the
+    grid's cell is about the largest halo cell (:func:`_halo_grid`), so a partition
+    gets the cutting cells over its own region plus a border. The bounding-box test
+    first makes the grid's work proportional to the partition, not to the whole
+    cutting mesh; the grid test is two passes per box and a summed-area table
+    (:mod:`~predicates.registration.spatial.gridsums`), no pair and no mean extent.
+    ``blocks``: compiled passes in a task of a compiled run (the same flags)."""
+    if len(wide_lo) == 0 or len(lo) == 0:
         return np.zeros(0, dtype=np.int64)
     blo, bhi = colmin(lo), colmax(hi)
-    meets = np.ones(len(clo), dtype=bool)
+    meets = np.ones(len(wide_lo), dtype=bool)
     for ax in range(lo.shape[1]):
         meets &= wide_lo[:, ax] <= bhi[ax]
         meets &= wide_hi[:, ax] >= blo[ax]
     cand = np.flatnonzero(meets)
     if cand.size == 0:
         return cand
-    _, near = near_flags(lo, hi, clo[cand], chi[cand], pad, sides="b", blocks=blocks)
-    return cand[near]
+    h, G = _halo_grid(lo, hi, blo, bhi, len(cand))
+    occ = occupancy(*(cell_index(x, blo, h, G, blocks) for x in (lo, hi)), G, blocks)
+    ib0, ib1 = (cell_index(np.take(x, cand, axis=0), blo, h, G, blocks)
+                for x in (wide_lo, wide_hi))
+    return cand[any_in(occ, ib0, ib1, G, blocks)]
+
+
+def _halo_grid(lo, hi, blo, bhi, n_cut: int):
+    """(cell size, cells per axis) of :func:`cut_near`'s grid over the halo's bounding
+    box [``blo``, ``bhi``]: the largest extent of a halo box (so each covers at most
+    two cells per axis), doubled while the grid has more cells than twice the boxes
+    (halo and ``n_cut`` cutting ones; at least 2^16): its summed-area table costs
+    about the boxes' passes. Any positive size gives a superset of
+    the cells within pad; this one only bounds the work, from exact maxima (the same
+    grid for the same boxes in any order, on the client and in the task)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        span = bhi - blo
+        h = float(colmax(hi - lo).max())
+        top = float(span.max())
+    if not np.isfinite(top):
+        raise ValueError("coordinates too large for the cutting slices (their range "
+                         "overflows the floating-point format)")
+    h = max(h, top * 2.0 ** -BITS, np.finfo(np.float64).tiny)
+    budget = max(1 << 16, 2 * (len(lo) + n_cut))
+    while True:
+        G = (np.floor(span / h).astype(np.int64) + 1).clip(1, (1 << BITS) + 1)
+        if float(np.prod(G.astype(float))) <= budget or np.all(G == 1):
+            return h, G
+        h *= 2
