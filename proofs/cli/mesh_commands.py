@@ -50,9 +50,10 @@ def _registration_options(p) -> None:
                         "or 'auto' (default: one per worker thread, at least one per million "
                         "cells); more partitions hold less memory each")
     p.add_argument("--timeout", type=_seconds, metavar="SECONDS",
-                   help="with --workers/--scheduler: cancel the partitions' tasks and exit 1 "
-                        "(nothing written) when they have not all finished this many seconds "
-                        "after submission (default: wait)")
+                   help="with --workers/--scheduler: cancel the partitions' tasks (and the "
+                        "split on the workers) and exit 1 (nothing written) when they have "
+                        "not all finished this many seconds after submission (default: "
+                        "wait)")
 
 
 #: local worker processes allowed per CPU: more only compete for the CPUs (each takes

@@ -334,8 +334,13 @@ def _split_there(dask, client, plan, k, scheduler, chunk, timings, bar, timeout,
     """:func:`_tasks` with the split on the workers (:mod:`.split_remote`): the run
     cells stay where they are, each partition's task assembles its Part there."""
     args = (plan.dim, plan.tol, plan.scale.reach, chunk, plan.accelerate)
-    tasks = split_on_workers(plan, k, max(plan.scale.reach.values()), args, client,
-                             scheduler or "threads", timings)
+    try:
+        tasks = split_on_workers(plan, k, max(plan.scale.reach.values()), args, client,
+                                 scheduler or "threads", timings, timeout)
+    except TimeoutError as e:  # the selection's rounds: cancelled, nothing returned
+        raise PartitionError(f"the split on the workers did not finish within the timeout "
+                             f"of {timeout:g} s: its tasks were cancelled and nothing was "
+                             f"returned; give a longer timeout or more workers") from e
     clock("partition")
     if client is not None:
         out = _gather(tasks, bar, timeout, list(range(k)))

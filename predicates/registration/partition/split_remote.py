@@ -153,11 +153,13 @@ def _assembled_run(r: int, args: tuple, side: CutSide, *routes):
 
 
 def split_on_workers(plan, k: int, pad: float, args: tuple, client, scheduler,
-                     timings: dict) -> list:
+                     timings: dict, timeout: float | None = None) -> list:
     """Partition tasks for the plan's run cells held by the workers (module docstring):
     futures on a ``client``, else delayed objects for the local ``scheduler``; each
     gives (owned pairs, statistics) or None. ``timings["split"]``: the selection's
-    rounds, the bytes the client put in the graph."""
+    rounds, the bytes the client put in the graph. ``timeout`` (a Client only): seconds
+    from here for the selection's rounds; past it their tasks are cancelled and
+    TimeoutError is raised."""
     import dask
 
     d = dask.delayed
@@ -172,7 +174,12 @@ def split_on_workers(plan, k: int, pad: float, args: tuple, client, scheduler,
                                      pieces is not None)
             for s, b, o in zip(sources, bits, offsets)]
     runs = _persist(runs, client, scheduler)
-    hulls = _compute([d(first_hull)(r) for r in runs], client, scheduler)
+    deadline = None if timeout is None else time.monotonic() + timeout
+
+    def results(objs):
+        return _compute(objs, client, scheduler, deadline, runs)
+
+    hulls = results([d(first_hull)(r) for r in runs])
     boxes = [h[0] for h in hulls if h[1]]
     m = sum(h[1] for h in hulls)
     lo = np.min([b[0] for b in boxes], axis=0)
@@ -182,7 +189,7 @@ def split_on_workers(plan, k: int, pad: float, args: tuple, client, scheduler,
 
     def ask(queries):
         rounds[0] += 1
-        return _compute([d(answer)(r, n_bits, queries) for r in runs], client, scheduler)
+        return results([d(answer)(r, n_bits, queries) for r in runs])
 
     boundaries = select_boundaries(ask, m, k, n_bits)
     C = len(runs)
@@ -214,8 +221,21 @@ def _persist(objs: list, client, scheduler) -> list:
     return list(dask.persist(*objs, scheduler=scheduler))
 
 
-def _compute(objs: list, client, scheduler) -> list:
-    """The (small) results of ``objs``, on the client."""
+def _compute(objs: list, client, scheduler, deadline: float | None = None,
+             held: list = ()) -> list:
+    """The (small) results of ``objs``, on the client; on a Client with a ``deadline``
+    (``time.monotonic()``) not reached, else their tasks and the persisted ``held``
+    are cancelled and TimeoutError is raised."""
     import dask
 
-    return list(dask.compute(*objs, scheduler=client or scheduler))
+    if client is None or deadline is None:
+        return list(dask.compute(*objs, scheduler=client or scheduler))
+    from distributed import wait
+
+    futures = client.compute(objs)
+    try:
+        wait(futures, timeout=max(deadline - time.monotonic(), 0.0))
+    except TimeoutError:
+        client.cancel([*futures, *held])
+        raise
+    return client.gather(futures)
