@@ -38,34 +38,26 @@ def load_pair(sim, cut: str | os.PathLike, *, dtype="float64", sim_region=None,
                           np.dtype(dtype), allow_empty=False)
     except (ValueError, TypeError) as e:
         raise MeshFileError(sim_name, e) from None
-    try:
-        c = convert_cut(cut_mesh, dim, cut_region)
-        validate_mesh(c.points, c.cells, "cutting", s.points.shape[1], np.dtype(dtype),
-                      allow_empty=True)
-    except (ValueError, TypeError) as e:
-        raise MeshFileError(cut, e) from None
-    try:
-        plane = common_plane(s, c)
-    except ValueError as e:
-        raise MeshFileError(cut, e) from None
+    c = converted_cut(cut, cut_mesh, dim, dtype, s.plane, cut_region)
+    plane = s.plane if s.plane is not None else c.plane  # common_plane's
     notes = [f"{sim_name}: {n}" for n in s.notes] + [f"{cut}: {n}" for n in c.notes]
     return Arrays((s.points, s.cells, c.points, c.cells), notes, plane)
 
 
-def converted_cut(path, mesh, dim: int, dtype, plane: float | None):
-    """(points, cells) of a further cutting mesh read from ``path`` (``mesh``: its
-    :func:`read_mesh`) for a ``dim``-D simulation mesh in the plane z = ``plane``:
-    converted and validated as :func:`load_pair` does its cutting mesh; any problem
-    raises :class:`MeshFileError` naming the file."""
+def converted_cut(path, mesh, dim: int, dtype, plane: float | None,
+                  region=None) -> Converted:
+    """A cutting mesh read from ``path`` (``mesh``: its :func:`read_mesh`) for a
+    ``dim``-D simulation mesh in the plane z = ``plane`` (None: 3D or 2D points):
+    converted (``region``: a gmsh physical group or cell block), validated and its
+    plane checked (:func:`common_plane`); any problem raises :class:`MeshFileError`
+    naming the file."""
     try:
-        c = convert_cut(mesh, dim)
+        c = convert_cut(mesh, dim, region)
         validate_mesh(c.points, c.cells, "cutting", dim, np.dtype(dtype), allow_empty=True)
-        if plane is not None and c.plane is not None and c.plane != plane and len(c.cells):
-            raise ValueError(f"it lies in the plane z = {c.plane:g}, the simulation mesh "
-                             f"in z = {plane:g}")
+        common_plane(Converted(None, None, [], plane), c)
     except (ValueError, TypeError) as e:
         raise MeshFileError(path, e) from None
-    return c.points, c.cells
+    return c
 
 
 def input_roles(sim, cut, then=()) -> dict:

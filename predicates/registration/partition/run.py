@@ -322,11 +322,7 @@ def _tasks(dask, client, plan, k, scheduler, chunk, timings, bar, timeout=None,
         with _finished(bar, {t.key for t in tasks}):
             out = dask.compute(*tasks, scheduler=scheduler or "threads") if tasks else []
         del parts, tasks
-    clock("dask")
-    pairs = merge(plan.kinds, [o[0] for o in out], plan.dtype)
-    clock("merge")
-    timings["partitions"] = [o[1] for o in out]
-    return pairs
+    return _merged(plan, out, timings, clock)
 
 
 def _split_there(dask, client, plan, k, scheduler, chunk, timings, bar, timeout,
@@ -348,6 +344,12 @@ def _split_there(dask, client, plan, k, scheduler, chunk, timings, bar, timeout,
         with _finished(bar, {t.key for t in tasks}):
             out = dask.compute(*tasks, scheduler=scheduler or "threads")
     out = [o for o in out if o is not None]  # no cell, or no cutting cell within reach
+    return _merged(plan, out, timings, clock)
+
+
+def _merged(plan, out: list, timings: dict, clock) -> dict:
+    """The tasks' owned pairs merged in the serial order (:func:`.assign.merge`), their
+    statistics in ``timings["partitions"]``."""
     clock("dask")
     pairs = merge(plan.kinds, [o[0] for o in out], plan.dtype)
     clock("merge")

@@ -112,6 +112,6 @@ def _recut_files(cm, later, res, options):
     dtype = options.get("dtype", "float64")
     cuts = [converted_cut(p, mesh, res.dim, dtype, res.plane) for p, mesh in later]
     kept = {k: options[k] for k in _RECUT_OPTIONS if options.get(k) is not None}
-    for Q, K in cuts:
-        cm = recut(cm, Q, K, **kept)
+    for c in cuts:
+        cm = recut(cm, c.points, c.cells, **kept)
     return cm
