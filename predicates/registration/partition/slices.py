@@ -22,7 +22,7 @@ import numpy as np
 
 from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.boxgrid import (
-    BITS, cell_index, colmax, colmin, enlarge, expand)
+    BITS, cell_index, cells_per_axis, colmax, colmin, enlarge, expand)
 from predicates.registration.spatial.broadphase import runs
 from predicates.registration.spatial.gridsums import any_in, occupancy
 
@@ -135,7 +135,7 @@ def _halo_grid(lo, hi, blo, bhi, n_cut: int):
     h = max(h, top * 2.0 ** -BITS, np.finfo(np.float64).tiny)
     budget = max(1 << 16, 2 * (len(lo) + n_cut))
     while True:
-        G = (np.floor(span / h).astype(np.int64) + 1).clip(1, (1 << BITS) + 1)
+        G = cells_per_axis(span, h)
         if float(np.prod(G.astype(float))) <= budget or np.all(G == 1):
             return h, G
         h *= 2

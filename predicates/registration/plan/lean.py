@@ -22,7 +22,7 @@ import numpy as np
 from predicates.registration.spatial import blocks as blocks_module
 from predicates.registration.spatial.boxes import box_extent
 from predicates.registration.spatial.boxgrid import (
-    BITS, cell_index, colmax, colmin, enlarge, mean_extent, ncells)
+    BITS, cell_index, cells_per_axis, colmax, colmin, enlarge, mean_extent, ncells)
 from predicates.registration.spatial.broadphase import _dense, near_flags
 from predicates.registration.spatial.gridsums import (
     _corners, _stride, any_in, coverage, occupancy)
@@ -56,7 +56,7 @@ def near_all(boxes, lo_b: np.ndarray, hi_b: np.ndarray, pad: float, flags=near_f
     h = max(h, span * 2.0 ** -BITS, np.finfo(np.float64).tiny)
     budget = 16 * (na + nb) + (1 << 20)
     while True:
-        G = (np.floor((top - origin) / h).astype(np.int64) + 1).clip(1, (1 << BITS) + 1)
+        G = cells_per_axis(top - origin, h)
         # the cutting side's passes compiled too when the plan's are (the same values)
         ib0, ib1 = (cell_index(x, origin, h, G, boxes.blocks) for x in (lo_bx, hi_bx))
         dense = _dense(G + 1, na + nb)

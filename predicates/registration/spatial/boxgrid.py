@@ -11,10 +11,17 @@ import numpy as np
 from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.exactsum import ExactSum
 
-__all__ = ["BITS", "any_corner", "cell_index", "colmax", "colmin", "covered", "enlarge", "expand",
+__all__ = ["BITS", "any_corner", "cell_index", "cells_per_axis", "colmax", "colmin", "covered",
+           "enlarge", "expand",
            "extent_sums", "fit", "grid", "mean_extent", "ncells", "rowwise"]
 
 BITS = 20  # at most 2^20 + 1 cells per axis: linear keys fit in int64
+
+
+def cells_per_axis(span: np.ndarray, h: float) -> np.ndarray:
+    """(d,) int64 cells per axis of a grid of cell size ``h`` over an extent ``span``:
+    ⌊span/h⌋ + 1, clipped to [1, 2^BITS + 1] (linear keys fit in int64)."""
+    return (np.floor(span / h).astype(np.int64) + 1).clip(1, (1 << BITS) + 1)
 
 
 def cell_index(x, origin, h, G, blocks: Blocks = SERIAL):
@@ -142,7 +149,7 @@ def fit(lo_a, hi_a, lo_bx, hi_bx, origin, top, h, budget, blocks: Blocks = SERIA
     ``budget`` cells: (G, h, ia0, ia1, ib0, ib1). ``blocks``, ``b_side``: how the passes
     over the a and the b boxes run (the same values either way)."""
     while True:
-        G = (np.floor((top - origin) / h).astype(np.int64) + 1).clip(1, (1 << BITS) + 1)
+        G = cells_per_axis(top - origin, h)
         ia0, ia1 = (cell_index(x, origin, h, G, blocks) for x in (lo_a, hi_a))
         ib0, ib1 = (cell_index(x, origin, h, G, b_side) for x in (lo_bx, hi_bx))
         total = covered(ia0, ia1, blocks) + covered(ib0, ib1, b_side)
