@@ -146,8 +146,8 @@ class CellBoxes:
         else:
             if self.cols is None:  # (a race of two threads makes two equal copies)
                 self.cols = np.ascontiguousarray(self.points.T, dtype=np.float64)
-            R = np.ascontiguousarray(self.cells[a:b].T)
-            (_fill_checked if self.checked else fill_boxes)(self.cols, R, lo, hi)
+            fill_boxes(self.cols, np.ascontiguousarray(self.cells[a:b].T), lo, hi,
+                       self.checked)
         self._local.last = (a, b, lo.T, hi.T)
         return lo.T, hi.T
 
@@ -330,21 +330,6 @@ class CellBoxes:
     def array(self, side: int) -> np.ndarray:
         """lo (side 0) or hi (side 1) of every cell, materialised."""
         return self.rows(np.arange(self.n))[side]
-
-
-def _fill_checked(cols: np.ndarray, R: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> None:
-    """:func:`~predicates.registration.spatial.boxes.fill_boxes` (the same takes, min and
-    max in the same order: the same boxes) for ids validated in range, taken without
-    numpy's per-index bounds check (``mode="clip"`` clips nothing then: W4's numpy
-    summary ~−0.1 s of ~1 s)."""
-    x = np.empty(R.shape[1])
-    for ax in range(cols.shape[0]):
-        np.take(cols[ax], R[0], out=lo[ax], mode="clip")
-        hi[ax] = lo[ax]
-        for v in range(1, R.shape[0]):
-            np.take(cols[ax], R[v], out=x, mode="clip")
-            np.minimum(lo[ax], x, out=lo[ax])
-            np.maximum(hi[ax], x, out=hi[ax])
 
 
 class _Side:
