@@ -15,7 +15,7 @@ from .build import INLINE_OPTIONS, JIT_OPTIONS
 from .cells import _index
 from .cellsums import _side4
 
-__all__ = ["flag_tetrahedra_packed", "pack_index", "range_total"]
+__all__ = ["flag_tetrahedra_packed", "pack_index"]
 
 _MASK = (1 << 21) - 1  # one axis's field
 
@@ -105,17 +105,3 @@ def flag_tetrahedra_packed(points, packed, rows, stride, S, has_table, i0, i1, n
             ext = _box_into(points, v0, v1, v2, v3, flo, fhi, nf, ext)
             nf += 1
     return covered, ext, nf
-
-
-@njit(**JIT_OPTIONS)
-def range_total(i0, i1):
-    """Σ over the rows of Π_axes (i1 − i0 + 1): the cells the boxes' inclusive ranges
-    (n, d) cover, ``boxgrid.ncells(i0, i1).sum()`` (int64, the same integer) without
-    its (n,) temporaries — the cutting side's part of the first round's budget test."""
-    total = 0
-    for r in range(i0.shape[0]):
-        c = np.int64(i1[r, 0]) - i0[r, 0] + 1
-        for ax in range(1, i0.shape[1]):
-            c *= np.int64(i1[r, ax]) - i0[r, ax] + 1
-        total += c
-    return total

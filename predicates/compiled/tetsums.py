@@ -28,7 +28,8 @@ from numba import njit
 from .build import INLINE_OPTIONS, JIT_OPTIONS
 from .cellsums import _narrow_status
 
-__all__ = ["all_finite", "checked_summary_tetrahedra", "summary_tetrahedra"]
+__all__ = ["all_finite", "checked_summary_tetrahedra", "summary_tetrahedra",
+           "swept_tetrahedra"]
 
 
 @njit(**JIT_OPTIONS)
@@ -82,13 +83,54 @@ def _clean(i, j, k, m, lim):
 
 
 @njit(**INLINE_OPTIONS)
+def _cell(x, o, inv_h, top):
+    """``clip(floor((x − o)·inv_h), 0, top)`` (:func:`~predicates.compiled.cells._index`
+    when inv_h = 1/h is exact: h a power of two)."""
+    i = np.floor((x - o) * inv_h)
+    i = 0.0 if i < 0 else i
+    i = float(top) if i > top else i
+    return np.int64(i)
+
+
+@njit(**INLINE_OPTIONS)
+def _corner_sum3(S, c0, c1, c2, d0, d1, d2):
+    """The occupied cells of a range: the summed-area table's eight corners (low key
+    terms c, high d; :func:`~predicates.compiled.cells._corner_sum`). Straight-line
+    helpers only: numba's inlining of one with early returns cost 3–10x the loop."""
+    return (np.int64(S[d0 + d1 + d2]) - np.int64(S[c0 + d1 + d2])
+            - np.int64(S[d0 + c1 + d2]) - np.int64(S[d0 + d1 + c2])
+            + np.int64(S[c0 + c1 + d2]) + np.int64(S[c0 + d1 + c2])
+            + np.int64(S[d0 + c1 + c2]) - np.int64(S[c0 + c1 + c2]))
+
+
+@njit(**INLINE_OPTIONS)
+def _keep_row(i0, i1, fcells, flo, fhi, nf, u0, v0, w0, u1, v1, w1, i, j, k, m, x0, x1,
+              x2, y0, y1, y2):
+    """A flagged row's cell ranges, ids and box into row ``nf`` of the outputs; returns
+    its largest box edge (np.maximum over the axes; finite: no NaN to propagate)."""
+    i0[nf, 0], i0[nf, 1], i0[nf, 2] = u0, v0, w0
+    i1[nf, 0], i1[nf, 1], i1[nf, 2] = u1, v1, w1
+    fcells[nf, 0], fcells[nf, 1], fcells[nf, 2], fcells[nf, 3] = i, j, k, m
+    flo[nf, 0], flo[nf, 1], flo[nf, 2] = x0, x1, x2
+    fhi[nf, 0], fhi[nf, 1], fhi[nf, 2] = y0, y1, y2
+    e = y0 - x0 if y0 - x0 > y1 - x1 else y1 - x1
+    return e if e > y2 - x2 else y2 - x2
+
+
+@njit(**INLINE_OPTIONS)
 def _summary_rows(points, rows, used, lo_min, hi_max, hist, status, big, tiny, spread,
-                  split):
-    """The loop of :func:`summary_tetrahedra` and :func:`checked_summary_tetrahedra`
-    (``used`` None: no check; numba prunes the branch); returns (rows read, least,
-    largest extent): the rows read fall short at the first row that is not clean,
-    whose points are never read (nothing is written to the outputs then)."""
+                  split, grid=None):
+    """The loop of :func:`summary_tetrahedra`, :func:`checked_summary_tetrahedra` and
+    :func:`swept_tetrahedra` (``used``, ``grid`` None: no check, no flags; numba prunes
+    the branches); returns (rows read, least, largest extent, rows flagged, their
+    largest box edge): the rows read stop at the first row that is not clean."""
     e_min, e_max = np.inf, -np.inf
+    nf, ext = 0, 0.0
+    if grid is not None:  # unpacked once, not in the loop (a reference count a row)
+        origin, inv_h, last_cell, stride, S, bits, near, i0, i1, flo, fhi, fcells = grid
+        o0, o1, o2 = origin[0], origin[1], origin[2]
+        t0, t1, t2 = last_cell[0], last_cell[1], last_cell[2]
+        s0, s1, s2, use_bits = stride[0], stride[1], stride[2], bits.shape[0] > 0
     a0, a1, a2 = lo_min[0], lo_min[1], lo_min[2]
     b0, b1, b2 = hi_max[0], hi_max[1], hi_max[2]
     h0 = h1 = h2 = l0 = l1 = l2 = 0.0
@@ -98,11 +140,8 @@ def _summary_rows(points, rows, used, lo_min, hi_max, hist, status, big, tiny, s
         i, j, k, m = rows[r, 0], rows[r, 1], rows[r, 2], rows[r, 3]
         if used is not None:  # validation's test before any point is read
             if not _clean(i, j, k, m, used.shape[0]):
-                return r, e_min, e_max
-            used[i] = True
-            used[j] = True
-            used[k] = True
-            used[m] = True
+                return r, e_min, e_max, nf, ext
+            used[i] = used[j] = used[k] = used[m] = True
         x0, y0 = _side(points, i, j, k, m, 0)
         x1, y1 = _side(points, i, j, k, m, 1)
         x2, y2 = _side(points, i, j, k, m, 2)
@@ -116,12 +155,8 @@ def _summary_rows(points, rows, used, lo_min, hi_max, hist, status, big, tiny, s
         p0 = e0 if (e0 > 0.0) & (e0 < p0) else p0
         p1 = e1 if (e1 > 0.0) & (e1 < p1) else p1
         p2 = e2 if (e2 > 0.0) & (e2 < p2) else p2
-        h, low = _split(e0, split)
-        h0, l0 = h0 + h, l0 + low
-        h, low = _split(e1, split)
-        h1, l1 = h1 + h, l1 + low
-        h, low = _split(e2, split)
-        h2, l2 = h2 + h, l2 + low
+        (h, low), (g, lw), (f, lv) = _split(e0, split), _split(e1, split), _split(e2, split)
+        h0, l0, h1, l1, h2, l2 = h0 + h, l0 + low, h1 + g, l1 + lw, h2 + f, l2 + lv
         t = e0 if e0 > e1 else e1
         top = (t if t > e2 else e2) + 0.0  # −0.0 to +0.0 (as summarize)
         e_min = top if top < e_min else e_min
@@ -132,6 +167,23 @@ def _summary_rows(points, rows, used, lo_min, hi_max, hist, status, big, tiny, s
                 hist[last] += run
                 last, run = b, 0
             run += 1
+        if grid is not None:  # the first round's flag (flag_tetrahedra_packed's test),
+            # the box's cells: (x − o)·2^-k is (x − o)/h exactly (h = 2^k: the grid's)
+            u0, u1 = _cell(x0, o0, inv_h, t0), _cell(y0, o0, inv_h, t0)
+            v0, v1 = _cell(x1, o1, inv_h, t1), _cell(y1, o1, inv_h, t1)
+            w0, w1 = _cell(x2, o2, inv_h, t2), _cell(y2, o2, inv_h, t2)
+            c0, c1, c2 = u0 * s0, v0 * s1, w0 * s2
+            key = c0 + c1 + c2
+            small = (u1 - u0 <= 1) & (v1 - v0 <= 1) & (w1 - w0 <= 1)
+            if use_bits and small and (bits[key >> 3] >> (key & 7)) & 1 == 0:
+                near[r] = False  # nothing occupied in the 2^d block holding the range
+                continue
+            near[r] = _corner_sum3(S, c0, c1, c2, (u1 + 1) * s0, (v1 + 1) * s1,
+                                   (w1 + 1) * s2) > 0
+            if near[r]:  # kept: its ranges, ids and box, and its largest edge
+                e = _keep_row(i0, i1, fcells, flo, fhi, nf, u0, v0, w0, u1, v1, w1, i, j,
+                              k, m, x0, x1, x2, y0, y1, y2)
+                nf, ext = nf + 1, (e if e > ext else ext)
     hist[last] += run
     lo_min[0], lo_min[1], lo_min[2] = a0, a1, a2
     hi_max[0], hi_max[1], hi_max[2] = b0, b1, b2
@@ -142,7 +194,7 @@ def _summary_rows(points, rows, used, lo_min, hi_max, hist, status, big, tiny, s
     state = _narrow_status(not e_max < big, pmin, pmax, tiny, spread)
     for ax in range(3):
         status[ax, 0] = state
-    return rows.shape[0], e_min, e_max
+    return rows.shape[0], e_min, e_max, nf, ext
 
 
 @njit(**JIT_OPTIONS)
@@ -154,9 +206,9 @@ def summary_tetrahedra(points, rows, lo_min, hi_max, hist, status, big, tiny, sp
     histogram ``hist`` (finite ones, counted by runs of one bin), per axis the narrow
     sums' (status, Σ high parts, Σ low parts) into ``status`` (3, 3); returns (least,
     largest) of the boxes' largest extents."""
-    _, e_min, e_max = _summary_rows(points, rows, None, lo_min, hi_max, hist, status,
-                                    big, tiny, spread, split)
-    return e_min, e_max
+    got = _summary_rows(points, rows, None, lo_min, hi_max, hist, status, big, tiny,
+                        spread, split)
+    return got[1], got[2]
 
 
 @njit(**JIT_OPTIONS)
@@ -168,5 +220,18 @@ def checked_summary_tetrahedra(points, rows, used, lo_min, hi_max, hist, status,
     2): returns (rows read, least, largest extent). Fewer rows than given: that row is
     not clean, its points were not read and the outputs are not written (validation
     then names the problem from the cells alone)."""
+    got = _summary_rows(points, rows, used, lo_min, hi_max, hist, status, big, tiny,
+                        spread, split)
+    return got[0], got[1], got[2]
+
+
+@njit(**JIT_OPTIONS)
+def swept_tetrahedra(points, rows, used, lo_min, hi_max, hist, status, big, tiny, spread,
+                     split, grid):
+    """:func:`checked_summary_tetrahedra` and the first round's flags of the same rows
+    at a grid fixed before the sweep (:func:`predicates.compiled.flagpack.flag_row`,
+    ``grid`` its tuple; docs/resolution.md, "The first round"): one read of the cells
+    for validation, the summary and the flags. Returns (rows read, least, largest
+    extent, rows flagged, their largest box edge)."""
     return _summary_rows(points, rows, used, lo_min, hi_max, hist, status, big, tiny,
-                         spread, split)
+                         spread, split, grid)

@@ -70,8 +70,7 @@ from fperr.warnings import ResolutionError, ResolutionWarning
 
 from predicates import compiled
 from predicates.catalogue import kinds as catalogue_kinds
-from predicates.registration.plan import threads as plan_threads
-from predicates.registration.plan import resolution
+from predicates.registration.plan import first_round, resolution, threads as plan_threads
 from predicates.registration.plan.cellboxes import CellBoxes
 from predicates.registration.plan.inputs import (
     check_extent, hull_of, mesh_arrays, scale_points, validate_options,
@@ -281,11 +280,12 @@ def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, 
                                                              scheduler, work.blocks)
         timings["plan_remote"] = sim_box.stats
     else:
-        dim, sim, cut = validate_pair(sp, sc, cp, cc, dtype, work.blocks)
+        dim, sim, cut = validate_pair(sp, sc, cp, cc, dtype, work.blocks,
+                                      first_round.from_cut(work.boxes, work.blocks))
         # its boxes never stored: computed per block where needed, the run's kept once
         sim_box = CellBoxes(sim.points, sim.cells, work.blocks, sim.summary, checked=True)
     clock("plan_validate")
-    S, cut_box = sim_box.summary(), work.boxes(cut.points, cut.cells)  # the input's
+    S, cut_box = sim_box.summary(), first_round.cut_boxes(sim_box, cut, work.boxes)
     check_extent("simulation", sim, sp, dtype, (S.lo_min, S.hi_max))
     check_extent("cutting", cut, cp, dtype, hull_of(*cut_box))
     clock("plan_boxes")

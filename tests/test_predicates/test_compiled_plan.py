@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 pytest.importorskip("numba")
 
 from predicates.registration.plan.cellboxes import CellBoxes  # noqa: E402
-from predicates.registration.plan.lean import near_all  # noqa: E402
+from predicates.registration.plan.first_round import near_fixed  # noqa: E402
 from predicates.registration.spatial.blocks import SERIAL, Blocks  # noqa: E402
 from predicates.registration.spatial.broadphase import box_pairs_bruteforce  # noqa: E402
 
@@ -51,7 +51,7 @@ def _blocks(pool):
 @_SLOW
 @given(data=st.data(), d=st.sampled_from([2, 3]))
 def test_flag_pass_identical(data, d):
-    """CellBoxes' blocks, summary and the lean plan's first round (near_all: flags of
+    """CellBoxes' blocks, summary and the lean plan's first round (near_fixed: flags of
     both sides, the largest edge of the flagged cells) with the fused compiled pass
     equal numpy's; every simulation cell with a partner within pad (brute force) is
     flagged, and the edge is exactly the flagged boxes' largest."""
@@ -60,7 +60,7 @@ def test_flag_pass_identical(data, d):
     hi_b = lo_b + rng.choice([0.0, 0.01, 0.5], size=(30, 1))
     pad = data.draw(st.sampled_from([0.0, 2.0 ** -20, 0.1]))
     ref_box = CellBoxes(P, cells, SERIAL)
-    ref = near_all(ref_box, lo_b, hi_b, pad)
+    ref = near_fixed(ref_box, lo_b, hi_b, pad)
     lo, hi = ref_box.block(0, len(cells))
     ia, _ = box_pairs_bruteforce(lo, hi, lo_b, hi_b, pad)
     assert ref[0][ia].all()
@@ -81,7 +81,7 @@ def test_flag_pass_identical(data, d):
             assert (S.hist is None) == (T.hist is None)
             assert S.hist is None or np.array_equal(S.hist, T.hist)
             assert [x.units for x in S.sums] == [x.units for x in T.sums]
-            want, got = near_all(ref_box, lo_b, hi_b, pad), near_all(box, lo_b, hi_b, pad)
+            want, got = near_fixed(ref_box, lo_b, hi_b, pad), near_fixed(box, lo_b, hi_b, pad)
             assert np.array_equal(want[0], ref[0]) and np.array_equal(want[1], ref[1])
             assert np.array_equal(want[0], got[0]) and np.array_equal(want[1], got[1])
             assert np.float64(want[2]).tobytes() == np.float64(got[2]).tobytes()
@@ -539,7 +539,7 @@ def test_the_run_cells_are_gathered_once():
     P, C = cube_grid(6)
     box = CellBoxes(P, C, Blocks(accelerate=True, block=97))
     lo_b = np.array([[0.3, 0.3, 0.3]])
-    near = near_all(box, lo_b, lo_b + 0.2, 0.01)[0]
+    near = near_fixed(box, lo_b, lo_b + 0.2, 0.01)[0]
     assert box._kept_cells is not None and 0 < near.sum() < len(C)
     assert np.array_equal(box._kept_cells[1], C[near])
     half = near & (np.arange(len(C)) % 2 == 0)
@@ -736,6 +736,14 @@ def test_plan_float_kernels_have_no_fma():
                                         np.full(3, -np.inf), np.zeros(2048, np.int64),
                                         np.empty((3, 3)), xs._BIG, xs._TINY, xs._SPREAD,
                                         xs._SPLIT)),
+        (T.swept_tetrahedra, (P, C, np.zeros(8, bool), np.full(3, np.inf),
+                              np.full(3, -np.inf), np.zeros(2048, np.int64),
+                              np.empty((3, 3)), xs._BIG, xs._TINY, xs._SPREAD, xs._SPLIT,
+                              (np.zeros(3), 4.0, np.full(3, 3, np.int64),
+                               np.array([1, 5, 25], np.int64), np.zeros(125, np.int32),
+                               np.zeros(0, np.uint8), np.zeros(2, bool),
+                               np.empty((2, 3), np.int32), np.empty((2, 3), np.int32),
+                               np.empty((2, 3)), np.empty((2, 3)), np.empty_like(C)))),
         (T.all_finite, (P,)),
         (K.widened, (P, P + 1, np.full(8, 0.5), 2.0 ** -1000, np.empty_like(P),
                      np.empty_like(P))),
@@ -759,7 +767,6 @@ def test_plan_float_kernels_have_no_fma():
                                 np.array([1, 11, 121], np.int64), np.zeros(1331, np.int64),
                                 1)),
         (flagpack.pack_index, (P, o, 0.25, G, np.empty(8, np.int64))),
-        (flagpack.range_total, (np.zeros((8, 3), np.int32), np.ones((8, 3), np.int32))),
         (flagpack.flag_tetrahedra_packed, (P, np.zeros(8, np.int64), C, stride, S, True,
                                            *ranges, np.empty((m, 3)), np.empty((m, 3)),
                                            np.zeros(0, np.uint8), np.empty_like(C))),
@@ -917,23 +924,12 @@ def test_unrolled_least_square_is_the_general_kernel(data, k):
         assert want == got or (np.isnan(want) and np.isnan(got)), (a, b, want, got)
 
 
-def test_range_total_is_the_cells_covered():
-    """flagpack.range_total (the cutting side's covered cells in the first round's
-    budget test) is boxgrid.ncells(i0, i1).sum() in 2D and 3D, for ranges up to the
-    grid's 2^20 + 1 cells per axis (products beyond 2^32) and for no boxes; the
-    scaling kernel's one-row call (cellsums.scale_exact on C-ordered points) gives the
-    row-by-row values and refusals."""
+def test_scale_exact_is_the_row_by_row_scaling():
+    """The scaling kernel's one-row call (cellsums.scale_exact on C-ordered points)
+    gives the row-by-row values and refusals."""
     from predicates.compiled.cellsums import _scale_rows, scale_exact
-    from predicates.compiled.flagpack import range_total
-    from predicates.registration.spatial.boxgrid import ncells
 
     rng = np.random.default_rng(11)
-    for d in (2, 3):
-        for top in (3, 1000, 2 ** 20):
-            i0 = rng.integers(0, top, size=(500, d)).astype(np.int32)
-            i1 = np.minimum(i0 + rng.integers(0, top, size=(500, d)), 2 ** 20).astype(np.int32)
-            assert range_total(i0, i1) == int(ncells(i0, i1).sum())
-            assert range_total(i0[:0], i1[:0]) == 0
     P = rng.choice(_VALUES, size=(300, 3))
     P = P[np.isfinite(P).all(axis=1)]
     for factor, back in ((0.5, 2.0), (2.0 ** -1000, 2.0 ** 1000), (2.0 ** 600, 2.0 ** -600)):

@@ -1,7 +1,9 @@
-"""The lean plan (predicates.registration.plan.cellboxes, .lean; docs/partitioned.md,
-section 2): the simulation boxes computed block by block give the numbers the stored
-boxes gave — the flags of near_flags, L over the cells that can meet, the refinement's
-scan — for any blocking, and the run's peak memory stays below the boxes' bytes."""
+"""The lean plan (predicates.registration.plan.cellboxes, .lean, .first_round;
+docs/partitioned.md, section 2): the simulation boxes computed block by block give the
+numbers the stored boxes gave — the first round's flags, L over the cells that can
+meet, the refinement's scan — for any blocking, the flags computed in validation's
+sweep are those of a pass of their own, they hold every pair within the pad, and the
+run's peak memory stays below the boxes' bytes."""
 from __future__ import annotations
 
 import numpy as np
@@ -10,11 +12,10 @@ from hypothesis import given, settings, strategies as st
 
 from predicates.registration.plan import refine_scan
 from predicates.registration.plan.cellboxes import CellBoxes
-from predicates.registration.plan.lean import near_all
+from predicates.registration.plan.first_round import near_fixed
 from predicates.registration.plan.resolution import consistent_scale
 from predicates.registration.spatial import blocks as B
 from predicates.registration.spatial.boxes import box_extent, boxes_of
-from predicates.registration.spatial.broadphase import near_flags
 
 
 def _mesh(seed: int, n: int, dim: int = 3, spread: float = 1.0):
@@ -31,29 +32,74 @@ def _cut(seed: int, m: int, dim: int = 3, size: float = 0.05):
     return lo, lo + size * rng.random((m, dim))
 
 
+def _within(lo, hi, lo_b, hi_b, pad):
+    """(n, m) bool: box i of (lo, hi) within ``pad`` of box j of (lo_b, hi_b) (every
+    axis's gap ≤ pad, exact: Fractions)."""
+    from fractions import Fraction as F
+
+    out = np.zeros((len(lo), len(lo_b)), dtype=bool)
+    for i in range(len(lo)):
+        for j in range(len(lo_b)):
+            out[i, j] = all(F(float(lo_b[j, a])) - F(float(hi[i, a])) <= F(pad)
+                            and F(float(lo[i, a])) - F(float(hi_b[j, a])) <= F(pad)
+                            for a in range(lo.shape[1]))
+    return out
+
+
 @settings(max_examples=40, deadline=None)
-@given(st.integers(0, 2**32 - 1), st.integers(1, 300), st.sampled_from([2, 3]),
-       st.sampled_from([0.0, 1e-3, 0.05, 0.3]), st.sampled_from([1, 7, 64, None]))
-def test_near_all_is_near_flags(seed, n, dim, pad, block):
+@given(st.integers(0, 2**32 - 1), st.integers(1, 120), st.sampled_from([2, 3]),
+       st.sampled_from([0.0, 1e-3, 0.05, 0.3]), st.sampled_from([1, 7, 64, None]),
+       st.booleans())
+def test_first_round_is_the_arrays_and_holds_every_pair_within_the_pad(
+        seed, n, dim, pad, block, fast):
+    """near_fixed on the cells' boxes computed block by block (numpy or compiled) is
+    near_fixed on the stored boxes, and flags both cells of every pair within the pad
+    (exact reference)."""
     P, C = _mesh(seed, n, dim, spread=0.0 if seed % 2 else 2.0)
     lo_b, hi_b = _cut(seed, 1 + seed % 40, dim)
     lo, hi = boxes_of(P, C)
-    ref_a, ref_b = near_flags(lo, hi, lo_b, hi_b, pad)
-    boxes = CellBoxes(P, C, B.Blocks(block=block))
-    got_a, got_b, ext = near_all(boxes, lo_b, hi_b, pad)
+    ref_a, ref_b, ref_ext = near_fixed((lo, hi), lo_b, hi_b, pad)
+    boxes = CellBoxes(P, C, B.Blocks(block=block, accelerate=fast))
+    got_a, got_b, ext = near_fixed(boxes, lo_b, hi_b, pad)
     assert np.array_equal(got_a, ref_a) and np.array_equal(got_b, ref_b)
-    assert ext == (float(box_extent(lo[ref_a], hi[ref_a]).max()) if ref_a.any() else 0.0)
+    assert ext == ref_ext == (float(box_extent(lo[ref_a], hi[ref_a]).max())
+                              if ref_a.any() else 0.0)
+    near = _within(lo, hi, lo_b, hi_b, pad)
+    assert not (near.any(axis=1) & ~ref_a).any() and not (near.any(axis=0) & ~ref_b).any()
 
 
-def test_near_all_sparse_grid_falls_back_to_the_same_flags(monkeypatch):
-    from predicates.registration.plan import lean
+@pytest.mark.parametrize("pad", [0.0, 1e-9, 0.3])
+@pytest.mark.parametrize("block", [64, None])
+def test_the_sweep_flags_are_the_pass_flags(pad, block):
+    """The first round's flags computed in validation's sweep (compiled tetrahedra,
+    ``validate_pair`` with a first-round grid: first_round.py) are those of a flag
+    pass of their own at the same grid, kept rows included; a pad beyond the
+    sweep's margin (0.3) makes a grid of its own, and a pass."""
+    from predicates.registration.examples import cube_grid, icosphere
+    from predicates.registration.plan import first_round
+    from predicates.registration.plan.inputs import validate_pair
 
-    P, C = _mesh(3, 200)
-    lo_b, hi_b = _cut(3, 30)
-    monkeypatch.setattr(lean, "_dense", lambda G, n: False)
-    got = near_all(CellBoxes(P, C), lo_b, hi_b, 0.01)
-    ref = near_flags(*boxes_of(P, C), lo_b, hi_b, 0.01)
-    assert np.array_equal(got[0], ref[0]) and np.array_equal(got[1], ref[1])
+    sp, sc = cube_grid(9)
+    cp, cc = icosphere(2)
+    cp = cp * 0.9 + 0.5
+    blocks = B.Blocks(block=block, accelerate=True)
+    _, sim, cut = validate_pair(sp, sc, cp, cc, np.float64, blocks,
+                                first_round.from_cut(boxes_of, blocks))
+    swept = CellBoxes(sim.points, sim.cells, blocks, sim.summary, checked=True)
+    assert swept.first_grid is not None
+    cut_box = first_round.cut_boxes(swept, cut, boxes_of)
+    holds = swept.first_grid.holds(*cut_box, len(sc), pad)
+    assert holds == (pad < 0.3)
+    got = near_fixed(swept, *cut_box, pad)
+    assert swept.first_grid is None  # used (or dropped) once
+    plain = CellBoxes(sim.points, sim.cells, blocks)
+    ref = near_fixed(plain, *cut_box, pad)
+    assert all(np.array_equal(a, b) for a, b in zip(got[:2], ref[:2])) and got[2] == ref[2]
+    assert 0 < got[0].sum() < len(sc)
+    for sel in (got[0], np.flatnonzero(got[0])[::2]):
+        assert np.array_equal(swept.cells_of(sel), sc[sel])
+        assert all(np.array_equal(a, b) for a, b in zip(swept.rows(sel),
+                                                         boxes_of(sp, sc[sel])))
 
 
 @pytest.mark.parametrize("seed", range(6))
@@ -140,8 +186,8 @@ def test_kept_rows_by_mask_give_the_gathered_boxes_and_cells(seed):
     cut = (cut_lo, cut_lo + rng.uniform(0.005, 0.1) * rng.random(cut_lo.shape))
     cb = CellBoxes(P, C, B.Blocks(block=64, accelerate=True))
     pad = [0.0, 1e-3, 0.05][seed % 3]
-    near_a, near_b, _ = near_all(cb, *cut, pad)
-    ref_a, ref_b = near_flags(lo, hi, *cut, pad)
+    near_a, near_b, _ = near_fixed(cb, *cut, pad)
+    ref_a, ref_b, _ = near_fixed((lo, hi), *cut, pad)
     assert np.array_equal(near_a, ref_a) and np.array_equal(near_b, ref_b)
     assert 0 < near_a.sum() < len(C)
     assert cb._kept_mask is near_a and cb._kept[0] is None  # kept by mask, no ids yet

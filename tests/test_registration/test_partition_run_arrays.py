@@ -18,7 +18,7 @@ from predicates.registration.partition.run_arrays import (
     DeferredRun, checked_scaling, materialised)
 from predicates.registration.plan.cellboxes import CellBoxes
 from predicates.registration.plan.inputs import scale_points
-from predicates.registration.plan.lean import near_all
+from predicates.registration.plan.first_round import near_fixed
 from predicates.registration.spatial.blocks import Blocks
 from predicates.registration.spatial.boxes import boxes_of
 
@@ -103,8 +103,8 @@ def test_the_flagged_cells_from_the_workers_are_the_serial_ones(fast, parts):
                                                blocks)
     lo_b, hi_b = boxes_of(cp, cc)
     pad = 0.05
-    got = near_all(remote_cells, lo_b, hi_b, pad)
-    ref = near_all(CellBoxes(sim.points, sc, blocks), lo_b, hi_b, pad)
+    got = near_fixed(remote_cells, lo_b, hi_b, pad)
+    ref = near_fixed(CellBoxes(sim.points, sc, blocks), lo_b, hi_b, pad)
     assert np.array_equal(got[0], ref[0]) and np.array_equal(got[1], ref[1])
     assert got[2] == ref[2] and got[0].any()
     lo, hi = remote_cells.rows(got[0])

@@ -41,6 +41,7 @@ class BoxSummary:
     sums: list
     ext_min: float = np.inf
     hist: np.ndarray | None = None  # biased exponents of the extents (None: not finite)
+    first: tuple | None = None  # (grid, flags) of the sweep that made it (first_round.py)
 
     def merge(self, other: "BoxSummary") -> "BoxSummary":
         if other.n == 0:
@@ -110,6 +111,11 @@ class CellBoxes:
         self._kept_mask = None  # the mask whose rows the kept ones are (keep(mask=))
         self._cells_sel = None  # (selection, its cells) of the last cells_of
         self._local = threading.local()  # the last block computed, per thread
+        # the first round's grid and flags when the summary's sweep made them
+        # (checked_summary with a grid; first_round.py): (result, kept rows)
+        self.first_grid, self._first = getattr(summary, "first", None) or (None, None)
+        if summary is not None:
+            summary.first = None  # held here only: not for as long as the summary
 
     # lo and hi are made when asked, not stored: a stored view referring back to its
     # owner made a reference cycle that kept the boxes until a full collection
@@ -227,9 +233,15 @@ class CellBoxes:
 
     def flag_pass(self, origin, h, G, table):
         """:func:`~.lean.flag_pass` over these cells (the first round of the cells that
-        can meet)."""
+        can meet); at the grid the summary's sweep flagged at, its result (no pass)."""
         from predicates.registration.plan.lean import flag_pass
 
+        grid, first = self.first_grid, self._first
+        self.first_grid = self._first = None  # asked once: used, or not the round's grid
+        if grid is not None and table is grid.table:
+            result, kept = first
+            self.keep(None, *kept, mask=result[1][0])
+            return result
         return flag_pass(self, origin, h, G, table)
 
     def summary(self) -> BoxSummary:
@@ -251,37 +263,55 @@ class CellBoxes:
             self._summary = out
         return self._summary
 
-    def checked_summary(self, used: np.ndarray) -> BoxSummary | None:
+    def checked_summary(self, used: np.ndarray, grid=None) -> BoxSummary | None:
         """Validation's cell check and :meth:`summary` in one pass (tetrahedra over
         finite points, compiled: :func:`predicates.compiled.tetsums.
         checked_summary_tetrahedra`), marking ``used`` (one bool per point): the
         summary (kept), or None at a row with an id outside [0, len(used)) or a
-        repeated id — the cells are then checked as before, which names it."""
-        def span(a: int, b: int) -> BoxSummary | None:
-            return self._compiled_summary(a, b, used)
+        repeated id — the cells are then checked as before, which names it. ``grid``:
+        a :class:`~.first_round.FixedGrid` whose first-round flags the same sweep
+        computes (``swept_tetrahedra``), kept in the summary's ``first``."""
+        swept = None
+        if grid is not None:
+            from predicates.registration.plan.first_round import SweptFlags
+
+            swept = SweptFlags(grid, self.cells.dtype, self.n)
+
+        def span(a: int, b: int):
+            rows = None if swept is None else swept.span(a, b)
+            return self._compiled_summary(a, b, used, rows), rows
 
         parts = self.blocks.map(span, self.n)
-        if any(p is None for p in parts):
+        if any(p is None for p, _ in parts):
             return None
-        out = parts[0]
-        for p in parts[1:]:
+        out = parts[0][0]
+        for p, _ in parts[1:]:
             out = out.merge(p)
+        if swept is not None:
+            out.first = (grid, swept.result([r for _, r in parts]))
         self._summary = out
         return out
 
-    def _compiled_summary(self, a: int, b: int, used: np.ndarray | None = None
-                          ) -> BoxSummary | None:
+    def _compiled_summary(self, a: int, b: int, used: np.ndarray | None = None,
+                          flags=None) -> BoxSummary | None:
         """The :class:`BoxSummary` of rows [a, b) in one compiled loop per block of at
         most 2^16 rows (:func:`predicates.compiled.cellsums.summary_block`: the boxes in
         registers, the values of :func:`summarize`; the exact sums' narrow parts, a
         block outside the narrow path summed from its boxes as before). ``used``: with
-        validation's check (:meth:`checked_summary`; None at a row that fails it)."""
-        from predicates.compiled.tetsums import checked_summary_tetrahedra
+        validation's check (:meth:`checked_summary`; None at a row that fails it);
+        ``flags``: a span's first-round output (``first_round._SpanRows``), the flags
+        written by the same loop (:func:`~predicates.compiled.tetsums.swept_tetrahedra`)."""
+        from predicates.compiled.tetsums import checked_summary_tetrahedra, swept_tetrahedra
         from predicates.registration.spatial import exactsum as xs
 
         d, P = self.d, self._given()
         kernel = self._summary_kernel() if used is None else (
             lambda P, rows, *rest: checked_summary_tetrahedra(P, rows, used, *rest))
+        if flags is not None:  # (used is given: the plan's checked sweep)
+            def kernel(P, rows, *rest):
+                got = swept_tetrahedra(P, rows, used, *rest, flags.args(u, u + len(rows)))
+                flags.add(got[3], got[4])
+                return got[:3]
         lo_min, hi_max = np.full(d, np.inf), np.full(d, -np.inf)
         hist, sums = np.zeros(2048, dtype=np.int64), [ExactSum(True) for _ in range(d)]
         e_min, e_max = np.inf, -np.inf

@@ -81,7 +81,7 @@ def _points(arr, used, role, dtype, finite: bool = False):
 
 
 def _cells(cells, role, width, n_points, what, blocks: Blocks = SERIAL, used=None,
-           points=None):
+           points=None, grid_for=None):
     """The cells as given when they are an integer array (no copy, the dtype kept; int64
     for an empty or non-array input), checked block by block: negative, out-of-range
     and repeated vertex ids are refused at their first cell, in that order. ``used``
@@ -89,7 +89,8 @@ def _cells(cells, role, width, n_points, what, blocks: Blocks = SERIAL, used=Non
     the same pass; returned as None when not marked. ``points`` (finite, C-ordered, in
     the working dtype; tetrahedra): the boxes' summary made in the same pass
     (:meth:`~predicates.registration.plan.cellboxes.CellBoxes.checked_summary`),
-    returned third (else None)."""
+    returned third (else None); with the first round's flags at ``grid_for(cells)``'s
+    grid when given (:mod:`~predicates.registration.plan.first_round`)."""
     name = f"{role} cells"
     try:
         arr = np.asarray(cells)
@@ -106,7 +107,8 @@ def _cells(cells, role, width, n_points, what, blocks: Blocks = SERIAL, used=Non
         if points is not None and width == 4:  # the ids read once for both
             from predicates.registration.plan.cellboxes import CellBoxes
 
-            summary = CellBoxes(points, arr, blocks).checked_summary(used)
+            grid = None if grid_for is None else grid_for(len(arr))
+            summary = CellBoxes(points, arr, blocks).checked_summary(used, grid)
         # a refused row (summary None) is found and named by the check alone
         found = [None] * 3 if summary is not None else \
             _checked_and_used(arr, n_points, blocks, used)
@@ -177,10 +179,11 @@ def cell_error(role: str, t: int, i: int, row: list, n_points: int) -> ValueErro
 
 
 def validate_mesh(points, cells, role, dim, dtype, allow_empty, blocks: Blocks = SERIAL,
-                  summarize: bool = False):
+                  summarize: bool = False, grid_for=None):
     """Check one mesh; returns a :class:`MeshInput` in the working ``dtype``;
     ``summarize``: with its boxes' summary when the cell check can make it in the same
-    pass (:func:`_finite_as_given`; the plan's simulation mesh)."""
+    pass (:func:`_finite_as_given`; the plan's simulation mesh), and the first round's
+    flags at ``grid_for(cell count)``'s grid (:func:`_cells`)."""
     arr = _array(points, role)
     if arr.shape[1] != dim:
         raise ValueError(f"mixed dimensions: the simulation mesh is {dim}D but the "
@@ -190,7 +193,8 @@ def validate_mesh(points, cells, role, dim, dtype, allow_empty, blocks: Blocks =
             (3, 3): "triangles"}[dim, k]
     c, used, summary = _cells(cells, role, k, len(arr), f"{what} of a {dim}D {role} mesh",
                               blocks, np.zeros(len(arr), dtype=bool),
-                              _finite_as_given(arr, dtype, blocks, k) if summarize else None)
+                              _finite_as_given(arr, dtype, blocks, k) if summarize else None,
+                              grid_for)
     if len(c) == 0 and not allow_empty:
         raise ValueError(f"the {role} mesh is empty (0 cells)")
     if used is None:  # not marked by the compiled check
@@ -214,9 +218,13 @@ def _finite_as_given(arr: np.ndarray, dtype, blocks: Blocks, k: int):
 
 
 def validate_pair(sim_points, sim_cells, cut_points, cut_cells, dtype,
-                  blocks: Blocks = SERIAL):
+                  blocks: Blocks = SERIAL, first_round=None):
     """Validate both meshes; the dimension is the simulation points' column count.
-    ``blocks``: how the passes over the cells run (the same checks and messages)."""
+    ``blocks``: how the passes over the cells run (the same checks and messages).
+    ``first_round(cut, n_sim)``: a grid for the first round's flags, made from the
+    validated cutting mesh, which the simulation cells' sweep flags at (the cutting
+    mesh is then checked first; its error, if any, still comes after the simulation
+    mesh's)."""
     dtype = np.dtype(dtype)
     if dtype not in (np.dtype(np.float64), np.dtype(np.float32)):
         raise TypeError(f"dtype must be float64 or float32, not {dtype}")
@@ -224,10 +232,21 @@ def validate_pair(sim_points, sim_cells, cut_points, cut_cells, dtype,
     if sp.ndim != 2 or sp.shape[-1] not in (2, 3):
         _array(sim_points, "simulation")  # raises the right error
     dim = sp.shape[1]
+    cut = error = grid_for = None
+    if first_round is not None:
+        try:
+            cut = validate_mesh(cut_points, cut_cells, "cutting", dim, dtype,
+                                allow_empty=True, blocks=blocks)
+            grid_for = (lambda n: first_round(cut, n))  # noqa: E731
+        except Exception as e:  # raised after the simulation mesh's own checks
+            error = e
     sim = validate_mesh(sim_points, sim_cells, "simulation", dim, dtype, allow_empty=False,
-                        blocks=blocks, summarize=True)
-    cut = validate_mesh(cut_points, cut_cells, "cutting", dim, dtype, allow_empty=True,
-                        blocks=blocks)
+                        blocks=blocks, summarize=True, grid_for=grid_for)
+    if error is not None:
+        raise error
+    if cut is None:
+        cut = validate_mesh(cut_points, cut_cells, "cutting", dim, dtype, allow_empty=True,
+                            blocks=blocks)
     return dim, sim, cut
 
 

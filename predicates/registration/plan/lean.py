@@ -1,19 +1,12 @@
-"""The first round of the cells that can meet over every simulation cell, without the
-cells' boxes in memory (docs/partitioned.md, section 2, "the lean plan"): the same flags
-as :func:`~predicates.registration.spatial.broadphase.near_flags` on all boxes, from
-one pass that recomputes each block's boxes (:class:`~.cellboxes.CellBoxes`).
-
-``near_flags`` builds the broad phase's grid (:func:`~predicates.registration.spatial.
-boxgrid.grid`: hull, mean extent, doubled cell size while the boxes cover more than the
-budget), then on a dense grid flags a cell when its cell range holds a cell covered by
-an enlarged cutting box (a summed-area table), and a cutting cell when its range holds a
-cell covered by a flagged simulation cell. Here the hull and the mean extent come from
-the boxes' summary (exact reductions: the same numbers), and one pass per cell size
-computes, block by block, the cells' ranges, their covered count (the budget test), the
-simulation flags against the cutting occupancy, the flagged cells' ranges (whose
-coverage has the same integer counts) and their largest box edge — the
-flags of the cell size the budget test keeps are the final ones. A grid too sparse for
-the summed-area tables falls back to ``near_flags`` on the materialised boxes.
+"""The first round's flag pass over every simulation cell, without the cells' boxes in
+memory (docs/partitioned.md, section 2, "the lean plan"; the round and its grid:
+:mod:`~predicates.registration.plan.first_round`): one pass that recomputes each
+block's boxes (:class:`~.cellboxes.CellBoxes`) and flags a cell when its cell range
+holds a cell covered by an enlarged cutting box (a summed-area table of the cutting
+occupancy: 2^d look-ups), keeping the flagged cells' ranges, boxes, ids and largest box
+edge; :func:`cut_flags` then flags a cutting cell when its range holds a cell covered
+by a flagged simulation cell. Compiled, the points' grid cells are computed once and
+tetrahedra read them packed (:mod:`predicates.compiled.flagpack`).
 """
 from __future__ import annotations
 
@@ -21,65 +14,26 @@ import numpy as np
 
 from predicates.registration.spatial import blocks as blocks_module
 from predicates.registration.spatial.boxes import box_extent
-from predicates.registration.spatial.boxgrid import (
-    BITS, cell_index, cells_per_axis, colmax, colmin, enlarge, mean_extent, ncells)
-from predicates.registration.spatial.broadphase import _dense, near_flags
+from predicates.registration.spatial.boxgrid import cell_index, ncells
 from predicates.registration.spatial.gridsums import (
     _corners, _stride, any_in, coverage, occupancy)
 
-__all__ = ["flag_pass", "near_all"]
+__all__ = ["cut_flags", "flag_pass"]
 
 
-def near_all(boxes, lo_b: np.ndarray, hi_b: np.ndarray, pad: float, flags=near_flags):
-    """(near_a, near_b, ext_a): ``near_flags(all boxes of boxes, lo_b, hi_b, pad)`` and
-    the largest box edge of the flagged cells (not rounded; 0.0 if none). ``boxes``: a
-    :class:`~.cellboxes.CellBoxes` or anything with its ``summary``, ``rows``, ``d``
-    and ``flag_pass`` (:func:`flag_pass` over its cells: the plan's passes on the
-    workers' cells, :mod:`predicates.registration.partition.remote`); ``flags``:
-    near_flags or an identical one (the fallback on a sparse grid)."""
-    na, nb = len(boxes), len(lo_b)
-    lo_b, hi_b = np.asarray(lo_b, dtype=np.float64), np.asarray(hi_b, dtype=np.float64)
-    if na == 0 or nb == 0:
-        return np.zeros(na, dtype=bool), np.zeros(nb, dtype=bool), 0.0
-    S = boxes.summary()
-    lo_bx, hi_bx = enlarge(lo_b, hi_b, pad, boxes.blocks.accelerate)
-    origin = np.minimum(S.lo_min, colmin(lo_bx))
-    top = np.maximum(S.hi_max, colmax(hi_bx))
-    with np.errstate(over="ignore"):
-        span = float((top - origin).max())
-    if not np.isfinite(span):
-        raise ValueError("coordinates too large for the broad phase (their range "
-                         "overflows the floating-point format)")
-    h = max(S.mean_extent(), mean_extent(lo_bx, hi_bx))
-    if h <= 0:
-        h = span / max(1.0, (na + nb) ** (1 / boxes.d))
-    h = max(h, span * 2.0 ** -BITS, np.finfo(np.float64).tiny)
-    budget = 16 * (na + nb) + (1 << 20)
-    while True:
-        G = cells_per_axis(top - origin, h)
-        # the cutting side's passes compiled too when the plan's are (the same values)
-        ib0, ib1 = (cell_index(x, origin, h, G, boxes.blocks) for x in (lo_bx, hi_bx))
-        dense = _dense(G + 1, na + nb)
-        table = _occupied(ib0, ib1, G, boxes.blocks) if dense else None
-        covered, got = boxes.flag_pass(origin, h, G, table)
-        if covered + _range_total(ib0, ib1, boxes.blocks) <= budget or np.all(G == 1):
-            break
-        h *= 2
-    if not dense:  # as near_flags on a sparse grid (the same grid: it recomputes it)
-        lo, hi = boxes.rows(np.ones(na, dtype=bool))
-        near_a, near_b = flags(lo, hi, lo_b, hi_b, pad)
-        ext = float(box_extent(lo[near_a], hi[near_a]).max()) if near_a.any() else 0.0
-        return near_a, near_b, ext
-    near_a, i0f, i1f, ext = got
-    # the flagged cells' coverage: the same integer counts as near_flags's occupancy
-    if boxes.blocks.accelerate and len(G) == 3:  # any_in's look-ups on _occupied's table
+def cut_flags(i0f, i1f, ib0, ib1, G, blocks) -> np.ndarray:
+    """The cutting cells' flags: is a cell of the range [ib0, ib1] covered by a
+    flagged simulation cell's range [i0f, i1f] (the same integer counts as
+    near_flags's occupancy)."""
+    nb = len(ib0)
+    if blocks.accelerate and len(G) == 3:  # any_in's look-ups on _occupied's table
         from predicates.compiled.cells import look_corners
 
-        S, near_b = _occupied(i0f, i1f, G, boxes.blocks), np.empty(nb, dtype=bool)
-        boxes.blocks.rows(lambda a, b: look_corners(S, ib0[a:b], ib1[a:b], _stride(G),
-                                                    near_b[a:b]), nb)
-        return near_a, near_b, ext
-    return near_a, any_in(occupancy(i0f, i1f, G, boxes.blocks), ib0, ib1, G, boxes.blocks), ext
+        S, near_b = _occupied(i0f, i1f, G, blocks), np.empty(nb, dtype=bool)
+        blocks.rows(lambda a, b: look_corners(S, ib0[a:b], ib1[a:b], _stride(G),
+                                              near_b[a:b]), nb)
+        return near_b
+    return any_in(occupancy(i0f, i1f, G, blocks), ib0, ib1, G, blocks)
 
 
 def flag_pass(boxes, origin, h, G, table):
@@ -205,16 +159,6 @@ def _compiled_span(boxes, origin, h, G, table, near):
                 np.empty((m, k), dtype=boxes.cells.dtype))
 
     return span, indexed
-
-
-def _range_total(i0, i1, blocks) -> int:
-    """``ncells(i0, i1).sum()``: compiled without temporaries
-    (:func:`predicates.compiled.flagpack.range_total`, the same integer)."""
-    if not blocks.accelerate:
-        return int(ncells(i0, i1).sum())
-    from predicates.compiled.flagpack import range_total
-
-    return int(range_total(i0, i1))
 
 
 def _occupied(i0, i1, G, blocks) -> np.ndarray:

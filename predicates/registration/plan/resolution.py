@@ -29,7 +29,7 @@ import numpy as np
 from predicates.catalogue import kinds as catalogue_kinds
 from predicates.tolerances import tolerances as compute_tolerances
 from predicates.registration.plan.edges import shortest_edge  # noqa: F401 (re-exported)
-from predicates.registration.plan.lean import near_all
+from predicates.registration.plan.first_round import near_fixed
 from predicates.registration.plan.paircount import KEY_RADIX as _KEY_RADIX
 from predicates.registration.plan.paircount import cell_keys as _cell_keys
 from predicates.registration.plan.paircount import compiled_count, grid_start
@@ -131,10 +131,7 @@ def _near(sim_box, cut_box, pad, masks, flags):
     out_s, out_c = np.zeros_like(ms), np.zeros_like(mc)
     lean = hasattr(sim_box, "flag_pass")  # a CellBoxes (or its remote form)
     if ms.all() and mc.all() and len(ms) and len(mc):  # round 1: no copies of the boxes
-        if lean:
-            return near_all(sim_box, *cut_box, pad, flags)
-        ns, nc = flags(*sim_box, *cut_box, pad)
-        return ns, nc, _edge_max(sim_box, ns)
+        return near_fixed(sim_box, *cut_box, pad)  # at the grid the cutting mesh fixes
     if ms.any() and mc.any():
         # near_flags does not depend on the cells' order (its grid size is an exactly
         # rounded mean), so neither does L
