@@ -111,3 +111,30 @@ def test_the_flagged_cells_from_the_workers_are_the_serial_ones(fast, parts):
     want = boxes_of(sim.points, sc[got[0]])
     assert lo.tobytes() == want[0].tobytes() and hi.tobytes() == want[1].tobytes()
     assert np.array_equal(remote_cells.cells_of(got[0]), sc[got[0]])
+
+
+@pytest.mark.skipif(not compiled.available(), reason="the sweep is compiled")
+@pytest.mark.parametrize("parts", [1, 3, 8])
+@pytest.mark.parametrize("pad", [0.0, 1e-9, 0.3])
+def test_the_check_sweeps_flags_are_the_serial_ones(parts, pad):
+    """The workers' check flags the first round in its sweep (partition/swept.py) when
+    the grid is fixed before it (validate_pair_remote, compiled): its flags, largest
+    edge and kept cells are those of the serial plan at the same grid, for any
+    chunking; a pad beyond the sweep's margin (0.3) runs the flags as a round of its
+    own, with the same values as serially."""
+    from predicates.registration.plan import first_round
+
+    sp, sc, cp, cc = _case("sphere", 7, angle=2, subdivisions=2)
+    cells = _chunked(sc, np.random.default_rng(parts), parts)
+    blocks = Blocks(accelerate=True)
+    _, sim, cut, remote_cells = remote.validate_pair_remote(sp, cells, cp, cc, np.float64,
+                                                            "synchronous", blocks)
+    assert remote_cells.first_grid is not None
+    cut_box = first_round.cut_boxes(remote_cells, cut, boxes_of)
+    got = near_fixed(remote_cells, *cut_box, pad)
+    ref = near_fixed(CellBoxes(sim.points, sc, blocks), *cut_box, pad)
+    assert np.array_equal(got[0], ref[0]) and np.array_equal(got[1], ref[1])
+    assert got[2] == ref[2] and got[0].any()
+    assert remote_cells.stats["first_round"] == ("a round of its own" if pad == 0.3
+                                                 else "check's sweep")
+    assert np.array_equal(remote_cells.cells_of(got[0]), sc[got[0]])

@@ -23,7 +23,8 @@ import numpy as np
 from predicates.registration.plan.cellboxes import CellBoxes
 from predicates.registration.plan.edges import edge_from, edge_shift, edge_summary
 from predicates.registration.plan.inputs import (
-    MeshInput, MeshTypeError, _array, _checked_and_used, _points, cell_error, first_bad)
+    MeshInput, MeshTypeError, _array, _points, cell_error)
+from predicates.registration.partition.swept import check_chunk as _check, check_swept
 from predicates.registration.partition.points import RemotePoints
 from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.boxes import boxes_of
@@ -42,35 +43,6 @@ def is_remote(cells, scheduler) -> bool:
     if isinstance(scheduler, str):
         return scheduler in _LOCAL
     return "Client" in type(scheduler).__name__ and hasattr(scheduler, "scatter")
-
-
-def _check(chunk, points, n_points: int, mark_used: bool = True,
-           accelerate: bool = False, local=None):
-    """A chunk's validation and summary: (first bad rows per check, the vertices it
-    uses as packed bits (none unless ``mark_used``: points on the workers check their
-    own, :mod:`.points`), its BoxSummary — None when a check failed). ``local``: the
-    chunk's rows in the numbering of ``points`` (a piece's own), else ``chunk``.
-    ``accelerate``: the serial plan's compiled passes (:func:`~predicates.registration.
-    plan.inputs._checked_and_used`'s checks and marks in one loop, the summary's
-    compiled blocks: the same rows, marks and summary)."""
-    from predicates import compiled
-
-    blocks = Blocks(accelerate=accelerate and compiled.available())
-    chunk = np.asarray(chunk)
-    used = np.zeros(n_points if mark_used or blocks.accelerate else 0, dtype=bool)
-    if blocks.accelerate and chunk.dtype.kind == "i" and chunk.size:
-        bad = _checked_and_used(chunk, n_points, blocks, used)
-    else:
-        bad = first_bad(chunk, chunk.shape[1], n_points)
-        if mark_used and all(b is None for b in bad):
-            for col in range(chunk.shape[1]):
-                used[chunk[:, col]] = True
-    if not mark_used:
-        used = used[:0]
-    if any(b is not None for b in bad):
-        return bad, np.packbits(used[:0]), None
-    return bad, np.packbits(used), CellBoxes(points, chunk if local is None else local,
-                                             blocks).summary()
 
 
 def _flags(chunk, points, origin, h, G, table, accelerate: bool = False):
@@ -192,6 +164,7 @@ class RemoteCells(CellBoxes):
         # every point to every worker, unless each chunk is a piece with its own
         self._pts = None if self.pieces is not None else self._share(points)
         self._summary, self._kept, self._kept_cells = None, None, None
+        self.first_grid = self._first = None  # the check's sweep's flags (swept.py)
         self._edges = None  # (the flag pass's kept ids, its chunks' edge summaries)
         import threading
 
@@ -225,11 +198,20 @@ class RemoteCells(CellBoxes):
             (f.__name__.strip("_"), max(o[1] for o in out)))
         return [o[0] for o in out]
 
-    def check(self, n_points: int):
+    def check(self, n_points: int, grid=None):
         """Validation and summary: (first bad cell per check (global rows, None where
         none), the vertices used (bool; None when the points on the workers are
-        checked there, :mod:`.points`))."""
-        got = self._map(_check, n_points, not self.far, self.blocks.accelerate)
+        checked there, :mod:`.points`)). ``grid``: a speculative first-round grid
+        (:mod:`~predicates.registration.plan.first_round`) whose flags the same tasks
+        compute where they can (:mod:`.swept`; not on pieces read by the workers)."""
+        if grid is None or self.pieces is not None:
+            got = self._map(_check, n_points, not self.far, self.blocks.accelerate)
+        else:
+            both = self._map(check_swept, n_points, not self.far, self.blocks.accelerate,
+                             (grid.origin, grid.h, grid.G, self._share(grid.table)))
+            got, flags = [b[0] for b in both], [b[1] for b in both]
+            if all(f is not None for f in flags):
+                self.first_grid, self._first = grid, flags
         bad = [min((int(o) + b[t] for o, (b, _, _) in zip(self.offsets, got)
                     if b[t] is not None), default=None) for t in range(3)]
         used = None if self.far else np.zeros(n_points, dtype=bool)
@@ -248,8 +230,14 @@ class RemoteCells(CellBoxes):
     def flag_pass(self, origin, h, G, table):
         """:func:`~predicates.registration.plan.lean.flag_pass` per chunk on the workers;
         the flagged cells (vertex ids, boxes) are kept here."""
-        got = self._map(_flags, origin, h, G, None if table is None else self._share(table),
-                        self.blocks.accelerate)
+        grid, got = self.first_grid, self._first
+        self.first_grid = self._first = None  # asked once: used, or not the round's grid
+        self.stats["first_round"] = "check's sweep"
+        if grid is None or table is not grid.table:
+            self.stats["first_round"] = "a round of its own"
+            got = self._map(_flags, origin, h, G,
+                            None if table is None else self._share(table),
+                            self.blocks.accelerate)
         count = sum(g[0] for g in got)
         if table is None:
             return count, None
@@ -362,10 +350,12 @@ class RemoteCells(CellBoxes):
         return lo, hi
 
 
-def validate_remote(points, cells, dim: int, dtype, scheduler, blocks: Blocks = SERIAL):
+def validate_remote(points, cells, dim: int, dtype, scheduler, blocks: Blocks = SERIAL,
+                    first_round=None):
     """The simulation mesh validated with its cells on the workers: (MeshInput whose
     ``cells`` is the dask array, its :class:`RemoteCells`); the same checks, order and
-    messages as :func:`~predicates.registration.plan.inputs.validate_mesh`."""
+    messages as :func:`~predicates.registration.plan.inputs.validate_mesh`.
+    ``first_round(n_sim)``: the speculative first-round grid, flagged in the check."""
     far = isinstance(points, RemotePoints) and _own_pieces(cells) is not None
     # points on the workers without their pieces' cells: gathered here, as given
     arr = points if far else _array(points, "simulation")
@@ -385,7 +375,8 @@ def validate_remote(points, cells, dim: int, dtype, scheduler, blocks: Blocks = 
         with np.errstate(all="ignore"):  # unused rows are never read by a box
             work = arr.astype(dtype, copy=False)
     remote = RemoteCells(work, cells, scheduler, blocks)
-    bad, used = remote.check(len(arr))
+    grid = None if first_round is None else first_round(int(cells.shape[0]))
+    bad, used = remote.check(len(arr), grid)
     for t in range(3):
         if bad[t] is not None:
             row = remote._fetch(np.array([bad[t]]))[0].tolist()
@@ -403,7 +394,20 @@ def validate_pair_remote(sp, sc, cp, cc, dtype, scheduler, blocks: Blocks = SERI
     simulation's MeshInput, the cutting mesh's, the simulation's :class:`RemoteCells`)."""
     from predicates.registration.plan.inputs import validate_mesh
 
+    from functools import partial
+
+    from predicates.registration.plan import first_round
+
     dim = sp.shape[1] if isinstance(sp, RemotePoints) else _array(sp, "simulation").shape[1]
-    sim, remote = validate_remote(sp, sc, dim, dtype, scheduler, blocks)
-    cut = validate_mesh(cp, cc, "cutting", dim, dtype, allow_empty=True, blocks=blocks)
+    cut = error = grid_for = None
+    try:  # first: its boxes fix the first round's grid (its error after the simulation's)
+        cut = validate_mesh(cp, cc, "cutting", dim, dtype, allow_empty=True, blocks=blocks)
+        if blocks.accelerate:
+            make = first_round.from_cut(partial(boxes_of, blocks=blocks), blocks)
+            grid_for = (lambda n: make(cut, n))  # noqa: E731
+    except Exception as e:
+        error = e
+    sim, remote = validate_remote(sp, sc, dim, dtype, scheduler, blocks, grid_for)
+    if error is not None:
+        raise error
     return dim, sim, cut, remote

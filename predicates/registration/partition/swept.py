@@ -1,0 +1,82 @@
+"""A chunk's validation, summary and first-round flags in one task and one sweep on a
+worker (docs/partitioned.md section 2; :mod:`predicates.registration.plan.first_round`).
+
+The first round's grid is fixed by the cutting mesh before the simulation cells are
+read, so a worker that checks a chunk of tetrahedra can flag them in the same compiled
+loop (:meth:`~predicates.registration.plan.cellboxes.CellBoxes.checked_summary` with a
+grid): the flag pass's round of tasks is not needed when the grid turns out to be the
+round's. The task returns what :func:`check_chunk` (validation and summary) and
+:func:`~.remote._flags` return (the same values: the same kernels' flags, tested
+serially), or falls back to ``check_chunk`` alone (and the flag round later) where the
+sweep does not apply.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from predicates.registration.plan.cellboxes import CellBoxes
+from predicates.registration.plan.edges import edge_summary
+from predicates.registration.plan.inputs import _checked_and_used, first_bad
+from predicates.registration.spatial.blocks import Blocks
+
+__all__ = ["check_chunk", "check_swept"]
+
+
+def check_chunk(chunk, points, n_points: int, mark_used: bool = True,
+                accelerate: bool = False, local=None):
+    """A chunk's validation and summary: (first bad rows per check, the vertices it
+    uses as packed bits (none unless ``mark_used``: points on the workers check their
+    own, :mod:`.points`), its BoxSummary — None when a check failed). ``local``: the
+    chunk's rows in the numbering of ``points`` (a piece's own), else ``chunk``.
+    ``accelerate``: the serial plan's compiled passes (:func:`~predicates.registration.
+    plan.inputs._checked_and_used`'s checks and marks in one loop, the summary's
+    compiled blocks: the same rows, marks and summary)."""
+    from predicates import compiled
+
+    blocks = Blocks(accelerate=accelerate and compiled.available())
+    chunk = np.asarray(chunk)
+    used = np.zeros(n_points if mark_used or blocks.accelerate else 0, dtype=bool)
+    if blocks.accelerate and chunk.dtype.kind == "i" and chunk.size:
+        bad = _checked_and_used(chunk, n_points, blocks, used)
+    else:
+        bad = first_bad(chunk, chunk.shape[1], n_points)
+        if mark_used and all(b is None for b in bad):
+            for col in range(chunk.shape[1]):
+                used[chunk[:, col]] = True
+    if not mark_used:
+        used = used[:0]
+    if any(b is not None for b in bad):
+        return bad, np.packbits(used[:0]), None
+    return bad, np.packbits(used), CellBoxes(points, chunk if local is None else local,
+                                             blocks).summary()
+
+
+def check_swept(chunk, points, n_points: int, mark_used: bool, accelerate: bool, grid):
+    """(:func:`check_chunk`'s result, ``_flags``' result or None) for one chunk;
+    ``grid`` = (origin, h, G, table) of the speculative first-round grid. The sweep applies to
+    compiled tetrahedra over finite points; elsewhere, or at a row validation refuses
+    (whose message the plain check then makes), the flags are None."""
+    from predicates import compiled
+    from predicates.compiled.tetsums import all_finite
+    from predicates.registration.plan.first_round import FixedGrid
+
+    blocks = Blocks(accelerate=accelerate and compiled.available())
+    chunk = np.asarray(chunk)
+    if (blocks.accelerate and chunk.dtype.kind == "i" and chunk.shape[1] == 4
+            and points.shape[1] == 3 and len(chunk) and points.flags.c_contiguous
+            and all_finite(points)):
+        used = np.zeros(n_points, dtype=bool)
+        origin, h, G, table = grid
+        fixed = FixedGrid(None, None, len(chunk), h, 0.0, origin, G, None, None, table)
+        summary = CellBoxes(points, chunk, blocks).checked_summary(used, fixed)
+        if summary is not None:
+            (count, (near, i0, i1, ext)), (_, _, cells) = summary.first[1]
+            summary.first = None
+            ids = np.flatnonzero(near)
+            edge = edge_summary(points, cells, blocks) if len(ids) else None
+            if len(chunk) < 2 ** 31:
+                ids = ids.astype(np.int32)  # (the client adds the chunk's int64 offset)
+            used = used if mark_used else used[:0]
+            return (([None] * 3, np.packbits(used), summary),
+                    (count, (ids, i0, i1, ext, cells, edge, None)))
+    return check_chunk(chunk, points, n_points, mark_used, accelerate), None
