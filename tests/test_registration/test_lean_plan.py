@@ -205,3 +205,25 @@ def test_kept_rows_by_mask_give_the_gathered_boxes_and_cells(seed):
         assert (got.L_a, got.L_b, got.e, got.pad, got.history) == \
             (ref.L_a, ref.L_b, ref.e, ref.pad, ref.history)
         assert all(np.array_equal(a, b) for a, b in zip(got.masks, ref.masks))
+
+
+@pytest.mark.parametrize("fast", [False, True])
+def test_the_simulation_meshs_error_still_comes_first(fast):
+    """validate_pair checks the cutting mesh first when its boxes fix the first round's
+    grid (compiled); with both meshes bad, the error is still the simulation mesh's, and
+    a bad cutting mesh alone is still refused by name."""
+    from predicates.registration.examples import cube_grid, icosphere
+    from predicates.registration.plan import first_round
+    from predicates.registration.plan.inputs import validate_pair
+
+    sp, sc = cube_grid(3)
+    cp, cc = icosphere(1)
+    blocks = B.Blocks(accelerate=fast)
+    grid = first_round.from_cut(boxes_of, blocks)
+    bad_sc, bad_cc = sc.copy(), cc.copy()
+    bad_sc[5, 1] = len(sp) + 7
+    bad_cc[2, 0] = -1
+    with pytest.raises(ValueError, match="simulation cells: vertex index out of range"):
+        validate_pair(sp, bad_sc, cp, bad_cc, np.float64, blocks, grid)
+    with pytest.raises(ValueError, match="cutting cells: negative vertex index in cell 2"):
+        validate_pair(sp, sc, cp, bad_cc, np.float64, blocks, grid)
