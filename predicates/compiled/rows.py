@@ -266,12 +266,15 @@ def _pack_row(S, ids, r, n, per, keys, k0, q, row):
             u -= 1
         row[u] = v
     k = k0
-    for start in range(0, w, per):
+    start = 0
+    while start < w:  # not range(0, w, per): its trip count divides by per, per row
+        stop = min(w, start + per)  # (W1's triangle_edge keys 5.9 -> 2.4 ms)
         key = row[start]
-        for col in range(start + 1, min(w, start + per)):
+        for col in range(start + 1, stop):
             key = key * n + row[col]
         keys[k, q] = key
         k += 1
+        start = stop
     return k
 
 
