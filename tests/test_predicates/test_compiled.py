@@ -365,7 +365,9 @@ def test_owned_lists_are_the_owned_table(width):
 def test_stage1_boxes_from_vertices_keep_the_stored_boxes_pairs(seed):
     """Stage 1 (boxtest.owned_levels) computes the faces' boxes from their vertices: on
     points with ties, signed zeros and a NaN, its pairs are exactly those of the numpy
-    owned-table expansion and box test on boxes_of's stored boxes, level by level."""
+    owned-table expansion and box test on boxes_of's stored boxes, level by level (in
+    its order: per run of pairs sharing a cell, face by face, each with the run's
+    cutting cells in order)."""
     from predicates.compiled.boxtest import owned_levels, owned_lists_of
     from predicates.registration.levels.facepairs import _owned, owned_table
     from predicates.registration.spatial.boxes import boxes_of
@@ -387,7 +389,12 @@ def test_stage1_boxes_from_vertices_keep_the_stored_boxes_pairs(seed):
         lo, hi = boxes_of(P, R)
         f, rows = _owned(owned_table(F, 50), T)
         keep = pair_test(pad, lo.T, hi.T, *boxes_c, f, C.take(rows))
-        want.append((f[keep], C.take(rows)[keep]))
+        # the numpy order is (pair, face column); owned_levels' (run of T, face
+        # column, pair) — T ascends (a random row may hold a face twice: both kept)
+        tab = owned_table(F, 50).take(T, axis=0)
+        col = np.flatnonzero(tab >= 0) % tab.shape[1]
+        by_run = np.lexsort((rows[keep], col[keep], T.take(rows)[keep]))
+        want.append((f[keep][by_run], C.take(rows)[keep][by_run]))
     got = owned_levels(T, C, boxes_c, spec)
     assert sum(len(f) for f, _ in want) > 0
     for (f, c), (wf, wc) in zip(got, want):
