@@ -81,25 +81,28 @@ def _hold_boxes(t, start, faces, P, R, held):
 
 
 @njit(**INLINE_OPTIONS)
-def _owned_run(t, C, q0, q1, start, faces, pad, held, three, lo_c, hi_c, out_f, out_c, n):
+def _owned_run(t, C, q0, q1, start, faces, pad, held, run, three, out_f, out_c, n):
     """Append (f, C[q]) for each face f cell t owns (boxes in ``held``), then each pair
     q0 ≤ q < q1 of the run sharing t, when f's box is within ``pad`` of cell C[q]'s
-    (lo_c, hi_c; axis 2 only if ``three``): :func:`_near`'s subtractions and
-    comparisons, in its order, written out (a loop over the axes was ~40 % slower).
-    Face by face: the fused kernels then fold each face's box once per run, not once
-    per pair (benchmarks/README.md, "Part 2, eleventh pass")."""
+    (``run`` row q − q0: lo on columns 0–2, hi on 3–5; axis 2 only if ``three``):
+    :func:`_near`'s subtractions and comparisons, in its order, written out (a loop
+    over the axes was ~40 % slower). Face by face: the fused kernels then fold each
+    face's box once per run, not once per pair (benchmarks/README.md, "Part 2,
+    eleventh pass")."""
     e0 = start[t]
     for u in range(start[t + 1] - e0):
         f = faces[e0 + u]
-        a0, a1, a2, b0, b1, b2 = held[u, 0], held[u, 1], held[u, 2], held[u, 3], held[u, 4], held[u, 5]
+        a0, a1, a2 = held[u, 0], held[u, 1], held[u, 2]
+        b0, b1, b2 = held[u, 3], held[u, 4], held[u, 5]
         for q in range(q0, q1):
-            c = C[q]
-            if (lo_c[0, c] - b0 <= pad and a0 - hi_c[0, c] <= pad
-                    and lo_c[1, c] - b1 <= pad and a1 - hi_c[1, c] <= pad
-                    and (not three or (lo_c[2, c] - b2 <= pad and a2 - hi_c[2, c] <= pad))):
-                out_f[n] = f
-                out_c[n] = c
-                n += 1
+            r = q - q0
+            ok = ((run[r, 0] - b0 <= pad) & (a0 - run[r, 3] <= pad)
+                  & (run[r, 1] - b1 <= pad) & (a1 - run[r, 4] <= pad))
+            if three:
+                ok &= (run[r, 2] - b2 <= pad) & (a2 - run[r, 5] <= pad)
+            out_f[n] = f  # written always, kept when ok: no branch to mispredict
+            out_c[n] = C[q]
+            n += ok
     return n
 
 
@@ -123,20 +126,27 @@ def _owned_levels(T, C, lo_c, hi_c, levels, s0, f0, pad0, P0, R0, o0, p0, s1, f1
     h1 = np.zeros((_widest(s1) if levels > 1 else 1, 6))
     h2 = np.zeros((_widest(s2) if levels > 2 else 1, 6))
     n0 = n1 = n2 = 0
+    d = lo_c.shape[0]
+    run = np.empty((64, 6))  # the run's cell boxes, rows read in sequence
     q0 = 0
     while q0 < T.shape[0]:
         t = T[q0]
         q1 = q0 + 1
         while q1 < T.shape[0] and T[q1] == t:
             q1 += 1
+        if q1 - q0 > run.shape[0]:
+            run = np.empty((2 * (q1 - q0), 6))
+        for q in range(q0, q1):
+            for ax in range(d):
+                run[q - q0, ax], run[q - q0, 3 + ax] = lo_c[ax, C[q]], hi_c[ax, C[q]]
         _hold_boxes(t, s0, f0, P0, R0, h0)
-        n0 = _owned_run(t, C, q0, q1, s0, f0, pad0, h0, three, lo_c, hi_c, o0, p0, n0)
+        n0 = _owned_run(t, C, q0, q1, s0, f0, pad0, h0, run, three, o0, p0, n0)
         if levels > 1:
             _hold_boxes(t, s1, f1, P1, R1, h1)
-            n1 = _owned_run(t, C, q0, q1, s1, f1, pad1, h1, three, lo_c, hi_c, o1, p1, n1)
+            n1 = _owned_run(t, C, q0, q1, s1, f1, pad1, h1, run, three, o1, p1, n1)
         if levels > 2:
             _hold_boxes(t, s2, f2, P2, R2, h2)
-            n2 = _owned_run(t, C, q0, q1, s2, f2, pad2, h2, three, lo_c, hi_c, o2, p2, n2)
+            n2 = _owned_run(t, C, q0, q1, s2, f2, pad2, h2, run, three, o2, p2, n2)
         q0 = q1
     counts[0], counts[1], counts[2] = n0, n1, n2
 
