@@ -152,12 +152,21 @@ def _owned_levels(T, C, lo_c, hi_c, levels, s0, f0, pad0, P0, R0, o0, p0, s1, f1
 
 
 @njit(**JIT_OPTIONS)
-def _owned_counts(T, start, out, k):
-    """out[k] = the faces the cells T[q] own, summed over q (stage 1's most pairs)."""
-    n = 0
-    for q in range(T.shape[0]):
-        n += start[T[q] + 1] - start[T[q]]
-    out[k] = n
+def _owned_counts(T, levels, s0, s1, s2, out):
+    """out[k] = the faces the cells T[q] own at level k, summed over q (stage 1's most
+    pairs), for the first ``levels`` levels in one pass over the runs of equal T[q]."""
+    q0 = 0
+    while q0 < T.shape[0]:
+        t = T[q0]
+        q1 = q0 + 1
+        while q1 < T.shape[0] and T[q1] == t:
+            q1 += 1
+        out[0] += (q1 - q0) * (s0[t + 1] - s0[t])
+        if levels > 1:
+            out[1] += (q1 - q0) * (s1[t + 1] - s1[t])
+        if levels > 2:
+            out[2] += (q1 - q0) * (s2[t + 1] - s2[t])
+        q0 = q1
 
 
 def owned_levels(T: np.ndarray, C: np.ndarray, boxes_c: tuple, levels: list) -> list:
@@ -174,9 +183,9 @@ def owned_levels(T: np.ndarray, C: np.ndarray, boxes_c: tuple, levels: list) -> 
         raise ValueError(f"owned_levels takes 1 to 3 levels in 2 or 3 dimensions, got "
                          f"{len(levels)} in {boxes_c[0].shape[0]}")
     args, outs = [], []
-    most = np.zeros(3, dtype=np.int64)  # per level at most these pairs (one pass each,
-    for k in range(len(levels)):  # no temporaries: np.diff(start).take(T) was ~25 %)
-        _owned_counts(T, levels[k][0], most, k)
+    most = np.zeros(3, dtype=np.int64)  # per level at most these pairs (one pass, no
+    starts = [levels[min(k, len(levels) - 1)][0] for k in range(3)]  # temporaries)
+    _owned_counts(T, len(levels), *starts, most)
     for k in range(3):  # the slots past len(levels) are never read
         if k < len(levels):
             start, faces, pad, (P, R) = levels[k]
