@@ -150,7 +150,8 @@ def _by_flags(rows, combos, n, seen, rank, ids, inv):
 def _gather(rows, combos, first, out):
     g = combos.shape[0]
     for u in range(out.shape[0]):
-        r, p = first[u] // g, first[u] % g
+        r = first[u] // g  # one division, not two (its remainder by a product)
+        p = first[u] - r * g
         for c in range(out.shape[1]):
             out[u, c] = rows[r, combos[p, c]]
 
