@@ -5,8 +5,9 @@ The test is :func:`predicates.registration.spatial.broadphase.pair_test`'s, per 
 ``F[lo_b − hi_a] ≤ pad`` and ``F[lo_a − hi_b] ≤ pad`` in binary64: one subtraction and one
 comparison, so the compiled loop keeps exactly the same pairs (a NaN fails both ways),
 and in the same order (cells in order, then their faces' columns, as ``_owned``
-enumerates them and the numpy test's compaction keeps them). No temporary the size of
-the proposals: only the kept pairs are written.
+enumerates them and the numpy test's compaction keeps them) — except stage 1
+(:func:`owned_levels`), which lists a cell's pairs face by face. No temporary the size
+of the proposals: only the kept pairs are written.
 """
 from __future__ import annotations
 
