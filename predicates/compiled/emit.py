@@ -89,15 +89,20 @@ def chain_lines(prog: Program, n1: int, dt: str, opts: str) -> list[str]:
 def _sim_box(count: int, dim: int) -> list[str]:
     """Statements setting (fl, fh) per axis to simplex f's box (``count`` vertices
     Rs[f], rows of Ps): :func:`predicates.registration.spatial.boxes.boxes_of`'s
-    minimum/maximum fold, exact (a NaN propagates, as np.minimum's)."""
-    out = ["v = Rs[f, 0]"] + [f"fl{a} = np.float64(Ps[v, {a}])" for a in range(dim)]
-    out += [f"fh{a} = fl{a}" for a in range(dim)]
-    for p in range(1, count):
+    minimum/maximum fold, exact (a NaN propagates, as np.minimum's); f's coordinates
+    kept as read (``s{k}``, point-major) for the lanes of its candidates."""
+    out = []
+    for p in range(count):
         out.append(f"v = Rs[f, {p}]")
         for a in range(dim):
-            out += [f"x = np.float64(Ps[v, {a}])",
-                    f"fl{a} = fl{a} if (fl{a} < x) | (fl{a} != fl{a}) else x",
-                    f"fh{a} = fh{a} if (fh{a} > x) | (fh{a} != fh{a}) else x"]
+            k = p * dim + a
+            out.append(f"s{k} = Ps[v, {a}]")
+            if p == 0:
+                out += [f"fl{a} = np.float64(s{k})", f"fh{a} = fl{a}"]
+            else:
+                out += [f"x = np.float64(s{k})",
+                        f"fl{a} = fl{a} if (fl{a} < x) | (fl{a} != fl{a}) else x",
+                        f"fh{a} = fh{a} if (fh{a} > x) | (fh{a} != fh{a}) else x"]
     return out
 
 
@@ -163,6 +168,7 @@ def fused_lines(prog: Program, n1: int, dt: str, opts: str, inline: str) -> list
             "    held = -1  # the simulation face whose box fl, fh hold"]
     head += ["    " + ", ".join(f"f{s}{a}" for s in "lh" for a in range(prog.dim))
              + " = " + ", ".join(["0.0"] * (2 * prog.dim))]
+    head += [f"    s{k} = np.{dt}(0.0)" for k in range(max(n1, prog.n_points - n1) * prog.dim)]
     head += ["    for q in range(F.shape[0]):",
             "        f = F[q]",
             "        c = Cs[q]",
@@ -192,11 +198,14 @@ def fused_lines(prog: Program, n1: int, dt: str, opts: str, inline: str) -> list
              "    maybe_s[nm] = f",
              "    maybe_c[nm] = g",
              "    nm += 1",
-             "    continue",
-             "r1 = g if swapped else f",
-             "r2 = f if swapped else g"]
-    inner += (gather("r1", "R1", "P1", 0, n1, prog.dim, "X[{k}, nl]")
-              + gather("r2", "R2", "P2", n1, n2, prog.dim, "X[{k}, nl]"))
+             "    continue"]
+    # the simulation face's coordinates from its fold (s{k}), the cutting face's read
+    d = prog.dim
+    inner += (["if swapped:"]
+              + ["    " + b for b in gather("g", "R1", "P1", 0, n1, d, "X[{k}, nl]")]
+              + [f"    X[{n1 * d + k}, nl] = s{k}" for k in range(n2 * d)]
+              + ["else:"] + [f"    X[{k}, nl] = s{k}" for k in range(n1 * d)]
+              + ["    " + b for b in gather("g", "R2", "P2", n1, n2, d, "X[{k}, nl]")])
     flush = f"flush_{dt}(X, lf, lg, nl, tol, W, ok, out_s, out_c, out_w, nh)"
     inner += ["lf[nl] = f", "lg[nl] = g", "nl += 1",
               f"if nl == {LANES}:  # a full set of lanes: the predicate on them",
