@@ -24,7 +24,8 @@ broad phase's exact test (:func:`predicates.registration.spatial.broadphase.pair
 F[lo_b − hi_a] ≤ pad and F[lo_a − hi_b] ≤ pad per axis, a NaN failing, with f's box
 computed from its vertices (min and max exact: the same box) once per run of stage-1
 pairs sharing f, and only for a cell C that owns a j-face (benchmarks/README.md, "Part
-2, eighth pass").
+2, eighth pass"); f's coordinates read for its box fill its candidates' lanes (no
+second gather; stage 1 lists a cell's pairs face by face, so the runs are long).
 """
 from __future__ import annotations
 
