@@ -101,7 +101,9 @@ def _owned_run(t, C, q0, q1, start, faces, pad, held, run, three, out_f, out_c, 
                   & (run[r, 1] - b1 <= pad) & (a1 - run[r, 4] <= pad))
             if three:
                 ok &= (run[r, 2] - b2 <= pad) & (a2 - run[r, 5] <= pad)
-            out_f[n] = f  # written always, kept when ok: no branch to mispredict
+            # written always, kept when ok: no branch to mispredict (in bounds: n is at
+            # most the tests so far, and the outputs hold one slot per test)
+            out_f[n] = f
             out_c[n] = C[q]
             n += ok
     return n
