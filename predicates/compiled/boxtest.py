@@ -5,8 +5,9 @@ The test is :func:`predicates.registration.spatial.broadphase.pair_test`'s, per 
 ``F[lo_b − hi_a] ≤ pad`` and ``F[lo_a − hi_b] ≤ pad`` in binary64: one subtraction and one
 comparison, so the compiled loop keeps exactly the same pairs (a NaN fails both ways),
 and in the same order (cells in order, then their faces' columns, as ``_owned``
-enumerates them and the numpy test's compaction keeps them). No temporary the size of
-the proposals: only the kept pairs are written.
+enumerates them and the numpy test's compaction keeps them) — except stage 1
+(:func:`owned_levels`), which lists a cell's pairs face by face. No temporary the size
+of the proposals: only the kept pairs are written.
 """
 from __future__ import annotations
 
@@ -81,19 +82,30 @@ def _hold_boxes(t, start, faces, P, R, held):
 
 
 @njit(**INLINE_OPTIONS)
-def _owned_level(t, c, start, faces, pad, held, three, l0, l1, l2, u0, u1, u2, out_f, out_c,
-                 n):
-    """Append (f, c) for each face f cell t owns (boxes in ``held``) within ``pad`` of
-    cell c's box (l, u; axis 2 only if ``three``): :func:`_near`'s subtractions and
-    comparisons, in its order, written out (a loop over the axes was ~40 % slower)."""
+def _owned_run(t, C, q0, q1, start, faces, pad, held, run, three, out_f, out_c, n):
+    """Append (f, C[q]) for each face f cell t owns (boxes in ``held``), then each pair
+    q0 ≤ q < q1 of the run sharing t, when f's box is within ``pad`` of cell C[q]'s
+    (``run`` row q − q0: lo on columns 0–2, hi on 3–5; axis 2 only if ``three``):
+    :func:`_near`'s subtractions and comparisons, in its order, written out (a loop
+    over the axes was ~40 % slower). Face by face: the fused kernels then fold each
+    face's box once per run, not once per pair (benchmarks/README.md, "Part 2,
+    eleventh pass")."""
     e0 = start[t]
     for u in range(start[t + 1] - e0):
-        if (l0 - held[u, 3] <= pad and held[u, 0] - u0 <= pad
-                and l1 - held[u, 4] <= pad and held[u, 1] - u1 <= pad
-                and (not three or (l2 - held[u, 5] <= pad and held[u, 2] - u2 <= pad))):
-            out_f[n] = faces[e0 + u]
-            out_c[n] = c
-            n += 1
+        f = faces[e0 + u]
+        a0, a1, a2 = held[u, 0], held[u, 1], held[u, 2]
+        b0, b1, b2 = held[u, 3], held[u, 4], held[u, 5]
+        for q in range(q0, q1):
+            r = q - q0
+            ok = ((run[r, 0] - b0 <= pad) & (a0 - run[r, 3] <= pad)
+                  & (run[r, 1] - b1 <= pad) & (a1 - run[r, 4] <= pad))
+            if three:
+                ok &= (run[r, 2] - b2 <= pad) & (a2 - run[r, 5] <= pad)
+            # written always, kept when ok: no branch to mispredict (in bounds: n is at
+            # most the tests so far, and the outputs hold one slot per test)
+            out_f[n] = f
+            out_c[n] = C[q]
+            n += ok
     return n
 
 
@@ -108,41 +120,56 @@ def _widest(start):
 @njit(**JIT_OPTIONS)
 def _owned_levels(T, C, lo_c, hi_c, levels, s0, f0, pad0, P0, R0, o0, p0, s1, f1, pad1,
                   P1, R1, o1, p1, s2, f2, pad2, P2, R2, o2, p2, counts):
-    """Stage 1 of the first ``levels`` (1–3) levels given, per cell pair (T[q], C[q]);
-    the faces' boxes of each run of pairs sharing T[q] computed into small arrays (W4:
-    the kernel ~25 % faster than reading the face columns per pair; the same pairs)."""
+    """Stage 1 of the first ``levels`` (1–3) levels given, per run of cell pairs
+    (T[q], C[q]) sharing T[q]: the faces' boxes computed once into small arrays (W4:
+    the kernel ~25 % faster than reading the face columns per pair), then
+    :func:`_owned_run` per level."""
     three = lo_c.shape[0] == 3
     h0 = np.zeros((_widest(s0), 6))
     h1 = np.zeros((_widest(s1) if levels > 1 else 1, 6))
     h2 = np.zeros((_widest(s2) if levels > 2 else 1, 6))
     n0 = n1 = n2 = 0
-    held = -1
-    for q in range(T.shape[0]):
-        t, c = T[q], C[q]
-        if t != held:
-            _hold_boxes(t, s0, f0, P0, R0, h0)
-            if levels > 1:
-                _hold_boxes(t, s1, f1, P1, R1, h1)
-            if levels > 2:
-                _hold_boxes(t, s2, f2, P2, R2, h2)
-            held = t
-        l0, l1, u0, u1 = lo_c[0, c], lo_c[1, c], hi_c[0, c], hi_c[1, c]
-        l2, u2 = (lo_c[2, c], hi_c[2, c]) if three else (0.0, 0.0)
-        n0 = _owned_level(t, c, s0, f0, pad0, h0, three, l0, l1, l2, u0, u1, u2, o0, p0, n0)
+    d = lo_c.shape[0]
+    run = np.empty((64, 6))  # the run's cell boxes, rows read in sequence
+    q0 = 0
+    while q0 < T.shape[0]:
+        t = T[q0]
+        q1 = q0 + 1
+        while q1 < T.shape[0] and T[q1] == t:
+            q1 += 1
+        if q1 - q0 > run.shape[0]:
+            run = np.empty((2 * (q1 - q0), 6))
+        for q in range(q0, q1):
+            for ax in range(d):
+                run[q - q0, ax], run[q - q0, 3 + ax] = lo_c[ax, C[q]], hi_c[ax, C[q]]
+        _hold_boxes(t, s0, f0, P0, R0, h0)
+        n0 = _owned_run(t, C, q0, q1, s0, f0, pad0, h0, run, three, o0, p0, n0)
         if levels > 1:
-            n1 = _owned_level(t, c, s1, f1, pad1, h1, three, l0, l1, l2, u0, u1, u2, o1, p1, n1)
+            _hold_boxes(t, s1, f1, P1, R1, h1)
+            n1 = _owned_run(t, C, q0, q1, s1, f1, pad1, h1, run, three, o1, p1, n1)
         if levels > 2:
-            n2 = _owned_level(t, c, s2, f2, pad2, h2, three, l0, l1, l2, u0, u1, u2, o2, p2, n2)
+            _hold_boxes(t, s2, f2, P2, R2, h2)
+            n2 = _owned_run(t, C, q0, q1, s2, f2, pad2, h2, run, three, o2, p2, n2)
+        q0 = q1
     counts[0], counts[1], counts[2] = n0, n1, n2
 
 
 @njit(**JIT_OPTIONS)
-def _owned_counts(T, start, out, k):
-    """out[k] = the faces the cells T[q] own, summed over q (stage 1's most pairs)."""
-    n = 0
-    for q in range(T.shape[0]):
-        n += start[T[q] + 1] - start[T[q]]
-    out[k] = n
+def _owned_counts(T, levels, s0, s1, s2, out):
+    """out[k] = the faces the cells T[q] own at level k, summed over q (stage 1's most
+    pairs), for the first ``levels`` levels in one pass over the runs of equal T[q]."""
+    q0 = 0
+    while q0 < T.shape[0]:
+        t = T[q0]
+        q1 = q0 + 1
+        while q1 < T.shape[0] and T[q1] == t:
+            q1 += 1
+        out[0] += (q1 - q0) * (s0[t + 1] - s0[t])
+        if levels > 1:
+            out[1] += (q1 - q0) * (s1[t + 1] - s1[t])
+        if levels > 2:
+            out[2] += (q1 - q0) * (s2[t + 1] - s2[t])
+        q0 = q1
 
 
 def owned_levels(T: np.ndarray, C: np.ndarray, boxes_c: tuple, levels: list) -> list:
@@ -151,15 +178,17 @@ def owned_levels(T: np.ndarray, C: np.ndarray, boxes_c: tuple, levels: list) -> 
     ``(start, faces, pad, (P, R))`` (the cells' owned-face lists, the level's reach,
     the points (N, d) and the faces' vertex ids (n, k), whose boxes it computes), the
     pairs (f, C[q]) of every face f that T[q] owns whose box is within pad of C[q]'s
-    (``boxes_c``) — the pairs and order of :func:`owned_pairs` ("a") on the owned
-    table. Returns [(f, C)] per level."""
+    (``boxes_c``) — the pairs of :func:`owned_pairs` ("a") on the owned table, in
+    another order: per run of pairs sharing T[q], face by face, each face with the
+    run's cells in order (every kind's registered pairs are sorted before they are
+    kept or returned: the same results). Returns [(f, C)] per level."""
     if not 1 <= len(levels) <= 3 or boxes_c[0].shape[0] not in (2, 3):
         raise ValueError(f"owned_levels takes 1 to 3 levels in 2 or 3 dimensions, got "
                          f"{len(levels)} in {boxes_c[0].shape[0]}")
     args, outs = [], []
-    most = np.zeros(3, dtype=np.int64)  # per level at most these pairs (one pass each,
-    for k in range(len(levels)):  # no temporaries: np.diff(start).take(T) was ~25 %)
-        _owned_counts(T, levels[k][0], most, k)
+    most = np.zeros(3, dtype=np.int64)  # per level at most these pairs (one pass, no
+    starts = [levels[min(k, len(levels) - 1)][0] for k in range(3)]  # temporaries)
+    _owned_counts(T, len(levels), *starts, most)
     for k in range(3):  # the slots past len(levels) are never read
         if k < len(levels):
             start, faces, pad, (P, R) = levels[k]

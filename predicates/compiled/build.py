@@ -57,11 +57,11 @@ def source(pred, n_first: int | None = None) -> str:
     simplex table, the rest from the second."""
     prog = trace(pred)
     n1 = len(pred.sim) if n_first is None else n_first
-    opts = repr(JIT_OPTIONS)
+    opts, inline = repr(JIT_OPTIONS), repr(INLINE_OPTIONS)
     text = [_HEAD.format(dim=prog.dim, name=prog.name)]
     for dt in DTYPES:
         text.append("\n".join(chain_lines(prog, n1, dt, opts)))
-        text.append("\n".join(fused_lines(prog, n1, dt, opts)))
+        text.append("\n".join(fused_lines(prog, n1, dt, opts, inline)))
     text.append(f"TOLERANCES = {tuple(prog.tolerances)!r}\n")
     return "".join(text)
 

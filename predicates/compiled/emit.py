@@ -10,7 +10,13 @@ Two kernels per predicate and dtype:
   that C owns (or C itself), the exact box test of (f, g) at the kind's reach, the
   suppression pre-filter (a pair whose two simplices both have a face in a registered
   lower pair goes out to the exact numpy look-up, unevaluated), gather, predicate,
-  output — no array of candidates at all.
+  output — no array of candidates at all. The candidates' coordinates are gathered
+  into :data:`LANES` lanes; the predicate then runs on a full set of lanes in one loop
+  without branches (``lanes_<dtype>``: every statement on every lane, a lane's
+  rejections or-ed into its flag), which the compiler turns into vector instructions —
+  the same IEEE operations one lane per element, no reassociation or contraction, so
+  the same bits (benchmarks/README.md, "Part 2, eleventh pass"); the accepted lanes
+  are written in candidate order (``flush_<dtype>``).
 
 The box test is written out in the module per axis (not imported: the module's hash —
 its file name, and with it numba's on-disk cache — covers every line it runs): the
@@ -18,20 +24,30 @@ broad phase's exact test (:func:`predicates.registration.spatial.broadphase.pair
 F[lo_b − hi_a] ≤ pad and F[lo_a − hi_b] ≤ pad per axis, a NaN failing, with f's box
 computed from its vertices (min and max exact: the same box) once per run of stage-1
 pairs sharing f, and only for a cell C that owns a j-face (benchmarks/README.md, "Part
-2, eighth pass").
+2, eighth pass"); f's coordinates read for its box fill its candidates' lanes (no
+second gather; stage 1 lists a cell's pairs face by face, so the runs are long).
 """
 from __future__ import annotations
 
+import re
+
 from .trace import Program
 
-__all__ = ["chain_lines", "fused_lines"]
+__all__ = ["LANES", "chain_lines", "fused_lines"]
 
-def gather(var: str, rows: str, points: str, first: int, count: int, dim: int) -> list[str]:
-    """Statements loading ``count`` points of the simplex ``var`` (rows of ``rows``)."""
+#: Candidates per predicate loop of the fused kernels (module docstring): W1's
+#: triangle_edge kernels 35.6 → 25.3 ms at 256 lanes, 26 ms at 64, 52 ms at 1024.
+LANES = 256
+
+def gather(var: str, rows: str, points: str, first: int, count: int, dim: int,
+           into: str = "x{k}") -> list[str]:
+    """Statements loading ``count`` points of the simplex ``var`` (rows of ``rows``)
+    into ``into`` (the coordinate k's variable, or a lane's slot: ``X[{k}, nl]``)."""
     out = []
     for p in range(count):
         out.append(f"v = {rows}[{var}, {p}]")
-        out += [f"x{(first + p) * dim + a} = {points}[v, {a}]" for a in range(dim)]
+        out += [f"{into.format(k=(first + p) * dim + a)} = {points}[v, {a}]"
+                for a in range(dim)]
     return out
 
 
@@ -74,35 +90,86 @@ def chain_lines(prog: Program, n1: int, dt: str, opts: str) -> list[str]:
 def _sim_box(count: int, dim: int) -> list[str]:
     """Statements setting (fl, fh) per axis to simplex f's box (``count`` vertices
     Rs[f], rows of Ps): :func:`predicates.registration.spatial.boxes.boxes_of`'s
-    minimum/maximum fold, exact (a NaN propagates, as np.minimum's)."""
-    out = ["v = Rs[f, 0]"] + [f"fl{a} = np.float64(Ps[v, {a}])" for a in range(dim)]
-    out += [f"fh{a} = fl{a}" for a in range(dim)]
-    for p in range(1, count):
+    minimum/maximum fold, exact (a NaN propagates, as np.minimum's); f's coordinates
+    kept as read (``s{k}``, point-major) for the lanes of its candidates."""
+    out = []
+    for p in range(count):
         out.append(f"v = Rs[f, {p}]")
         for a in range(dim):
-            out += [f"x = np.float64(Ps[v, {a}])",
-                    f"fl{a} = fl{a} if (fl{a} < x) | (fl{a} != fl{a}) else x",
-                    f"fh{a} = fh{a} if (fh{a} > x) | (fh{a} != fh{a}) else x"]
+            k = p * dim + a
+            out.append(f"s{k} = Ps[v, {a}]")
+            if p == 0:
+                out += [f"fl{a} = np.float64(s{k})", f"fh{a} = fl{a}"]
+            else:
+                out += [f"x = np.float64(s{k})",
+                        f"fl{a} = fl{a} if (fl{a} < x) | (fl{a} != fl{a}) else x",
+                        f"fh{a} = fh{a} if (fh{a} > x) | (fh{a} != fh{a}) else x"]
     return out
 
 
-def fused_lines(prog: Program, n1: int, dt: str, opts: str) -> list[str]:
+def _lanes_lines(prog: Program, dt: str, inline: str) -> list[str]:
+    """``lanes_<dt>(X, n, tol, W, ok)``: the predicate on lanes 0…n−1 of ``X`` (a row
+    per coordinate), every statement on every lane in source order (a rejected lane's
+    later values are computed and never used: a NaN or an infinity, never an error,
+    numba's numpy error model), its weights to ``W``, ok[q] = no rejection — no branch
+    in the loop, so the compiler vectorizes it (module docstring)."""
+    out = [f"@njit(**{inline})", f"def lanes_{dt}(X, n, tol, W, ok):"]
+    # the tolerances read once (a store to W or ok might alias tol for the compiler)
+    out += [f"    tol_{k} = tol[{k}]" for k in range(len(prog.tolerances))]
+    body = [f"x{k} = X[{k}, q]" for k in range(prog.n_points * prog.dim)]
+    rejections = []
+    for st in prog.lines:
+        if st[0] == "let":
+            expr = re.sub(r"tol\[(\d+)\]", r"tol_\1", st[2].replace("T(", f"np.{dt}("))
+            body.append(f"{st[1]} = {expr}")
+        else:
+            rejections.append(st[1])
+    body += [f"W[{k}, q] = {w.ref}" for k, w in enumerate(prog.weights)]
+    body.append(f"ok[q] = not ({' | '.join(rejections)})" if rejections else "ok[q] = True")
+    return out + ["    for q in range(n):"] + ["        " + b for b in body] + ["", ""]
+
+
+def _flush_lines(prog: Program, dt: str, inline: str) -> list[str]:
+    """``flush_<dt>(X, lf, lg, n, …, nh) -> nh``: :func:`_lanes_lines` on n lanes, then
+    the accepted ones' pairs (lf, lg) and weights appended to the output, in order."""
+    out = [f"@njit(**{inline})",
+           f"def flush_{dt}(X, lf, lg, n, tol, W, ok, out_s, out_c, out_w, nh):",
+           f"    lanes_{dt}(X, n, tol, W, ok)",
+           "    for u in range(n):",
+           "        if ok[u]:",
+           "            out_s[nh] = lf[u]",
+           "            out_c[nh] = lg[u]"]
+    out += [f"            out_w[nh, {k}] = W[{k}, u]" for k in range(len(prog.weights))]
+    return out + ["            nh += 1", "    return nh", "", ""]
+
+
+def fused_lines(prog: Program, n1: int, dt: str, opts: str, inline: str) -> list[str]:
     """``fused_<dt>(F, Cs, start, owned, has_tab, pad, Ps, Rs, lo_b, hi_b, flags, use_flags, swapped,
     P1, R1, P2, R2, tol, out_s, out_c, out_w, maybe_s, maybe_c, counts)`` (module
-    docstring): cell C's owned j-faces are ``owned[start[C]:start[C + 1]]`` (in the
-    owned table's column order: only faces it owns, no −1 slots to skip); counts =
-    (candidates, hits, pairs left to the suppression look-up)."""
+    docstring), after its helpers ``lanes_<dt>`` and ``flush_<dt>`` (compiled with
+    ``inline``: in numba's IR of the kernel): cell C's owned j-faces are
+    ``owned[start[C]:start[C + 1]]`` (in the owned table's column order: only faces it
+    owns, no −1 slots to skip); counts = (candidates, hits, pairs left to the
+    suppression look-up)."""
+    nw = max(1, len(prog.weights))
     head = [f"@njit(**{opts})",
             f"def fused_{dt}(F, Cs, start, owned, has_tab, pad, Ps, Rs, lo_b, hi_b,",
             "             flag_s, flag_c, use_flags, swapped, P1, R1, P2, R2, tol, out_s,",
             "             out_c, out_w, maybe_s, maybe_c, counts):",
             f'    """{prog.name}: stage-1 pairs (F[q], Cs[q]) to registered pairs."""',
+            f"    X = np.empty(({prog.n_points * prog.dim}, {LANES}), dtype=np.{dt})",
+            f"    W = np.empty(({nw}, {LANES}), dtype=np.{dt})",
+            f"    ok = np.empty({LANES}, dtype=np.bool_)",
+            f"    lf = np.empty({LANES}, dtype=np.int64)  # the lanes' pairs (f, g)",
+            f"    lg = np.empty({LANES}, dtype=np.int64)",
+            "    nl = 0",
             "    ncand = 0",
             "    nh = 0",
             "    nm = 0",
             "    held = -1  # the simulation face whose box fl, fh hold"]
     head += ["    " + ", ".join(f"f{s}{a}" for s in "lh" for a in range(prog.dim))
              + " = " + ", ".join(["0.0"] * (2 * prog.dim))]
+    head += [f"    s{k} = np.{dt}(0.0)" for k in range(max(n1, prog.n_points - n1) * prog.dim)]
     head += ["    for q in range(F.shape[0]):",
             "        f = F[q]",
             "        c = Cs[q]",
@@ -132,10 +199,20 @@ def fused_lines(prog: Program, n1: int, dt: str, opts: str) -> list[str]:
              "    maybe_s[nm] = f",
              "    maybe_c[nm] = g",
              "    nm += 1",
-             "    continue",
-             "r1 = g if swapped else f",
-             "r2 = f if swapped else g"]
-    inner += _lane(prog, n1, dt, "r1", "r2") + ["out_s[nh] = f", "out_c[nh] = g"]
-    inner += _weights(prog, "out_w", "nh") + ["nh += 1"]
-    tail = ["    counts[0] = ncand", "    counts[1] = nh", "    counts[2] = nm", "", ""]
-    return head + ["            " + b for b in inner] + tail
+             "    continue"]
+    # the simulation face's coordinates from its fold (s{k}), the cutting face's read
+    d = prog.dim
+    inner += (["if swapped:"]
+              + ["    " + b for b in gather("g", "R1", "P1", 0, n1, d, "X[{k}, nl]")]
+              + [f"    X[{n1 * d + k}, nl] = s{k}" for k in range(n2 * d)]
+              + ["else:"] + [f"    X[{k}, nl] = s{k}" for k in range(n1 * d)]
+              + ["    " + b for b in gather("g", "R2", "P2", n1, n2, d, "X[{k}, nl]")])
+    flush = f"flush_{dt}(X, lf, lg, nl, tol, W, ok, out_s, out_c, out_w, nh)"
+    inner += ["lf[nl] = f", "lg[nl] = g", "nl += 1",
+              f"if nl == {LANES}:  # a full set of lanes: the predicate on them",
+              f"    nh = {flush}",
+              "    nl = 0"]
+    tail = [f"    nh = {flush}", "    counts[0] = ncand", "    counts[1] = nh",
+            "    counts[2] = nm", "", ""]
+    return (_lanes_lines(prog, dt, inline) + _flush_lines(prog, dt, inline) + head
+            + ["            " + b for b in inner] + tail)

@@ -73,7 +73,34 @@ def _compare(pred, configs, tol, dtype, rng):
     assert wc.dtype == w.dtype
     u = np.uint64 if dtype == np.float64 else np.uint32
     assert np.array_equal(wc.view(u), w[hit].view(u)), f"{pred.name}: weights differ"
+    # the fused kernel's vectorized lanes (emit.fused_lines) on the same lanes, three
+    # times over: full sets of 256 lanes and a last partial one
+    first, wf = _fused_hits(pred, sides, tol, dtype, 3)
+    assert np.array_equal(first, np.tile(sides[0][2], 3)[np.tile(hit, 3)]), pred.name
+    assert np.array_equal(wf.view(u), np.tile(w[hit], (3, 1)).view(u)), pred.name
     return int(hit.sum())
+
+
+def _fused_hits(pred, sides, tol, dtype, times):
+    """The fused kernel on the lanes (I1[q], I2[q]) of ``sides`` repeated ``times``:
+    every pair its own stage-1 pair (the cutting cell itself), every box test passed
+    (pad = inf), no suppression flags. Returns (first ids of the hits, weights)."""
+    from predicates.compiled.build import kernel
+    from predicates.compiled.chain import _tolerance_array
+
+    (P1, R1, I1), (P2, R2, I2) = sides
+    run, names = kernel(pred, np.dtype(dtype).name, None, "fused")
+    tv = _tolerance_array(pred, names, tol, np.dtype(dtype))
+    F, C = np.tile(I1, times), np.tile(I2, times)
+    n = len(F)
+    out_s, out_c, maybe_s, maybe_c = (np.empty(n, np.int64) for _ in range(4))
+    out_w = np.empty((n, max(1, len(pred.weight_names))), dtype)
+    counts, box, no = np.zeros(3, np.int64), np.zeros((pred.dim, len(R2))), np.zeros(1, bool)
+    run(F, C, np.zeros(2, np.int64), np.zeros(2, np.int64), False, np.inf, P1, R1, box,
+        box, no, no, False, False, P1, R1, P2, R2, tv, out_s, out_c, out_w, maybe_s,
+        maybe_c, counts)
+    assert counts[0] == n and counts[2] == 0
+    return out_s[:counts[1]], out_w[:counts[1], :len(pred.weight_names)]
 
 
 @pytest.mark.parametrize("dtype", DTYPES, ids=["float64", "float32"])
@@ -365,7 +392,9 @@ def test_owned_lists_are_the_owned_table(width):
 def test_stage1_boxes_from_vertices_keep_the_stored_boxes_pairs(seed):
     """Stage 1 (boxtest.owned_levels) computes the faces' boxes from their vertices: on
     points with ties, signed zeros and a NaN, its pairs are exactly those of the numpy
-    owned-table expansion and box test on boxes_of's stored boxes, level by level."""
+    owned-table expansion and box test on boxes_of's stored boxes, level by level (in
+    its order: per run of pairs sharing a cell, face by face, each with the run's
+    cutting cells in order)."""
     from predicates.compiled.boxtest import owned_levels, owned_lists_of
     from predicates.registration.levels.facepairs import _owned, owned_table
     from predicates.registration.spatial.boxes import boxes_of
@@ -387,7 +416,12 @@ def test_stage1_boxes_from_vertices_keep_the_stored_boxes_pairs(seed):
         lo, hi = boxes_of(P, R)
         f, rows = _owned(owned_table(F, 50), T)
         keep = pair_test(pad, lo.T, hi.T, *boxes_c, f, C.take(rows))
-        want.append((f[keep], C.take(rows)[keep]))
+        # the numpy order is (pair, face column); owned_levels' (run of T, face
+        # column, pair) — T ascends (a random row may hold a face twice: both kept)
+        tab = owned_table(F, 50).take(T, axis=0)
+        col = np.flatnonzero(tab >= 0) % tab.shape[1]
+        by_run = np.lexsort((rows[keep], col[keep], T.take(rows)[keep]))
+        want.append((f[keep][by_run], C.take(rows)[keep][by_run]))
     got = owned_levels(T, C, boxes_c, spec)
     assert sum(len(f) for f, _ in want) > 0
     for (f, c), (wf, wc) in zip(got, want):

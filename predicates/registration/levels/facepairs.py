@@ -247,8 +247,9 @@ class FacePairs:
 
     def _first_levels(self, levels: list) -> dict:
         """Stage 1 of the simulation ``levels`` in one compiled pass over the cell pairs
-        (:func:`predicates.compiled.boxtest.owned_levels`: the same pairs in the same
-        order as the blocks of :meth:`_first`, no concatenation): {level: (f, C)}."""
+        (:func:`predicates.compiled.boxtest.owned_levels`: the same pairs as the blocks
+        of :meth:`_first`, no concatenation; face by face per cell, so the fused kernels
+        fold each face's box once per run of its pairs): {level: (f, C)}."""
         from predicates.compiled.boxtest import owned_levels
 
         # the faces' vertex ids, not their boxes: the kernel computes each box (the
