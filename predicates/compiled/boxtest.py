@@ -133,10 +133,7 @@ def _owned_levels(T, C, lo_c, hi_c, levels, s0, f0, pad0, P0, R0, o0, p0, s1, f1
     run = np.empty((64, 6))  # the run's cell boxes, rows read in sequence
     q0 = 0
     while q0 < T.shape[0]:
-        t = T[q0]
-        q1 = q0 + 1
-        while q1 < T.shape[0] and T[q1] == t:
-            q1 += 1
+        t, q1 = T[q0], _run_end(T, q0)
         if q1 - q0 > run.shape[0]:
             run = np.empty((2 * (q1 - q0), 6))
         for q in range(q0, q1):
@@ -154,16 +151,22 @@ def _owned_levels(T, C, lo_c, hi_c, levels, s0, f0, pad0, P0, R0, o0, p0, s1, f1
     counts[0], counts[1], counts[2] = n0, n1, n2
 
 
+@njit(**INLINE_OPTIONS)
+def _run_end(T, q0):
+    """The end of the run of cell pairs sharing T[q0] (T ascends)."""
+    q1 = q0 + 1
+    while q1 < T.shape[0] and T[q1] == T[q0]:
+        q1 += 1
+    return q1
+
+
 @njit(**JIT_OPTIONS)
 def _owned_counts(T, levels, s0, s1, s2, out):
     """out[k] = the faces the cells T[q] own at level k, summed over q (stage 1's most
     pairs), for the first ``levels`` levels in one pass over the runs of equal T[q]."""
     q0 = 0
     while q0 < T.shape[0]:
-        t = T[q0]
-        q1 = q0 + 1
-        while q1 < T.shape[0] and T[q1] == t:
-            q1 += 1
+        t, q1 = T[q0], _run_end(T, q0)
         out[0] += (q1 - q0) * (s0[t + 1] - s0[t])
         if levels > 1:
             out[1] += (q1 - q0) * (s1[t + 1] - s1[t])
