@@ -19,6 +19,8 @@ split, the sums in row order) is the general loop's, in its order.
 and the used-vertex marks (:func:`predicates.compiled.cellsums.check_cells`' fast path)
 before each row's points are read: the plan reads the cells once for both
 (docs/partitioned.md section 2; benchmarks/README.md, "Plan passes, eleventh pass").
+:func:`swept_tetrahedra` adds the first round's flags; :func:`quiet_cells` gives the
+grid cells' levels its shortcut reads (docs/resolution.md, "The first round").
 """
 from __future__ import annotations
 
@@ -28,8 +30,8 @@ from numba import njit
 from .build import INLINE_OPTIONS, JIT_OPTIONS
 from .cellsums import _narrow_status
 
-__all__ = ["all_finite", "checked_summary_tetrahedra", "summary_tetrahedra",
-           "swept_tetrahedra"]
+__all__ = ["all_finite", "checked_summary_tetrahedra", "quiet_cells",
+           "summary_tetrahedra", "swept_tetrahedra"]
 
 
 @njit(**JIT_OPTIONS)
@@ -124,10 +126,11 @@ def _summary_rows(points, rows, used, lo_min, hi_max, hist, status, big, tiny, s
     :func:`swept_tetrahedra` (``used``, ``grid`` None: no check, no flags; numba prunes
     the branches); returns (rows read, least, largest extent, rows flagged, their
     largest box edge): the rows read stop at the first row that is not clean."""
-    e_min, e_max = np.inf, -np.inf
-    nf, ext = 0, 0.0
+    e_min, e_max, nf, ext = np.inf, -np.inf, 0, 0.0
     if grid is not None:  # unpacked once, not in the loop (a reference count a row)
-        origin, inv_h, last_cell, stride, S, bits, near, i0, i1, flo, fhi, fcells = grid
+        (origin, inv_h, last_cell, stride, S, bits, levels, bound, quiet, near, i0, i1,
+         flo, fhi, fcells) = grid
+        one_at, two_at = 0.75 / inv_h, 1.75 / inv_h  # (R − 1/4)·h, exact (h = 2^k)
         o0, o1, o2 = origin[0], origin[1], origin[2]
         t0, t1, t2 = last_cell[0], last_cell[1], last_cell[2]
         s0, s1, s2, use_bits = stride[0], stride[1], stride[2], bits.shape[0] > 0
@@ -167,6 +170,14 @@ def _summary_rows(points, rows, used, lo_min, hi_max, hist, status, big, tiny, s
                 hist[last] += run
                 last, run = b, 0
             run += 1
+        if grid is not None:  # vertex i's level (quiet_level), once per point
+            q = quiet[i]
+            if q == 255:
+                q = _quiet_level(points, i, o0, o1, o2, inv_h, t0, t1, t2, levels, bound)
+                quiet[i] = q
+            if q >= 1 + (top >= one_at) + (top >= two_at):
+                near[r] = False  # its range lies in the empty block around i's cell
+                continue
         if grid is not None:  # the first round's flag (flag_tetrahedra_packed's test),
             # the box's cells: (x − o)·2^-k is (x − o)/h exactly (h = 2^k: the grid's)
             u0, u1 = _cell(x0, o0, inv_h, t0), _cell(y0, o0, inv_h, t0)
@@ -187,14 +198,19 @@ def _summary_rows(points, rows, used, lo_min, hi_max, hist, status, big, tiny, s
     hist[last] += run
     lo_min[0], lo_min[1], lo_min[2] = a0, a1, a2
     hi_max[0], hi_max[1], hi_max[2] = b0, b1, b2
+    _status(status, h0, h1, h2, l0, l1, l2, min(p0, min(p1, p2)), e_max, big, tiny, spread)
+    return rows.shape[0], e_min, e_max, nf, ext
+
+
+@njit(**INLINE_OPTIONS)
+def _status(status, h0, h1, h2, l0, l1, l2, pmin, e_max, big, tiny, spread):
+    """The narrow sums' (status, Σ high parts, Σ low parts) per axis into ``status``;
+    the largest positive extent is the largest box edge (or 0)."""
     status[0, 1], status[1, 1], status[2, 1] = h0, h1, h2
     status[0, 2], status[1, 2], status[2, 2] = l0, l1, l2
-    pmin = min(p0, min(p1, p2))
-    pmax = e_max if e_max > 0.0 else 0.0  # the largest extent is some box's largest
-    state = _narrow_status(not e_max < big, pmin, pmax, tiny, spread)
-    for ax in range(3):
-        status[ax, 0] = state
-    return rows.shape[0], e_min, e_max, nf, ext
+    state = _narrow_status(not e_max < big, pmin, e_max if e_max > 0.0 else 0.0, tiny,
+                           spread)
+    status[0, 0] = status[1, 0] = status[2, 0] = state
 
 
 @njit(**JIT_OPTIONS)
@@ -235,3 +251,43 @@ def swept_tetrahedra(points, rows, used, lo_min, hi_max, hist, status, big, tiny
     extent, rows flagged, their largest box edge)."""
     return _summary_rows(points, rows, used, lo_min, hi_max, hist, status, big, tiny,
                          spread, split, grid)
+
+
+@njit(**JIT_OPTIONS)
+def quiet_cells(S, G, stride, levels):
+    """Per cell c of the grid (key c0 + G0·(c1 + G1·c2)): 2 when no cell of the 5^3
+    block around c (clipped to the grid) is occupied, else 1 when none of the 3^3 block
+    is, else 0 (the summed-area table ``S``; along a row of x a block's count is
+    T(x1) − T(x0), T the four y, z terms at x, as :func:`~.cells._pair_bits3`)."""
+    s0, s1, s2 = stride[0], stride[1], stride[2]
+    g0, g1, g2 = G[0], G[1], G[2]
+    T1 = np.empty(g0 + 1, dtype=np.int64)
+    T2 = np.empty(g0 + 1, dtype=np.int64)
+    for z in range(g2):
+        za, zb = max(z - 1, 0) * s2, min(z + 2, g2) * s2
+        zc, zd = max(z - 2, 0) * s2, min(z + 3, g2) * s2
+        for y in range(g1):
+            ya, yb = max(y - 1, 0) * s1, min(y + 2, g1) * s1
+            yc, yd = max(y - 2, 0) * s1, min(y + 3, g1) * s1
+            for x in range(g0 + 1):
+                u = x * s0
+                T1[x] = (np.int64(S[u + yb + zb]) - np.int64(S[u + ya + zb])
+                         - np.int64(S[u + yb + za]) + np.int64(S[u + ya + za]))
+                T2[x] = (np.int64(S[u + yd + zd]) - np.int64(S[u + yc + zd])
+                         - np.int64(S[u + yd + zc]) + np.int64(S[u + yc + zc]))
+            row = (z * g1 + y) * g0
+            for x in range(g0):
+                one = T1[min(x + 2, g0)] - T1[max(x - 1, 0)]
+                two = T2[min(x + 3, g0)] - T2[max(x - 2, 0)]
+                levels[row + x] = 0 if one > 0 else (1 if two > 0 else 2)
+
+
+@njit(**INLINE_OPTIONS)
+def _quiet_level(points, p, o0, o1, o2, inv_h, t0, t1, t2, levels, bound):
+    """Point p's level: its cell's :func:`quiet_cells` level when p is within ``bound``
+    of the grid's origin on every axis (fl(x − o), as the flags compute it), else 0."""
+    x0, x1, x2 = (np.float64(points[p, 0]), np.float64(points[p, 1]),
+                  np.float64(points[p, 2]))
+    inside = (abs(x0 - o0) <= bound) & (abs(x1 - o1) <= bound) & (abs(x2 - o2) <= bound)
+    u, v, w = _cell(x0, o0, inv_h, t0), _cell(x1, o1, inv_h, t1), _cell(x2, o2, inv_h, t2)
+    return levels[u + (t0 + 1) * (v + (t1 + 1) * w)] if inside else np.uint8(0)

@@ -227,3 +227,45 @@ def test_the_simulation_meshs_error_still_comes_first(fast):
         validate_pair(sp, bad_sc, cp, bad_cc, np.float64, blocks, grid)
     with pytest.raises(ValueError, match="cutting cells: negative vertex index in cell 2"):
         validate_pair(sp, sc, cp, bad_cc, np.float64, blocks, grid)
+
+
+
+def _sweep_flags_and_pass(sp, sc, cp, cc, block):
+    """The first round's flags from validation's sweep and from a pass of their own at
+    the same grid (compiled), the pad 0."""
+    from predicates.registration.plan import first_round
+    from predicates.registration.plan.inputs import validate_pair
+
+    blocks = B.Blocks(block=block, accelerate=True)
+    _, sim, cut = validate_pair(sp, sc, cp, cc, np.float64, blocks,
+                                first_round.from_cut(boxes_of, blocks))
+    swept = CellBoxes(sim.points, sim.cells, blocks, sim.summary, checked=True)
+    assert swept.first_grid is not None  # the sweep flagged
+    cut_box = first_round.cut_boxes(swept, cut, boxes_of)
+    got = near_fixed(swept, *cut_box, 0.0)
+    ref = near_fixed(CellBoxes(sim.points, sim.cells, blocks), *cut_box, 0.0)
+    return got, ref
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from([64, None]))
+def test_the_sweeps_quiet_vertices_give_the_pass_flags(seed, block):
+    """The sweep's shortcut (first_round.SweptFlags: a tetrahedron whose largest box
+    edge is below (R − 1/4)·h and whose first vertex has no occupied cell within R
+    cells is not flagged) gives the pass's flags: tetrahedra whose edges are about 0.2,
+    0.7, 1.7 and 3.5 grid cells, their first vertex anywhere around a few single occupied
+    cells (tiny triangles), and a few far away (1e13)."""
+    rng = np.random.default_rng(seed)
+    m = 30  # tiny cutting triangles: each box in one or two cells
+    cp = np.repeat(rng.random((m, 3)), 3, axis=0) + 1e-4 * rng.random((3 * m, 3))
+    cp[:3] = [[0, 0, 0], [1, 0, 0], [0, 1, 0]]  # sets the mean extent: h ~ 1/32
+    cc = np.arange(3 * m).reshape(m, 3)
+    n, h = 3000, 2.0 ** -5
+    first = rng.random((n, 3)) * 1.1 - 0.05
+    first[:40] = 1e13 + rng.random((40, 3))
+    edge = h * rng.choice([0.2, 0.7, 1.7, 3.5], n)[:, None, None] * rng.random((n, 3, 3))
+    sp = np.concatenate([first[:, None], first[:, None] + edge], axis=1).reshape(-1, 3)
+    sc = np.arange(4 * n).reshape(n, 4)
+    got, ref = _sweep_flags_and_pass(sp, sc, cp, cc, block)
+    assert all(np.array_equal(a, b) for a, b in zip(got[:2], ref[:2])) and got[2] == ref[2]
+    assert 0 < got[0].sum() < n

@@ -275,7 +275,7 @@ class CellBoxes:
         if grid is not None:
             from predicates.registration.plan.first_round import SweptFlags
 
-            swept = SweptFlags(grid, self.cells.dtype, self.n)
+            swept = SweptFlags(grid, self.cells.dtype, self.n, len(used))
 
         def span(a: int, b: int):
             rows = None if swept is None else swept.span(a, b)

@@ -167,8 +167,9 @@ class SweptFlags:
     all n cells, and per span its flagged rows' ranges, boxes and ids, compacted in
     order — what :func:`~.lean.flag_pass` gives at that grid."""
 
-    def __init__(self, grid: FixedGrid, cells_dtype, n: int):
+    def __init__(self, grid: FixedGrid, cells_dtype, n: int, n_points: int):
         from predicates.compiled.cells import pair_bits
+        from predicates.compiled.tetsums import quiet_cells
         from predicates.registration.spatial.gridsums import _stride
 
         self.grid, self.near = grid, np.zeros(n, dtype=bool)
@@ -181,6 +182,11 @@ class SweptFlags:
         if n >= len(grid.table) // 8:  # as the flag pass: a pass over the grid repays
             self.bits = np.zeros(len(grid.table) // 8 + 1, dtype=np.uint8)
             pair_bits(grid.table, G, self.stride, self.bits)
+        # the sweep's shortcut (docs/resolution.md, "The first round"): per grid cell
+        # its quiet level, per point its cell's (255: not yet read, the kernel's)
+        self.levels = np.empty(int(np.prod(G)), dtype=np.uint8)
+        quiet_cells(grid.table, G, self.stride, self.levels)
+        self.quiet = np.full(n_points, 255, dtype=np.uint8)
 
     def span(self, a: int, b: int) -> "_SpanRows":
         """The output of the span of rows [a, b)."""
@@ -217,8 +223,8 @@ class _SpanRows:
             self.out = (np.empty((m, 3), np.int32), np.empty((m, 3), np.int32),
                         np.empty((m, 3)), np.empty((m, 3)), np.empty((m, 4), o.cells_dtype))
         rest = tuple(x[self.filled:] for x in self.out)
-        return (o.origin, o.inv_h, o.top, o.stride, o.grid.table, o.bits,
-                o.near[u:w]) + rest
+        return (o.origin, o.inv_h, o.top, o.stride, o.grid.table, o.bits, o.levels,
+                o.grid.h * 2.0 ** 46, o.quiet, o.near[u:w]) + rest
 
     def add(self, nf: int, ext: float) -> None:
         if nf:
