@@ -503,6 +503,19 @@ def test_merge_restores_the_serial_order_and_refuses_a_shared_vertex():
         merge([kind], parts, np.float64)
 
 
+def test_merge_runs_of_int32_and_int64_keys():
+    """merge_runs on one partition's int32 keys and another's int64 keys beyond int32's
+    range (each partition sends int32 ids when they fit): the runs of the stable merge,
+    and a key in both refused."""
+    from predicates.registration.partition.assign import merge_runs
+
+    a, b = np.array([1, 5, 9, 11], np.int32), np.array([3, 7, 2**40], np.int64)
+    assert merge_runs([a, b], 100) == [(0, 0, 1), (1, 0, 1), (0, 1, 2), (1, 1, 2),
+                                       (0, 2, 4), (1, 2, 3)]
+    with pytest.raises(RuntimeError, match="ownership bug"):
+        merge_runs([a, np.array([5], np.int64)], 100)
+
+
 @settings(max_examples=80, deadline=None)
 @given(seed=st.integers(0, 10**6), k=st.integers(1, 9), pairs=st.integers(0, 120),
        blocks=st.integers(1, 40), runs=st.sampled_from([0, 2, 4096]),
