@@ -230,14 +230,14 @@ def test_the_simulation_meshs_error_still_comes_first(fast):
 
 
 
-def _sweep_flags_and_pass(sp, sc, cp, cc, block):
+def _sweep_flags_and_pass(sp, sc, cp, cc, block, dtype=np.float64):
     """The first round's flags from validation's sweep and from a pass of their own at
-    the same grid (compiled), the pad 0."""
+    the same grid (compiled), the pad 0, in the working ``dtype``."""
     from predicates.registration.plan import first_round
     from predicates.registration.plan.inputs import validate_pair
 
     blocks = B.Blocks(block=block, accelerate=True)
-    _, sim, cut = validate_pair(sp, sc, cp, cc, np.float64, blocks,
+    _, sim, cut = validate_pair(sp, sc, cp, cc, dtype, blocks,
                                 first_round.from_cut(boxes_of, blocks))
     swept = CellBoxes(sim.points, sim.cells, blocks, sim.summary, checked=True)
     assert swept.first_grid is not None  # the sweep flagged
@@ -248,13 +248,14 @@ def _sweep_flags_and_pass(sp, sc, cp, cc, block):
 
 
 @settings(max_examples=30, deadline=None)
-@given(st.integers(0, 2**32 - 1), st.sampled_from([64, None]))
-def test_the_sweeps_quiet_vertices_give_the_pass_flags(seed, block):
+@given(st.integers(0, 2**32 - 1), st.sampled_from([64, None]), st.booleans())
+def test_the_sweeps_quiet_vertices_give_the_pass_flags(seed, block, single):
     """The sweep's shortcut (first_round.SweptFlags: a tetrahedron whose largest box
     edge is below (R − 1/4)·h and whose first vertex has no occupied cell within R
     cells is not flagged) gives the pass's flags: tetrahedra whose edges are about 0.2,
     0.7, 1.7 and 3.5 grid cells, their first vertex anywhere around a few single occupied
-    cells (tiny triangles), and a few far away (1e13)."""
+    cells (tiny triangles), and a few far away (1e13); points given in float64 or
+    float32 (the working dtype: the sweep reads the points as given)."""
     rng = np.random.default_rng(seed)
     m = 30  # tiny cutting triangles: each box in one or two cells
     cp = np.repeat(rng.random((m, 3)), 3, axis=0) + 1e-4 * rng.random((3 * m, 3))
@@ -266,6 +267,7 @@ def test_the_sweeps_quiet_vertices_give_the_pass_flags(seed, block):
     edge = h * rng.choice([0.2, 0.7, 1.7, 3.5], n)[:, None, None] * rng.random((n, 3, 3))
     sp = np.concatenate([first[:, None], first[:, None] + edge], axis=1).reshape(-1, 3)
     sc = np.arange(4 * n).reshape(n, 4)
-    got, ref = _sweep_flags_and_pass(sp, sc, cp, cc, block)
+    dtype = np.float32 if single else np.float64
+    got, ref = _sweep_flags_and_pass(sp.astype(dtype), sc, cp, cc, block, dtype)
     assert all(np.array_equal(a, b) for a, b in zip(got[:2], ref[:2])) and got[2] == ref[2]
     assert 0 < got[0].sum() < n
