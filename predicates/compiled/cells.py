@@ -398,7 +398,9 @@ def least_square_tetrahedra(rows, C, a, b):
     run); the same squares, compared in the same pair order (u < v), the same minimum."""
     best = np.inf
     for m in range(a, b):
-        i, j, k, w = C[0, m], C[1, m], C[2, m], C[3, m]
+        # unsigned: no wraparound test a gather (local ids: in range by construction)
+        i, j, k, w = (np.uint64(C[0, m]), np.uint64(C[1, m]), np.uint64(C[2, m]),
+                      np.uint64(C[3, m]))
         x0, y0, z0 = rows[i, 0], rows[i, 1], rows[i, 2]
         x1, y1, z1 = rows[j, 0], rows[j, 1], rows[j, 2]
         x2, y2, z2 = rows[k, 0], rows[k, 1], rows[k, 2]
@@ -416,7 +418,7 @@ def least_square_triangles(rows, C, a, b):
     """:func:`least_square_tetrahedra` for triangles in 3D (C (3, m), rows (n, 3))."""
     best = np.inf
     for m in range(a, b):
-        i, j, k = C[0, m], C[1, m], C[2, m]
+        i, j, k = np.uint64(C[0, m]), np.uint64(C[1, m]), np.uint64(C[2, m])
         x0, y0, z0 = rows[i, 0], rows[i, 1], rows[i, 2]
         x1, y1, z1 = rows[j, 0], rows[j, 1], rows[j, 2]
         x2, y2, z2 = rows[k, 0], rows[k, 1], rows[k, 2]
