@@ -52,6 +52,7 @@ TINY: dict[str, tuple[list[str], str]] = {
     "cell_pairs_bench.py": (["--n", "4", "--subdivisions", "1", "--reps", "1"],
                             r"^cell_pairs n=4 s=1: \d+ pairs, hash [0-9a-f]{16}, CPU best "),
     "run_share.py": (["tiny", "2"], r"^tiny .* best [\d.]+ median [\d.]+ plan best "),
+    "sweep_flags.py": (["6", "2", "1"], r"^sweep n=6 s=2: 1296 cells, \d+ flagged; CPU best "),
     "plan_time.py": (["tiny", "2"], r"^tiny plan CPU best [\d.]+ s, median [\d.]+ s \(2 calls"),
     "conform_clip_bench.py": (["--n", "4", "--repeat", "1"],
                               r"^  fperr half 1: 192 tets, 0 zero-volume, 0 open edges$"),
