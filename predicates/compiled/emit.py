@@ -45,7 +45,7 @@ def gather(var: str, rows: str, points: str, first: int, count: int, dim: int,
     into ``into`` (the coordinate k's variable, or a lane's slot: ``X[{k}, nl]``)."""
     out = []
     for p in range(count):
-        out.append(f"v = {rows}[{var}, {p}]")
+        out.append(f"v = np.uint64({rows}[{var}, {p}])")
         out += [f"{into.format(k=(first + p) * dim + a)} = {points}[v, {a}]"
                 for a in range(dim)]
     return out
@@ -94,7 +94,7 @@ def _sim_box(count: int, dim: int) -> list[str]:
     kept as read (``s{k}``, point-major) for the lanes of its candidates."""
     out = []
     for p in range(count):
-        out.append(f"v = Rs[f, {p}]")
+        out.append(f"v = np.uint64(Rs[f, {p}])")
         for a in range(dim):
             k = p * dim + a
             out.append(f"s{k} = Ps[v, {a}]")
@@ -189,13 +189,14 @@ def fused_lines(prog: Program, n1: int, dt: str, opts: str, inline: str) -> list
         head += ["            if swapped:"] + ["                " + b for b in _sim_box(n2, prog.dim)]
         head += ["            else:"] + ["                " + b for b in _sim_box(n1, prog.dim)]
     head += ["        for e in range(e0, e1):"]
-    test = " and ".join(f"lo_b[{a}, g] - fh{a} <= pad and fl{a} - hi_b[{a}, g] <= pad"
+    test = " and ".join(f"lo_b[{a}, ug] - fh{a} <= pad and fl{a} - hi_b[{a}, ug] <= pad"
                         for a in range(prog.dim))
     inner = ["g = owned[e] if has_tab else c",
+             "ug = np.uint64(g)  # unsigned: no wraparound test a gather (ids in range)",
              f"if not ({test}):",
              "    continue",
              "ncand += 1",
-             "if use_flags and flag_s[f] and flag_c[g]:  # maybe suppressed: look up",
+             "if use_flags and flag_s[f] and flag_c[ug]:  # maybe suppressed: look up",
              "    maybe_s[nm] = f",
              "    maybe_c[nm] = g",
              "    nm += 1",
@@ -203,10 +204,10 @@ def fused_lines(prog: Program, n1: int, dt: str, opts: str, inline: str) -> list
     # the simulation face's coordinates from its fold (s{k}), the cutting face's read
     d = prog.dim
     inner += (["if swapped:"]
-              + ["    " + b for b in gather("g", "R1", "P1", 0, n1, d, "X[{k}, nl]")]
+              + ["    " + b for b in gather("ug", "R1", "P1", 0, n1, d, "X[{k}, nl]")]
               + [f"    X[{n1 * d + k}, nl] = s{k}" for k in range(n2 * d)]
               + ["else:"] + [f"    X[{k}, nl] = s{k}" for k in range(n1 * d)]
-              + ["    " + b for b in gather("g", "R2", "P2", n1, n2, d, "X[{k}, nl]")])
+              + ["    " + b for b in gather("ug", "R2", "P2", n1, n2, d, "X[{k}, nl]")])
     flush = f"flush_{dt}(X, lf, lg, nl, tol, W, ok, out_s, out_c, out_w, nh)"
     inner += ["lf[nl] = f", "lg[nl] = g", "nl += 1",
               f"if nl == {LANES}:  # a full set of lanes: the predicate on them",
