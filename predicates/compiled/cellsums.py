@@ -1,8 +1,8 @@
 """The plan's first pass over every simulation cell, compiled and GIL-free
 (``nogil=True``; docs/partitioned.md section 2, "the lean plan"): validation's cell
 checks with the used-vertex mask (:func:`check_cells`), and the boxes' summary
-(:func:`summary_block`: hull, extrema, exponent histogram and the exact sums' narrow
-parts of each block, the boxes computed in registers, no (d, m) temporaries), with
+(:func:`summary_block`: hull, extrema and exponent histogram of each block, the boxes
+computed in registers, no (d, m) temporaries), with
 :func:`narrow_sums`, :class:`~predicates.registration.spatial.exactsum.ExactSum`'s
 narrow path on an array; and the exact power-of-two scaling of the points with its
 checks in one pass (:func:`scale_exact`); the report's pair-estimate grid without
@@ -149,22 +149,12 @@ def narrow_sums(x, big, tiny, spread, split):
 
 
 @njit(**INLINE_OPTIONS)
-def _axis(x, y, lo, hi, hs, ls, pmin, pmax, bad, big, split):
+def _axis(x, y, lo, hi):
     """A box's side [x, y] on one axis: the hull ``lo``, ``hi`` updated (numpy's
-    NaN-propagating min/max), its extent e = y − x scanned (least positive, largest,
-    a value not below ``big``) and Veltkamp-split into ``hs``, ``ls`` as
-    :func:`narrow_sums` does; returns e and the updated accumulators."""
+    NaN-propagating min/max); returns its extent e = y − x and the hull."""
     lo = x if (x < lo) | (x != x) | (lo != lo) else lo
     hi = y if (y > hi) | (y != y) | (hi != hi) else hi
-    e = y - x
-    bad |= not e < big  # NaN, inf or huge: the block takes the general path
-    if e > 0.0:
-        pmin = e if e < pmin else pmin
-        pmax = e if e > pmax else pmax
-    v = e + 0.0
-    c = v * split
-    h = c - (c - v)
-    return e, lo, hi, hs + h, ls + (v - h), pmin, pmax, bad
+    return y - x, lo, hi
 
 
 @njit(**INLINE_OPTIONS)
@@ -214,34 +204,27 @@ def _extrema(top, e_min, e_max):
 
 
 @njit(**JIT_OPTIONS)
-def summary_block(points, rows, lo_min, hi_max, hist, status, big, tiny, spread, split):
-    """One block (≤ 2^16 rows ``rows`` over ``points``) of
+def summary_block(points, rows, lo_min, hi_max, hist):
+    """One block of rows ``rows`` over ``points`` of
     :meth:`predicates.registration.plan.cellboxes.CellBoxes.summary` in one loop: each
     row's box (:func:`~predicates.compiled.cells.fill_boxes`' values), the hull
     ``lo_min``/``hi_max`` (d,) updated (numpy's NaN-propagating min/max), the largest
-    extent of each box (+ 0.0) counted in ``hist`` by its biased exponent (finite ones),
-    and per axis the extents' narrow sums into ``status`` (d, 3): (status, Σ high
-    parts, Σ low parts) as :func:`narrow_sums` gives them, except that the range test
-    is over all axes' extents at once (a block spanning more binades over its axes than
-    one axis allows takes the general path: the same exact sums, more slowly). Returns
-    (least, largest) of the boxes' largest extents, the largest propagating NaN as
-    numpy's. d = 3 in scalars, the exponent histogram counted by runs of one bin."""
+    extent of each box (+ 0.0) counted in ``hist`` by its biased exponent (finite
+    ones). Returns (least, largest) of the boxes' largest extents, the largest
+    propagating NaN as numpy's. d = 3 in scalars, the exponent histogram counted by
+    runs of one bin."""
     d = points.shape[1]
-    e_min, e_max, pmin, pmax, bad = np.inf, -np.inf, np.inf, 0.0, False
+    e_min, e_max = np.inf, -np.inf
     if d == 3:
         a0, a1, a2 = lo_min[0], lo_min[1], lo_min[2]
         b0, b1, b2 = hi_max[0], hi_max[1], hi_max[2]
-        h0 = h1 = h2 = l0 = l1 = l2 = 0.0
         last, run = 0, 0  # hist's current bin and its pending count (one bin
         # per row in memory cost 1.6× the pass: a store-to-load chain)
         for r in range(rows.shape[0]):
             x0, y0, x1, y1, x2, y2 = _box3(points, rows, r)
-            e0, a0, b0, h0, l0, pmin, pmax, bad = _axis(x0, y0, a0, b0, h0, l0, pmin, pmax,
-                                                        bad, big, split)
-            e1, a1, b1, h1, l1, pmin, pmax, bad = _axis(x1, y1, a1, b1, h1, l1, pmin, pmax,
-                                                        bad, big, split)
-            e2, a2, b2, h2, l2, pmin, pmax, bad = _axis(x2, y2, a2, b2, h2, l2, pmin, pmax,
-                                                        bad, big, split)
+            e0, a0, b0 = _axis(x0, y0, a0, b0)
+            e1, a1, b1 = _axis(x1, y1, a1, b1)
+            e2, a2, b2 = _axis(x2, y2, a2, b2)
             top = _wider(_wider(e0, e1), e2) + 0.0  # −0.0 to +0.0 (as summarize)
             e_min, e_max = _extrema(top, e_min, e_max)
             if top < np.inf:  # finite (not NaN): counted, a run of one bin at a time
@@ -253,25 +236,17 @@ def summary_block(points, rows, lo_min, hi_max, hist, status, big, tiny, spread,
         hist[last] += run
         lo_min[0], lo_min[1], lo_min[2] = a0, a1, a2
         hi_max[0], hi_max[1], hi_max[2] = b0, b1, b2
-        status[0, 1], status[1, 1], status[2, 1] = h0, h1, h2
-        status[0, 2], status[1, 2], status[2, 2] = l0, l1, l2
     else:
-        status[:, 1:] = 0.0
         for r in range(rows.shape[0]):
             top = 0.0
             for ax in range(d):
                 x, y = _box_row(points, rows, r, ax)
-                e, lo_min[ax], hi_max[ax], status[ax, 1], status[ax, 2], pmin, pmax, bad = \
-                    _axis(x, y, lo_min[ax], hi_max[ax], status[ax, 1], status[ax, 2], pmin,
-                          pmax, bad, big, split)
+                e, lo_min[ax], hi_max[ax] = _axis(x, y, lo_min[ax], hi_max[ax])
                 top = e if ax == 0 else _wider(top, e)
             top = top + 0.0
             e_min, e_max = _extrema(top, e_min, e_max)
             if top < np.inf:  # finite (not NaN): counted
                 hist[(np.int64(np.float64(top).view(np.int64)) >> 52) & 0x7FF] += 1
-    state = _narrow_status(bad, pmin, pmax, tiny, spread)
-    for ax in range(d):
-        status[ax, 0] = state
     return e_min, e_max
 
 

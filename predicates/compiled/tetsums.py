@@ -5,15 +5,12 @@ coordinate is finite (:func:`all_finite`; validation refuses any other used poin
 :mod:`predicates.registration.plan.inputs`), at about half its cost.
 
 Why it is faster (benchmarks/README.md, "Plan passes, eighth pass"): the general loop
-keeps numpy's NaN propagation in every min/max select (two more compares each) and
-folds the three axes' least positive extents into one running minimum — three
-dependent selects per row, a loop-carried chain that bounds the loop. On finite values
-``a if a < x else x`` is numpy's ``minimum(a, x)`` exactly (signed zeros included: the
-second operand among equals), so the NaN tests go; each axis keeps its own least
-positive extent (three independent chains, their minimum taken once per block: min is
-exact), and the largest positive extent is the largest box edge ``e_max`` itself.
-Every floating-point operation that makes a value (the extents y − x, the Veltkamp
-split, the sums in row order) is the general loop's, in its order.
+keeps numpy's NaN propagation in every min/max select (two more compares each). On
+finite values ``a if a < x else x`` is numpy's ``minimum(a, x)`` exactly (signed zeros
+included: the second operand among equals), so the NaN tests go. Every floating-point
+operation that makes a value (the extents y − x) is the general loop's. (Until 28 Nov
+2026 both loops also summed the extents exactly per axis, for a mean extent nothing
+has read since the first round's grid came from the cutting mesh: ~1/3 of the loop.)
 
 :func:`checked_summary_tetrahedra` runs the same loop with validation's clean-row test
 and the used-vertex marks (:func:`predicates.compiled.cellsums.check_cells`' fast path)
@@ -28,7 +25,6 @@ import numpy as np
 from numba import njit
 
 from .build import INLINE_OPTIONS, JIT_OPTIONS
-from .cellsums import _narrow_status
 
 __all__ = ["all_finite", "checked_summary_tetrahedra", "quiet_cells",
            "summary_tetrahedra", "swept_tetrahedra"]
@@ -78,14 +74,6 @@ def _more(y, b):
     return y if y > b else b
 
 
-@njit(**INLINE_OPTIONS)
-def _split(e, split):
-    """Veltkamp's high and low parts of e + 0.0 (as ``narrow_sums`` splits it)."""
-    v = e + 0.0
-    c = v * split
-    h = c - (c - v)
-    return h, v - h
-
 
 @njit(**INLINE_OPTIONS)
 def _clean(i, j, k, m, lim):
@@ -132,8 +120,7 @@ def _keep_row(i0, i1, fcells, flo, fhi, nf, u0, v0, w0, u1, v1, w1, i, j, k, m, 
 
 
 @njit(**INLINE_OPTIONS)
-def _summary_rows(points, rows, used, lo_min, hi_max, hist, status, big, tiny, spread,
-                  split, grid=None):
+def _summary_rows(points, rows, used, lo_min, hi_max, hist, grid=None):
     """The loop of :func:`summary_tetrahedra`, :func:`checked_summary_tetrahedra` and
     :func:`swept_tetrahedra` (``used``, ``grid`` None: no check, no flags; numba prunes
     the branches); returns (rows read, least, largest extent, rows flagged, their
@@ -148,8 +135,6 @@ def _summary_rows(points, rows, used, lo_min, hi_max, hist, status, big, tiny, s
         s0, s1, s2, use_bits = stride[0], stride[1], stride[2], bits.shape[0] > 0
     a0, a1, a2 = lo_min[0], lo_min[1], lo_min[2]
     b0, b1, b2 = hi_max[0], hi_max[1], hi_max[2]
-    h0 = h1 = h2 = l0 = l1 = l2 = 0.0
-    p0 = p1 = p2 = np.inf  # each axis's least positive extent (independent chains)
     last, run = 0, 0  # hist's current bin and its pending count
     for r in range(rows.shape[0]):
         i, j, k, m = rows[r, 0], rows[r, 1], rows[r, 2], rows[r, 3]
@@ -166,11 +151,6 @@ def _summary_rows(points, rows, used, lo_min, hi_max, hist, status, big, tiny, s
         a0, a1, a2 = _less(x0, a0), _less(x1, a1), _less(x2, a2)
         b0, b1, b2 = _more(y0, b0), _more(y1, b1), _more(y2, b2)
         e0, e1, e2 = y0 - x0, y1 - x1, y2 - x2
-        p0 = e0 if (e0 > 0.0) & (e0 < p0) else p0
-        p1 = e1 if (e1 > 0.0) & (e1 < p1) else p1
-        p2 = e2 if (e2 > 0.0) & (e2 < p2) else p2
-        (h, low), (g, lw), (f, lv) = _split(e0, split), _split(e1, split), _split(e2, split)
-        h0, l0, h1, l1, h2, l2 = h0 + h, l0 + low, h1 + g, l1 + lw, h2 + f, l2 + lv
         t = e0 if e0 > e1 else e1
         top = (t if t > e2 else e2) + 0.0  # −0.0 to +0.0 (as summarize)
         e_min = top if top < e_min else e_min
@@ -209,59 +189,40 @@ def _summary_rows(points, rows, used, lo_min, hi_max, hist, status, big, tiny, s
     hist[last] += run
     lo_min[0], lo_min[1], lo_min[2] = a0, a1, a2
     hi_max[0], hi_max[1], hi_max[2] = b0, b1, b2
-    _status(status, h0, h1, h2, l0, l1, l2, min(p0, min(p1, p2)), e_max, big, tiny, spread)
     return rows.shape[0], e_min, e_max, nf, ext
 
 
-@njit(**INLINE_OPTIONS)
-def _status(status, h0, h1, h2, l0, l1, l2, pmin, e_max, big, tiny, spread):
-    """The narrow sums' (status, Σ high parts, Σ low parts) per axis into ``status``;
-    the largest positive extent is the largest box edge (or 0)."""
-    status[0, 1], status[1, 1], status[2, 1] = h0, h1, h2
-    status[0, 2], status[1, 2], status[2, 2] = l0, l1, l2
-    state = _narrow_status(not e_max < big, pmin, e_max if e_max > 0.0 else 0.0, tiny,
-                           spread)
-    status[0, 0] = status[1, 0] = status[2, 0] = state
-
-
 @njit(**JIT_OPTIONS)
-def summary_tetrahedra(points, rows, lo_min, hi_max, hist, status, big, tiny, spread,
-                       split):
+def summary_tetrahedra(points, rows, lo_min, hi_max, hist):
     """:func:`~predicates.compiled.cellsums.summary_block` for tetrahedra ``rows``
     (m, 4) over finite ``points`` (N, 3), the same arguments and values (module
     docstring): the hull ``lo_min``/``hi_max`` updated, the largest extents' exponent
-    histogram ``hist`` (finite ones, counted by runs of one bin), per axis the narrow
-    sums' (status, Σ high parts, Σ low parts) into ``status`` (3, 3); returns (least,
+    histogram ``hist`` (finite ones, counted by runs of one bin); returns (least,
     largest) of the boxes' largest extents."""
-    got = _summary_rows(points, rows, None, lo_min, hi_max, hist, status, big, tiny,
-                        spread, split)
+    got = _summary_rows(points, rows, None, lo_min, hi_max, hist)
     return got[1], got[2]
 
 
 @njit(**JIT_OPTIONS)
-def checked_summary_tetrahedra(points, rows, used, lo_min, hi_max, hist, status, big,
-                               tiny, spread, split):
+def checked_summary_tetrahedra(points, rows, used, lo_min, hi_max, hist):
     """Validation's cell check (:func:`~predicates.compiled.cellsums.check_cells`' clean
     rows: ids in [0, len(used)), none repeated; ``used`` marked) and
     :func:`summary_tetrahedra` in one pass over the cells (docs/partitioned.md section
     2): returns (rows read, least, largest extent). Fewer rows than given: that row is
     not clean, its points were not read and the outputs are not written (validation
     then names the problem from the cells alone)."""
-    got = _summary_rows(points, rows, used, lo_min, hi_max, hist, status, big, tiny,
-                        spread, split)
+    got = _summary_rows(points, rows, used, lo_min, hi_max, hist)
     return got[0], got[1], got[2]
 
 
 @njit(**JIT_OPTIONS)
-def swept_tetrahedra(points, rows, used, lo_min, hi_max, hist, status, big, tiny, spread,
-                     split, grid):
+def swept_tetrahedra(points, rows, used, lo_min, hi_max, hist, grid):
     """:func:`checked_summary_tetrahedra` and the first round's flags of the same rows
     at a grid fixed before the sweep (:func:`predicates.compiled.flagpack.flag_row`,
     ``grid`` its tuple; docs/resolution.md, "The first round"): one read of the cells
     for validation, the summary and the flags. Returns (rows read, least, largest
     extent, rows flagged, their largest box edge)."""
-    return _summary_rows(points, rows, used, lo_min, hi_max, hist, status, big, tiny,
-                         spread, split, grid)
+    return _summary_rows(points, rows, used, lo_min, hi_max, hist, grid)
 
 
 @njit(**JIT_OPTIONS)

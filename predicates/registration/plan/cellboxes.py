@@ -1,6 +1,6 @@
 """The simulation cells' boxes without storing them (docs/partitioned.md, section 2,
 "the lean plan"): the plan needs every cell's box only for reductions (the hull, the
-largest box edge, the exact sums of the extents for the broad-phase grid's cell size)
+largest and least box edges, their exponents' histogram for the refinement's scan)
 and for per-cell flags, so :class:`CellBoxes` recomputes the boxes block by block from
 the points and cells (:func:`~predicates.registration.spatial.boxes.fill_boxes`: exact,
 min and max round nothing) instead of holding two (n, d) binary64 arrays — 48 bytes per
@@ -21,24 +21,22 @@ import numpy as np
 from predicates.registration.plan.refine_scan import stats_from
 from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.boxes import boxes_of, fill_boxes
-from predicates.registration.spatial.exactsum import ExactSum
 
 __all__ = ["BoxSummary", "CellBoxes"]
 
 
 @dataclass
 class BoxSummary:
-    """Reductions of the boxes of n cells, each exact (min, max, exact sums), so those
-    of parts combine into those of the whole in any order (:meth:`merge`): the hull
-    ``lo_min``, ``hi_max`` (d,), the largest box edge ``ext_max`` (not rounded up) and
-    per axis the :class:`~predicates.registration.spatial.exactsum.ExactSum` of the
-    extents ``sums``."""
+    """Reductions of the boxes of n cells, each exact (min, max, counts), so those of
+    parts combine into those of the whole in any order (:meth:`merge`): the hull
+    ``lo_min``, ``hi_max`` (d,), the largest and least box edges ``ext_max``,
+    ``ext_min`` (not rounded) and their exponents' histogram ``hist``. (No mean extent:
+    the first round's grid is the cutting mesh's, docs/resolution.md.)"""
 
     n: int
     lo_min: np.ndarray
     hi_max: np.ndarray
     ext_max: float
-    sums: list
     ext_min: float = np.inf
     hist: np.ndarray | None = None  # biased exponents of the extents (None: not finite)
     first: tuple | None = None  # (grid, flags) of the sweep that made it (first_round.py)
@@ -48,12 +46,10 @@ class BoxSummary:
             return self
         if self.n == 0:
             return other
-        for a, b in zip(self.sums, other.sums):
-            a.merge(b)
         hist = None if self.hist is None or other.hist is None else self.hist + other.hist
         return BoxSummary(self.n + other.n, np.minimum(self.lo_min, other.lo_min),
                           np.maximum(self.hi_max, other.hi_max),
-                          max(self.ext_max, other.ext_max), self.sums,
+                          max(self.ext_max, other.ext_max),
                           min(self.ext_min, other.ext_min), hist)
 
     def scan_stats(self):
@@ -65,21 +61,13 @@ class BoxSummary:
         mag = max(0.0, float(np.max(-self.lo_min)), float(np.max(self.hi_max)))
         return stats_from(self.n, float(self.ext_min), float(self.ext_max), mag, self.hist)
 
-    def mean_extent(self) -> float:
-        """The larger per-axis mean extent, exactly rounded (as
-        :func:`~predicates.registration.spatial.boxgrid.mean_extent`)."""
-        return max(s.mean() for s in self.sums) if self.n else 0.0
 
-
-def summarize(lo: np.ndarray, hi: np.ndarray, accelerate: bool = False) -> BoxSummary:
-    """:class:`BoxSummary` of the boxes ``lo``, ``hi`` (n, d); ``accelerate``: the exact
-    sums' blocks compiled (:class:`ExactSum`, the same sums)."""
+def summarize(lo: np.ndarray, hi: np.ndarray) -> BoxSummary:
+    """:class:`BoxSummary` of the boxes ``lo``, ``hi`` (n, d)."""
     d = lo.shape[1]
     if len(lo) == 0:
-        return BoxSummary(0, np.full(d, np.inf), np.full(d, -np.inf), 0.0,
-                          [ExactSum() for _ in range(d)])
+        return BoxSummary(0, np.full(d, np.inf), np.full(d, -np.inf), 0.0)
     ext = [hi[:, ax] - lo[:, ax] for ax in range(d)]
-    sums = [ExactSum(accelerate).add(x) for x in ext]
     e = np.maximum(ext[0], ext[1])  # box_extent's values from the extents already made
     for x in ext[2:]:
         np.maximum(e, x, out=e)
@@ -88,8 +76,7 @@ def summarize(lo: np.ndarray, hi: np.ndarray, accelerate: bool = False) -> BoxSu
     hist = np.bincount(e.view(np.int64) >> 52, minlength=2048) \
         if np.isfinite(e_max) and e_min >= 0 else None
     return BoxSummary(len(lo), np.array([lo[:, ax].min() for ax in range(d)]),
-                      np.array([hi[:, ax].max() for ax in range(d)]), e_max, sums, e_min,
-                      hist)
+                      np.array([hi[:, ax].max() for ax in range(d)]), e_max, e_min, hist)
 
 
 class CellBoxes:
@@ -252,7 +239,7 @@ class CellBoxes:
                     return self._compiled_summary(a, b)
                 out = summarize(*self.block(a, a))  # empty
                 for s, t in self.blocks.each(a, b):
-                    out = out.merge(summarize(*self.block(s, t), self.blocks.accelerate))
+                    out = out.merge(summarize(*self.block(s, t)))
                 return out
 
             parts = self.blocks.map(span, self.n) if self.n else [summarize(
@@ -294,44 +281,32 @@ class CellBoxes:
 
     def _compiled_summary(self, a: int, b: int, used: np.ndarray | None = None,
                           flags=None) -> BoxSummary | None:
-        """The :class:`BoxSummary` of rows [a, b) in one compiled loop per block of at
-        most 2^16 rows (:func:`predicates.compiled.cellsums.summary_block`: the boxes in
-        registers, the values of :func:`summarize`; the exact sums' narrow parts, a
-        block outside the narrow path summed from its boxes as before). ``used``: with
-        validation's check (:meth:`checked_summary`; None at a row that fails it);
-        ``flags``: a span's first-round output (``first_round._SpanRows``), the flags
-        written by the same loop (:func:`~predicates.compiled.tetsums.swept_tetrahedra`)."""
+        """The :class:`BoxSummary` of rows [a, b) in one compiled loop per block
+        (:func:`predicates.compiled.cellsums.summary_block`: the boxes in registers, the
+        values of :func:`summarize`). ``used``: with validation's check
+        (:meth:`checked_summary`; None at a row that fails it); ``flags``: a span's
+        first-round output (``first_round._SpanRows``), the flags written by the same
+        loop (:func:`~predicates.compiled.tetsums.swept_tetrahedra`)."""
         from predicates.compiled.tetsums import checked_summary_tetrahedra, swept_tetrahedra
-        from predicates.registration.spatial import exactsum as xs
 
         d, P = self.d, self._given()
         kernel = self._summary_kernel() if used is None else (
             lambda P, rows, *rest: checked_summary_tetrahedra(P, rows, used, *rest))
         if flags is not None:  # (used is given: the plan's checked sweep)
             def kernel(P, rows, *rest):
-                got = swept_tetrahedra(P, rows, used, *rest, flags.args(u, u + len(rows)))
+                got = swept_tetrahedra(P, rows, used, *rest, flags.args(s, t))
                 flags.add(got[3], got[4])
                 return got[:3]
         lo_min, hi_max = np.full(d, np.inf), np.full(d, -np.inf)
-        hist, sums = np.zeros(2048, dtype=np.int64), [ExactSum(True) for _ in range(d)]
-        e_min, e_max = np.inf, -np.inf
-        status = np.empty((d, 3))
+        hist, e_min, e_max = np.zeros(2048, dtype=np.int64), np.inf, -np.inf
         for s, t in self.blocks.each(a, b):
-            for u in range(s, t, 1 << 16):  # the narrow path's sums: ≤ 2^16 values
-                w = min(u + (1 << 16), t)
-                got = kernel(P, self.cells[u:w], lo_min, hi_max, hist, status, xs._BIG,
-                             xs._TINY, xs._SPREAD, xs._SPLIT)
-                if used is not None and got[0] < w - u:  # a row validation refuses
-                    return None
-                low, top = got[-2:]
-                for ax in range(d):
-                    if not sums[ax].add_narrow(w - u, int(status[ax, 0]), status[ax, 1],
-                                               status[ax, 2]):
-                        lo, hi = self.block(u, w)
-                        sums[ax].add(hi[:, ax] - lo[:, ax])
-                e_min, e_max = min(e_min, low), max(e_max, top)
+            got = kernel(P, self.cells[s:t], lo_min, hi_max, hist)
+            if used is not None and got[0] < t - s:  # a row validation refuses
+                return None
+            low, top = got[-2:]
+            e_min, e_max = min(e_min, low), max(e_max, top)
         ok = bool(np.isfinite(e_max)) and e_min >= 0
-        return BoxSummary(b - a, lo_min, hi_max, float(e_max), sums, float(e_min),
+        return BoxSummary(b - a, lo_min, hi_max, float(e_max), float(e_min),
                           hist if ok else None)
 
     def _summary_kernel(self):
