@@ -5,10 +5,10 @@ partitioned run never materialises on the client.
 The plan needs every simulation cell only for reductions and flags (section 2, "the
 lean plan"): validation (the first bad cell of each check, the vertices used), the
 boxes' :class:`~predicates.registration.plan.cellboxes.BoxSummary` (hull, largest and
-smallest edge, exact sums of the extents, the edges' exponent histogram) and the first
+smallest edge, the edges' exponent histogram) and the first
 round of the cells that can meet (:func:`~predicates.registration.plan.lean.flag_pass`).
 Each is a task per chunk on the workers; the client combines the chunks' results —
-exact reductions (min, max, integer sums, exact sums), so the plan is the serial one
+exact reductions (min, max, integer sums), so the plan is the serial one
 bit for bit whatever the chunking — and keeps only the cells that can meet (their
 vertex ids and boxes: what the later rounds, the report and the split use). The client
 holds the points (not those of pieces read by the workers: :mod:`.points`, every box
