@@ -125,12 +125,11 @@ def _by_first(rows, combos, n, start, key, idx, first, inv):
 
 
 @njit(**JIT_OPTIONS)
-def _pairs_by_first(rows, combos, n, start, second, idx, stamp, slot, first, inv):
-    """:func:`_by_first` for rows of two ids (a complex's edges): each row put in its
-    first id's run unsorted, then per run its distinct second ids found by a stamp
-    (``stamp[x] == v``: x seen in run v) and only those sorted by insertion (W1's
-    edges: runs of up to ~40 rows, ~7 distinct; :func:`_by_first` shifted every
-    duplicate). ``first`` and ``inv`` as :func:`_mark` writes them. Returns the number
+def _pairs_by_first(rows, combos, n, start, second, idx, stamp, first, inv):
+    """:func:`_by_first` for rows of two ids (a complex's edges): rows put in their first
+    id's run unsorted, then per run only its distinct second ids (a stamp per id:
+    ``stamp[x] == v``, seen in run v) sorted by insertion (W1: runs of up to ~40 rows,
+    ~7 distinct). ``first``, ``inv`` as :func:`_mark` writes them. Returns the number
     of distinct rows, or −1 (nothing written) when a run is longer than 4·``_RUN``."""
     g = combos.shape[0]
     for r in range(rows.shape[0]):
@@ -151,23 +150,24 @@ def _pairs_by_first(rows, combos, n, start, second, idx, stamp, slot, first, inv
             second[q] = rows[r, combos[p, 1]]
             idx[q] = i
             i += 1
+    ids = np.empty(most, dtype=np.int64)  # the run's distinct second ids, sorted
     nu = 0
     for v in range(n):
-        d = 0  # the run's distinct second ids so far, sorted in slot[nu: nu + d]
+        d = 0
         for q in range(start[v], start[v + 1]):
             x = second[q]
             if stamp[x] != v:
                 stamp[x] = v
-                u = nu + d
-                while u > nu and slot[u - 1] > x:
-                    slot[u] = slot[u - 1]
-                    first[u] = first[u - 1]
+                u = d
+                while u > 0 and ids[u - 1] > x:
+                    ids[u] = ids[u - 1]
+                    first[nu + u] = first[nu + u - 1]
                     u -= 1
-                slot[u] = x
-                first[u] = idx[q]
+                ids[u] = x
+                first[nu + u] = idx[q]
                 d += 1
-        for u in range(nu, nu + d):  # each distinct id's rank, through its stamp
-            stamp[slot[u]] = -2 - u  # (v ≥ 0 never equals it; reset by the next run)
+        for u in range(d):  # each distinct id's rank, through its stamp
+            stamp[ids[u]] = -2 - nu - u  # (v ≥ 0 never equals it; reset by the next run)
         for q in range(start[v], start[v + 1]):
             inv[idx[q]] = -2 - stamp[second[q]]
         nu += d
@@ -227,9 +227,9 @@ def unique_faces(rows: np.ndarray, combos: np.ndarray, n: int):
     first = np.empty(m, dtype=np.int64)
     nu = -1
     if w == 2:
-        scratch = [np.empty(m, np.int64) for _ in range(3)]  # second ids, rows, sorted
-        nu = _pairs_by_first(rows, combos, n, np.zeros(n + 1, np.int64), *scratch[:2],
-                             np.full(n, -1, np.int64), scratch[2], first, inv)
+        ids = np.int32 if max(n, m) < 2 ** 31 else np.int64  # the scatter: fewer pages
+        nu = _pairs_by_first(rows, combos, n, np.zeros(n + 1, np.int64), np.empty(m, ids),
+                             np.empty(m, ids), np.full(n, -1, np.int64), first, inv)
     elif int(n) ** (w - 1) < 2 ** 62:
         key, idx = np.empty(m, np.int64), np.empty(m, np.int64)
         nu = _by_first(rows, combos, n, np.zeros(n + 1, np.int64), key, idx, first, inv)

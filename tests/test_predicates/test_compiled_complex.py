@@ -65,9 +65,8 @@ def test_unique_pairs_take_both_routes():
     hub = np.stack([np.zeros(hub_run + 1, np.int64), np.arange(hub_run + 1)], 1)
     for rows, route in ((repeated, True), (hub, False)):
         m = len(rows)
-        out = [np.zeros(n + 1, np.int64), np.empty(m, np.int64), np.empty(m, np.int64),
-               np.full(n, -1, np.int64), np.empty(m, np.int64), np.empty(m, np.int64),
-               np.empty(m, np.int64)]
+        out = [np.zeros(n + 1, np.int64), np.empty(m, np.int32), np.empty(m, np.int32),
+               np.full(n, -1, np.int64), np.empty(m, np.int64), np.empty(m, np.int64)]
         nu = compiled_rows._pairs_by_first(rows, np.arange(2)[None, :], n, *out)
         assert (nu >= 0) == route
         want, inv = np.unique(rows, axis=0, return_inverse=True)
