@@ -118,14 +118,17 @@ def _widest(start):
 
 
 @njit(**JIT_OPTIONS)
-def _owned_levels(T, C, rows_c, three, levels, s0, f0, pad0, P0, R0, o0, p0, s1, f1, pad1,
-                  P1, R1, o1, p1, s2, f2, pad2, P2, R2, o2, p2, counts):
+def _owned_levels(T, C, lo_c, hi_c, rows_c, levels, s0, f0, pad0, P0, R0, o0, p0, s1, f1,
+                  pad1, P1, R1, o1, p1, s2, f2, pad2, P2, R2, o2, p2, counts):
     """Stage 1 of the first ``levels`` (1–3) levels given, per run of cell pairs
     (T[q], C[q]) sharing T[q]: the faces' boxes computed once into small arrays (W4:
     the kernel ~25 % faster than reading the face columns per pair), then
-    :func:`_owned_run` per level. ``rows_c``: the cutting cells' boxes as rows (lo on
-    columns 0–2, hi on 3–5), so copying a pair's cell box into the run reads one
-    cache line, not six columns (W1's 421 k pairs: the kernel ~1 ms of 13 faster)."""
+    :func:`_owned_run` per level. The run's cell boxes copied from ``rows_c`` (lo on
+    columns 0–2, hi on 3–5: one cache line per pair, not six columns; W1's 421 k
+    pairs: the kernel ~1 ms of 13 faster) when it holds them, else from the columns."""
+    three = lo_c.shape[0] == 3
+    d = lo_c.shape[0]
+    rows = rows_c.shape[0] == lo_c.shape[1]
     h0 = np.zeros((_widest(s0), 6))
     h1 = np.zeros((_widest(s1) if levels > 1 else 1, 6))
     h2 = np.zeros((_widest(s2) if levels > 2 else 1, 6))
@@ -138,8 +141,12 @@ def _owned_levels(T, C, rows_c, three, levels, s0, f0, pad0, P0, R0, o0, p0, s1,
             run = np.empty((2 * (q1 - q0), 6))
         for q in range(q0, q1):
             c = C[q]
-            for x in range(6):
-                run[q - q0, x] = rows_c[c, x]
+            if rows:
+                for x in range(6):
+                    run[q - q0, x] = rows_c[c, x]
+            else:
+                for ax in range(d):
+                    run[q - q0, ax], run[q - q0, 3 + ax] = lo_c[ax, c], hi_c[ax, c]
         _hold_boxes(t, s0, f0, P0, R0, h0)
         n0 = _owned_run(t, C, q0, q1, s0, f0, pad0, h0, run, three, o0, p0, n0)
         if levels > 1:
@@ -207,14 +214,26 @@ def owned_levels(T: np.ndarray, C: np.ndarray, boxes_c: tuple, levels: list) -> 
         args += [start, faces, float(pad), P, R, *out]
     counts = np.zeros(3, dtype=np.int64)
     if len(T):
-        lo_c, hi_c = boxes_c
-        d = lo_c.shape[0]  # rows of 8 (64 bytes): columns 2, 5 zero in 2D, 6–7 unused
-        rows_c = np.zeros((lo_c.shape[1], 8), dtype=np.float64)
-        rows_c[:, :d] = lo_c.T
-        rows_c[:, 3:3 + d] = hi_c.T
-        _owned_levels(T, C, rows_c, d == 3, len(levels), *args, counts)
+        _owned_levels(T, C, *boxes_c, _box_rows(*boxes_c), len(levels), *args, counts)
     # views: the pages past the count were never written (np.empty touches none)
     return [(f[:m], c[:m]) for (f, c), m in zip(outs[:len(levels)], counts)]
+
+
+#: the most bytes of cutting boxes stage 1 copies into rows: about the L2 cache (W1's
+#: 20 k cells: 1.3 MB); past it a copy would add to the run's peak (W4: ~20 MB)
+ROWS_BYTES = 4 << 20
+
+
+def _box_rows(lo_c: np.ndarray, hi_c: np.ndarray) -> np.ndarray:
+    """The boxes (d, n) as rows of 8 (64 bytes: lo on columns 0–2, hi on 3–5, the rest
+    zero), or an empty (0, 8) when they would take more than ``ROWS_BYTES``."""
+    d, n = lo_c.shape
+    if n * 64 > ROWS_BYTES:
+        return np.zeros((0, 8))
+    rows = np.zeros((n, 8))
+    rows[:, :d] = lo_c.T
+    rows[:, 3:3 + d] = hi_c.T
+    return rows
 
 
 _OWNED: dict = {}  # id(owned table) -> (weak reference to it, start, faces)
