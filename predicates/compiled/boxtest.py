@@ -118,21 +118,18 @@ def _widest(start):
 
 
 @njit(**JIT_OPTIONS)
-def _owned_levels(T, C, lo_c, hi_c, rows_c, levels, s0, f0, pad0, P0, R0, o0, p0, s1, f1,
-                  pad1, P1, R1, o1, p1, s2, f2, pad2, P2, R2, o2, p2, counts):
+def _owned_levels(T, C, lo_c, hi_c, levels, s0, f0, pad0, P0, R0, o0, p0, s1, f1, pad1,
+                  P1, R1, o1, p1, s2, f2, pad2, P2, R2, o2, p2, counts):
     """Stage 1 of the first ``levels`` (1–3) levels given, per run of cell pairs
     (T[q], C[q]) sharing T[q]: the faces' boxes computed once into small arrays (W4:
     the kernel ~25 % faster than reading the face columns per pair), then
-    :func:`_owned_run` per level. The run's cell boxes copied from ``rows_c`` (lo on
-    columns 0–2, hi on 3–5: one cache line per pair, not six columns; W1's 421 k
-    pairs: the kernel ~1 ms of 13 faster) when it holds them, else from the columns."""
+    :func:`_owned_run` per level."""
     three = lo_c.shape[0] == 3
-    d = lo_c.shape[0]
-    rows = rows_c.shape[0] == lo_c.shape[1]
     h0 = np.zeros((_widest(s0), 6))
     h1 = np.zeros((_widest(s1) if levels > 1 else 1, 6))
     h2 = np.zeros((_widest(s2) if levels > 2 else 1, 6))
     n0 = n1 = n2 = 0
+    d = lo_c.shape[0]
     run = np.empty((64, 6))  # the run's cell boxes, rows read in sequence
     q0 = 0
     while q0 < T.shape[0]:
@@ -140,13 +137,8 @@ def _owned_levels(T, C, lo_c, hi_c, rows_c, levels, s0, f0, pad0, P0, R0, o0, p0
         if q1 - q0 > run.shape[0]:
             run = np.empty((2 * (q1 - q0), 6))
         for q in range(q0, q1):
-            c = C[q]
-            if rows:
-                for x in range(6):
-                    run[q - q0, x] = rows_c[c, x]
-            else:
-                for ax in range(d):
-                    run[q - q0, ax], run[q - q0, 3 + ax] = lo_c[ax, c], hi_c[ax, c]
+            for ax in range(d):
+                run[q - q0, ax], run[q - q0, 3 + ax] = lo_c[ax, C[q]], hi_c[ax, C[q]]
         _hold_boxes(t, s0, f0, P0, R0, h0)
         n0 = _owned_run(t, C, q0, q1, s0, f0, pad0, h0, run, three, o0, p0, n0)
         if levels > 1:
@@ -214,26 +206,9 @@ def owned_levels(T: np.ndarray, C: np.ndarray, boxes_c: tuple, levels: list) -> 
         args += [start, faces, float(pad), P, R, *out]
     counts = np.zeros(3, dtype=np.int64)
     if len(T):
-        _owned_levels(T, C, *boxes_c, _box_rows(*boxes_c), len(levels), *args, counts)
+        _owned_levels(T, C, *boxes_c, len(levels), *args, counts)
     # views: the pages past the count were never written (np.empty touches none)
     return [(f[:m], c[:m]) for (f, c), m in zip(outs[:len(levels)], counts)]
-
-
-#: the most bytes of cutting boxes stage 1 copies into rows: about the L2 cache (W1's
-#: 20 k cells: 1.3 MB); past it a copy would add to the run's peak (W4: ~20 MB)
-ROWS_BYTES = 4 << 20
-
-
-def _box_rows(lo_c: np.ndarray, hi_c: np.ndarray) -> np.ndarray:
-    """The boxes (d, n) as rows of 8 (64 bytes: lo on columns 0–2, hi on 3–5, the rest
-    zero), or an empty (0, 8) when they would take more than ``ROWS_BYTES``."""
-    d, n = lo_c.shape
-    if n * 64 > ROWS_BYTES:
-        return np.zeros((0, 8))
-    rows = np.zeros((n, 8))
-    rows[:, :d] = lo_c.T
-    rows[:, 3:3 + d] = hi_c.T
-    return rows
 
 
 _OWNED: dict = {}  # id(owned table) -> (weak reference to it, start, faces)

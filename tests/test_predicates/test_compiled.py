@@ -390,22 +390,17 @@ def test_owned_lists_are_the_owned_table(width):
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 @pytest.mark.parametrize("d", [2, 3])
-@pytest.mark.parametrize("rows_bytes", [0, 1 << 20])
-def test_stage1_boxes_from_vertices_keep_the_stored_boxes_pairs(seed, d, rows_bytes,
-                                                                   monkeypatch):
+def test_stage1_boxes_from_vertices_keep_the_stored_boxes_pairs(seed, d):
     """Stage 1 (boxtest.owned_levels) computes the faces' boxes from their vertices: on
     points with ties, signed zeros and a NaN, its pairs are exactly those of the numpy
     owned-table expansion and box test on boxes_of's stored boxes, level by level (in
     its order: per run of pairs sharing a cell, face by face, each with the run's
-    cutting cells in order), in 2D and 3D, the cutting boxes read from their columns or
-    copied into rows (``ROWS_BYTES`` 0: never)."""
-    from predicates.compiled import boxtest
+    cutting cells in order), in 2D and 3D."""
     from predicates.compiled.boxtest import owned_levels, owned_lists_of
     from predicates.registration.levels.facepairs import _owned, owned_table
     from predicates.registration.spatial.boxes import boxes_of
     from predicates.registration.spatial.broadphase import pair_test
 
-    monkeypatch.setattr(boxtest, "ROWS_BYTES", rows_bytes)
     rng = np.random.default_rng(seed)
     P = rng.integers(-2, 3, size=(30, d)) * 0.5  # coarse: equal coordinates, touching
     P[rng.random(P.shape) < 0.2] = -0.0
