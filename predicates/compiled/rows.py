@@ -3,7 +3,8 @@
 final order (:func:`~predicates.registration.levels.complex.distinct_lex_order`),
 compiled. The unique rows: one counting pass on the first id (radix n, the number of
 vertices), each row inserted into its first id's run on the rest packed into an int64
-(a complex's runs are a few rows); single ids by flags, with no sort; a stable
+(a complex's runs are a few rows); pairs of ids by a stamp per second id, sorting
+only each run's distinct ones; single ids by flags, with no sort; a stable
 least-significant-column counting sort when a run is long or the rest does not pack.
 Then one pass marking each row that differs from the previous. The unique rows come
 out sorted lexicographically with the same inverse map as numpy's argsort of the packed
@@ -124,6 +125,56 @@ def _by_first(rows, combos, n, start, key, idx, first, inv):
 
 
 @njit(**JIT_OPTIONS)
+def _pairs_by_first(rows, combos, n, start, second, idx, stamp, first, inv):
+    """:func:`_by_first` for rows of two ids (a complex's edges): rows put in their first
+    id's run unsorted, then per run only its distinct second ids (a stamp per id:
+    ``stamp[x] == v``, seen in run v) sorted by insertion (W1: runs of up to ~40 rows,
+    ~7 distinct). ``first``, ``inv`` as :func:`_mark` writes them. Returns the number
+    of distinct rows, or −1 (nothing written) when a run is longer than 4·``_RUN``."""
+    g = combos.shape[0]
+    for r in range(rows.shape[0]):
+        for p in range(g):
+            start[rows[r, combos[p, 0]] + 1] += 1
+    most = 0
+    for v in range(n):
+        most = max(most, start[v + 1])
+        start[v + 1] += start[v]
+    if most > 4 * _RUN:  # a hub vertex: its distinct ids' insertion would be quadratic
+        return -1
+    end = start[:n].copy()  # the next free slot of each run
+    i = 0  # the row's number: r·g + p
+    for r in range(rows.shape[0]):
+        for p in range(g):
+            q = end[rows[r, combos[p, 0]]]
+            end[rows[r, combos[p, 0]]] = q + 1
+            second[q] = rows[r, combos[p, 1]]
+            idx[q] = i
+            i += 1
+    ids = np.empty(most, dtype=np.int64)  # the run's distinct second ids, sorted
+    nu = 0
+    for v in range(n):
+        d = 0
+        for q in range(start[v], start[v + 1]):
+            x = second[q]
+            if stamp[x] != v:
+                stamp[x] = v
+                u = d
+                while u > 0 and ids[u - 1] > x:
+                    ids[u] = ids[u - 1]
+                    first[nu + u] = first[nu + u - 1]
+                    u -= 1
+                ids[u] = x
+                first[nu + u] = idx[q]
+                d += 1
+        for u in range(d):  # each distinct id's rank, through its stamp
+            stamp[ids[u]] = -2 - nu - u  # (v ≥ 0 never equals it; reset by the next run)
+        for q in range(start[v], start[v + 1]):
+            inv[idx[q]] = -2 - stamp[second[q]]
+        nu += d
+    return nu
+
+
+@njit(**JIT_OPTIONS)
 def _by_flags(rows, combos, n, seen, rank, ids, inv):
     """Unique single ids (w = 1; row r·g + p is rows[r, combos[p, 0]]): flagged, then
     numbered in ascending order into ``ids`` — the sorted unique rows and the map with
@@ -161,8 +212,9 @@ def unique_faces(rows: np.ndarray, combos: np.ndarray, n: int):
     the columns combos[p] of rows[i]: a complex's faces of its simplices) without
     gathering them first: by :func:`_by_first` when the rest of a row packs into an
     int64 and no first id starts more than ``_RUN`` rows (W1's 176 k triangles 6.7 ->
-    3.7 ms hot), single ids by flags, else by :func:`_lex_order` on the gathered rows
-    — the same rows and map either way."""
+    3.7 ms hot), pairs of ids by :func:`_pairs_by_first` (W1's 300 k edges 8.0 -> 3.2
+    ms), single ids by flags, else by :func:`_lex_order` on the gathered rows — the
+    same rows and map either way."""
     rows = np.ascontiguousarray(rows)
     combos = np.ascontiguousarray(combos, dtype=np.int64)
     g, w = combos.shape
@@ -174,7 +226,11 @@ def unique_faces(rows: np.ndarray, combos: np.ndarray, n: int):
         return ids[:nu].reshape(nu, 1).copy(), inv
     first = np.empty(m, dtype=np.int64)
     nu = -1
-    if int(n) ** (w - 1) < 2 ** 62:
+    if w == 2:
+        ids = np.int32 if max(n, m) < 2 ** 31 else np.int64  # the scatter: fewer pages
+        nu = _pairs_by_first(rows, combos, n, np.zeros(n + 1, np.int64), np.empty(m, ids),
+                             np.empty(m, ids), np.full(n, -1, np.int64), first, inv)
+    elif int(n) ** (w - 1) < 2 ** 62:
         key, idx = np.empty(m, np.int64), np.empty(m, np.int64)
         nu = _by_first(rows, combos, n, np.zeros(n + 1, np.int64), key, idx, first, inv)
     if nu < 0:

@@ -389,23 +389,24 @@ def test_owned_lists_are_the_owned_table(width):
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
-def test_stage1_boxes_from_vertices_keep_the_stored_boxes_pairs(seed):
+@pytest.mark.parametrize("d", [2, 3])
+def test_stage1_boxes_from_vertices_keep_the_stored_boxes_pairs(seed, d):
     """Stage 1 (boxtest.owned_levels) computes the faces' boxes from their vertices: on
     points with ties, signed zeros and a NaN, its pairs are exactly those of the numpy
     owned-table expansion and box test on boxes_of's stored boxes, level by level (in
     its order: per run of pairs sharing a cell, face by face, each with the run's
-    cutting cells in order)."""
+    cutting cells in order), in 2D and 3D."""
     from predicates.compiled.boxtest import owned_levels, owned_lists_of
     from predicates.registration.levels.facepairs import _owned, owned_table
     from predicates.registration.spatial.boxes import boxes_of
     from predicates.registration.spatial.broadphase import pair_test
 
     rng = np.random.default_rng(seed)
-    P = rng.integers(-2, 3, size=(30, 3)) * 0.5  # coarse: equal coordinates, touching
+    P = rng.integers(-2, 3, size=(30, d)) * 0.5  # coarse: equal coordinates, touching
     P[rng.random(P.shape) < 0.2] = -0.0
     P[7, 1] = np.nan
-    lo_c = rng.integers(-3, 3, size=(3, 25)) * 0.5
-    boxes_c = (lo_c, lo_c + rng.integers(0, 3, size=(3, 25)) * 0.5)
+    lo_c = rng.integers(-3, 3, size=(d, 25)) * 0.5
+    boxes_c = (lo_c, lo_c + rng.integers(0, 3, size=(d, 25)) * 0.5)
     T = np.sort(rng.integers(0, 20, 200))
     C = rng.integers(0, 25, 200)
     spec, want = [], []

@@ -1,8 +1,8 @@
 """The complexes' compiled passes (predicates.compiled.rows: unique faces, face tables,
 ranked cells) equal their numpy twins array for array (docs/design.md, "Compiled
-candidate chain"), on both of unique_faces' routes (short runs by insertion, long runs
-by the column counting sort) and on single ids (flags); each against np.unique or a
-plain numpy reference."""
+candidate chain"), on each of unique_faces' routes (short runs by insertion, pairs of
+ids by a stamp per run, long runs by the column counting sort) and on single ids
+(flags); each against np.unique or a plain numpy reference."""
 from __future__ import annotations
 
 import itertools
@@ -52,6 +52,26 @@ def test_unique_faces_takes_both_routes():
                                      np.zeros(n + 1, np.int64), *out)
         assert (nu >= 0) == route
         assert np.array_equal(compiled_rows.unique_rows(rows, n)[0], np.unique(rows, axis=0))
+
+
+def test_unique_pairs_take_both_routes():
+    """Rows of two ids: the stamp route (each run's distinct second ids sorted) answers
+    runs of up to 4·_RUN rows, many of them repeated, and refuses a longer run (a hub
+    vertex; the counting sort answers): np.unique's rows and map either way."""
+    n = 3000
+    rng = np.random.default_rng(7)
+    hub_run = 4 * compiled_rows._RUN
+    repeated = np.stack([rng.integers(0, 5, hub_run), rng.integers(0, 9, hub_run)], 1)
+    hub = np.stack([np.zeros(hub_run + 1, np.int64), np.arange(hub_run + 1)], 1)
+    for rows, route in ((repeated, True), (hub, False)):
+        m = len(rows)
+        out = [np.zeros(n + 1, np.int64), np.empty(m, np.int32), np.empty(m, np.int32),
+               np.full(n, -1, np.int64), np.empty(m, np.int64), np.empty(m, np.int64)]
+        nu = compiled_rows._pairs_by_first(rows, np.arange(2)[None, :], n, *out)
+        assert (nu >= 0) == route
+        want, inv = np.unique(rows, axis=0, return_inverse=True)
+        got, got_inv = compiled_rows.unique_rows(rows, n)
+        assert np.array_equal(got, want) and np.array_equal(got_inv, inv.ravel())
 
 
 @settings(deadline=None)
