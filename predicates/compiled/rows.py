@@ -73,6 +73,20 @@ def _mark(rows, order, first, inv):
 _RUN = 64
 
 
+@njit(**INLINE_OPTIONS)
+def _run_starts(rows, combos, n, start):
+    """Each first id's run start into ``start`` (n + 1, zeros on entry) for rows
+    i·g + p = rows[i, combos[p]]; returns the longest run's length."""
+    for r in range(rows.shape[0]):
+        for p in range(combos.shape[0]):
+            start[rows[r, combos[p, 0]] + 1] += 1
+    most = 0
+    for v in range(n):
+        most = max(most, start[v + 1])
+        start[v + 1] += start[v]
+    return most
+
+
 @njit(**JIT_OPTIONS)
 def _by_first(rows, combos, n, start, key, idx, first, inv):
     """Unique rows in one counting pass on the first column: each row placed in its
@@ -83,14 +97,7 @@ def _by_first(rows, combos, n, start, key, idx, first, inv):
     ``first`` and ``inv`` as :func:`_mark` writes them. Returns the number of distinct
     rows, or −1 (nothing written) when a run is longer than ``_RUN``."""
     g, w = combos.shape
-    for r in range(rows.shape[0]):
-        for p in range(g):
-            start[rows[r, combos[p, 0]] + 1] += 1
-    most = 0
-    for v in range(n):
-        most = max(most, start[v + 1])
-        start[v + 1] += start[v]
-    if most > _RUN:
+    if _run_starts(rows, combos, n, start) > _RUN:
         return -1
     end = start[:n].copy()  # the next free slot of each run
     i = 0  # the row's number: r·g + p
@@ -132,13 +139,7 @@ def _pairs_by_first(rows, combos, n, start, second, idx, stamp, first, inv):
     ~7 distinct). ``first``, ``inv`` as :func:`_mark` writes them. Returns the number
     of distinct rows, or −1 (nothing written) when a run is longer than 4·``_RUN``."""
     g = combos.shape[0]
-    for r in range(rows.shape[0]):
-        for p in range(g):
-            start[rows[r, combos[p, 0]] + 1] += 1
-    most = 0
-    for v in range(n):
-        most = max(most, start[v + 1])
-        start[v + 1] += start[v]
+    most = _run_starts(rows, combos, n, start)
     if most > 4 * _RUN:  # a hub vertex: its distinct ids' insertion would be quadratic
         return -1
     end = start[:n].copy()  # the next free slot of each run
