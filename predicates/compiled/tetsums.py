@@ -74,7 +74,6 @@ def _more(y, b):
     return y if y > b else b
 
 
-
 @njit(**INLINE_OPTIONS)
 def _clean(i, j, k, m, lim):
     """Are the ids in [0, lim) and distinct (:func:`~predicates.compiled.cellsums.

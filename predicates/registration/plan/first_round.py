@@ -187,6 +187,7 @@ class SweptFlags:
         self.levels = np.empty(int(np.prod(G)), dtype=np.uint8)
         quiet_cells(grid.table, G, self.stride, self.levels)
         self.quiet = np.full(n_points, 255, dtype=np.uint8)
+        self.bound = grid.h * 2.0 ** 46  # a point farther from the origin: level 0
 
     def span(self, a: int, b: int) -> "_SpanRows":
         """The output of the span of rows [a, b)."""
@@ -224,7 +225,7 @@ class _SpanRows:
                         np.empty((m, 3)), np.empty((m, 3)), np.empty((m, 4), o.cells_dtype))
         rest = tuple(x[self.filled:] for x in self.out)
         return (o.origin, o.inv_h, o.top, o.stride, o.grid.table, o.bits, o.levels,
-                o.grid.h * 2.0 ** 46, o.quiet, o.near[u:w]) + rest
+                o.bound, o.quiet, o.near[u:w]) + rest
 
     def add(self, nf: int, ext: float) -> None:
         if nf:

@@ -62,18 +62,6 @@ class ExactSum:
             self._block(x[a:a + (1 << 16)] + 0.0)  # + 0.0: −0.0 becomes +0.0
         return self
 
-    def add_narrow(self, count: int, status: int, high: float, low: float) -> bool:
-        """Add ``count`` values summed by a compiled pass's narrow path
-        (:func:`predicates.compiled.cellsums.narrow_sums`' outcome, ≤ 2^16 values):
-        status 2 — their exact sum is high + low; 1 — no positive value; 0 — not
-        summed: returns False and the caller :meth:`add`-s the values instead."""
-        if status == 0:
-            return False
-        self.n += count
-        if status == 2:
-            self._add_floats((high, low))
-        return True
-
     def _add_floats(self, values) -> None:
         """Add binary64 values that are multiples of 2^-1074 (exact sums), exactly."""
         for v in values:
