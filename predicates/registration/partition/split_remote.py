@@ -93,9 +93,10 @@ def _destinations(owners: np.ndarray, k: int):
 
 def _route(run, parts: np.ndarray, k: int, *owners) -> tuple:
     """What the chunk sends each of the k partitions: (global cell indices, cells in
-    global vertex ids, those vertices (ascending), their scaled coordinates, owned by
-    the partition, the count of the chunk's cells the partition owns, the CPU seconds
-    of the longest path to here)."""
+    rows of the vertices sent (int32 when they fit: :func:`assemble` renumbers them by
+    a search per vertex, not per cell corner), those vertices' global ids (ascending),
+    their scaled coordinates, owned by the partition, the count of the chunk's cells
+    the partition owns, the CPU seconds of the longest path to here)."""
     c = time.thread_time()
     owner = np.concatenate([o[0] for o in owners] + [np.zeros(0, np.int64)]
                            ).astype(np.int64)
@@ -104,9 +105,12 @@ def _route(run, parts: np.ndarray, k: int, *owners) -> tuple:
     out = []
     for r in range(k):
         sel = halo[starts[r]:starts[r + 1]]
+        at = run.at[sel]
         used = np.zeros(len(run.vids), dtype=bool)
-        used[run.at[sel].ravel()] = True
-        out.append([run.rows[sel], run.vids[run.at[sel]], run.vids[used], run.coords[used],
+        used[at.ravel()] = True
+        # each vertex's row among those sent: the count of sent vertices before it
+        row = np.cumsum(used, dtype=np.int32 if len(run.vids) < 2 ** 31 else np.int64)
+        out.append([run.rows[sel], np.take(row, at) - 1, run.vids[used], run.coords[used],
                     owner[used] == r, int(owned[r])])
     path = max((o[1] for o in owners), default=run.cpu) + time.thread_time() - c
     return tuple(tuple(o) + (path,) for o in out)
@@ -116,15 +120,17 @@ def assemble(r: int, *routes) -> Part | None:
     """Partition r's :class:`~.assign.Part` from every chunk's route (in the chunks'
     order: cell indices ascending), its cutting slice left to the task; None when it
     holds no cell."""
-    cells = np.concatenate([g[1] for g in routes])
-    if len(cells) == 0:
+    if sum(len(g[1]) for g in routes) == 0:
         return None
     ids = np.concatenate([g[2] for g in routes])
     vids, first = np.unique(ids, return_index=True)  # shared vertices: the same values
     coords = np.concatenate([g[3] for g in routes])[first]
     own = np.concatenate([g[4] for g in routes])[first]
-    local = np.searchsorted(vids, cells)
-    local = local.astype(np.int32) if len(vids) < 2 ** 31 else local
+    # each route's vertices found among the part's (a search per vertex), then its
+    # cells' rows mapped by a gather: the local ids a search per cell corner gave
+    kind = np.int32 if len(vids) < 2 ** 31 else np.int64
+    local = np.concatenate([np.take(np.searchsorted(vids, g[2]).astype(kind, copy=False),
+                                    g[1]) for g in routes])
     gid = vids.astype(np.int32) if vids[-1] < 2 ** 31 else vids
     d = coords.shape[1]
     return Part(r, coords, local, gid, own, np.zeros((0, d), coords.dtype),
