@@ -24,7 +24,8 @@ from predicates.registration.plan.cellboxes import CellBoxes
 from predicates.registration.plan.edges import edge_from, edge_shift, edge_summary
 from predicates.registration.plan.inputs import (
     MeshInput, MeshTypeError, _array, _points, cell_error)
-from predicates.registration.partition.swept import check_chunk as _check, check_swept
+from predicates.registration.partition.swept import (
+    check_chunk as _check, check_swept, narrow_ids)
 from predicates.registration.partition.points import RemotePoints
 from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.boxes import boxes_of
@@ -69,7 +70,7 @@ def _flags(chunk, points, origin, h, G, table, accelerate: bool = False):
     edge = edge_summary(points, cells, blocks) if len(ids) else None
     if len(chunk) < 2 ** 31:
         ids = ids.astype(np.int32)  # (the client adds the chunk's int64 offset)
-    return count, (ids, i0, i1, ext, cells, edge, None)
+    return count, (ids, i0, i1, ext, narrow_ids(cells, len(points)), edge, None)
 
 
 def _row_boxes(chunk, points, rows: np.ndarray):

@@ -62,16 +62,17 @@ def chunk_run(source, points, rowbits: np.ndarray, offset: int, e: int, dtype,
     the chunk's points, no sort of the cells' vertex ids."""
     c = time.thread_time()
     cells = source[2] if piece else np.asarray(source)
-    rows = np.flatnonzero(np.unpackbits(rowbits, count=len(cells)).astype(bool))
+    rows = np.flatnonzero(np.unpackbits(rowbits, count=len(cells)).view(bool))
     # the run cells in the numbering of the points at hand: the piece's own or global
-    run = (source[1] if piece else cells)[rows]
+    # (take: a row gather ~8x faster than fancy indexing on W4's chunks)
+    run = np.take(source[1] if piece else cells, rows, axis=0)
     n_here = len(source[0]) if piece else len(points)
     used = np.zeros(n_here, dtype=bool)
     used[run.ravel()] = True
     here = np.flatnonzero(used)
     if piece:  # their global ids, ascending (the piece's numbering is not monotone)
         gid = np.empty(n_here, dtype=np.int64)
-        gid[run.ravel()] = cells[rows].ravel()
+        gid[run.ravel()] = np.take(cells, rows, axis=0).ravel()
         here = here[np.argsort(gid[here], kind="stable")]
         vids = gid[here]
         with np.errstate(all="ignore"):  # the plan's cast (checked there)
@@ -81,12 +82,17 @@ def chunk_run(source, points, rowbits: np.ndarray, offset: int, e: int, dtype,
         given = np.asarray(points[here])
     pos = np.empty(n_here, dtype=np.int32 if len(here) < 2 ** 31 else np.int64)
     pos[here] = np.arange(len(here))
-    at = pos[run]
+    at = np.take(pos, run)
     m, w = at.shape
     first_row = np.full(len(vids), m, dtype=np.int64)
     np.minimum.at(first_row, at.ravel(), np.repeat(np.arange(m, dtype=np.int64), w))
     coords = times_pow2(given, -e)
-    first = np.ascontiguousarray(coords[at[:, 0]].astype(np.float64).T)
+    # the first vertices' coordinates, one row per axis: a gather per axis (the values
+    # of coords[at[:, 0]] as float64, transposed)
+    axes = np.ascontiguousarray(coords.T, dtype=np.float64)
+    first = np.empty((axes.shape[0], m))
+    for a, column in enumerate(axes):
+        np.take(column, at[:, 0], out=first[a])
     return ChunkRun(rows + offset, vids, coords, at, first_row, first, None,
                     time.thread_time() - c)
 
