@@ -16,8 +16,9 @@ from predicates.registration.partition.assign import Layout, assign
 from predicates.registration.partition.slices import owner_halos
 from predicates.registration.partition.split_keys import (
     answer, chunk_run, first_hull, partition_of, select_boundaries, with_codes)
+from predicates.registration.partition import split_remote
 from predicates.registration.partition.split_remote import (
-    _firsts, _owners, _route, assemble)
+    _destinations, _firsts, _owners, _route, assemble)
 from predicates.registration.plan.inputs import renumbered, run_vertices, times_pow2
 from same_result import assert_identical, chunked_cells as _chunked, rotated_case as _case
 
@@ -243,3 +244,29 @@ def test_timeout_covers_the_split_on_the_workers(monkeypatch):
                                    timeout=60)
         assert_identical(ref, res)
         assert res.timings["split"]["where"] == "workers"
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(1, 12), st.integers(0, 300),
+       st.integers(2, 4), st.floats(0, 1))
+def test_destinations_direct_and_sorted_agree(seed, k, m, width, mixed):
+    """A partition's cells are those with a vertex it owns, ascending: the per-partition
+    pass (k up to DIRECT_K) gives the sorted keys' ids and starts, against the
+    definition, for cells with one owner and cells with several."""
+    rng = np.random.default_rng(seed)
+    owners = np.repeat(rng.integers(0, k, (m, 1)), width, axis=1)
+    mix = rng.random(m) < mixed
+    owners[mix] = rng.integers(0, k, (int(mix.sum()), width))
+    direct = _destinations(owners, k) if k <= split_remote.DIRECT_K else None
+    saved = split_remote.DIRECT_K
+    split_remote.DIRECT_K = 0
+    try:
+        ids, starts = _destinations(owners, k)
+    finally:
+        split_remote.DIRECT_K = saved
+    for r in range(k):
+        want = np.flatnonzero((owners == r).any(axis=1))
+        np.testing.assert_array_equal(ids[starts[r]:starts[r + 1]], want)
+    if direct is not None:
+        np.testing.assert_array_equal(direct[0], ids)
+        np.testing.assert_array_equal(direct[1], starts)

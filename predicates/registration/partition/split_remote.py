@@ -77,12 +77,28 @@ def _owners(*pieces) -> tuple:
     return tuple((g, path) for g in got)
 
 
+#: up to this many partitions :func:`_destinations` tests each partition's owners
+#: directly (k passes over the cells) instead of sorting (cell, owner) keys
+DIRECT_K = 8
+
+
 def _destinations(owners: np.ndarray, k: int):
     """(cell positions, starts): partition r's cells — those with a vertex it owns
     (``owners``: per cell, its vertices' owners) — are ``ids[starts[r]:starts[r+1]]``,
-    ascending. Most cells have one owner for all their vertices: those are grouped by a
-    sort of one key each, only the others by every (cell, owner) pair."""
+    ascending. For a few partitions (k ≤ :data:`DIRECT_K`) a pass per partition over
+    the owners' columns; else most cells have one owner for all their vertices: those
+    are grouped by a sort of one key each, only the others by every (cell, owner)
+    pair. Both give the same ids."""
     m = len(owners)
+    if k <= DIRECT_K:  # (W4, k = 2: ~2 ms a partition against a 13 ms sort)
+        ids = []
+        for r in range(k):
+            has = np.zeros(m, dtype=bool)
+            for column in owners.T:
+                has |= column == r
+            ids.append(np.flatnonzero(has))
+        starts = np.cumsum([0] + [len(i) for i in ids], dtype=np.int64)
+        return np.concatenate(ids + [np.zeros(0, np.int64)]).astype(np.int64), starts
     same = np.all(owners == owners[:, :1], axis=1)
     one = np.flatnonzero(same)
     other = np.flatnonzero(~same)
