@@ -109,7 +109,10 @@ def _on_piece(f, own, dtype, *args):
             return count, None
         ids, i0, i1, ext, _, edge, _ = got
         # the flagged cells' boxes here, from the piece's points: the client has none
-        return count, (ids, i0, i1, ext, cells[ids], edge, boxes_of(pts, local[ids]))
+        flagged = np.take(cells, ids, axis=0)
+        flagged = narrow_ids(flagged, int(flagged.max()) + 1 if flagged.size else 0)
+        return count, (ids, i0, i1, ext, flagged, edge,
+                       boxes_of(pts, np.take(local, ids, axis=0)))
     return f(local, pts, *args)  # _near_scan: row ids only; _row_boxes: boxes
 
 
