@@ -101,8 +101,8 @@ def _on_piece(f, own, dtype, *args):
     points, local, cells = own
     with np.errstate(all="ignore"):  # as validate_remote: unused rows are never read
         pts = points.astype(dtype, copy=False)
-    if f is _check:
-        return _check(cells, pts, *args, local=local)
+    if f is _check or f is check_swept:  # validated in global ids, boxes in its own
+        return f(cells, pts, *args, local=local)
     if f is _flags:
         count, got = _flags(local, pts, *args)
         if got is None:
@@ -207,8 +207,9 @@ class RemoteCells(CellBoxes):
         none), the vertices used (bool; None when the points on the workers are
         checked there, :mod:`.points`)). ``grid``: a speculative first-round grid
         (:mod:`~predicates.registration.plan.first_round`) whose flags the same tasks
-        compute where they can (:mod:`.swept`; not on pieces read by the workers)."""
-        if grid is None or self.pieces is not None:
+        compute where they can (:mod:`.swept`; on pieces read by the workers too, since
+        2026-11-28: their flagged cells' boxes come back from the sweep)."""
+        if grid is None:
             got = self._map(_check, n_points, not self.far, self.blocks.accelerate)
         else:
             both = self._map(check_swept, n_points, not self.far, self.blocks.accelerate,

@@ -43,6 +43,15 @@ def check_chunk(chunk, points, n_points: int, mark_used: bool = True,
 
     blocks = Blocks(accelerate=accelerate and compiled.available())
     chunk = np.asarray(chunk)
+    bad, used = _validated(chunk, n_points, mark_used, blocks)
+    if any(b is not None for b in bad):
+        return bad, np.packbits(used[:0]), None
+    return bad, np.packbits(used), CellBoxes(points, chunk if local is None else local,
+                                             blocks).summary()
+
+
+def _validated(chunk: np.ndarray, n_points: int, mark_used: bool, blocks: Blocks):
+    """(first bad rows per check, the vertices used — empty unless ``mark_used``)."""
     used = np.zeros(n_points if mark_used or blocks.accelerate else 0, dtype=bool)
     if blocks.accelerate and chunk.dtype.kind == "i" and chunk.size:
         bad = _checked_and_used(chunk, n_points, blocks, used)
@@ -51,40 +60,58 @@ def check_chunk(chunk, points, n_points: int, mark_used: bool = True,
         if mark_used and all(b is None for b in bad):
             for col in range(chunk.shape[1]):
                 used[chunk[:, col]] = True
-    if not mark_used:
-        used = used[:0]
-    if any(b is not None for b in bad):
-        return bad, np.packbits(used[:0]), None
-    return bad, np.packbits(used), CellBoxes(points, chunk if local is None else local,
-                                             blocks).summary()
+    return bad, used if mark_used else used[:0]
 
 
-def check_swept(chunk, points, n_points: int, mark_used: bool, accelerate: bool, grid):
+def check_swept(chunk, points, n_points: int, mark_used: bool, accelerate: bool, grid,
+                local=None):
     """(:func:`check_chunk`'s result, ``_flags``' result or None) for one chunk;
     ``grid`` = (origin, h, G, table) of the speculative first-round grid. The sweep applies to
     compiled tetrahedra over finite points; elsewhere, or at a row validation refuses
-    (whose message the plain check then makes), the flags are None."""
+    (whose message the plain check then makes), the flags are None. ``local``: a
+    piece's cells in the numbering of its own ``points`` (:mod:`.pieces`): ``chunk``
+    (global ids) is validated as :func:`check_chunk` validates it, the sweep runs over
+    ``local``, and the flagged cells come back in global ids with their boxes (the
+    client has no points to compute them from)."""
     from predicates import compiled
     from predicates.compiled.tetsums import all_finite
     from predicates.registration.plan.first_round import FixedGrid
 
     blocks = Blocks(accelerate=accelerate and compiled.available())
     chunk = np.asarray(chunk)
-    if (blocks.accelerate and chunk.dtype.kind == "i" and chunk.shape[1] == 4
-            and points.shape[1] == 3 and len(chunk) and points.flags.c_contiguous
-            and all_finite(points)):
-        used = np.zeros(n_points, dtype=bool)
+    own = chunk if local is None else np.asarray(local)
+    if (blocks.accelerate and own.dtype.kind == "i" and own.shape[1] == 4
+            and chunk.dtype.kind == "i" and points.shape[1] == 3 and len(own)
+            and points.flags.c_contiguous and all_finite(points)):
+        if local is None:  # the sweep checks the rows and marks the used vertices
+            used = swept_used = np.zeros(n_points, dtype=bool)
+        else:  # the global ids checked here; the piece's own are valid by construction
+            bad, used = _validated(chunk, n_points, mark_used, blocks)
+            if any(b is not None for b in bad):
+                return (bad, np.packbits(used[:0]), None), None
+            swept_used = np.zeros(len(points), dtype=bool)
         origin, h, G, table = grid
-        fixed = FixedGrid(None, None, len(chunk), h, 0.0, origin, G, None, None, table)
-        summary = CellBoxes(points, chunk, blocks).checked_summary(used, fixed)
+        fixed = FixedGrid(None, None, len(own), h, 0.0, origin, G, None, None, table)
+        summary = CellBoxes(points, own, blocks).checked_summary(swept_used, fixed)
         if summary is not None:
-            (count, (near, i0, i1, ext)), (_, _, cells) = summary.first[1]
-            summary.first = None
-            ids = np.flatnonzero(near)
-            edge = edge_summary(points, cells, blocks) if len(ids) else None
-            if len(chunk) < 2 ** 31:
-                ids = ids.astype(np.int32)  # (the client adds the chunk's int64 offset)
-            used = used if mark_used else used[:0]
-            return (([None] * 3, np.packbits(used), summary),
-                    (count, (ids, i0, i1, ext, narrow_ids(cells, n_points), edge, None)))
-    return check_chunk(chunk, points, n_points, mark_used, accelerate), None
+            return _swept_result(summary, points, chunk, local, n_points, used,
+                                 mark_used, blocks)
+    return check_chunk(chunk, points, n_points, mark_used, accelerate, local), None
+
+
+def _swept_result(summary, points, chunk, local, n_points: int, used, mark_used: bool,
+                  blocks: Blocks) -> tuple:
+    """:func:`check_swept`'s result from the sweep's ``summary`` (its flags kept in
+    ``summary.first``, taken out here)."""
+    (count, (near, i0, i1, ext)), (lo, hi, cells) = summary.first[1]
+    summary.first = None
+    ids = np.flatnonzero(near)
+    edge = edge_summary(points, cells, blocks) if len(ids) else None
+    boxes = None
+    if local is not None:  # the flagged cells in global ids, their boxes (the sweep's)
+        cells, boxes = np.take(chunk, ids, axis=0), (lo, hi)
+    if len(near) < 2 ** 31:
+        ids = ids.astype(np.int32)  # (the client adds the chunk's int64 offset)
+    used = used if mark_used else used[:0]
+    return (([None] * 3, np.packbits(used), summary),
+            (count, (ids, i0, i1, ext, narrow_ids(cells, n_points), edge, boxes)))
