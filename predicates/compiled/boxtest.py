@@ -122,8 +122,9 @@ def _owned_levels(T, C, lo_c, hi_c, levels, s0, f0, pad0, P0, R0, o0, p0, s1, f1
                   P1, R1, o1, p1, s2, f2, pad2, P2, R2, o2, p2, counts):
     """Stage 1 of the first ``levels`` (1–3) levels given, per run of cell pairs
     (T[q], C[q]) sharing T[q]: the faces' boxes computed once into small arrays (W4:
-    the kernel ~25 % faster than reading the face columns per pair), then
-    :func:`_owned_run` per level."""
+    the kernel ~25 % faster than reading the face columns per pair), the run's cell
+    boxes copied unless the previous run listed the same cells (:func:`_same_cells`),
+    then :func:`_owned_run` per level."""
     three = lo_c.shape[0] == 3
     h0 = np.zeros((_widest(s0), 6))
     h1 = np.zeros((_widest(s1) if levels > 1 else 1, 6))
