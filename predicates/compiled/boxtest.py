@@ -122,8 +122,9 @@ def _owned_levels(T, C, lo_c, hi_c, levels, s0, f0, pad0, P0, R0, o0, p0, s1, f1
                   P1, R1, o1, p1, s2, f2, pad2, P2, R2, o2, p2, counts):
     """Stage 1 of the first ``levels`` (1–3) levels given, per run of cell pairs
     (T[q], C[q]) sharing T[q]: the faces' boxes computed once into small arrays (W4:
-    the kernel ~25 % faster than reading the face columns per pair), then
-    :func:`_owned_run` per level."""
+    the kernel ~25 % faster than reading the face columns per pair), the run's cell
+    boxes copied unless the previous run listed the same cells (:func:`_same_cells`),
+    then :func:`_owned_run` per level."""
     three = lo_c.shape[0] == 3
     h0 = np.zeros((_widest(s0), 6))
     h1 = np.zeros((_widest(s1) if levels > 1 else 1, 6))
@@ -131,14 +132,16 @@ def _owned_levels(T, C, lo_c, hi_c, levels, s0, f0, pad0, P0, R0, o0, p0, s1, f1
     n0 = n1 = n2 = 0
     d = lo_c.shape[0]
     run = np.empty((64, 6))  # the run's cell boxes, rows read in sequence
-    q0 = 0
+    q0 = r0 = r1 = 0  # [r0, r1): the previous run, whose boxes ``run`` holds
     while q0 < T.shape[0]:
         t, q1 = T[q0], _run_end(T, q0)
-        if q1 - q0 > run.shape[0]:
+        if q1 - q0 > run.shape[0]:  # (then longer than the previous run)
             run = np.empty((2 * (q1 - q0), 6))
-        for q in range(q0, q1):
-            for ax in range(d):
-                run[q - q0, ax], run[q - q0, 3 + ax] = lo_c[ax, C[q]], hi_c[ax, C[q]]
+        if not _same_cells(C, r0, r1, q0, q1):
+            for q in range(q0, q1):
+                for ax in range(d):
+                    run[q - q0, ax], run[q - q0, 3 + ax] = lo_c[ax, C[q]], hi_c[ax, C[q]]
+        r0, r1 = q0, q1
         _hold_boxes(t, s0, f0, P0, R0, h0)
         n0 = _owned_run(t, C, q0, q1, s0, f0, pad0, h0, run, three, o0, p0, n0)
         if levels > 1:
@@ -149,6 +152,19 @@ def _owned_levels(T, C, lo_c, hi_c, levels, s0, f0, pad0, P0, R0, o0, p0, s1, f1
             n2 = _owned_run(t, C, q0, q1, s2, f2, pad2, h2, run, three, o2, p2, n2)
         q0 = q1
     counts[0], counts[1], counts[2] = n0, n1, n2
+
+
+@njit(**INLINE_OPTIONS)
+def _same_cells(C, p0, p1, q0, q1):
+    """Do the runs [p0, p1) and [q0, q1) list the same cutting cells in the same order?
+    (A structured mesh's cells sharing a box get the same run from the join — W1:
+    36,680 of 44,016 runs — whose boxes are then not copied again.)"""
+    if p1 - p0 != q1 - q0:
+        return False
+    for r in range(q1 - q0):
+        if C[p0 + r] != C[q0 + r]:
+            return False
+    return True
 
 
 @njit(**INLINE_OPTIONS)

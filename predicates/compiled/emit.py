@@ -94,7 +94,7 @@ def _sim_box(count: int, dim: int) -> list[str]:
     kept as read (``s{k}``, point-major) for the lanes of its candidates."""
     out = []
     for p in range(count):
-        out.append(f"v = np.uint64(Rs[f, {p}])")
+        out.append(f"v = np.uint64(Rs[np.uint64(f), {p}])")
         for a in range(dim):
             k = p * dim + a
             out.append(f"s{k} = Ps[v, {a}]")
@@ -173,8 +173,9 @@ def fused_lines(prog: Program, n1: int, dt: str, opts: str, inline: str) -> list
     head += ["    for q in range(F.shape[0]):",
             "        f = F[q]",
             "        c = Cs[q]",
-            "        e0 = start[c] if has_tab else 0",
-            "        e1 = start[c + 1] if has_tab else 1",
+            "        uc = np.uint64(c)  # unsigned: no wraparound test per index (in range)",
+            "        e0 = start[uc] if has_tab else 0",
+            "        e1 = start[uc + np.uint64(1)] if has_tab else 1",
             "        if e0 == e1:  # C owns no j-face: f's box is not needed",
             "            continue"]
     # f's box computed from its vertices (no stored simulation face boxes) once per run
@@ -196,7 +197,7 @@ def fused_lines(prog: Program, n1: int, dt: str, opts: str, inline: str) -> list
              f"if not ({test}):",
              "    continue",
              "ncand += 1",
-             "if use_flags and flag_s[f] and flag_c[ug]:  # maybe suppressed: look up",
+             "if use_flags and flag_s[np.uint64(f)] and flag_c[ug]:  # maybe suppressed",
              "    maybe_s[nm] = f",
              "    maybe_c[nm] = g",
              "    nm += 1",

@@ -79,7 +79,7 @@ def _run_starts(rows, combos, n, start):
     i·g + p = rows[i, combos[p]]; returns the longest run's length."""
     for r in range(rows.shape[0]):
         for p in range(combos.shape[0]):
-            start[rows[r, combos[p, 0]] + 1] += 1
+            start[np.uint64(rows[r, combos[p, 0]]) + np.uint64(1)] += 1
     most = 0
     for v in range(n):
         most = max(most, start[v + 1])
@@ -103,7 +103,7 @@ def _by_first(rows, combos, n, start, key, idx, first, inv):
     i = 0  # the row's number: r·g + p
     for r in range(rows.shape[0]):
         for p in range(g):
-            v = rows[r, combos[p, 0]]
+            v = np.uint64(rows[r, combos[p, 0]])
             q = end[v]
             end[v] = q + 1
             k = 0
@@ -121,7 +121,7 @@ def _by_first(rows, combos, n, start, key, idx, first, inv):
     nu = 0
     v = 0
     for q in range(m):
-        r = idx[q]
+        r = np.uint64(idx[q])
         while q >= start[v + 1]:  # q's run: its first id (no read of rows)
             v += 1
         if q == start[v] or key[q] != key[q - 1]:
@@ -134,10 +134,9 @@ def _by_first(rows, combos, n, start, key, idx, first, inv):
 @njit(**JIT_OPTIONS)
 def _pairs_by_first(rows, combos, n, start, second, idx, stamp, first, inv):
     """:func:`_by_first` for rows of two ids (a complex's edges): rows put in their first
-    id's run unsorted, then per run only its distinct second ids (a stamp per id:
-    ``stamp[x] == v``, seen in run v) sorted by insertion (W1: runs of up to ~40 rows,
-    ~7 distinct). ``first``, ``inv`` as :func:`_mark` writes them. Returns the number
-    of distinct rows, or −1 (nothing written) when a run is longer than 4·``_RUN``."""
+    id's run unsorted, then per run only its distinct second ids (``stamp[x] == v``: seen
+    in run v) sorted by insertion (W1: runs of ≤ ~40 rows, ~7 distinct); ids unsigned (no
+    wraparound test). ``first``, ``inv`` as :func:`_mark`; −1: a run > 4·``_RUN``."""
     g = combos.shape[0]
     most = _run_starts(rows, combos, n, start)
     if most > 4 * _RUN:  # a hub vertex: its distinct ids' insertion would be quadratic
@@ -146,8 +145,9 @@ def _pairs_by_first(rows, combos, n, start, second, idx, stamp, first, inv):
     i = 0  # the row's number: r·g + p
     for r in range(rows.shape[0]):
         for p in range(g):
-            q = end[rows[r, combos[p, 0]]]
-            end[rows[r, combos[p, 0]]] = q + 1
+            v = np.uint64(rows[r, combos[p, 0]])
+            q = end[v]
+            end[v] = q + 1
             second[q] = rows[r, combos[p, 1]]
             idx[q] = i
             i += 1
@@ -156,7 +156,7 @@ def _pairs_by_first(rows, combos, n, start, second, idx, stamp, first, inv):
     for v in range(n):
         d = 0
         for q in range(start[v], start[v + 1]):
-            x = second[q]
+            x = np.uint64(second[q])
             if stamp[x] != v:
                 stamp[x] = v
                 u = d
@@ -170,7 +170,7 @@ def _pairs_by_first(rows, combos, n, start, second, idx, stamp, first, inv):
         for u in range(d):  # each distinct id's rank, through its stamp
             stamp[ids[u]] = -2 - nu - u  # (v ≥ 0 never equals it; reset by the next run)
         for q in range(start[v], start[v + 1]):
-            inv[idx[q]] = -2 - stamp[second[q]]
+            inv[np.uint64(idx[q])] = -2 - stamp[np.uint64(second[q])]
         nu += d
     return nu
 

@@ -388,14 +388,30 @@ def test_owned_lists_are_the_owned_table(width):
     assert widest == int(np.diff(start).max())
 
 
+def _runs_like_the_join(rng):
+    """(T, C) in runs of equal T, as a structured mesh's join lists them: a run listing
+    the same cutting cells as the one before (its boxes not copied again), a run of the
+    same length with other cells, and two equal runs of 70 (the run buffer regrown)."""
+    lens = rng.integers(1, 6, 20)
+    lens[1::2] = lens[::2]
+    lens[10] = lens[11] = 70
+    parts = []
+    for k, n in enumerate(lens):
+        same = k % 2 == 1 and k % 4 != 3  # k % 4 == 3: the same length, other cells
+        parts.append(parts[-1] if same else rng.integers(0, 25, n))
+    return np.repeat(np.arange(20), lens), np.concatenate(parts)
+
+
+@pytest.mark.parametrize("runs", ["random", "repeated"])
 @pytest.mark.parametrize("seed", [0, 1, 2])
 @pytest.mark.parametrize("d", [2, 3])
-def test_stage1_boxes_from_vertices_keep_the_stored_boxes_pairs(seed, d):
+def test_stage1_boxes_from_vertices_keep_the_stored_boxes_pairs(seed, d, runs):
     """Stage 1 (boxtest.owned_levels) computes the faces' boxes from their vertices: on
     points with ties, signed zeros and a NaN, its pairs are exactly those of the numpy
     owned-table expansion and box test on boxes_of's stored boxes, level by level (in
     its order: per run of pairs sharing a cell, face by face, each with the run's
-    cutting cells in order), in 2D and 3D."""
+    cutting cells in order), in 2D and 3D; also when runs repeat the previous run's
+    cutting cells (whose copied boxes it reuses)."""
     from predicates.compiled.boxtest import owned_levels, owned_lists_of
     from predicates.registration.levels.facepairs import _owned, owned_table
     from predicates.registration.spatial.boxes import boxes_of
@@ -409,6 +425,8 @@ def test_stage1_boxes_from_vertices_keep_the_stored_boxes_pairs(seed, d):
     boxes_c = (lo_c, lo_c + rng.integers(0, 3, size=(d, 25)) * 0.5)
     T = np.sort(rng.integers(0, 20, 200))
     C = rng.integers(0, 25, 200)
+    if runs == "repeated":
+        T, C = _runs_like_the_join(rng)
     spec, want = [], []
     for k, pad in zip((1, 2, 3), (0.0, 0.25, 0.5)):  # vertices, edges, triangles
         R = rng.integers(0, 30, size=(50, k))
