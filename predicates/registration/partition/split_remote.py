@@ -98,7 +98,7 @@ def _destinations(owners: np.ndarray, k: int):
                 has |= column == r
             ids.append(np.flatnonzero(has))
         starts = np.cumsum([0] + [len(i) for i in ids], dtype=np.int64)
-        return np.concatenate(ids + [np.zeros(0, np.int64)]).astype(np.int64), starts
+        return np.concatenate(ids + [np.zeros(0, np.int64)]).astype(np.int64, copy=False), starts
     same = np.all(owners == owners[:, :1], axis=1)
     one = np.flatnonzero(same)
     other = np.flatnonzero(~same)
