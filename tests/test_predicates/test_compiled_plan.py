@@ -651,6 +651,31 @@ def test_compiled_estimate_grid_is_numpys(data, d):
         assert dense == R.estimate_cell_pairs(*sides, pad)
 
 
+@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("flip", [0, 1])
+def test_pad_corners_runs_are_each_box(seed, flip):
+    """estimate.pad_corners adds a run of consecutive 3D boxes with equal ranges once
+    (±run at its corners): the difference grid and the total are those of each box
+    added alone, on runs of repeated boxes, of boxes that differ below a cell (the same
+    range) and of boxes that differ in one range bound only."""
+    from predicates.compiled.estimate import pad_corners
+    from predicates.registration.spatial.gridsums import _stride
+
+    rng = np.random.default_rng(seed)
+    base = rng.random((40, 3)) * 4
+    lo = np.repeat(base, rng.integers(1, 6, 40), axis=0)
+    lo = lo + rng.choice([0.0, 1e-9, 0.3], size=lo.shape, p=[0.6, 0.3, 0.1])
+    hi = lo + rng.random((len(lo), 1)) * 0.7
+    G = np.array([9, 9, 9])  # ranges within [0, 7]: every corner inside the grid
+    h, origin, g = 0.05, np.full(3, -0.5), 0.75
+    diff = np.zeros(int(np.prod(G + 1)), np.int64)
+    total = pad_corners(lo, hi, h, origin, g, _stride(G), diff, flip)
+    want, each = np.zeros_like(diff), 0.0
+    for r in range(len(lo)):
+        each += pad_corners(lo[r:r + 1], hi[r:r + 1], h, origin, g, _stride(G), want, flip)
+    assert total == each and np.array_equal(diff, want) and np.any(diff)
+
+
 @pytest.mark.parametrize("d", [2, 3])
 def test_pair_bits_are_the_blocks_occupancy(d):
     """cells.pair_bits (d = 3 written out, d = 2 the generic loop): the bit of cell c is
