@@ -86,11 +86,14 @@ def _clean(i, j, k, m, lim):
 @njit(**INLINE_OPTIONS)
 def _cell(x, o, inv_h, top):
     """``clip(floor((x − o)·inv_h), 0, top)`` (:func:`~predicates.compiled.cells._index`
-    when inv_h = 1/h is exact: h a power of two)."""
-    i = np.floor((x - o) * inv_h)
-    i = 0.0 if i < 0 else i
-    i = float(top) if i > top else i
-    return np.int64(i)
+    when inv_h = 1/h is exact: h a power of two), clipped before it is rounded: on
+    [0, top] the conversion's truncation is the floor, below 0 and above top both give
+    the bound (no rounding instruction: ~0.7 ms of W1's sweep, benchmarks/README.md
+    "s17-plan")."""
+    t = (x - o) * inv_h
+    t = 0.0 if t < 0 else t
+    t = float(top) if t > top else t
+    return np.int64(t)
 
 
 @njit(**INLINE_OPTIONS)
