@@ -722,6 +722,7 @@ def test_plan_float_kernels_have_no_fma():
     from predicates.compiled.build import JIT_OPTIONS
     from predicates.compiled import cells
     from predicates.compiled.cells import least_square_edge
+    from predicates.compiled.edgerows import least_square_rows
     from predicates.registration.spatial import exactsum as xs
     from predicates.registration.spatial.gridsums import _stride
 
@@ -741,6 +742,8 @@ def test_plan_float_kernels_have_no_fma():
         (least_square_edge, (P, C.T.copy(), 0, 2)),
         (cells.least_square_tetrahedra, (P, C.T.copy(), 0, 2)),
         (cells.least_square_triangles, (P, C[:, :3].T.copy(), 0, 2)),
+        (least_square_rows, (P, C, 0.5)),
+        (least_square_rows, (P, C[:, :3].copy(), 0.5)),
         (T.summary_tetrahedra, (P, C, np.full(3, np.inf), np.full(3, -np.inf),
                                 np.zeros(2048, np.int64))),
         (T.checked_summary_tetrahedra, (P, C, np.zeros(8, bool), np.full(3, np.inf),
@@ -749,7 +752,7 @@ def test_plan_float_kernels_have_no_fma():
                               np.full(3, -np.inf), np.zeros(2048, np.int64),
                               (np.zeros(3), 4.0, np.full(3, 3, np.int64),
                                np.array([1, 5, 25], np.int64), np.zeros(125, np.int32),
-                               np.zeros(0, np.uint8), np.zeros(64, np.uint8), 2.0 ** 48,
+                               np.zeros(64, np.uint8), 2.0 ** 48,
                                np.full(8, 255, np.uint8), np.zeros(2, bool),
                                np.empty((2, 3), np.int32), np.empty((2, 3), np.int32),
                                np.empty((2, 3)), np.empty((2, 3)), np.empty_like(C)))),
