@@ -396,6 +396,8 @@ def test_shortest_edge_from_boxes_identical(k, dtype, scale):
         with ThreadPoolExecutor(2) as pool:
             for bl in (fast, B.Blocks(pool, 2, accelerate=True)):
                 assert shortest_edge(P, cells, mask, bl, (lo, hi)) == ref
+                # points not C-ordered: the copy's path, the same value
+                assert shortest_edge(np.asfortranarray(P), cells, mask, bl, (lo, hi)) == ref
     finally:
         B.MIN_SPAN = old
     top, shift, _ = edge_summary(P, cells[mask])

@@ -38,8 +38,10 @@ def _least_from_boxes(points, cells, boxes, blocks: Blocks):
     coordinates), the scaling a product by 2^-shift as each point is read (times_pow2's
     values when 2^-shift is normal). None where that does not hold (the caller's path)."""
     lo, hi = boxes
+    # (points not C-ordered: the copy's path, which gathers the used rows only, not a
+    # copy of every point)
     if not (blocks.accelerate and points.shape[1] == 3 and cells.shape[1] in (3, 4)
-            and len(lo) == len(cells)):
+            and len(lo) == len(cells) and points.flags.c_contiguous):
         return None
     fi = np.finfo(np.float64)
     top = max(0.0, -float(lo.min()), float(hi.max()))  # (−0.0, 0.0: shift 0 either way)
@@ -48,8 +50,8 @@ def _least_from_boxes(points, cells, boxes, blocks: Blocks):
         return None
     from predicates.compiled.edgerows import least_square_rows
 
-    P, factor = np.ascontiguousarray(points), 2.0 ** -shift
-    return min(blocks.map(lambda a, b: float(least_square_rows(P, cells[a:b], factor)),
+    factor = 2.0 ** -shift
+    return min(blocks.map(lambda a, b: float(least_square_rows(points, cells[a:b], factor)),
                           len(cells))), shift
 
 
