@@ -52,11 +52,12 @@ def fill_boxes(points, rows, lo, hi):
 
 @njit(**INLINE_OPTIONS)
 def _index(x, o, h, top):
-    """``clip(floor((x − o) / h), 0, top)`` as int32 (boxgrid.cell_index's roundings)."""
-    i = np.floor((x - o) / h)
-    i = 0.0 if i < 0 else i
-    i = float(top) if i > top else i
-    return np.int32(i)
+    """``clip(floor((x − o) / h), 0, top)`` as int32 (boxgrid.cell_index's roundings),
+    clipped before it is rounded (truncation is the floor on [0, top]: tetsums._cell)."""
+    t = (x - o) / h
+    t = 0.0 if t < 0 else t
+    t = float(top) if t > top else t
+    return np.int32(t)
 
 
 @njit(**JIT_OPTIONS)

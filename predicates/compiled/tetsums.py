@@ -86,11 +86,14 @@ def _clean(i, j, k, m, lim):
 @njit(**INLINE_OPTIONS)
 def _cell(x, o, inv_h, top):
     """``clip(floor((x − o)·inv_h), 0, top)`` (:func:`~predicates.compiled.cells._index`
-    when inv_h = 1/h is exact: h a power of two)."""
-    i = np.floor((x - o) * inv_h)
-    i = 0.0 if i < 0 else i
-    i = float(top) if i > top else i
-    return np.int64(i)
+    when inv_h = 1/h is exact: h a power of two), clipped before it is rounded: on
+    [0, top] the conversion's truncation is the floor, below 0 and above top both give
+    the bound (no rounding instruction: ~0.7 ms of W1's sweep, benchmarks/README.md
+    "s17-plan")."""
+    t = (x - o) * inv_h
+    t = 0.0 if t < 0 else t
+    t = float(top) if t > top else t
+    return np.int64(t)
 
 
 @njit(**INLINE_OPTIONS)
@@ -126,12 +129,12 @@ def _summary_rows(points, rows, used, lo_min, hi_max, hist, grid=None):
     largest box edge): the rows read stop at the first row that is not clean."""
     e_min, e_max, nf, ext = np.inf, -np.inf, 0, 0.0
     if grid is not None:  # unpacked once, not in the loop (a reference count a row)
-        (origin, inv_h, last_cell, stride, S, bits, levels, bound, quiet, near, i0, i1,
-         flo, fhi, fcells) = grid
+        (origin, inv_h, last_cell, stride, S, levels, bound, quiet, near, i0, i1, flo, fhi,
+         fcells) = grid
         one_at, two_at = 0.75 / inv_h, 1.75 / inv_h  # (R − 1/4)·h, exact (h = 2^k)
         o0, o1, o2 = origin[0], origin[1], origin[2]
         t0, t1, t2 = last_cell[0], last_cell[1], last_cell[2]
-        s0, s1, s2, use_bits = stride[0], stride[1], stride[2], bits.shape[0] > 0
+        s0, s1, s2 = stride[0], stride[1], stride[2]
     a0, a1, a2 = lo_min[0], lo_min[1], lo_min[2]
     b0, b1, b2 = hi_max[0], hi_max[1], hi_max[2]
     last, run = 0, 0  # hist's current bin and its pending count
@@ -173,12 +176,9 @@ def _summary_rows(points, rows, used, lo_min, hi_max, hist, grid=None):
             u0, u1 = _cell(x0, o0, inv_h, t0), _cell(y0, o0, inv_h, t0)
             v0, v1 = _cell(x1, o1, inv_h, t1), _cell(y1, o1, inv_h, t1)
             w0, w1 = _cell(x2, o2, inv_h, t2), _cell(y2, o2, inv_h, t2)
+            # (no 2^d-block bit test before the sum: after the quiet levels it saved no
+            # more than its table's pass cost, benchmarks/README.md "s17-plan")
             c0, c1, c2 = u0 * s0, v0 * s1, w0 * s2
-            key = c0 + c1 + c2
-            small = (u1 - u0 <= 1) & (v1 - v0 <= 1) & (w1 - w0 <= 1)
-            if use_bits and small and (bits[key >> 3] >> (key & 7)) & 1 == 0:
-                near[r] = False  # nothing occupied in the 2^d block holding the range
-                continue
             near[r] = _corner_sum3(S, c0, c1, c2, (u1 + 1) * s0, (v1 + 1) * s1,
                                    (w1 + 1) * s2) > 0
             if near[r]:  # kept: its ranges, ids and box, and its largest edge

@@ -370,8 +370,7 @@ def _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts,
     ``work``: its independent parts run concurrently on a threaded plan's pool."""
     work = plan_threads.Work() if work is None else work
     ms, mc = sc_.masks
-    # its occupancy counts and the cutting side's shortest edge compiled as the plan's
-    # passes, serially: a pool thread waiting on spans submitted to its own pool could starve it
+    # counts and the cut's edge compiled serially: a pool thread waiting on its own pool starves
     serial = Blocks(accelerate=work.blocks.accelerate)
     run_box = sim_box.rows(ms) if hasattr(sim_box, "rows") else (sim_box[0][ms], sim_box[1][ms])
     cut_run = cut_box if mc.all() else (cut_box[0][mc], cut_box[1][mc])  # (no copy of all)
@@ -380,13 +379,14 @@ def _report(dim, dtype, sim, cut, sim_box, cut_box, sc_, refinement, ts,
     # of the cells within σ+); flagged at the pad if no round was kept (masks: all cells)
     if len(sc_.history) == 1:  # round one's flags were at this pad: not computed again
         ms, mc = sc_.first or near_cells(sim_box, cut_box, sc_.pad, sc_.masks, work.flags)
-    h_cut = work.submit(shortest_edge, cut.points, cut.cells, mc, serial)
+    h_cut = work.submit(shortest_edge, cut.points, cut.cells, mc, serial,
+                        cut_run if mc is sc_.masks[1] else None)
     h_sim = getattr(sim_box, "shortest_edge", lambda _: None)(ms)  # workers' summaries
     if h_sim is None:  # here, on the same cells in the same order as sim.cells[ms]
         run = sim_box.cells_of(ms)
-        h_sim = (shortest_edge(sim.points, run, np.ones(len(run), bool), work.blocks),)
-    ref = None if refinement is None else (refinement.input_cells, len(refinement.cells),
-                                           refinement.rounds)
+        h_sim = (shortest_edge(sim.points, run, np.ones(len(run), bool), work.blocks,
+                               run_box if ms is sc_.masks[0] else None),)
+    ref = refinement and (refinement.input_cells, len(refinement.cells), refinement.rounds)
     return Resolution(dim, dtype.name, t_plus(dim, sc_), h_sim[0], h_cut.result(), sc_.L_a,
                       sc_.L_b, sc_.history[0], len(sc_.history) - 1, ref, pairs.result(), ts)
 

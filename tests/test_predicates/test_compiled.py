@@ -366,6 +366,44 @@ def test_shortest_edge_identical(d):
     assert a == shortest_edge(P, cells, mask, Blocks(accelerate=True)) and a > 0
 
 
+@pytest.mark.parametrize("k", [3, 4])
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+@pytest.mark.parametrize("scale", [0, -30, 30, -1070, 1022])
+def test_shortest_edge_from_boxes_identical(k, dtype, scale):
+    """The report's shortest edge read from the points as given with the largest
+    |coordinate| from the cells' boxes (edgerows.least_square_rows) is the renumbered,
+    scaled copy's value, for tetrahedra and triangles, float32 and float64, at scales
+    where 2^-shift is normal and where times_pow2 takes ldexp (the copy's path)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from predicates.registration.plan.edges import edge_summary, shortest_edge
+    from predicates.registration.spatial import blocks as B
+    from predicates.registration.spatial.boxes import boxes_of
+
+    rng = np.random.default_rng(k + abs(scale))
+    if dtype == np.float32:  # float32's range: subnormal and largest binades
+        scale = {-1070: -140, 1022: 120}.get(scale, scale)
+    P = ((rng.random((300, 3)) - 0.5) * 2.0 ** scale).astype(dtype)
+    cells = np.array([rng.choice(300, k, replace=False) for _ in range(2000)])
+    mask = rng.random(2000) < 0.6
+    fast = B.Blocks(accelerate=True)
+    ref = shortest_edge(P, cells, mask, fast)
+    assert ref == shortest_edge(P, cells, mask) and ref >= 0
+    lo, hi = boxes_of(P, cells[mask], B.SERIAL)
+    old = B.MIN_SPAN
+    B.MIN_SPAN = 100  # several spans on the pool: the minimum of their minima
+    try:
+        with ThreadPoolExecutor(2) as pool:
+            for bl in (fast, B.Blocks(pool, 2, accelerate=True)):
+                assert shortest_edge(P, cells, mask, bl, (lo, hi)) == ref
+                # points not C-ordered: the copy's path, the same value
+                assert shortest_edge(np.asfortranarray(P), cells, mask, bl, (lo, hi)) == ref
+    finally:
+        B.MIN_SPAN = old
+    top, shift, _ = edge_summary(P, cells[mask])
+    assert max(-float(lo.min()), float(hi.max())) == top  # the boxes' bound is the top
+
+
 @pytest.mark.parametrize("width", [1, 3, 6])
 def test_owned_lists_are_the_owned_table(width):
     """The compiled kernels' owned-face lists (boxtest.owned_lists, and owned_lists_of

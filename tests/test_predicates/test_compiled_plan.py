@@ -651,6 +651,31 @@ def test_compiled_estimate_grid_is_numpys(data, d):
         assert dense == R.estimate_cell_pairs(*sides, pad)
 
 
+@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("flip", [0, 1])
+def test_pad_corners_runs_are_each_box(seed, flip):
+    """estimate.pad_corners adds a run of consecutive 3D boxes with equal ranges once
+    (±run at its corners): the difference grid and the total are those of each box
+    added alone, on runs of repeated boxes, of boxes that differ below a cell (the same
+    range) and of boxes that differ in one range bound only."""
+    from predicates.compiled.estimate import pad_corners
+    from predicates.registration.spatial.gridsums import _stride
+
+    rng = np.random.default_rng(seed)
+    base = rng.random((40, 3)) * 4
+    lo = np.repeat(base, rng.integers(1, 6, 40), axis=0)
+    lo = lo + rng.choice([0.0, 1e-9, 0.3], size=lo.shape, p=[0.6, 0.3, 0.1])
+    hi = lo + rng.random((len(lo), 1)) * 0.7
+    G = np.array([9, 9, 9])  # ranges within [0, 7]: every corner inside the grid
+    h, origin, g = 0.05, np.full(3, -0.5), 0.75
+    diff = np.zeros(int(np.prod(G + 1)), np.int64)
+    total = pad_corners(lo, hi, h, origin, g, _stride(G), diff, flip)
+    want, each = np.zeros_like(diff), 0.0
+    for r in range(len(lo)):
+        each += pad_corners(lo[r:r + 1], hi[r:r + 1], h, origin, g, _stride(G), want, flip)
+    assert total == each and np.array_equal(diff, want) and np.any(diff)
+
+
 @pytest.mark.parametrize("d", [2, 3])
 def test_pair_bits_are_the_blocks_occupancy(d):
     """cells.pair_bits (d = 3 written out, d = 2 the generic loop): the bit of cell c is
@@ -697,6 +722,7 @@ def test_plan_float_kernels_have_no_fma():
     from predicates.compiled.build import JIT_OPTIONS
     from predicates.compiled import cells
     from predicates.compiled.cells import least_square_edge
+    from predicates.compiled.edgerows import least_square_rows
     from predicates.registration.spatial import exactsum as xs
     from predicates.registration.spatial.gridsums import _stride
 
@@ -716,6 +742,8 @@ def test_plan_float_kernels_have_no_fma():
         (least_square_edge, (P, C.T.copy(), 0, 2)),
         (cells.least_square_tetrahedra, (P, C.T.copy(), 0, 2)),
         (cells.least_square_triangles, (P, C[:, :3].T.copy(), 0, 2)),
+        (least_square_rows, (P, C, 0.5)),
+        (least_square_rows, (P, C[:, :3].copy(), 0.5)),
         (T.summary_tetrahedra, (P, C, np.full(3, np.inf), np.full(3, -np.inf),
                                 np.zeros(2048, np.int64))),
         (T.checked_summary_tetrahedra, (P, C, np.zeros(8, bool), np.full(3, np.inf),
@@ -724,7 +752,7 @@ def test_plan_float_kernels_have_no_fma():
                               np.full(3, -np.inf), np.zeros(2048, np.int64),
                               (np.zeros(3), 4.0, np.full(3, 3, np.int64),
                                np.array([1, 5, 25], np.int64), np.zeros(125, np.int32),
-                               np.zeros(0, np.uint8), np.zeros(64, np.uint8), 2.0 ** 48,
+                               np.zeros(64, np.uint8), 2.0 ** 48,
                                np.full(8, 255, np.uint8), np.zeros(2, bool),
                                np.empty((2, 3), np.int32), np.empty((2, 3), np.int32),
                                np.empty((2, 3)), np.empty((2, 3)), np.empty_like(C)))),

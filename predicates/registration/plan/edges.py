@@ -12,15 +12,47 @@ __all__ = ["edge_from", "edge_shift", "edge_summary", "shortest_edge"]
 
 
 def shortest_edge(points: np.ndarray, cells: np.ndarray, mask,
-                  blocks: Blocks = SERIAL) -> float | None:
+                  blocks: Blocks = SERIAL, boxes=None) -> float | None:
     """Shortest edge (binary64 length) of the selected cells, None if none; block by
     block (the minimum of the blocks' minima: exact). Computed on the coordinates scaled
     exactly by a power of two to magnitude ≤ 1, so that no square overflows or
-    underflows (a mesh at 1e±300 has the same edges, scaled)."""
+    underflows (a mesh at 1e±300 has the same edges, scaled). ``boxes``: (lo, hi) of
+    the selected cells (binary64), which give the largest |coordinate| without reading
+    the points: compiled, the least squares are then read from the points as given
+    (:func:`_least_from_boxes`; the same value)."""
     if not mask.any():
         return None
-    top, shift, least = edge_summary(points, cells if mask.all() else cells[mask], blocks)
+    sel = cells if mask.all() else cells[mask]
+    least = None if boxes is None else _least_from_boxes(points, sel, boxes, blocks)
+    if least is not None:
+        return edge_from(*least)
+    top, shift, least = edge_summary(points, sel, blocks)
     return edge_from(least, shift)
+
+
+def _least_from_boxes(points, cells, boxes, blocks: Blocks):
+    """(least, shift) of :func:`edge_summary` for 3D tetrahedra or triangles, compiled,
+    from the cells' boxes and the points as given
+    (:func:`predicates.compiled.edgerows.least_square_rows`): the largest |coordinate|
+    of the vertices is max(−min lo, max hi) (a box's bounds are its vertices'
+    coordinates), the scaling a product by 2^-shift as each point is read (times_pow2's
+    values when 2^-shift is normal). None where that does not hold (the caller's path)."""
+    lo, hi = boxes
+    # (points not C-ordered: the copy's path, which gathers the used rows only, not a
+    # copy of every point)
+    if not (blocks.accelerate and points.shape[1] == 3 and cells.shape[1] in (3, 4)
+            and len(lo) == len(cells) and points.flags.c_contiguous):
+        return None
+    fi = np.finfo(np.float64)
+    top = max(0.0, -float(lo.min()), float(hi.max()))  # (−0.0, 0.0: shift 0 either way)
+    shift = edge_shift(top)
+    if not fi.minexp < -shift < fi.maxexp:  # times_pow2 would take ldexp
+        return None
+    from predicates.compiled.edgerows import least_square_rows
+
+    factor = 2.0 ** -shift
+    return min(blocks.map(lambda a, b: float(least_square_rows(points, cells[a:b], factor)),
+                          len(cells))), shift
 
 
 def edge_from(least: float, shift: int) -> float:

@@ -168,7 +168,6 @@ class SweptFlags:
     order — what :func:`~.lean.flag_pass` gives at that grid."""
 
     def __init__(self, grid: FixedGrid, cells_dtype, n: int, n_points: int):
-        from predicates.compiled.cells import pair_bits
         from predicates.compiled.tetsums import quiet_cells
         from predicates.registration.spatial.gridsums import _stride
 
@@ -178,10 +177,6 @@ class SweptFlags:
         self.origin, self.top = np.asarray(grid.origin, dtype=np.float64), G - 1
         self.inv_h = 1.0 / grid.h  # exact: h is a power of two (fixed_grid)
         self.stride = _stride(grid.G)
-        self.bits = np.zeros(0, dtype=np.uint8)
-        if n >= len(grid.table) // 8:  # as the flag pass: a pass over the grid repays
-            self.bits = np.zeros(len(grid.table) // 8 + 1, dtype=np.uint8)
-            pair_bits(grid.table, G, self.stride, self.bits)
         # the sweep's shortcut (docs/resolution.md, "The first round"): per grid cell
         # its quiet level, per point its cell's (255: not yet read, the kernel's)
         self.levels = np.empty(int(np.prod(G)), dtype=np.uint8)
@@ -224,7 +219,7 @@ class _SpanRows:
             self.out = (np.empty((m, 3), np.int32), np.empty((m, 3), np.int32),
                         np.empty((m, 3)), np.empty((m, 3)), np.empty((m, 4), o.cells_dtype))
         rest = tuple(x[self.filled:] for x in self.out)
-        return (o.origin, o.inv_h, o.top, o.stride, o.grid.table, o.bits, o.levels,
+        return (o.origin, o.inv_h, o.top, o.stride, o.grid.table, o.levels,
                 o.bound, o.quiet, o.near[u:w]) + rest
 
     def add(self, nf: int, ext: float) -> None:
