@@ -19,7 +19,7 @@ from numba import njit
 from .buffers import buffer
 from .build import INLINE_OPTIONS, JIT_OPTIONS
 
-__all__ = ["join", "kept_ids", "owned_levels", "owned_lists", "owned_lists_of",
+__all__ = ["boxes", "join", "kept_ids", "owned_levels", "owned_lists", "owned_lists_of",
            "owned_pairs", "pair_test"]
 
 
@@ -31,6 +31,34 @@ def _near(pad, lo_a, hi_a, lo_b, hi_b, a, b):
         if not lo_a[ax, a] - hi_b[ax, b] <= pad:
             return False
     return True
+
+
+@njit(**JIT_OPTIONS)
+def _fill_boxes(P, R, lo, hi):
+    """lo, hi (d, m) of the simplices R (m, k) over the points P (N, d): boxes_of's
+    minimum/maximum fold per axis (a NaN propagates; each coordinate converted to
+    binary64 exactly), the vertex ids read as unsigned (no wraparound test a gather)."""
+    for m in range(R.shape[0]):
+        for ax in range(P.shape[1]):
+            a = np.float64(P[np.uint64(R[m, 0]), ax])
+            b = a
+            for v in range(1, R.shape[1]):
+                x = np.float64(P[np.uint64(R[m, v]), ax])
+                a = a if (a < x) | (a != a) else x  # np.minimum's choice (cells.py)
+                b = b if (b > x) | (b != b) else x
+            lo[ax, m], hi[ax, m] = a, b
+
+
+def boxes(points: np.ndarray, rows: np.ndarray) -> tuple:
+    """:func:`predicates.registration.spatial.boxes.boxes_of` (lo, hi as (n, d) views of
+    (d, n) arrays), the same values, in one compiled call on whole contiguous arrays:
+    the block-by-block kernel gets strided views of its outputs (numba's generic layout,
+    W1's 71 k cells 2.0 -> 0.7 ms; benchmarks/README.md, "Part 2, fourteenth pass")."""
+    rows = np.ascontiguousarray(rows)
+    lo, hi = np.empty((points.shape[1], len(rows))), np.empty((points.shape[1], len(rows)))
+    if len(rows):
+        _fill_boxes(np.ascontiguousarray(points), rows, lo, hi)
+    return lo.T, hi.T
 
 
 @njit(**JIT_OPTIONS)
