@@ -68,13 +68,11 @@ def cell_pairs(P_sim, sim_cells, P_cut, cut_cells, pad: float, chunk: int,
 
 
 def joined(parts: list, empty: np.ndarray) -> np.ndarray:
-    """``np.concatenate(parts)`` (``empty`` if none, the part itself if one: the same
-    values and dtype), each part released once copied and the list emptied: the blocks and the whole are not
+    """``np.concatenate(parts)`` (``empty`` if none; the same values and dtype), each
+    part released once copied and the list emptied: the blocks and the whole are not
     held at once (the output's pages are touched as they are written)."""
     if not parts:
         return empty
-    if len(parts) == 1:  # the one part itself: the same values and dtype, no copy
-        return parts.pop()
     out = np.empty((sum(len(p) for p in parts),) + parts[0].shape[1:],
                    np.result_type(*parts))
     at = 0
