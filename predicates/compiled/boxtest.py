@@ -124,15 +124,16 @@ def _owned_run(t, C, q0, q1, start, faces, pad, held, run, three, out_f, out_c, 
         a0, a1, a2 = held[u, 0], held[u, 1], held[u, 2]
         b0, b1, b2 = held[u, 3], held[u, 4], held[u, 5]
         for q in range(q0, q1):
-            r = q - q0
+            r = np.uint64(q - q0)  # unsigned: no wraparound test an index (W1 -1.1 ms)
             ok = ((run[r, 0] - b0 <= pad) & (a0 - run[r, 3] <= pad)
                   & (run[r, 1] - b1 <= pad) & (a1 - run[r, 4] <= pad))
             if three:
                 ok &= (run[r, 2] - b2 <= pad) & (a2 - run[r, 5] <= pad)
             # written always, kept when ok: no branch to mispredict (in bounds: n is at
             # most the tests so far, and the outputs hold one slot per test)
-            out_f[n] = f
-            out_c[n] = C[q]
+            un = np.uint64(n)
+            out_f[un] = f
+            out_c[un] = C[np.uint64(q)]
             n += ok
     return n
 
