@@ -317,7 +317,7 @@ def _pack_row(S, ids, r, n, per, keys, k0, q, row):
     next key row."""
     w = S.shape[1]
     for p in range(w):  # insertion sort of a few ids
-        v = ids[S[r, p]]
+        v = ids[np.uint64(S[r, p])]
         u = p
         while u > 0 and row[u - 1] > v:
             row[u] = row[u - 1]
@@ -330,7 +330,7 @@ def _pack_row(S, ids, r, n, per, keys, k0, q, row):
         key = row[start]
         for col in range(start + 1, stop):
             key = key * n + row[col]
-        keys[k, q] = key
+        keys[k, np.uint64(q)] = key
         k += 1
         start = stop
     return k
@@ -340,16 +340,16 @@ def _pack_row(S, ids, r, n, per, keys, k0, q, row):
 def _hit_keys(S1, ids1, s, n1, per1, S2, ids2, c, n2, per2, keys):
     row = np.empty(S1.shape[1] + S2.shape[1], dtype=np.int64)
     for q in range(s.shape[0]):
-        k = _pack_row(S1, ids1, s[q], n1, per1, keys, 0, q, row)
-        _pack_row(S2, ids2, c[q], n2, per2, keys, k, q, row)
+        k = _pack_row(S1, ids1, np.uint64(s[q]), n1, per1, keys, 0, q, row)
+        _pack_row(S2, ids2, np.uint64(c[q]), n2, per2, keys, k, q, row)
 
 
 @njit(**JIT_OPTIONS)
 def _ids_in_order(S, ids, s, order, out):
     for q in range(order.shape[0]):
-        r = s[order[q]]
+        r = np.uint64(s[np.uint64(order[q])])  # unsigned: no wraparound test a gather
         for p in range(S.shape[1]):
-            out[q, p] = ids[S[r, p]]
+            out[q, p] = ids[np.uint64(S[r, p])]
 
 
 def _per_key(n: int, w: int) -> int:
