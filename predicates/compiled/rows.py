@@ -104,16 +104,16 @@ def _by_first(rows, combos, n, start, key, idx, first, inv):
     for r in range(rows.shape[0]):
         for p in range(g):
             v = np.uint64(rows[r, combos[p, 0]])
-            q = end[v]
-            end[v] = q + 1
+            q = np.uint64(end[v])  # unsigned: no wraparound test an index
+            end[v] = q + np.uint64(1)
             k = 0
             for c in range(1, w):
                 k = k * n + rows[r, combos[p, c]]
-            s = start[v]
-            while q > s and key[q - 1] > k:  # strict: equal rows keep their order
-                key[q] = key[q - 1]
-                idx[q] = idx[q - 1]
-                q -= 1
+            s = np.uint64(start[v])
+            while q > s and key[q - np.uint64(1)] > k:  # strict: equal rows keep order
+                key[q] = key[q - np.uint64(1)]
+                idx[q] = idx[q - np.uint64(1)]
+                q -= np.uint64(1)
             key[q] = k
             idx[q] = i
             i += 1
@@ -183,7 +183,7 @@ def _by_flags(rows, combos, n, seen, rank, ids, inv):
     g = combos.shape[0]
     for r in range(rows.shape[0]):
         for p in range(g):
-            seen[rows[r, combos[p, 0]]] = True
+            seen[np.uint64(rows[r, combos[p, 0]])] = True
     nu = 0
     for v in range(n):
         if seen[v]:
@@ -193,7 +193,7 @@ def _by_flags(rows, combos, n, seen, rank, ids, inv):
     i = 0
     for r in range(rows.shape[0]):
         for p in range(g):
-            inv[i] = rank[rows[r, combos[p, 0]]]
+            inv[i] = rank[np.uint64(rows[r, combos[p, 0]])]
             i += 1
     return nu
 
@@ -205,7 +205,7 @@ def _gather(rows, combos, first, out):
         r = first[u] // g  # one division, not two (its remainder by a product)
         p = first[u] - r * g
         for c in range(out.shape[1]):
-            out[u, c] = rows[r, combos[p, c]]
+            out[u, c] = rows[np.uint64(r), combos[p, c]]
 
 
 def unique_faces(rows: np.ndarray, combos: np.ndarray, n: int):
@@ -438,7 +438,7 @@ def ranked_rows(rank: np.ndarray, cells: np.ndarray) -> np.ndarray:
 def _faces_via(upper, lower, via, local, out):
     for r in range(upper.shape[0]):
         for p in range(via.shape[0]):
-            out[r, p] = lower[upper[r, via[p]], local[p]]
+            out[r, p] = lower[np.uint64(upper[r, via[p]]), local[p]]
 
 
 def faces_via(upper: np.ndarray, lower: np.ndarray, via: list, local: list) -> np.ndarray:
