@@ -283,11 +283,11 @@ def _owned_lists_of(F, owner, start, faces):
     n, m = F.shape
     for r in range(n):
         for k in range(m):
-            owner[F[r, k]] = r
+            owner[np.uint64(F[r, k])] = r  # unsigned: no wraparound test a scatter
     count = 0
     for r in range(n):
         for k in range(m):
-            if owner[F[r, k]] == r:
+            if owner[np.uint64(F[r, k])] == r:
                 faces[count] = F[r, k]
                 count += 1
         start[r + 1] = count
@@ -367,13 +367,13 @@ def _kept_ids(ids, keep, new):
     """keep[x] for every x in ``ids``; then ``ids`` rewritten in place as the positions
     of their values among the kept ones (``new``: scratch of len(keep))."""
     for q in range(ids.shape[0]):
-        keep[ids[q]] = True
+        keep[np.uint64(ids[q])] = True  # unsigned: no wraparound test a scatter
     count = 0
     for x in range(keep.shape[0]):
         new[x] = count
         count += keep[x]
     for q in range(ids.shape[0]):
-        ids[q] = new[ids[q]]
+        ids[q] = new[np.uint64(ids[q])]
 
 
 def kept_ids(ids: np.ndarray, n: int) -> np.ndarray:

@@ -386,7 +386,7 @@ def _any_flagged(flags, rows, out):
     for r in range(rows.shape[0]):
         hit = False
         for c in range(rows.shape[1]):
-            hit |= flags[rows[r, c]]
+            hit |= flags[np.uint64(rows[r, c])]  # unsigned: no wraparound test
         out[r] = hit
 
 
