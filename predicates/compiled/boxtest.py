@@ -99,11 +99,11 @@ def _hold_boxes(t, start, faces, P, R, held):
     the same boxes (up to a zero's sign, which no box test sees), none stored (W4: 1.08
     M, 52 MB); once per run of cell pairs sharing t (T ascends), then a few cache lines."""
     for u in range(start[t + 1] - start[t]):
-        f = faces[start[t] + u]
+        f = np.uint64(faces[start[t] + u])  # unsigned: no wraparound test a gather
         for ax in range(P.shape[1]):
-            a = b = np.float64(P[R[f, 0], ax])
+            a = b = np.float64(P[np.uint64(R[f, 0]), ax])
             for v in range(1, R.shape[1]):
-                x = np.float64(P[R[f, v], ax])
+                x = np.float64(P[np.uint64(R[f, v]), ax])
                 a = a if (a < x) | (a != a) else x  # np.minimum: a NaN propagates
                 b = b if (b > x) | (b != b) else x
             held[u, ax], held[u, 3 + ax] = a, b
@@ -168,8 +168,9 @@ def _owned_levels(T, C, lo_c, hi_c, levels, s0, f0, pad0, P0, R0, o0, p0, s1, f1
             run = np.empty((2 * (q1 - q0), 6))
         if not _same_cells(C, r0, r1, q0, q1):
             for q in range(q0, q1):
+                c = np.uint64(C[q])  # unsigned: no wraparound test a gather
                 for ax in range(d):
-                    run[q - q0, ax], run[q - q0, 3 + ax] = lo_c[ax, C[q]], hi_c[ax, C[q]]
+                    run[q - q0, ax], run[q - q0, 3 + ax] = lo_c[ax, c], hi_c[ax, c]
         r0, r1 = q0, q1
         _hold_boxes(t, s0, f0, P0, R0, h0)
         n0 = _owned_run(t, C, q0, q1, s0, f0, pad0, h0, run, three, o0, p0, n0)
