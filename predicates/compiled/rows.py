@@ -146,8 +146,8 @@ def _pairs_by_first(rows, combos, n, start, second, idx, stamp, first, inv):
     for r in range(rows.shape[0]):
         for p in range(g):
             v = np.uint64(rows[r, combos[p, 0]])
-            q = end[v]
-            end[v] = q + 1
+            q = np.uint64(end[v])
+            end[v] = q + np.uint64(1)
             second[q] = rows[r, combos[p, 1]]
             idx[q] = i
             i += 1
@@ -155,7 +155,7 @@ def _pairs_by_first(rows, combos, n, start, second, idx, stamp, first, inv):
     nu = 0
     for v in range(n):
         d = 0
-        for q in range(start[v], start[v + 1]):
+        for q in range(np.uint64(start[v]), np.uint64(start[v + 1])):
             x = np.uint64(second[q])
             if stamp[x] != v:
                 stamp[x] = v
@@ -169,7 +169,7 @@ def _pairs_by_first(rows, combos, n, start, second, idx, stamp, first, inv):
                 d += 1
         for u in range(d):  # each distinct id's rank, through its stamp
             stamp[ids[u]] = -2 - nu - u  # (v ≥ 0 never equals it; reset by the next run)
-        for q in range(start[v], start[v + 1]):
+        for q in range(np.uint64(start[v]), np.uint64(start[v + 1])):
             inv[np.uint64(idx[q])] = -2 - stamp[np.uint64(second[q])]
         nu += d
     return nu
