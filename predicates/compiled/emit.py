@@ -190,7 +190,7 @@ def fused_lines(prog: Program, n1: int, dt: str, opts: str, inline: str) -> list
     else:
         head += ["            if swapped:"] + ["                " + b for b in _sim_box(n2, prog.dim)]
         head += ["            else:"] + ["                " + b for b in _sim_box(n1, prog.dim)]
-    head += ["        for e in range(e0, e1):"]
+    head += ["        for e in range(np.uint64(e0), np.uint64(e1)):  # unsigned: owned[e]"]
     test = " and ".join(f"lo_b[{a}, ug] - fh{a} <= pad and fl{a} - hi_b[{a}, ug] <= pad"
                         for a in range(prog.dim))
     inner = ["g = owned[e] if has_tab else c",
