@@ -19,7 +19,7 @@ from numba import njit
 from .buffers import buffer
 from .build import INLINE_OPTIONS, JIT_OPTIONS
 
-__all__ = ["join", "kept_ids", "owned_levels", "owned_lists", "owned_lists_of",
+__all__ = ["boxes", "join", "kept_ids", "owned_levels", "owned_lists", "owned_lists_of",
            "owned_pairs", "pair_test"]
 
 
@@ -31,6 +31,34 @@ def _near(pad, lo_a, hi_a, lo_b, hi_b, a, b):
         if not lo_a[ax, a] - hi_b[ax, b] <= pad:
             return False
     return True
+
+
+@njit(**JIT_OPTIONS)
+def _fill_boxes(P, R, lo, hi):
+    """lo, hi (d, m) of the simplices R (m, k) over the points P (N, d): boxes_of's
+    minimum/maximum fold per axis (a NaN propagates; each coordinate converted to
+    binary64 exactly), the vertex ids read as unsigned (no wraparound test a gather)."""
+    for m in range(R.shape[0]):
+        for ax in range(P.shape[1]):
+            a = np.float64(P[np.uint64(R[m, 0]), ax])
+            b = a
+            for v in range(1, R.shape[1]):
+                x = np.float64(P[np.uint64(R[m, v]), ax])
+                a = a if (a < x) | (a != a) else x  # np.minimum's choice (cells.py)
+                b = b if (b > x) | (b != b) else x
+            lo[ax, m], hi[ax, m] = a, b
+
+
+def boxes(points: np.ndarray, rows: np.ndarray) -> tuple:
+    """:func:`predicates.registration.spatial.boxes.boxes_of` (lo, hi as (n, d) views of
+    (d, n) arrays), the same values, in one compiled call on whole contiguous arrays:
+    the block-by-block kernel gets strided views of its outputs (numba's generic layout,
+    W1's 71 k cells 2.0 -> 0.7 ms; benchmarks/README.md, "Part 2, fourteenth pass")."""
+    rows = np.ascontiguousarray(rows)
+    lo, hi = np.empty((points.shape[1], len(rows))), np.empty((points.shape[1], len(rows)))
+    if len(rows):
+        _fill_boxes(np.ascontiguousarray(points), rows, lo, hi)
+    return lo.T, hi.T
 
 
 @njit(**JIT_OPTIONS)
@@ -71,11 +99,11 @@ def _hold_boxes(t, start, faces, P, R, held):
     the same boxes (up to a zero's sign, which no box test sees), none stored (W4: 1.08
     M, 52 MB); once per run of cell pairs sharing t (T ascends), then a few cache lines."""
     for u in range(start[t + 1] - start[t]):
-        f = faces[start[t] + u]
+        f = np.uint64(faces[start[t] + u])  # unsigned: no wraparound test a gather
         for ax in range(P.shape[1]):
-            a = b = np.float64(P[R[f, 0], ax])
+            a = b = np.float64(P[np.uint64(R[f, 0]), ax])
             for v in range(1, R.shape[1]):
-                x = np.float64(P[R[f, v], ax])
+                x = np.float64(P[np.uint64(R[f, v]), ax])
                 a = a if (a < x) | (a != a) else x  # np.minimum: a NaN propagates
                 b = b if (b > x) | (b != b) else x
             held[u, ax], held[u, 3 + ax] = a, b
@@ -96,15 +124,16 @@ def _owned_run(t, C, q0, q1, start, faces, pad, held, run, three, out_f, out_c, 
         a0, a1, a2 = held[u, 0], held[u, 1], held[u, 2]
         b0, b1, b2 = held[u, 3], held[u, 4], held[u, 5]
         for q in range(q0, q1):
-            r = q - q0
+            r = np.uint64(q - q0)  # unsigned: no wraparound test an index (W1 -1.1 ms)
             ok = ((run[r, 0] - b0 <= pad) & (a0 - run[r, 3] <= pad)
                   & (run[r, 1] - b1 <= pad) & (a1 - run[r, 4] <= pad))
             if three:
                 ok &= (run[r, 2] - b2 <= pad) & (a2 - run[r, 5] <= pad)
             # written always, kept when ok: no branch to mispredict (in bounds: n is at
             # most the tests so far, and the outputs hold one slot per test)
-            out_f[n] = f
-            out_c[n] = C[q]
+            un = np.uint64(n)
+            out_f[un] = f
+            out_c[un] = C[np.uint64(q)]
             n += ok
     return n
 
@@ -139,8 +168,9 @@ def _owned_levels(T, C, lo_c, hi_c, levels, s0, f0, pad0, P0, R0, o0, p0, s1, f1
             run = np.empty((2 * (q1 - q0), 6))
         if not _same_cells(C, r0, r1, q0, q1):
             for q in range(q0, q1):
+                c = np.uint64(C[q])  # unsigned: no wraparound test a gather
                 for ax in range(d):
-                    run[q - q0, ax], run[q - q0, 3 + ax] = lo_c[ax, C[q]], hi_c[ax, C[q]]
+                    run[q - q0, ax], run[q - q0, 3 + ax] = lo_c[ax, c], hi_c[ax, c]
         r0, r1 = q0, q1
         _hold_boxes(t, s0, f0, P0, R0, h0)
         n0 = _owned_run(t, C, q0, q1, s0, f0, pad0, h0, run, three, o0, p0, n0)
@@ -254,11 +284,11 @@ def _owned_lists_of(F, owner, start, faces):
     n, m = F.shape
     for r in range(n):
         for k in range(m):
-            owner[F[r, k]] = r
+            owner[np.uint64(F[r, k])] = r  # unsigned: no wraparound test a scatter
     count = 0
     for r in range(n):
         for k in range(m):
-            if owner[F[r, k]] == r:
+            if owner[np.uint64(F[r, k])] == r:
                 faces[count] = F[r, k]
                 count += 1
         start[r + 1] = count
@@ -338,13 +368,13 @@ def _kept_ids(ids, keep, new):
     """keep[x] for every x in ``ids``; then ``ids`` rewritten in place as the positions
     of their values among the kept ones (``new``: scratch of len(keep))."""
     for q in range(ids.shape[0]):
-        keep[ids[q]] = True
+        keep[np.uint64(ids[q])] = True  # unsigned: no wraparound test a scatter
     count = 0
     for x in range(keep.shape[0]):
         new[x] = count
         count += keep[x]
     for q in range(ids.shape[0]):
-        ids[q] = new[ids[q]]
+        ids[q] = new[np.uint64(ids[q])]
 
 
 def kept_ids(ids: np.ndarray, n: int) -> np.ndarray:

@@ -111,8 +111,8 @@ def _grid_join(ia0, ia1, G, start, ids, first, pad, lo_a, hi_a, lo_b, hi_b, limi
                 return -1, proposals
             for k in range(prev_lo, prev_hi):
                 if count < out_a.shape[0]:  # k < count: written when count is
-                    out_a[count] = a
-                    out_b[count] = out_b[k]
+                    out_a[np.uint64(count)] = a  # unsigned: no wraparound test
+                    out_b[np.uint64(count)] = out_b[np.uint64(k)]
                 count += 1
             prev_lo, prev_hi = prev_hi, count
             continue
@@ -135,10 +135,10 @@ def _grid_join(ia0, ia1, G, start, ids, first, pad, lo_a, hi_a, lo_b, hi_b, limi
             for ax in range(d):
                 if off[ax] == 0:
                     bits |= 1 << ax
-            for e in range(start[key], start[key + 1]):
+            for e in range(np.uint64(start[key]), np.uint64(start[key + 1])):
                 if (bits | first[e]) != full:
                     continue
-                b = ids[e]
+                b = np.uint64(ids[e])
                 if unrolled:  # _near's subtractions and comparisons, in its order
                     near = (lo_b[0, b] - u0 <= pad and l0 - hi_b[0, b] <= pad
                             and lo_b[1, b] - u1 <= pad and l1 - hi_b[1, b] <= pad and (
@@ -148,8 +148,8 @@ def _grid_join(ia0, ia1, G, start, ids, first, pad, lo_a, hi_a, lo_b, hi_b, limi
                     near = _near(pad, lo_a, hi_a, lo_b, hi_b, a, b)
                 if near:
                     if count < out_a.shape[0]:
-                        out_a[count] = a
-                        out_b[count] = b
+                        out_a[np.uint64(count)] = a
+                        out_b[np.uint64(count)] = b
                     count += 1
             if not _next(off, ext):
                 break

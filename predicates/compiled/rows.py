@@ -104,16 +104,16 @@ def _by_first(rows, combos, n, start, key, idx, first, inv):
     for r in range(rows.shape[0]):
         for p in range(g):
             v = np.uint64(rows[r, combos[p, 0]])
-            q = end[v]
-            end[v] = q + 1
+            q = np.uint64(end[v])  # unsigned: no wraparound test an index
+            end[v] = q + np.uint64(1)
             k = 0
             for c in range(1, w):
                 k = k * n + rows[r, combos[p, c]]
-            s = start[v]
-            while q > s and key[q - 1] > k:  # strict: equal rows keep their order
-                key[q] = key[q - 1]
-                idx[q] = idx[q - 1]
-                q -= 1
+            s = np.uint64(start[v])
+            while q > s and key[q - np.uint64(1)] > k:  # strict: equal rows keep order
+                key[q] = key[q - np.uint64(1)]
+                idx[q] = idx[q - np.uint64(1)]
+                q -= np.uint64(1)
             key[q] = k
             idx[q] = i
             i += 1
@@ -146,8 +146,8 @@ def _pairs_by_first(rows, combos, n, start, second, idx, stamp, first, inv):
     for r in range(rows.shape[0]):
         for p in range(g):
             v = np.uint64(rows[r, combos[p, 0]])
-            q = end[v]
-            end[v] = q + 1
+            q = np.uint64(end[v])
+            end[v] = q + np.uint64(1)
             second[q] = rows[r, combos[p, 1]]
             idx[q] = i
             i += 1
@@ -155,7 +155,7 @@ def _pairs_by_first(rows, combos, n, start, second, idx, stamp, first, inv):
     nu = 0
     for v in range(n):
         d = 0
-        for q in range(start[v], start[v + 1]):
+        for q in range(np.uint64(start[v]), np.uint64(start[v + 1])):
             x = np.uint64(second[q])
             if stamp[x] != v:
                 stamp[x] = v
@@ -169,7 +169,7 @@ def _pairs_by_first(rows, combos, n, start, second, idx, stamp, first, inv):
                 d += 1
         for u in range(d):  # each distinct id's rank, through its stamp
             stamp[ids[u]] = -2 - nu - u  # (v ≥ 0 never equals it; reset by the next run)
-        for q in range(start[v], start[v + 1]):
+        for q in range(np.uint64(start[v]), np.uint64(start[v + 1])):
             inv[np.uint64(idx[q])] = -2 - stamp[np.uint64(second[q])]
         nu += d
     return nu
@@ -183,7 +183,7 @@ def _by_flags(rows, combos, n, seen, rank, ids, inv):
     g = combos.shape[0]
     for r in range(rows.shape[0]):
         for p in range(g):
-            seen[rows[r, combos[p, 0]]] = True
+            seen[np.uint64(rows[r, combos[p, 0]])] = True
     nu = 0
     for v in range(n):
         if seen[v]:
@@ -193,7 +193,7 @@ def _by_flags(rows, combos, n, seen, rank, ids, inv):
     i = 0
     for r in range(rows.shape[0]):
         for p in range(g):
-            inv[i] = rank[rows[r, combos[p, 0]]]
+            inv[i] = rank[np.uint64(rows[r, combos[p, 0]])]
             i += 1
     return nu
 
@@ -205,7 +205,7 @@ def _gather(rows, combos, first, out):
         r = first[u] // g  # one division, not two (its remainder by a product)
         p = first[u] - r * g
         for c in range(out.shape[1]):
-            out[u, c] = rows[r, combos[p, c]]
+            out[u, c] = rows[np.uint64(r), combos[p, c]]
 
 
 def unique_faces(rows: np.ndarray, combos: np.ndarray, n: int):
@@ -317,7 +317,7 @@ def _pack_row(S, ids, r, n, per, keys, k0, q, row):
     next key row."""
     w = S.shape[1]
     for p in range(w):  # insertion sort of a few ids
-        v = ids[S[r, p]]
+        v = ids[np.uint64(S[r, p])]
         u = p
         while u > 0 and row[u - 1] > v:
             row[u] = row[u - 1]
@@ -330,7 +330,7 @@ def _pack_row(S, ids, r, n, per, keys, k0, q, row):
         key = row[start]
         for col in range(start + 1, stop):
             key = key * n + row[col]
-        keys[k, q] = key
+        keys[k, np.uint64(q)] = key
         k += 1
         start = stop
     return k
@@ -340,16 +340,16 @@ def _pack_row(S, ids, r, n, per, keys, k0, q, row):
 def _hit_keys(S1, ids1, s, n1, per1, S2, ids2, c, n2, per2, keys):
     row = np.empty(S1.shape[1] + S2.shape[1], dtype=np.int64)
     for q in range(s.shape[0]):
-        k = _pack_row(S1, ids1, s[q], n1, per1, keys, 0, q, row)
-        _pack_row(S2, ids2, c[q], n2, per2, keys, k, q, row)
+        k = _pack_row(S1, ids1, np.uint64(s[q]), n1, per1, keys, 0, q, row)
+        _pack_row(S2, ids2, np.uint64(c[q]), n2, per2, keys, k, q, row)
 
 
 @njit(**JIT_OPTIONS)
 def _ids_in_order(S, ids, s, order, out):
     for q in range(order.shape[0]):
-        r = s[order[q]]
+        r = np.uint64(s[np.uint64(order[q])])  # unsigned: no wraparound test a gather
         for p in range(S.shape[1]):
-            out[q, p] = ids[S[r, p]]
+            out[q, p] = ids[np.uint64(S[r, p])]
 
 
 def _per_key(n: int, w: int) -> int:
@@ -386,7 +386,7 @@ def _any_flagged(flags, rows, out):
     for r in range(rows.shape[0]):
         hit = False
         for c in range(rows.shape[1]):
-            hit |= flags[rows[r, c]]
+            hit |= flags[np.uint64(rows[r, c])]  # unsigned: no wraparound test
         out[r] = hit
 
 
@@ -438,7 +438,7 @@ def ranked_rows(rank: np.ndarray, cells: np.ndarray) -> np.ndarray:
 def _faces_via(upper, lower, via, local, out):
     for r in range(upper.shape[0]):
         for p in range(via.shape[0]):
-            out[r, p] = lower[upper[r, via[p]], local[p]]
+            out[r, p] = lower[np.uint64(upper[r, via[p]]), local[p]]
 
 
 def faces_via(upper: np.ndarray, lower: np.ndarray, via: list, local: list) -> np.ndarray:

@@ -40,9 +40,8 @@ def cell_pairs(P_sim, sim_cells, P_cut, cut_cells, pad: float, chunk: int,
     """The pairs of cells (rows of ``sim_cells`` × rows of ``cut_cells``, coordinates
     ``P_sim``, ``P_cut``) whose boxes are within ``pad``: (T, C, keep_s, keep_c), with
     ``keep_*`` the masks of the cells in some pair and T, C indices into the kept rows."""
-    blocks = Blocks(accelerate=accelerate)
-    lo_s, hi_s = boxes_of(P_sim, sim_cells, blocks)
-    lo_c, hi_c = boxes_of(P_cut, cut_cells, blocks)
+    lo_s, hi_s = _boxes(P_sim, sim_cells, accelerate)
+    lo_c, hi_c = _boxes(P_cut, cut_cells, accelerate)
     parts = list(box_pairs(lo_s, hi_s, lo_c, hi_c, pad, chunk=chunk, accelerate=accelerate))
     if len(parts) == 1:  # the compiled dense-grid join's one part: not copied again
         T, C = parts[0]
@@ -135,10 +134,20 @@ def _cat(parts: list) -> np.ndarray:
     return parts[0] if len(parts) == 1 else np.concatenate(parts)
 
 
-def _columns(points, rows, blocks: Blocks):
+def _boxes(points, rows, accelerate: bool):
+    """:func:`~predicates.registration.spatial.broadphase.boxes_of` (lo, hi (n, d)), the
+    same boxes; compiled in one call (:func:`predicates.compiled.boxtest.boxes`)."""
+    if accelerate:
+        from predicates.compiled.boxtest import boxes
+
+        return boxes(points, rows)
+    return boxes_of(points, rows, Blocks(accelerate=False))
+
+
+def _columns(points, rows, accelerate: bool):
     """Boxes of the simplices ``points[rows]`` as (d, n) columns (lo, hi)."""
-    lo, hi = boxes_of(points, rows, blocks)
-    return lo.T, hi.T  # boxes_of builds (d, n) arrays: their transposes, no copy
+    lo, hi = _boxes(points, rows, accelerate)
+    return lo.T, hi.T  # (d, n) arrays underneath: their transposes, no copy
 
 
 class FacePairs:
@@ -184,7 +193,7 @@ class FacePairs:
     def _box(self, side, k):
         if (side, k) not in self._boxes:
             s = self.sim if side == "sim" else self.cut
-            self._boxes[side, k] = _columns(s.P, s.cx.S[k], Blocks(accelerate=self.accelerate))
+            self._boxes[side, k] = _columns(s.P, s.cx.S[k], self.accelerate)
         return self._boxes[side, k]
 
     def _table(self, side, k):
