@@ -25,7 +25,7 @@ from predicates.registration.plan.edges import edge_from, edge_shift, edge_summa
 from predicates.registration.plan.inputs import (
     MeshInput, MeshTypeError, _array, _points, cell_error)
 from predicates.registration.partition.swept import (
-    check_chunk as _check, check_swept, narrow_ids)
+    check_chunk as _check, check_swept, covered, flagged_cover, narrow_ids)
 from predicates.registration.partition.points import RemotePoints
 from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.boxes import boxes_of
@@ -70,7 +70,8 @@ def _flags(chunk, points, origin, h, G, table, accelerate: bool = False):
     edge = edge_summary(points, cells, blocks) if len(ids) else None
     if len(chunk) < 2 ** 31:
         ids = ids.astype(np.int32)  # (the client adds the chunk's int64 offset)
-    return count, (ids, i0, i1, ext, narrow_ids(cells, len(points)), edge, None)
+    return count, (ids, flagged_cover(i0, i1, G, blocks), ext,
+                   narrow_ids(cells, len(points)), edge, None)
 
 
 def _row_boxes(chunk, points, rows: np.ndarray):
@@ -107,11 +108,11 @@ def _on_piece(f, own, dtype, *args):
         count, got = _flags(local, pts, *args)
         if got is None:
             return count, None
-        ids, i0, i1, ext, _, edge, _ = got
+        ids, cover, ext, _, edge, _ = got
         # the flagged cells' boxes here, from the piece's points: the client has none
         flagged = np.take(cells, ids, axis=0)
         flagged = narrow_ids(flagged, int(flagged.max()) + 1 if flagged.size else 0)
-        return count, (ids, i0, i1, ext, flagged, edge,
+        return count, (ids, cover, ext, flagged, edge,
                        boxes_of(pts, np.take(local, ids, axis=0)))
     return f(local, pts, *args)  # _near_scan: row ids only; _row_boxes: boxes
 
@@ -170,6 +171,7 @@ class RemoteCells(CellBoxes):
         self._summary, self._kept, self._kept_cells = None, None, None
         self.first_grid = self._first = None  # the check's sweep's flags (swept.py)
         self._edges = None  # (the flag pass's kept ids, its chunks' edge summaries)
+        self.occupied = None  # the grid cells the flagged cells cover (swept.covered)
         import threading
 
         self._local = threading.local()
@@ -249,19 +251,22 @@ class RemoteCells(CellBoxes):
         near = np.zeros(self.n, dtype=bool)
         ids = np.concatenate([o + g[1][0] for o, g in zip(self.offsets, got)])
         near[ids] = True
-        cells = np.concatenate([g[1][4] for g in got])
-        self.stats["bytes_back"] += sum(sum(a.nbytes for a in g[1][:3] + g[1][4:5]
-                                            + (g[1][6] or ())) for g in got)
-        if all(g[1][6] is not None for g in got):  # computed where the pieces are
-            lo = np.concatenate([g[1][6][0] for g in got])
-            hi = np.concatenate([g[1][6][1] for g in got])
+        cells = np.concatenate([g[1][3] for g in got])
+        self.stats["bytes_back"] += sum(
+            sum(a.nbytes for a in (g[1][0], g[1][3], *(g[1][5] or ()),
+                                   *(g[1][1] if isinstance(g[1][1], tuple) else (g[1][1],))))
+            for g in got)
+        if all(g[1][5] is not None for g in got):  # computed where the pieces are
+            lo = np.concatenate([g[1][5][0] for g in got])
+            hi = np.concatenate([g[1][5][1] for g in got])
         else:
             lo, hi = boxes_of(self.points, cells, self.blocks)  # compiled when the plan is
         self._kept, self._kept_cells = (ids, lo, hi), cells
-        self._edges = (ids, [g[1][5] for g in got if g[1][5] is not None])
-        i0 = np.concatenate([g[1][1] for g in got])
-        i1 = np.concatenate([g[1][2] for g in got])
-        return count, (near, i0, i1, max(g[1][3] for g in got))
+        self._edges = (ids, [g[1][4] for g in got if g[1][4] is not None])
+        # the cutting flags' input: the chunks' ranges, or the grid cells they cover
+        # (first_round.near_fixed reads ``occupied`` when the ranges are None)
+        i0, i1, self.occupied = covered([g[1][1] for g in got], G, self.blocks)
+        return count, (near, i0, i1, max(g[1][2] for g in got))
 
     def near_pieces(self, grid):
         """The refinement's near scan (its ``near_pieces``) per chunk on the workers."""
