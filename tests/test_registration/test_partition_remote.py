@@ -97,6 +97,32 @@ def test_bad_cells_on_the_workers_are_refused_as_serially(bad):
     assert str(remote.value) == str(serial.value) and f"cell {row}" in str(serial.value)
 
 
+@pytest.mark.parametrize("bad", ["used nan", "unused nan", "float32 overflow"])
+def test_points_on_the_client_are_checked_as_serially(bad):
+    """The client's points are validated as serially whether or not the workers' sweep
+    found every point finite (remote.validate_remote skips the finiteness test only
+    then): a NaN in a used point and a float32 overflow refused with the serial message,
+    a NaN in an unused point ignored — the serial result."""
+    sp, sc, cp, cc = _case("sphere", 4, subdivisions=1)
+    sp, dtype = sp.copy(), np.float32 if bad == "float32 overflow" else np.float64
+    if bad == "unused nan":
+        sp = np.vstack([sp, [np.nan] * 3])
+    else:
+        sp[sc[7, 2]] = 1e39 if bad == "float32 overflow" else np.nan
+    cells = da.from_array(sc, chunks=(40, 4))
+    if bad == "unused nan":
+        assert_identical(predicates.intersect(sp, sc, cp, cc),
+                         predicates.intersect(sp, cells, cp, cc, partitions=2,
+                                              scheduler="synchronous"))
+        return
+    with pytest.raises(ValueError) as serial:
+        predicates.intersect(sp, sc, cp, cc, dtype=dtype)
+    with pytest.raises(ValueError) as remote:
+        predicates.intersect(sp, cells, cp, cc, dtype=dtype, partitions=2,
+                             scheduler="synchronous")
+    assert str(remote.value) == str(serial.value)
+
+
 CLIENT = textwrap.dedent("""
     import json, resource, sys
     import numpy as np

@@ -25,7 +25,7 @@ from predicates.registration.plan.edges import edge_from, edge_shift, edge_summa
 from predicates.registration.plan.inputs import (
     MeshInput, MeshTypeError, _array, _points, cell_error)
 from predicates.registration.partition.swept import (
-    check_chunk as _check, check_swept, covered, flagged_cover, narrow_ids)
+    check_chunk as _check, check_swept, covered, cut_flags_from, flagged_cover, narrow_ids)
 from predicates.registration.partition.points import RemotePoints
 from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.boxes import boxes_of
@@ -172,6 +172,8 @@ class RemoteCells(CellBoxes):
         self.first_grid = self._first = None  # the check's sweep's flags (swept.py)
         self._edges = None  # (the flag pass's kept ids, its chunks' edge summaries)
         self.occupied = None  # the grid cells the flagged cells cover (swept.covered)
+        self.points_finite = False  # every point shared was found finite (check)
+        self._flagged = (None, None)  # flag_pass' mask and its rows
         import threading
 
         self._local = threading.local()
@@ -219,6 +221,9 @@ class RemoteCells(CellBoxes):
             got, flags = [b[0] for b in both], [b[1] for b in both]
             if all(f is not None for f in flags):
                 self.first_grid, self._first = grid, flags
+                # the sweep ran on every chunk: only over finite points (swept.py), the
+                # broadcast ones unless each chunk is a piece with its own
+                self.points_finite = self.pieces is None
         bad = [min((int(o) + b[t] for o, (b, _, _) in zip(self.offsets, got)
                     if b[t] is not None), default=None) for t in range(3)]
         used = None if self.far else np.zeros(n_points, dtype=bool)
@@ -251,6 +256,8 @@ class RemoteCells(CellBoxes):
         near = np.zeros(self.n, dtype=bool)
         ids = np.concatenate([o + g[1][0] for o, g in zip(self.offsets, got)])
         near[ids] = True
+        near.flags.writeable = False  # the plan's mask: _is_kept knows it by identity
+        self._flagged = (near, ids)
         cells = np.concatenate([g[1][3] for g in got])
         self.stats["bytes_back"] += sum(
             sum(a.nbytes for a in (g[1][0], g[1][3], *(g[1][5] or ()),
@@ -267,6 +274,12 @@ class RemoteCells(CellBoxes):
         # (first_round.near_fixed reads ``occupied`` when the ranges are None)
         i0, i1, self.occupied = covered([g[1][1] for g in got], G, self.blocks)
         return count, (near, i0, i1, max(g[1][2] for g in got))
+
+    def cut_flags(self, ib0, ib1, G) -> np.ndarray:
+        """The first round's cutting flags from the grid cells the chunks' flagged
+        cells cover (:attr:`occupied`, set by :meth:`flag_pass` when the chunks sent
+        them: :func:`~.swept.cut_flags_from`, the values of ``lean.cut_flags``)."""
+        return cut_flags_from(self.occupied, ib0, ib1, G, self.blocks)
 
     def near_pieces(self, grid):
         """The refinement's near scan (its ``near_pieces``) per chunk on the workers."""
@@ -294,9 +307,11 @@ class RemoteCells(CellBoxes):
         self.stats["report_edge"] = "workers"
         return (edge_from(min(p[2] for p in parts), shift) if parts else None,)
 
-    @staticmethod
-    def _is_kept(sel, kept: np.ndarray) -> bool:
-        """Does ``sel`` (a mask or ascending ids) select exactly the rows ``kept``?"""
+    def _is_kept(self, sel, kept: np.ndarray) -> bool:
+        """Does ``sel`` (a mask or ascending ids) select exactly the rows ``kept``? At
+        once for :meth:`flag_pass`' own mask and rows (read-only: unchanged since)."""
+        if sel is self._flagged[0] and kept is self._flagged[1]:
+            return True
         sel = np.asarray(sel)
         if sel.dtype == bool:
             return int(np.count_nonzero(sel)) == len(kept) and bool(sel[kept].all())
@@ -394,7 +409,9 @@ def validate_remote(points, cells, dim: int, dtype, scheduler, blocks: Blocks = 
     if far:
         pts, rounded = arr.checked("simulation", dtype)
     else:
-        pts, rounded = _points(arr, used, "simulation", dtype)
+        # (the points the workers found finite: ``work`` is ``arr`` when in dtype)
+        pts, rounded = _points(arr, used, "simulation", dtype,
+                               finite=remote.points_finite and arr.dtype == dtype)
     remote.points = pts  # the same boxes as from ``work`` (the used rows are equal)
     return CellsOnWorkers(pts, cells, "simulation", rounded, remote.handles()), remote
 

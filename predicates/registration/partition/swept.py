@@ -19,7 +19,8 @@ from predicates.registration.plan.edges import edge_summary
 from predicates.registration.plan.inputs import _checked_and_used, first_bad
 from predicates.registration.spatial.blocks import Blocks
 
-__all__ = ["check_chunk", "check_swept", "covered", "flagged_cover", "narrow_ids"]
+__all__ = ["check_chunk", "check_swept", "covered", "cut_flags_from", "flagged_cover",
+           "narrow_ids"]
 
 
 def flagged_cover(i0: np.ndarray, i1: np.ndarray, G, blocks: Blocks):
@@ -36,6 +37,28 @@ def flagged_cover(i0: np.ndarray, i1: np.ndarray, G, blocks: Blocks):
     if len(i0) and int(np.prod(G + 1)) // 8 < i0.nbytes + i1.nbytes:
         return np.packbits(occupancy(i0, i1, G, blocks).ravel())
     return i0, i1
+
+
+def cut_flags_from(occ: np.ndarray, ib0, ib1, G, blocks: Blocks) -> np.ndarray:
+    """The cutting cells' flags (ranges [ib0, ib1]) from the grid cells the flagged
+    cells cover (``occ``, :func:`covered`): :func:`~predicates.registration.plan.lean.
+    cut_flags`' values — compiled in 3D as it is (the occupied cells' summed-area table
+    in one pass, the same integers: ``occ`` as 0/1 counts), else
+    :func:`~predicates.registration.spatial.gridsums.any_in`."""
+    from predicates.registration.spatial.gridsums import _stride, any_in
+
+    if not (blocks.accelerate and len(G) == 3):
+        return any_in(occ, ib0, ib1, G, blocks)
+    from predicates.compiled.cells import look_corners
+    from predicates.compiled.cellsums import occupied_table
+
+    cover = occ.astype(np.int32)  # (the counts' dtype the table is compiled for)
+    S = np.empty(cover.shape, dtype=np.int32 if cover.size < 2 ** 31 else np.int64)
+    occupied_table(cover, S)
+    S, out, stride = S.ravel(), np.empty(len(ib0), dtype=bool), _stride(G)
+    blocks.rows(lambda a, b: look_corners(S, ib0[a:b], ib1[a:b], stride, out[a:b]),
+                len(ib0))
+    return out
 
 
 def covered(covers: list, G, blocks: Blocks):

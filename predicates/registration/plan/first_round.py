@@ -129,7 +129,6 @@ def near_fixed(boxes, lo_b: np.ndarray, hi_b: np.ndarray, pad: float):
     simulation cells (not rounded; 0.0 if none). A grid the sweep already flagged at
     (``boxes.first_grid``) is used when it is this one: no pass over the cells."""
     from predicates.registration.plan.lean import cut_flags
-    from predicates.registration.spatial.gridsums import any_in
 
     lean = hasattr(boxes, "flag_pass")
     na, nb = len(boxes) if lean else len(boxes[0]), len(lo_b)
@@ -147,7 +146,7 @@ def near_fixed(boxes, lo_b: np.ndarray, hi_b: np.ndarray, pad: float):
         near_a, i0f, i1f, ext = _array_flags(boxes, grid, blocks)
     if i0f is None:  # cells on the workers: the grid cells their ranges cover (the same
         # occupancy cut_flags builds from them, partition/swept.covered)
-        return near_a, any_in(boxes.occupied, grid.ib0, grid.ib1, grid.G, blocks), ext
+        return near_a, boxes.cut_flags(grid.ib0, grid.ib1, grid.G), ext
     return near_a, cut_flags(i0f, i1f, grid.ib0, grid.ib1, grid.G, blocks), ext
 
 
