@@ -48,7 +48,8 @@ def is_remote(cells, scheduler) -> bool:
 
 def _flags(chunk, points, origin, h, G, table, accelerate: bool = False):
     """A chunk's first-round flags (:func:`~predicates.registration.plan.lean.flag_pass`)
-    as (count, flagged rows (int32 below 2^31 rows), their ranges i0, i1, largest edge,
+    as (count, flagged rows (int32 below 2^31 rows), the grid cells their ranges cover
+    (:func:`~.swept.flagged_cover`: packed bits, or the ranges i0, i1), largest edge,
     their vertex ids (the kernel's kept rows when it kept them: no gather), the flagged
     cells' :func:`~predicates.registration.plan.edges.edge_summary` or None, None):
     the report's shortest edge of the run's cells rides on this task, as those cells
@@ -271,7 +272,7 @@ class RemoteCells(CellBoxes):
         self._kept, self._kept_cells = (ids, lo, hi), cells
         self._edges = (ids, [g[1][4] for g in got if g[1][4] is not None])
         # the cutting flags' input: the chunks' ranges, or the grid cells they cover
-        # (first_round.near_fixed reads ``occupied`` when the ranges are None)
+        # (first_round.near_fixed then asks cut_flags: the ranges are None)
         i0, i1, self.occupied = covered([g[1][1] for g in got], G, self.blocks)
         return count, (near, i0, i1, max(g[1][2] for g in got))
 
