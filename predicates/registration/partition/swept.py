@@ -69,7 +69,7 @@ def covered(covers: list, G, blocks: Blocks):
 
     ranges = [c for c in covers if isinstance(c, tuple)]
     if len(ranges) == len(covers):
-        return np.concatenate([c[0] for c in covers]), np.concatenate([c[1] for c in covers]), None
+        return (*(np.concatenate([c[s] for c in covers]) for s in (0, 1)), None)
     G = np.asarray(G, dtype=np.int64)
     shape = tuple((G + 1)[::-1])
     bits = np.bitwise_or.reduce([c for c in covers if not isinstance(c, tuple)])
