@@ -299,8 +299,9 @@ def test_each_worker_computes_the_cutting_sides_boxes_once_before_its_tasks():
         assert len(timings["split"]["side_boxes"]) == len(workers) == 2
         assert all(t >= 0 for t in timings["split"]["side_boxes"])
         # a worker's copy may be replaced by Dask after the task (seen once in eight
-        # fresh clusters: the object's id changed); its partition task then computes
-        # the boxes itself, the same values — so: kept on some worker, equal wherever
+        # fresh clusters after the probe above: the object's id changed); its partition
+        # task then computes the boxes itself, the same values — so: kept on some
+        # worker, equal wherever
         got = [client.submit(kept, side, workers=[w], pure=False).result() for w in workers]
         assert any(g is not None for g in got)
         for g in got:

@@ -253,7 +253,8 @@ def warm_side(client, side, accelerate: bool) -> list:
     so each worker computes them once while it waits for the split's rounds instead of
     in its first partition task, on the critical path. A worker left without them (it
     joined later, or Dask replaced its copy of the side: seen once in eight fresh
-    clusters) computes them in its task as before: the same boxes.
+    clusters where another task had read the side there first, never in 24 without)
+    computes them in its task as before: the same boxes.
     The futures, to be settled by :func:`settled_side`."""
     return [client.submit(_side_boxes, side, accelerate, workers=[w],
                           allow_other_workers=False, key=f"fperr-side-{uuid.uuid4().hex}")
