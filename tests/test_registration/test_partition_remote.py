@@ -97,6 +97,32 @@ def test_bad_cells_on_the_workers_are_refused_as_serially(bad):
     assert str(remote.value) == str(serial.value) and f"cell {row}" in str(serial.value)
 
 
+@pytest.mark.parametrize("bad", ["used nan", "unused nan", "float32 overflow"])
+def test_points_on_the_client_are_checked_as_serially(bad):
+    """The client's points are validated as serially whether or not the workers' sweep
+    found every point finite (remote.validate_remote skips the finiteness test only
+    then): a NaN in a used point and a float32 overflow refused with the serial message,
+    a NaN in an unused point ignored — the serial result."""
+    sp, sc, cp, cc = _case("sphere", 4, subdivisions=1)
+    sp, dtype = sp.copy(), np.float32 if bad == "float32 overflow" else np.float64
+    if bad == "unused nan":
+        sp = np.vstack([sp, [np.nan] * 3])
+    else:
+        sp[sc[7, 2]] = 1e39 if bad == "float32 overflow" else np.nan
+    cells = da.from_array(sc, chunks=(40, 4))
+    if bad == "unused nan":
+        assert_identical(predicates.intersect(sp, sc, cp, cc),
+                         predicates.intersect(sp, cells, cp, cc, partitions=2,
+                                              scheduler="synchronous"))
+        return
+    with pytest.raises(ValueError) as serial:
+        predicates.intersect(sp, sc, cp, cc, dtype=dtype)
+    with pytest.raises(ValueError) as remote:
+        predicates.intersect(sp, cells, cp, cc, dtype=dtype, partitions=2,
+                             scheduler="synchronous")
+    assert str(remote.value) == str(serial.value)
+
+
 CLIENT = textwrap.dedent("""
     import json, resource, sys
     import numpy as np
@@ -229,3 +255,42 @@ def test_meshes_that_cannot_meet_cost_one_flag_pass():
     remote = res.timings["plan_remote"]
     names = [name for name, _ in remote["worker_cpu"]]  # (the check's sweep flags too)
     assert names.count("flags") + names.count("check_swept") == 1
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from([2, 3]), st.integers(1, 5),
+       st.booleans())
+def test_the_chunks_covered_grid_cells_give_the_cutting_flags(seed, d, chunks, fast):
+    """Each chunk's flagged cells sent as the grid cells they cover (packed bits) or as
+    their ranges, whichever is smaller (swept.flagged_cover), OR-ed on the client
+    (swept.covered): the occupancy of all the ranges, so the cutting flags near_fixed
+    takes from it are cut_flags' from the ranges (docs/partitioned.md 6)."""
+    from predicates import compiled
+    from predicates.registration.partition.swept import covered, flagged_cover
+    from predicates.registration.plan.lean import cut_flags
+    from predicates.registration.spatial.blocks import Blocks
+    from predicates.registration.spatial.gridsums import any_in, occupancy
+
+    rng = np.random.default_rng(seed)
+    blocks = Blocks(accelerate=fast and compiled.available())
+    G = rng.integers(1, 12, size=d).astype(np.int64)
+
+    def ranges(n):
+        a, b = (rng.integers(0, G, size=(n, d)) for _ in range(2))
+        return np.minimum(a, b).astype(np.int32), np.maximum(a, b).astype(np.int32)
+
+    # chunk sizes from none to many flagged cells: both forms, alone and mixed
+    parts = [ranges(int(rng.choice([0, 1, 3, 40, 400]))) for _ in range(chunks)]
+    covers = [flagged_cover(i0, i1, G, blocks) for i0, i1 in parts]
+    i0, i1 = (np.concatenate([p[s] for p in parts]) for s in (0, 1))
+    got0, got1, occ = covered(covers, G, blocks)
+    ib0, ib1 = ranges(60)
+    want = cut_flags(i0, i1, ib0, ib1, G, blocks)
+    if occ is None:  # every chunk sent its ranges: they come back as they were
+        assert all(isinstance(c, tuple) for c in covers)
+        np.testing.assert_array_equal(got0, i0)
+        np.testing.assert_array_equal(got1, i1)
+        return
+    assert got0 is None and got1 is None
+    np.testing.assert_array_equal(occ, occupancy(i0, i1, G, blocks))
+    np.testing.assert_array_equal(any_in(occ, ib0, ib1, G, blocks), want)

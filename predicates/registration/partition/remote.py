@@ -25,7 +25,7 @@ from predicates.registration.plan.edges import edge_from, edge_shift, edge_summa
 from predicates.registration.plan.inputs import (
     MeshInput, MeshTypeError, _array, _points, cell_error)
 from predicates.registration.partition.swept import (
-    check_chunk as _check, check_swept, narrow_ids)
+    check_chunk as _check, check_swept, covered, cut_flags_from, flagged_cover, narrow_ids)
 from predicates.registration.partition.points import RemotePoints
 from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.boxes import boxes_of
@@ -48,7 +48,8 @@ def is_remote(cells, scheduler) -> bool:
 
 def _flags(chunk, points, origin, h, G, table, accelerate: bool = False):
     """A chunk's first-round flags (:func:`~predicates.registration.plan.lean.flag_pass`)
-    as (count, flagged rows (int32 below 2^31 rows), their ranges i0, i1, largest edge,
+    as (count, flagged rows (int32 below 2^31 rows), the grid cells their ranges cover
+    (:func:`~.swept.flagged_cover`: packed bits, or the ranges i0, i1), largest edge,
     their vertex ids (the kernel's kept rows when it kept them: no gather), the flagged
     cells' :func:`~predicates.registration.plan.edges.edge_summary` or None, None):
     the report's shortest edge of the run's cells rides on this task, as those cells
@@ -70,7 +71,8 @@ def _flags(chunk, points, origin, h, G, table, accelerate: bool = False):
     edge = edge_summary(points, cells, blocks) if len(ids) else None
     if len(chunk) < 2 ** 31:
         ids = ids.astype(np.int32)  # (the client adds the chunk's int64 offset)
-    return count, (ids, i0, i1, ext, narrow_ids(cells, len(points)), edge, None)
+    return count, (ids, flagged_cover(i0, i1, G, blocks), ext,
+                   narrow_ids(cells, len(points)), edge, None)
 
 
 def _row_boxes(chunk, points, rows: np.ndarray):
@@ -107,11 +109,11 @@ def _on_piece(f, own, dtype, *args):
         count, got = _flags(local, pts, *args)
         if got is None:
             return count, None
-        ids, i0, i1, ext, _, edge, _ = got
+        ids, cover, ext, _, edge, _ = got
         # the flagged cells' boxes here, from the piece's points: the client has none
         flagged = np.take(cells, ids, axis=0)
         flagged = narrow_ids(flagged, int(flagged.max()) + 1 if flagged.size else 0)
-        return count, (ids, i0, i1, ext, flagged, edge,
+        return count, (ids, cover, ext, flagged, edge,
                        boxes_of(pts, np.take(local, ids, axis=0)))
     return f(local, pts, *args)  # _near_scan: row ids only; _row_boxes: boxes
 
@@ -170,6 +172,9 @@ class RemoteCells(CellBoxes):
         self._summary, self._kept, self._kept_cells = None, None, None
         self.first_grid = self._first = None  # the check's sweep's flags (swept.py)
         self._edges = None  # (the flag pass's kept ids, its chunks' edge summaries)
+        self.occupied = None  # the grid cells the flagged cells cover (swept.covered)
+        self.points_finite = False  # every point shared was found finite (check)
+        self._flagged = (None, None)  # flag_pass' mask and its rows
         import threading
 
         self._local = threading.local()
@@ -217,6 +222,9 @@ class RemoteCells(CellBoxes):
             got, flags = [b[0] for b in both], [b[1] for b in both]
             if all(f is not None for f in flags):
                 self.first_grid, self._first = grid, flags
+                # the sweep ran on every chunk: only over finite points (swept.py), the
+                # broadcast ones unless each chunk is a piece with its own
+                self.points_finite = self.pieces is None
         bad = [min((int(o) + b[t] for o, (b, _, _) in zip(self.offsets, got)
                     if b[t] is not None), default=None) for t in range(3)]
         used = None if self.far else np.zeros(n_points, dtype=bool)
@@ -249,19 +257,30 @@ class RemoteCells(CellBoxes):
         near = np.zeros(self.n, dtype=bool)
         ids = np.concatenate([o + g[1][0] for o, g in zip(self.offsets, got)])
         near[ids] = True
-        cells = np.concatenate([g[1][4] for g in got])
-        self.stats["bytes_back"] += sum(sum(a.nbytes for a in g[1][:3] + g[1][4:5]
-                                            + (g[1][6] or ())) for g in got)
-        if all(g[1][6] is not None for g in got):  # computed where the pieces are
-            lo = np.concatenate([g[1][6][0] for g in got])
-            hi = np.concatenate([g[1][6][1] for g in got])
+        near.flags.writeable = False  # the plan's mask: _is_kept knows it by identity
+        self._flagged = (near, ids)
+        cells = np.concatenate([g[1][3] for g in got])
+        self.stats["bytes_back"] += sum(
+            sum(a.nbytes for a in (g[1][0], g[1][3], *(g[1][5] or ()),
+                                   *(g[1][1] if isinstance(g[1][1], tuple) else (g[1][1],))))
+            for g in got)
+        if all(g[1][5] is not None for g in got):  # computed where the pieces are
+            lo = np.concatenate([g[1][5][0] for g in got])
+            hi = np.concatenate([g[1][5][1] for g in got])
         else:
             lo, hi = boxes_of(self.points, cells, self.blocks)  # compiled when the plan is
         self._kept, self._kept_cells = (ids, lo, hi), cells
-        self._edges = (ids, [g[1][5] for g in got if g[1][5] is not None])
-        i0 = np.concatenate([g[1][1] for g in got])
-        i1 = np.concatenate([g[1][2] for g in got])
-        return count, (near, i0, i1, max(g[1][3] for g in got))
+        self._edges = (ids, [g[1][4] for g in got if g[1][4] is not None])
+        # the cutting flags' input: the chunks' ranges, or the grid cells they cover
+        # (first_round.near_fixed then asks cut_flags: the ranges are None)
+        i0, i1, self.occupied = covered([g[1][1] for g in got], G, self.blocks)
+        return count, (near, i0, i1, max(g[1][2] for g in got))
+
+    def cut_flags(self, ib0, ib1, G) -> np.ndarray:
+        """The first round's cutting flags from the grid cells the chunks' flagged
+        cells cover (:attr:`occupied`, set by :meth:`flag_pass` when the chunks sent
+        them: :func:`~.swept.cut_flags_from`, the values of ``lean.cut_flags``)."""
+        return cut_flags_from(self.occupied, ib0, ib1, G, self.blocks)
 
     def near_pieces(self, grid):
         """The refinement's near scan (its ``near_pieces``) per chunk on the workers."""
@@ -289,9 +308,11 @@ class RemoteCells(CellBoxes):
         self.stats["report_edge"] = "workers"
         return (edge_from(min(p[2] for p in parts), shift) if parts else None,)
 
-    @staticmethod
-    def _is_kept(sel, kept: np.ndarray) -> bool:
-        """Does ``sel`` (a mask or ascending ids) select exactly the rows ``kept``?"""
+    def _is_kept(self, sel, kept: np.ndarray) -> bool:
+        """Does ``sel`` (a mask or ascending ids) select exactly the rows ``kept``? At
+        once for :meth:`flag_pass`' own mask and rows (read-only: unchanged since)."""
+        if sel is self._flagged[0] and kept is self._flagged[1]:
+            return True
         sel = np.asarray(sel)
         if sel.dtype == bool:
             return int(np.count_nonzero(sel)) == len(kept) and bool(sel[kept].all())
@@ -389,7 +410,9 @@ def validate_remote(points, cells, dim: int, dtype, scheduler, blocks: Blocks = 
     if far:
         pts, rounded = arr.checked("simulation", dtype)
     else:
-        pts, rounded = _points(arr, used, "simulation", dtype)
+        # (the points the workers found finite: ``work`` is ``arr`` when in dtype)
+        pts, rounded = _points(arr, used, "simulation", dtype,
+                               finite=remote.points_finite and arr.dtype == dtype)
     remote.points = pts  # the same boxes as from ``work`` (the used rows are equal)
     return CellsOnWorkers(pts, cells, "simulation", rounded, remote.handles()), remote
 

@@ -23,7 +23,8 @@ from predicates.registration.partition.counts import (  # noqa: F401 (re-exporte
     CELLS_PER_PART, slots, count_partitions)
 from predicates.registration.partition.outputs import PartFiles, Staged
 from predicates.registration.partition.run_arrays import materialised
-from predicates.registration.partition.split_remote import on_workers, split_on_workers
+from predicates.registration.partition.split_remote import (on_workers, settled_side,
+                                                            split_on_workers)
 from predicates.registration.partition.task import run_part
 
 __all__ = ["DaskMissingError", "LOCAL_SCHEDULERS", "PartitionError", "check_timeout",
@@ -233,13 +234,12 @@ def run_partitioned(plan, partitions, scheduler, chunk: int, timings: dict,
     any work with the fraction of the cell pairs held at once. ``timings`` gets
     "partition" (client-side split; on a distributed Client the split, scatter and
     submission, task by task, overlapping the first tasks), "dask" (waiting for the
-    tasks) and "merge" (wall seconds),
-    "cpu_partition", "cpu_dask", "cpu_merge" (the client process's CPU seconds:
-    "cpu_dask" is Dask's serialisation and event loop while the tasks run) and
-    ``timings["partitions"]``: the per-partition statistics. ``progress``: a tqdm bar
-    on stderr counting finished partitions (shown after :data:`PROGRESS_DELAY` s).
-    ``timeout``: seconds to wait for the tasks once submitted (a dask.distributed
-    scheduler only), else :class:`PartitionError`."""
+    tasks) and "merge" (wall seconds), "cpu_partition", "cpu_dask", "cpu_merge" (the
+    client process's CPU seconds: "cpu_dask" is Dask's serialisation and event loop
+    while the tasks run) and ``timings["partitions"]``: the per-partition statistics.
+    ``progress``: a tqdm bar on stderr counting finished partitions (shown after
+    :data:`PROGRESS_DELAY` s). ``timeout``: seconds to wait for the tasks once
+    submitted (a dask.distributed scheduler only), else :class:`PartitionError`."""
     dask = _dask()
     client = _client("threads" if scheduler is None else scheduler)
     try:
@@ -334,9 +334,9 @@ def _split_there(dask, client, plan, k, scheduler, chunk, timings, bar, timeout,
         tasks = split_on_workers(plan, k, max(plan.scale.reach.values()), args, client,
                                  scheduler or "threads", timings, timeout)
     except TimeoutError as e:  # the selection's rounds: cancelled, nothing returned
-        raise PartitionError(f"the split on the workers did not finish within the timeout "
-                             f"of {timeout:g} s: its tasks were cancelled and nothing was "
-                             f"returned; give a longer timeout or more workers") from e
+        raise PartitionError(f"the split on the workers did not finish within the timeout"
+                             f" of {timeout:g} s: its tasks were cancelled and nothing was"
+                             " returned; give a longer timeout or more workers") from e
     clock("partition")
     if client is not None:
         out = _gather(tasks, bar, timeout, list(range(k)))
@@ -351,6 +351,7 @@ def _merged(plan, out: list, timings: dict, clock) -> dict:
     """The tasks' owned pairs merged in the serial order (:func:`.assign.merge`), their
     statistics in ``timings["partitions"]``."""
     clock("dask")
+    settled_side(timings)  # the side's boxes tasks (split on the workers): their CPU
     pairs = merge(plan.kinds, [o[0] for o in out], plan.dtype)
     clock("merge")
     timings["partitions"] = [o[1] for o in out]

@@ -37,7 +37,7 @@ from predicates.registration.partition.split_keys import (
 from predicates.registration.partition.task import run_part
 from predicates.registration.spatial.blocks import Blocks
 
-__all__ = ["on_workers", "split_on_workers"]
+__all__ = ["on_workers", "settled_side", "split_on_workers", "warm_side"]
 
 
 def on_workers(plan) -> bool:
@@ -196,10 +196,19 @@ def split_on_workers(plan, k: int, pad: float, args: tuple, client, scheduler,
                                      pieces is not None)
             for s, b, o in zip(sources, bits, offsets)]
     runs = _persist(runs, client, scheduler)
+    # the cutting side, sent once to each worker; its wide boxes computed there by a
+    # task of its own while the worker waits for the selection's rounds (warm_side)
+    side = CutSide(plan.P_cut, plan.cut_cells, pad)
+    timings["cut_side_bytes"] = side.nbytes
+    if client is not None:
+        side = client.scatter(side, hash=False, broadcast=True)
+        warm = warm_side(client, side, plan.accelerate)
+    else:  # local schedulers: the first task computes them (one object, one process)
+        side, warm = d(side, name=f"fperr-cut-side-{uuid.uuid4().hex}"), []
     deadline = None if timeout is None else time.monotonic() + timeout
 
     def results(objs):
-        return _compute(objs, client, scheduler, deadline, runs)
+        return _compute(objs, client, scheduler, deadline, runs + warm)
 
     hulls = results([d(first_hull)(r) for r in runs])
     boxes = [h[0] for h in hulls if h[1]]
@@ -222,16 +231,45 @@ def split_on_workers(plan, k: int, pad: float, args: tuple, client, scheduler,
     owners = [d(_owners, nout=C)(*[f[j] for f in firsts]) for j in range(C)]
     routes = [d(_route, nout=k)(r, p, k, *[o[i] for o in owners])
               for i, (r, p) in enumerate(zip(runs, parts))]
-    side = CutSide(plan.P_cut, plan.cut_cells, pad)
-    timings["cut_side_bytes"] = side.nbytes
-    side = client.scatter(side, hash=False, broadcast=True) if client is not None else \
-        d(side, name=f"fperr-cut-side-{uuid.uuid4().hex}")
     tasks = [d(_assembled_run, pure=False)(r, args, side, *[g[r] for g in routes])
              for r in range(k)]
     timings["split"] = {"where": "workers", "rounds": rounds[0], "chunks": C,
                         "sent_bytes": sum(b.nbytes for b in bits) + 16 * (k - 1)
-                        + lo.nbytes + hi.nbytes + bounds.nbytes}
+                        + lo.nbytes + hi.nbytes + bounds.nbytes, "side_boxes": warm}
     return client.compute(tasks) if client is not None else tasks
+
+
+def _side_boxes(side: CutSide, accelerate: bool) -> float:
+    """The cutting side's wide boxes computed on this worker's copy of ``side`` (kept
+    with it: :meth:`~.assign.CutSide.boxes`); the thread CPU seconds they took."""
+    c = time.thread_time()
+    side.boxes(Blocks(accelerate=accelerate and compiled.available()))
+    return time.thread_time() - c
+
+
+def warm_side(client, side, accelerate: bool) -> list:
+    """A task per worker computing the scattered ``side``'s wide boxes there
+    (:func:`_side_boxes`; docs/partitioned.md 5b): they depend only on the cutting mesh,
+    so each worker computes them once while it waits for the split's rounds instead of
+    in its first partition task, on the critical path. A worker left without them (it
+    joined later, or Dask replaced its copy of the side: seen once in eight fresh
+    clusters where another task had read the side there first, never in 24 without)
+    computes them in its task as before: the same boxes.
+    The futures, to be settled by :func:`settled_side`."""
+    return [client.submit(_side_boxes, side, accelerate, workers=[w],
+                          allow_other_workers=False, key=f"fperr-side-{uuid.uuid4().hex}")
+            for w in client.scheduler_info().get("workers", {})]
+
+
+def settled_side(timings: dict) -> None:
+    """``timings["split"]["side_boxes"]``: the :func:`warm_side` tasks' CPU seconds
+    (those that ran); the others are cancelled (a task pinned to a worker that left
+    would wait for it). After a failed run the futures are dropped with ``timings``."""
+    split = timings.get("split") or {}
+    warm = split.get("side_boxes") or []
+    if warm:
+        warm[0].client.cancel([f for f in warm if f.status != "finished"])
+        split["side_boxes"] = [f.result() for f in warm if f.status == "finished"]
 
 
 def _persist(objs: list, client, scheduler) -> list:

@@ -19,7 +19,65 @@ from predicates.registration.plan.edges import edge_summary
 from predicates.registration.plan.inputs import _checked_and_used, first_bad
 from predicates.registration.spatial.blocks import Blocks
 
-__all__ = ["check_chunk", "check_swept", "narrow_ids"]
+__all__ = ["check_chunk", "check_swept", "covered", "cut_flags_from", "flagged_cover",
+           "narrow_ids"]
+
+
+def flagged_cover(i0: np.ndarray, i1: np.ndarray, G, blocks: Blocks):
+    """What the client needs of a chunk's flagged cells' grid ranges [i0, i1] (the
+    first round's cutting flags: :func:`~predicates.registration.plan.lean.cut_flags`,
+    a cutting cell is flagged when its range holds a covered grid cell): the grid
+    cells they cover as packed bits (:func:`~predicates.registration.spatial.gridsums.
+    occupancy`, (G + 1)^d bits: 125 kB on W4 against 5.6 MB of ranges), or the ranges
+    themselves when those are the smaller. Occupancy is an OR over any split of the
+    boxes, so the chunks' combine exactly (:func:`covered`)."""
+    from predicates.registration.spatial.gridsums import occupancy
+
+    G = np.asarray(G, dtype=np.int64)
+    if len(i0) and int(np.prod(G + 1)) // 8 < i0.nbytes + i1.nbytes:
+        return np.packbits(occupancy(i0, i1, G, blocks).ravel())
+    return i0, i1
+
+
+def cut_flags_from(occ: np.ndarray, ib0, ib1, G, blocks: Blocks) -> np.ndarray:
+    """The cutting cells' flags (ranges [ib0, ib1]) from the grid cells the flagged
+    cells cover (``occ``, :func:`covered`): :func:`~predicates.registration.plan.lean.
+    cut_flags`' values — compiled in 3D as it is (the occupied cells' summed-area table
+    in one pass, the same integers: ``occ`` as 0/1 counts), else
+    :func:`~predicates.registration.spatial.gridsums.any_in`."""
+    from predicates.registration.spatial.gridsums import _stride, any_in
+
+    if not (blocks.accelerate and len(G) == 3):
+        return any_in(occ, ib0, ib1, G, blocks)
+    from predicates.compiled.cells import look_corners
+    from predicates.compiled.cellsums import occupied_table
+
+    cover = occ.astype(np.int32)  # (the counts' dtype the table is compiled for)
+    S = np.empty(cover.shape, dtype=np.int32 if cover.size < 2 ** 31 else np.int64)
+    occupied_table(cover, S)
+    S, out, stride = S.ravel(), np.empty(len(ib0), dtype=bool), _stride(G)
+    blocks.rows(lambda a, b: look_corners(S, ib0[a:b], ib1[a:b], stride, out[a:b]),
+                len(ib0))
+    return out
+
+
+def covered(covers: list, G, blocks: Blocks):
+    """(i0, i1, None) when every chunk sent its ranges (:func:`flagged_cover`: they
+    are concatenated), else (None, None, the grid cells any chunk's flagged cells cover
+    — :func:`~predicates.registration.spatial.gridsums.occupancy` of all of them)."""
+    from predicates.registration.spatial.gridsums import occupancy
+
+    ranges = [c for c in covers if isinstance(c, tuple)]
+    if len(ranges) == len(covers):
+        return (*(np.concatenate([c[s] for c in covers]) for s in (0, 1)), None)
+    G = np.asarray(G, dtype=np.int64)
+    shape = tuple((G + 1)[::-1])
+    bits = np.bitwise_or.reduce([c for c in covers if not isinstance(c, tuple)])
+    occ = np.unpackbits(bits, count=int(np.prod(G + 1))).view(bool).reshape(shape)
+    if ranges:  # the chunks that sent ranges: their occupancy added (an OR)
+        i0, i1 = (np.concatenate([c[s] for c in ranges]) for s in (0, 1))
+        occ |= occupancy(i0, i1, G, blocks)
+    return None, None, occ
 
 
 def narrow_ids(cells: np.ndarray, n_points: int) -> np.ndarray:
@@ -95,14 +153,15 @@ def check_swept(chunk, points, n_points: int, mark_used: bool, accelerate: bool,
         summary = CellBoxes(points, own, blocks).checked_summary(swept_used, fixed)
         if summary is not None:
             return _swept_result(summary, points, chunk, local, n_points, used,
-                                 mark_used, blocks)
+                                 mark_used, blocks, G)
     return check_chunk(chunk, points, n_points, mark_used, accelerate, local), None
 
 
 def _swept_result(summary, points, chunk, local, n_points: int, used, mark_used: bool,
-                  blocks: Blocks) -> tuple:
+                  blocks: Blocks, G) -> tuple:
     """:func:`check_swept`'s result from the sweep's ``summary`` (its flags kept in
-    ``summary.first``, taken out here)."""
+    ``summary.first``, taken out here); the flagged cells' ranges as
+    :func:`flagged_cover` (G: the grid's cells per axis)."""
     (count, (near, i0, i1, ext)), (lo, hi, cells) = summary.first[1]
     summary.first = None
     ids = np.flatnonzero(near)
@@ -114,4 +173,5 @@ def _swept_result(summary, points, chunk, local, n_points: int, used, mark_used:
         ids = ids.astype(np.int32)  # (the client adds the chunk's int64 offset)
     used = used if mark_used else used[:0]
     return (([None] * 3, np.packbits(used), summary),
-            (count, (ids, i0, i1, ext, narrow_ids(cells, n_points), edge, boxes)))
+            (count, (ids, flagged_cover(i0, i1, G, blocks), ext,
+                     narrow_ids(cells, n_points), edge, boxes)))

@@ -144,6 +144,9 @@ def near_fixed(boxes, lo_b: np.ndarray, hi_b: np.ndarray, pad: float):
                                                      grid.table)
     else:
         near_a, i0f, i1f, ext = _array_flags(boxes, grid, blocks)
+    if i0f is None:  # cells on the workers: the grid cells their ranges cover (the same
+        # occupancy cut_flags builds from them, partition/swept.covered)
+        return near_a, boxes.cut_flags(grid.ib0, grid.ib1, grid.G), ext
     return near_a, cut_flags(i0f, i1f, grid.ib0, grid.ib1, grid.G, blocks), ext
 
 
