@@ -47,8 +47,8 @@ def pad_corners(lo, hi, h, origin, g, stride, diff, flip):
     """``add_corners(i0, i1, stride, diff, flip)`` of the padded boxes' cell ranges
     (int64 of :func:`_cells`' integral floats, astype's conversion) for d = 2 and 3:
     ±1 at the 2^d corners {i0, i1 + 1} of each range (integer adds: exact in any
-    order; 3D: :func:`_pad_corners3`); returns :func:`pad_total` of the same ranges (each range computed once:
-    the divisions bound both passes)."""
+    order; 3D: :func:`_pad_corners3`); returns :func:`pad_total` of the same ranges
+    (each range computed once: the divisions bound both passes)."""
     v = -1 if flip else 1
     d = lo.shape[1]
     if d == 3:
@@ -61,13 +61,7 @@ def pad_corners(lo, hi, h, origin, g, stride, diff, flip):
         a, b = _cells(lo, hi, r, 1, h, origin, g)
         c = c * (b - a + 1)
         y0, y1 = np.int64(a) * stride[1], (np.int64(b) + 1) * stride[1]
-        if d == 3:
-            a, b = _cells(lo, hi, r, 2, h, origin, g)
-            c = c * (b - a + 1)
-            z0, z1 = np.int64(a) * stride[2], (np.int64(b) + 1) * stride[2]
-            corners3(diff, x0, x1, y0, y1, z0, z1, v)
-        else:
-            corners2(diff, x0, x1, y0, y1, v)
+        corners2(diff, x0, x1, y0, y1, v)  # (d = 2 here)
         total += c
     return total
 
