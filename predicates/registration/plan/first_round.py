@@ -93,10 +93,13 @@ def fixed_grid(lo_b, hi_b, n_sim: int, pad: float, blocks: Blocks) -> FixedGrid:
     ``hi_b`` (binary64 (n, d), n ≥ 1), ``n_sim`` simulation cells and the pad."""
     from predicates.registration.plan.lean import _occupied
 
-    h0, _, _ = _base_size(lo_b, hi_b, blocks)
+    h0, lo, hi = _base_size(lo_b, hi_b, blocks)
     margin = max(h0 * MARGIN, float(pad))
     lo_bx, hi_bx = enlarge(lo_b, hi_b, margin, blocks.accelerate)
-    lo, hi = colmin(lo_bx), colmax(hi_bx)
+    # the enlarged boxes' hull is the hull enlarged: enlarge is non-decreasing in each
+    # value (x ∓ pad rounded, then nextafter), so it commutes with min and max — the
+    # same values without a pass over the enlarged boxes
+    lo, hi = (x[0] for x in enlarge(lo[None], hi[None], margin))
     budget, h = n_sim // 8 + (1 << 18), h0
     while True:
         with np.errstate(over="ignore"):
