@@ -42,6 +42,14 @@ def pad_total(lo, hi, h, origin, g):
     return total
 
 
+@njit(**INLINE_OPTIONS)
+def _keys(lo, hi, r, ax, h, origin, g, stride):
+    """Box r's cell count on ``ax`` (a float, as :func:`pad_total` multiplies them) and
+    its range's key terms i0·stride, (i1 + 1)·stride (:func:`_cells`' floats as int64)."""
+    a, b = _cells(lo, hi, r, ax, h, origin, g)
+    return b - a + 1, np.int64(a) * stride[ax], (np.int64(b) + 1) * stride[ax]
+
+
 @njit(**JIT_OPTIONS)
 def pad_corners(lo, hi, h, origin, g, stride, diff, flip):
     """``add_corners(i0, i1, stride, diff, flip)`` of the padded boxes' cell ranges
@@ -55,12 +63,9 @@ def pad_corners(lo, hi, h, origin, g, stride, diff, flip):
         return _pad_corners3(lo, hi, h, origin, g, stride, diff, v)
     total = 0.0
     for r in range(lo.shape[0]):
-        a, b = _cells(lo, hi, r, 0, h, origin, g)
-        c = b - a + 1
-        x0, x1 = np.int64(a) * stride[0], (np.int64(b) + 1) * stride[0]
-        a, b = _cells(lo, hi, r, 1, h, origin, g)
-        c = c * (b - a + 1)
-        y0, y1 = np.int64(a) * stride[1], (np.int64(b) + 1) * stride[1]
+        c, x0, x1 = _keys(lo, hi, r, 0, h, origin, g, stride)
+        n, y0, y1 = _keys(lo, hi, r, 1, h, origin, g, stride)
+        c = c * n
         corners2(diff, x0, x1, y0, y1, v)  # (d = 2 here)
         total += c
     return total
@@ -75,15 +80,11 @@ def _pad_corners3(lo, hi, h, origin, g, stride, diff, v):
     p0 = p1 = q0 = q1 = w0 = w1 = -1
     run = 0
     for r in range(lo.shape[0]):
-        a, b = _cells(lo, hi, r, 0, h, origin, g)
-        c = b - a + 1
-        x0, x1 = np.int64(a) * stride[0], (np.int64(b) + 1) * stride[0]
-        a, b = _cells(lo, hi, r, 1, h, origin, g)
-        c = c * (b - a + 1)
-        y0, y1 = np.int64(a) * stride[1], (np.int64(b) + 1) * stride[1]
-        a, b = _cells(lo, hi, r, 2, h, origin, g)
-        c = c * (b - a + 1)
-        z0, z1 = np.int64(a) * stride[2], (np.int64(b) + 1) * stride[2]
+        c, x0, x1 = _keys(lo, hi, r, 0, h, origin, g, stride)
+        n, y0, y1 = _keys(lo, hi, r, 1, h, origin, g, stride)
+        c = c * n
+        n, z0, z1 = _keys(lo, hi, r, 2, h, origin, g, stride)
+        c = c * n
         total += c
         if x0 == p0 and x1 == p1 and y0 == q0 and y1 == q1 and z0 == w0 and z1 == w1:
             run += 1
