@@ -50,7 +50,7 @@ def _least_from_boxes(points, cells, boxes, blocks: Blocks):
         return None
     from predicates.compiled.edgerows import least_square_rows
 
-    factor = 2.0 ** -shift
+    factor = float(np.ldexp(1.0, -shift))  # exact (not pow: libm's, last bit unpromised)
     return min(blocks.map(lambda a, b: float(least_square_rows(points, cells[a:b], factor)),
                           len(cells))), shift
 
