@@ -38,10 +38,11 @@ def _least_from_boxes(points, cells, boxes, blocks: Blocks):
     coordinates), the scaling a product by 2^-shift as each point is read (times_pow2's
     values when 2^-shift is normal). None where that does not hold (the caller's path)."""
     lo, hi = boxes
-    # (points not C-ordered: the copy's path, which gathers the used rows only, not a
-    # copy of every point)
-    if not (blocks.accelerate and points.shape[1] == 3 and cells.shape[1] in (3, 4)
-            and len(lo) == len(cells) and points.flags.c_contiguous):
+    # (points not a C-ordered array — F-ordered, or pieces on the workers
+    # (RemotePoints) — the copy's path, which gathers the used rows only)
+    if not (blocks.accelerate and isinstance(points, np.ndarray) and points.shape[1] == 3
+            and cells.shape[1] in (3, 4) and len(lo) == len(cells)
+            and points.flags.c_contiguous):
         return None
     fi = np.finfo(np.float64)
     top = max(0.0, -float(lo.min()), float(hi.max()))  # (−0.0, 0.0: shift 0 either way)
