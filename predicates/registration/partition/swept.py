@@ -45,20 +45,17 @@ def cut_flags_from(occ: np.ndarray, ib0, ib1, G, blocks: Blocks) -> np.ndarray:
     cut_flags`' values — compiled in 3D as it is (the occupied cells' summed-area table
     in one pass, the same integers: ``occ`` as 0/1 counts), else
     :func:`~predicates.registration.spatial.gridsums.any_in`."""
-    from predicates.registration.spatial.gridsums import _stride, any_in
+    from predicates.registration.plan.lean import looked_up
+    from predicates.registration.spatial.gridsums import any_in
 
     if not (blocks.accelerate and len(G) == 3):
         return any_in(occ, ib0, ib1, G, blocks)
-    from predicates.compiled.cells import look_corners
     from predicates.compiled.cellsums import occupied_table
 
     cover = occ.astype(np.int32)  # (the counts' dtype the table is compiled for)
     S = np.empty(cover.shape, dtype=np.int32 if cover.size < 2 ** 31 else np.int64)
     occupied_table(cover, S)
-    S, out, stride = S.ravel(), np.empty(len(ib0), dtype=bool), _stride(G)
-    blocks.rows(lambda a, b: look_corners(S, ib0[a:b], ib1[a:b], stride, out[a:b]),
-                len(ib0))
-    return out
+    return looked_up(S.ravel(), ib0, ib1, G, blocks)
 
 
 def covered(covers: list, G, blocks: Blocks):

@@ -18,22 +18,27 @@ from predicates.registration.spatial.boxgrid import cell_index, ncells
 from predicates.registration.spatial.gridsums import (
     _corners, _stride, any_in, coverage, occupancy)
 
-__all__ = ["cut_flags", "flag_pass"]
+__all__ = ["cut_flags", "flag_pass", "looked_up"]
 
 
 def cut_flags(i0f, i1f, ib0, ib1, G, blocks) -> np.ndarray:
     """The cutting cells' flags: is a cell of the range [ib0, ib1] covered by a
     flagged simulation cell's range [i0f, i1f] (the same integer counts as
     near_flags's occupancy)."""
-    nb = len(ib0)
     if blocks.accelerate and len(G) == 3:  # any_in's look-ups on _occupied's table
-        from predicates.compiled.cells import look_corners
-
-        S, near_b = _occupied(i0f, i1f, G, blocks), np.empty(nb, dtype=bool)
-        blocks.rows(lambda a, b: look_corners(S, ib0[a:b], ib1[a:b], _stride(G),
-                                              near_b[a:b]), nb)
-        return near_b
+        return looked_up(_occupied(i0f, i1f, G, blocks), ib0, ib1, G, blocks)
     return any_in(occupancy(i0f, i1f, G, blocks), ib0, ib1, G, blocks)
+
+
+def looked_up(S: np.ndarray, ib0, ib1, G, blocks) -> np.ndarray:
+    """:func:`any_in`'s flags of the ranges [ib0, ib1], compiled: the corner look-ups on
+    an occupied cells' summed-area table ``S`` (flat; 3D)."""
+    from predicates.compiled.cells import look_corners
+
+    near_b = np.empty(len(ib0), dtype=bool)
+    blocks.rows(lambda a, b: look_corners(S, ib0[a:b], ib1[a:b], _stride(G), near_b[a:b]),
+                len(ib0))
+    return near_b
 
 
 def flag_pass(boxes, origin, h, G, table):
