@@ -332,6 +332,8 @@ def main(argv=None):
     ap.add_argument("--modes", default="serial,dask,remote")
     ap.add_argument("--json")
     ap.add_argument("--child")
+    ap.add_argument("--accelerate", choices=("0", "1"), default="1",
+                    help="FPERR_ACCELERATE of every child: 1 the compiled chain, 0 numpy")
     ap.add_argument("--folder", help="the pieces' folder (mode pieces: written once)")
     ap.add_argument("--cluster", choices=("spawned", "local"), default="spawned",
                     help="spawned: scheduler and workers in processes of their own; "
@@ -372,7 +374,7 @@ def main(argv=None):
             with open("/proc/loadavg") as f:
                 load = float(f.read().split()[0])
             r = subprocess.run(cmd, capture_output=True, text=True,
-                               env=dict(os.environ, FPERR_ACCELERATE="1"))
+                               env=dict(os.environ, FPERR_ACCELERATE=a.accelerate))
             if r.returncode:
                 raise SystemExit(f"{mode} failed:\n{r.stderr[-3000:]}")
             rec = json.loads(r.stdout.strip().splitlines()[-1])
