@@ -10,8 +10,7 @@ insertion on the rest of the row), and last the runs of equal points by position
 Both order by numpy's comparison (a NaN after every number, NaNs equal, −0.0 equal to
 0.0) with ties by position, so the permutation is the same. Points sharing a first
 coordinate by the many (a structured grid's: the insertions' work would be quadratic)
-go to np.lexsort, whose merges are fast there (benchmarks/README.md, "W1 toward 10x
-the floor (s18-w1)").
+go to np.lexsort, whose merges are fast there (benchmarks/README.md, "W1 toward 10x the floor (s18-w1)").
 """
 from __future__ import annotations
 

@@ -550,7 +550,7 @@ def test_hits_in_order_is_the_numpy_output(data, widths, n):
     """loop._output compiled (rows.hits_in_order: keys packed from each simplex's input
     ids, order, id rows gathered in order) is the numpy path's: ids through the rank
     map, sorted_rows, packed_keys, distinct_lex_order, take."""
-    from predicates.compiled.hitorder import hits_in_order
+    from predicates.compiled.rows import hits_in_order
     from predicates.registration.levels.complex import (
         distinct_lex_order, packed_keys, sorted_rows)
 
