@@ -266,13 +266,11 @@ def _sort_runs(order, keys, ranked, long_runs):
     to find the runs, not through ``order``): every run of equal keys[0] of up to 32
     rows sorted by keys[1], … in place (insertion); longer runs' (start, end) written
     to ``long_runs`` for the caller. Returns their number."""
-    n = order.shape[0]
-    nl = 0
-    i = 0
+    n, nl, i = order.shape[0], 0, 0
     while i < n:
         j = i + 1
-        while j < n and ranked[np.uint64(j)] == ranked[np.uint64(i)]:  # unsigned: no
-            j += 1  # wraparound test (indices ≥ 0)
+        while j < n and ranked[np.uint64(j)] == ranked[np.uint64(i)]:  # (unsigned: no
+            j += 1  # wraparound tests, in this loop and the insertion's)
         if j - i > 32:
             long_runs[nl, 0] = i
             long_runs[nl, 1] = j
