@@ -98,7 +98,7 @@ def _hold_boxes(t, start, faces, P, R, held):
     3–5) from their vertices R[f] (rows of P) by boxes_of's minimum/maximum fold: exact,
     the same boxes (up to a zero's sign, which no box test sees), none stored (W4: 1.08
     M, 52 MB); once per run of cell pairs sharing t (T ascends), then a few cache lines."""
-    for u in range(start[t + 1] - start[t]):
+    for u in range(start[t + np.uint64(1)] - start[t]):  # t unsigned (the caller's)
         f = np.uint64(faces[start[t] + u])  # unsigned: no wraparound test a gather
         for ax in range(P.shape[1]):
             a = b = np.float64(P[np.uint64(R[f, 0]), ax])
@@ -118,8 +118,8 @@ def _owned_run(t, C, q0, q1, start, faces, pad, held, run, three, out_f, out_c, 
     over the axes was ~40 % slower). Face by face: the fused kernels then fold each
     face's box once per run, not once per pair (benchmarks/README.md, "Part 2,
     eleventh pass")."""
-    e0 = start[t]
-    for u in range(start[t + 1] - e0):
+    e0 = start[t]  # t unsigned (the caller's): no wraparound test
+    for u in range(start[t + np.uint64(1)] - e0):
         f = faces[e0 + u]
         a0, a1, a2 = held[u, 0], held[u, 1], held[u, 2]
         b0, b1, b2 = held[u, 3], held[u, 4], held[u, 5]
@@ -163,7 +163,7 @@ def _owned_levels(T, C, lo_c, hi_c, levels, s0, f0, pad0, P0, R0, o0, p0, s1, f1
     run = np.empty((64, 6))  # the run's cell boxes, rows read in sequence
     q0 = r0 = r1 = 0  # [r0, r1): the previous run, whose boxes ``run`` holds
     while q0 < T.shape[0]:
-        t, q1 = T[q0], _run_end(T, q0)
+        t, q1 = np.uint64(T[q0]), _run_end(T, q0)  # unsigned: no wraparound test
         if q1 - q0 > run.shape[0]:  # (then longer than the previous run)
             run = np.empty((2 * (q1 - q0), 6))
         if not _same_cells(C, r0, r1, q0, q1):
@@ -201,8 +201,8 @@ def _same_cells(C, p0, p1, q0, q1):
 def _run_end(T, q0):
     """The end of the run of cell pairs sharing T[q0] (T ascends)."""
     q1 = q0 + 1
-    while q1 < T.shape[0] and T[q1] == T[q0]:
-        q1 += 1
+    while q1 < T.shape[0] and T[np.uint64(q1)] == T[np.uint64(q0)]:  # unsigned: no
+        q1 += 1  # wraparound test
     return q1
 
 
@@ -212,12 +212,14 @@ def _owned_counts(T, levels, s0, s1, s2, out):
     pairs), for the first ``levels`` levels in one pass over the runs of equal T[q]."""
     q0 = 0
     while q0 < T.shape[0]:
-        t, q1 = T[q0], _run_end(T, q0)
-        out[0] += (q1 - q0) * (s0[t + 1] - s0[t])
+        q1 = _run_end(T, q0)
+        t = np.uint64(T[q0])  # unsigned: no wraparound test the look-ups (ids ≥ 0)
+        u = t + np.uint64(1)
+        out[0] += (q1 - q0) * (s0[u] - s0[t])
         if levels > 1:
-            out[1] += (q1 - q0) * (s1[t + 1] - s1[t])
+            out[1] += (q1 - q0) * (s1[u] - s1[t])
         if levels > 2:
-            out[2] += (q1 - q0) * (s2[t + 1] - s2[t])
+            out[2] += (q1 - q0) * (s2[u] - s2[t])
         q0 = q1
 
 

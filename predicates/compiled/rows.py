@@ -253,9 +253,10 @@ def unique_rows(rows: np.ndarray, n: int):
 @njit(**JIT_OPTIONS)
 def _before(keys, x, y):
     """Row x's keys 1… lexicographically before row y's."""
+    ux, uy = np.uint64(x), np.uint64(y)  # unsigned: no wraparound test the reads
     for k in range(1, keys.shape[0]):
-        if keys[k, x] != keys[k, y]:
-            return keys[k, x] < keys[k, y]
+        if keys[k, ux] != keys[k, uy]:
+            return keys[k, ux] < keys[k, uy]
     return False
 
 
@@ -265,24 +266,22 @@ def _sort_runs(order, keys, ranked, long_runs):
     to find the runs, not through ``order``): every run of equal keys[0] of up to 32
     rows sorted by keys[1], … in place (insertion); longer runs' (start, end) written
     to ``long_runs`` for the caller. Returns their number."""
-    n = order.shape[0]
-    nl = 0
-    i = 0
+    n, nl, i = order.shape[0], 0, 0
     while i < n:
         j = i + 1
-        while j < n and ranked[j] == ranked[i]:
-            j += 1
+        while j < n and ranked[np.uint64(j)] == ranked[np.uint64(i)]:  # (unsigned: no
+            j += 1  # wraparound tests, in this loop and the insertion's)
         if j - i > 32:
             long_runs[nl, 0] = i
             long_runs[nl, 1] = j
             nl += 1
         else:
-            for u in range(i + 1, j):
+            for u in range(np.uint64(i + 1), np.uint64(j)):
                 x = order[u]
                 v = u
-                while v > i and _before(keys, x, order[v - 1]):
-                    order[v] = order[v - 1]
-                    v -= 1
+                while v > np.uint64(i) and _before(keys, x, order[v - np.uint64(1)]):
+                    order[v] = order[v - np.uint64(1)]
+                    v -= np.uint64(1)
                 order[v] = x
         i = j
     return nl

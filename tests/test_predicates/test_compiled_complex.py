@@ -135,3 +135,29 @@ def test_compiled_boxes_are_boxes_of(dtype, k):
         for w, g in zip(want, got):
             assert g.shape == w.shape and g.dtype == w.dtype
             assert np.array_equal(g.view(np.int64), w.view(np.int64))  # bits, −0.0 too
+
+
+@settings(deadline=None)
+@given(seed=st.integers(0, 2 ** 32 - 1), n=st.integers(0, 400), d=st.integers(1, 3),
+       levels=st.sampled_from([2, 5, 1000]), special=st.booleans())
+def test_lex_point_order_equals_lexsort(seed, n, d, levels, special):
+    """pointorder.lex_point_order = np.lexsort(X.T[::-1]) (x first, ties by position),
+    on coordinates with few distinct values (long runs: both the insertions and the
+    np.lexsort route) and, with ``special``, NaN, ±0.0 and infinities among them; the
+    compiled route itself (quicksort of x, then the runs) whenever it accepts the runs,
+    and leaving the order as it was when it declines them."""
+    from predicates.compiled.pointorder import _finish, lex_point_order
+
+    rng = np.random.default_rng(seed)
+    X = rng.integers(0, levels, size=(n, d)).astype(np.float64) / 7
+    if special and n:
+        X.ravel()[rng.integers(0, X.size, size=X.size // 3 + 1)] = rng.choice(
+            [np.nan, 0.0, -0.0, np.inf, -np.inf], size=X.size // 3 + 1)
+    assert np.array_equal(lex_point_order(X), np.lexsort(X.T[::-1]))
+    if n > 1 and d:
+        order = np.argsort(X[:, 0])
+        before = order.copy()
+        if _finish(X, order):
+            assert np.array_equal(order, np.lexsort(X.T[::-1]))
+        else:
+            assert np.array_equal(order, before)

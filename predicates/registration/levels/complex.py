@@ -201,7 +201,8 @@ class Side:
         # rank only the vertices the cells use (the plan's cells near the cut: a small
         # share of a large mesh's vertices); their relative order is that of ranking
         # all of them, so every complex, simplex order and result is the same
-        if accelerate:  # the same flags and rows in one compiled pass each
+        if accelerate:  # the same flags, order and rows compiled
+            from predicates.compiled.pointorder import lex_point_order
             from predicates.compiled.rows import ranked_rows, used_flags
 
             used = used_flags(cells, len(P))
@@ -209,7 +210,8 @@ class Side:
             used = np.zeros(len(P), dtype=bool)
             used[cells.ravel()] = True
         vids = np.flatnonzero(used)
-        order = vids.take(np.lexsort(P.take(vids, axis=0).T[::-1]))  # x primary; ties: ids
+        near = P.take(vids, axis=0)  # x primary; ties: ids
+        order = vids.take(lex_point_order(near) if accelerate else np.lexsort(near.T[::-1]))
         n = len(order)
         # int32 ranks when they fit: the cells in rank space take half the memory
         rank = np.zeros(len(P), dtype=np.int32 if n < 2 ** 31 else np.int64)
