@@ -137,12 +137,16 @@ class CellBoxes:
 
             kernel(self._given(), self.cells[a:b], lo, hi)
         else:
-            if self.cols is None:  # (a race of two threads makes two equal copies)
-                self.cols = np.ascontiguousarray(self.points.T, dtype=np.float64)
-            fill_boxes(self.cols, np.ascontiguousarray(self.cells[a:b].T), lo, hi,
+            fill_boxes(self.columns(), np.ascontiguousarray(self.cells[a:b].T), lo, hi,
                        self.checked)
         self._local.last = (a, b, lo.T, hi.T)
         return lo.T, hi.T
+
+    def columns(self) -> np.ndarray:
+        """The points by axis in binary64 (d, N), made once (the numpy blocks read them)."""
+        if self.cols is None:  # (a race of two threads makes two equal copies)
+            self.cols = np.ascontiguousarray(self.points.T, dtype=np.float64)
+        return self.cols
 
     def _given(self) -> np.ndarray:
         """The points as given, C-contiguous (the compiled kernels read them)."""

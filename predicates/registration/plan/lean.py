@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from predicates.registration.spatial import blocks as blocks_module
-from predicates.registration.spatial.boxes import box_extent
+from predicates.registration.spatial.boxes import box_extent, fill_boxes
 from predicates.registration.spatial.boxgrid import cell_index, ncells
 from predicates.registration.spatial.gridsums import (
     _corners, _stride, any_in, coverage, occupancy)
@@ -45,7 +45,10 @@ def flag_pass(boxes, origin, h, G, table):
     """One pass over the cells' blocks at cell size h: (cells covered, (flags, the
     flagged cells' cell ranges i0, i1, their largest box edge)); the second item is
     None when ``table`` (the cutting occupancy's summed-area table) is None — a sparse
-    grid: only the count. ``boxes``: a :class:`~.cellboxes.CellBoxes`."""
+    grid: only the count. With a table the count is 0 (nothing reads it; the compiled
+    sweep's is 0 too, first_round.SweptFlags). ``boxes``: a
+    :class:`~.cellboxes.CellBoxes`. The numpy pass takes the shortcut of :mod:`.quiet`
+    when the points' cells are cheap to compute (:func:`_quiet_cells`)."""
     d = len(G)
     near = np.zeros(len(boxes), dtype=bool) if table is not None else None
     if boxes.blocks.accelerate:  # the same values, one compiled GIL-free loop per block
@@ -62,13 +65,20 @@ def flag_pass(boxes, origin, h, G, table):
             # so its rows are these; their ids found only if asked for)
         return _gathered(parts, table, near, d)
 
+    quiet = _quiet_cells(boxes, origin, h, G, table)
+    if quiet is not None:  # the same flags, ranges and edge: most rows by the shortcut
+        parts = boxes.blocks.map(
+            lambda a, b: _quiet_span(boxes, quiet, table, G, near, a, b), len(boxes))
+        _keep_flagged(boxes, parts, near, d)
+        return _gathered(parts, table, near, d)
+
     def span(a: int, b: int):
         count, ext, r0, r1 = 0, 0.0, [], []
         for s, t in boxes.blocks.each(a, b):
             lo, hi = boxes.block(s, t)
             i0, i1 = cell_index(lo, origin, h, G), cell_index(hi, origin, h, G)
-            count += int(ncells(i0, i1).sum())
             if table is None:
+                count += int(ncells(i0, i1).sum())
                 continue
             f = _look(table, i0, i1, G)
             near[s:t] = f
@@ -79,6 +89,73 @@ def flag_pass(boxes, origin, h, G, table):
         return count, r0, r1, ext
 
     return _gathered(boxes.blocks.map(span, len(boxes)), table, near, d)
+
+
+def _quiet_cells(boxes, origin, h, G, table):
+    """The points' cells for :func:`_quiet_span` (:func:`~.quiet.point_cells`) when the
+    pass has a table and the cells' vertex ids span at most as many points as the cells
+    have vertices (a worker's chunk: only the points between its least and largest
+    id), as (their :class:`~.quiet.PointCells`, the least id); else None."""
+    from predicates.registration.plan.quiet import point_cells
+
+    n, N = len(boxes), len(boxes.points)
+    if table is None or n == 0 or boxes.cells.shape[1] < 2:
+        return None
+    most = n * boxes.cells.shape[1]  # (points at most as many as the cells' vertices)
+    low, top = 0, N - 1
+    if N > most or not boxes.checked:  # (validated ids: every one is in range)
+        low, top = int(boxes.cells.min()), int(boxes.cells.max())
+        if low < 0 or top >= N or top - low + 1 > most:
+            return None
+    pts = boxes.points[low:top + 1]
+    return point_cells(pts, np.asarray(origin, dtype=np.float64), h, G, table,
+                       boxes.blocks), low
+
+
+def _quiet_span(boxes, quiet, table, G, near, a: int, b: int):
+    """:func:`flag_pass`'s span over rows [a, b) with the shortcut (:mod:`.quiet`):
+    the ranges from the points' cells, the look-ups only on the rows it leaves; the
+    flagged rows' boxes (their largest edge), kept with their cells."""
+    cells, low = quiet
+    mode = "clip" if boxes.checked else "raise"
+    cols = boxes.columns()
+    r0, r1, ext, lo_k, hi_k, cells_k = [], [], 0.0, [], [], []
+    for s, t in boxes.blocks.each(a, b):
+        R = np.ascontiguousarray(boxes.cells[s:t].T)
+        R = R - low if low else R  # (a new array: R may be the caller's cells)
+        i0, i1, skip = cells.ranges(R, mode)
+        rest = np.flatnonzero(~skip)
+        f = near[s:t]
+        f[:] = False
+        if len(rest) == 0:
+            continue
+        hit = _look(table, i0[:, rest].T, i1[:, rest].T, G)
+        if not hit.any():
+            continue
+        ids = rest[hit]
+        f[ids] = True
+        r0.append(np.ascontiguousarray(i0[:, ids].T))
+        r1.append(np.ascontiguousarray(i1[:, ids].T))
+        flagged = boxes.cells[s + ids]
+        lo, hi = np.empty((len(G), len(ids))), np.empty((len(G), len(ids)))
+        fill_boxes(cols, np.ascontiguousarray(flagged.T), lo, hi, boxes.checked)
+        lo, hi = lo.T, hi.T
+        ext = max(ext, float(box_extent(lo, hi).max()))
+        lo_k.append(lo)
+        hi_k.append(hi)
+        cells_k.append(flagged)
+    return 0, r0, r1, ext, (lo_k, hi_k, cells_k)
+
+
+def _keep_flagged(boxes, parts, near, d) -> None:
+    """Keep the flagged rows' boxes and cells (:meth:`~.cellboxes.CellBoxes.keep`) that
+    the spans of :func:`_quiet_span` computed: the plan's later ``rows(near)`` and
+    ``cells_of(near)`` then gather nothing."""
+    k = boxes.cells.shape[1]
+    lo, hi = (_joined([x for p in parts for x in p[4][s]], np.zeros((0, d))) for s in (0, 1))
+    cells = _joined([x for p in parts for x in p[4][2]],
+                    np.zeros((0, k), dtype=boxes.cells.dtype))
+    boxes.keep(None, lo, hi, cells, mask=near)
 
 
 def _gathered(parts, table, near, d):
@@ -145,7 +222,7 @@ def _compiled_span(boxes, origin, h, G, table, near):
                     chunks.append(tuple(x[:filled] for x in out))
                 out, filled = _outputs(max(t - s, (b - a) // 4 + step), indexed), 0
             n, e, nf = block(s, t, *(x[filled:] for x in out))
-            count += int(n)
+            count += int(n) if table is None else 0
             if nf:  # the kernel wrote the flagged rows compacted, from row ``filled``
                 filled += nf
                 ext = max(ext, float(e))
