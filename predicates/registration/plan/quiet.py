@@ -103,4 +103,5 @@ def point_cells(points: np.ndarray, origin, h: float, G, table: np.ndarray,
     for ax in range(d - 2, -1, -1):
         key *= G[ax]
         key += cols[ax]
-    return PointCells(cols, cell_distances(table, G).take(key))
+    # (clip: an unused point's NaN made some index, perhaps outside the grid)
+    return PointCells(cols, cell_distances(table, G).take(key, mode="clip"))
