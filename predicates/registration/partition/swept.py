@@ -19,7 +19,7 @@ import numpy as np
 from predicates.registration.plan.cellboxes import CellBoxes
 from predicates.registration.plan.edges import edge_summary
 from predicates.registration.plan.inputs import _checked_and_used, first_bad
-from predicates.registration.spatial.blocks import Blocks
+from predicates.registration.spatial.blocks import BLOCK, Blocks
 
 __all__ = ["check_chunk", "check_swept", "chunk_flags", "covered", "cut_flags_from",
            "flagged_cover", "narrow_ids"]
@@ -114,9 +114,10 @@ def _validated(chunk: np.ndarray, n_points: int, mark_used: bool, blocks: Blocks
         bad = _checked_and_used(chunk, n_points, blocks, used)
     else:
         bad = first_bad(chunk, chunk.shape[1], n_points)
-        if mark_used and all(b is None for b in bad):
-            for col in range(chunk.shape[1]):
-                used[chunk[:, col]] = True
+        if mark_used and all(b is None for b in bad):  # (blocks of rows, raveled: a
+            # third of the time of a strided column at a time, as inputs.py marks them)
+            for a in range(0, len(chunk), BLOCK):
+                used[chunk[a:a + BLOCK].ravel()] = True
     return bad, used if mark_used else used[:0]
 
 
