@@ -79,7 +79,7 @@ def test_the_shortcut_gives_the_plain_pass(seed, single, block, pad, chunk, thre
     """flag_pass with the shortcut (numpy) equals the plain pass bit for bit, on all
     the cells or on a chunk whose ids span a third of the points (its own points read
     from its least id); the flagged rows' boxes and cells are kept and are the
-    gathered ones; most rows are decided by the shortcut."""
+    gathered ones; many rows are decided by the shortcut."""
     P, C, cp, cc = _mesh(seed, single)
     if chunk:
         C = C[len(C) // 3: 2 * len(C) // 3]
@@ -102,10 +102,10 @@ def test_the_shortcut_gives_the_plain_pass(seed, single, block, pad, chunk, thre
     ref = boxes_of(P, C[near])
     assert np.array_equal(lo, ref[0]) and np.array_equal(hi, ref[1])
     assert np.array_equal(boxes.cells_of(near), C[near])
-    # the shortcut decides most rows: their distance exceeds their width
+    # the shortcut decides many rows (most at the smaller pads): distance > width
     pc, low = lean._quiet_cells(CellBoxes(P, C), grid.origin, grid.h, grid.G, grid.table)
     _, _, skip = pc.ranges(np.ascontiguousarray((C - low).T), "raise")
-    assert skip.mean() > 0.5 and not (skip & near).any()
+    assert skip.mean() > 0.2 and not (skip & near).any()
 
 
 @pytest.mark.parametrize("fast", [False, True])
