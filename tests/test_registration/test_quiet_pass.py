@@ -134,3 +134,38 @@ def test_the_workers_chunk_pass_is_the_serial_one(fast):
         np.packbits(occupancy(i0, i1, grid.G).ravel())
     assert all(np.array_equal(x, y) for x, y in zip(cover, ref)) \
         if isinstance(cover, tuple) else np.array_equal(cover, ref)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 2 ** 32 - 1), st.booleans(), st.sampled_from([7, 64, None]),
+       st.booleans(), st.booleans())
+def test_the_summarys_pass_gives_the_plain_flags_and_summary(seed, single, block, chunk,
+                                                             threads):
+    """The numpy summary with the flags in its pass (quiet.swept_summary: the float
+    shortcut of the compiled sweep, vertices far from the origin excluded) gives the
+    plain summary and the plain pass's flags, ranges and edge, and keeps the flagged
+    rows' boxes and cells; the speculative grid (pad 0)."""
+    P, C, cp, cc = _mesh(seed, single)
+    if chunk:
+        C = C[len(C) // 3: 2 * len(C) // 3]
+    grid = first_round.speculative(*boxes_of(cp, cc), len(C), Blocks())
+    with ThreadPoolExecutor(2) as pool:
+        blocks = Blocks(pool, 2, block=block) if threads else Blocks(block=block)
+        boxes = CellBoxes(P, C, blocks, checked=not chunk)
+        boxes.sweep_grid = grid
+        got = boxes.summary()
+        assert boxes.first_grid is grid
+        count, (near, i0, i1, ext) = boxes.flag_pass(grid.origin, grid.h, grid.G,
+                                                     grid.table)
+    ref = CellBoxes(P, C).summary()
+    assert np.array_equal(got.lo_min, ref.lo_min) and np.array_equal(got.hi_max, ref.hi_max)
+    assert (got.n, got.ext_max, got.ext_min) == (ref.n, ref.ext_max, ref.ext_min)
+    assert np.array_equal(got.hist, ref.hist)
+    want = _plain(P, C, grid)
+    assert count == 0 and np.array_equal(near, want[0]) and 0 < near.sum() < len(C)
+    assert np.array_equal(i0, want[1]) and np.array_equal(i1, want[2])
+    assert np.float64(ext).tobytes() == np.float64(want[3]).tobytes()
+    lo, hi = boxes.rows(near)
+    ref_boxes = boxes_of(P, C[near])
+    assert np.array_equal(lo, ref_boxes[0]) and np.array_equal(hi, ref_boxes[1])
+    assert np.array_equal(boxes.cells_of(near), C[near])

@@ -165,20 +165,27 @@ def check_swept(chunk, points, n_points: int, mark_used: bool, accelerate: bool,
 
 def _checked_then_flagged(chunk, own, points, n_points: int, mark_used: bool, grid,
                           piece: bool, blocks: Blocks) -> tuple:
-    """:func:`check_swept` on the numpy path: :func:`check_chunk`'s validation and
-    summary, then, when they pass and every point is finite (as the compiled sweep
-    asks), :func:`chunk_flags` at ``grid`` over the same boxes (the ids validated: the
-    pass's quiet shortcut, :mod:`~predicates.registration.plan.quiet`) — one task
-    instead of two rounds. ``piece``: ``own`` are a piece's local ids, ``chunk`` its
+    """:func:`check_swept` on the numpy path: :func:`check_chunk`'s validation, then,
+    when it passes and every point is finite (as the compiled sweep asks), the summary
+    and the flags at ``grid`` in one pass over the boxes
+    (:func:`~predicates.registration.plan.quiet.swept_summary`), given as
+    :func:`chunk_flags` gives them — one task instead of two rounds. ``piece``: ``own`` are a piece's local ids, ``chunk`` its
     global ones."""
     bad, used = _validated(chunk, n_points, mark_used, blocks)
     if any(b is not None for b in bad):
         return (bad, np.packbits(used[:0]), None), None
+    from predicates.registration.plan.first_round import FixedGrid
+
     boxes = CellBoxes(points, own, blocks, checked=True)
-    checked = (bad, np.packbits(used), boxes.summary())
     with np.errstate(invalid="ignore"):
-        if not bool(np.isfinite(points).all()):
-            return checked, None
+        finite = bool(np.isfinite(points).all())
+    if finite:  # the flags in the summary's pass (quiet.swept_summary)
+        origin, h, G, table = grid
+        boxes.sweep_grid = FixedGrid(None, None, len(own), h, 0.0, origin, G, None, None,
+                                     table)
+    checked = (bad, np.packbits(used), boxes.summary())
+    if not finite:
+        return checked, None
     return checked, chunk_flags(boxes, *grid, chunk if piece else None, n_points)
 
 

@@ -105,3 +105,79 @@ def point_cells(points: np.ndarray, origin, h: float, G, table: np.ndarray,
         key += cols[ax]
     # (clip: an unused point's NaN made some index, perhaps outside the grid)
     return PointCells(cols, cell_distances(table, G).take(key, mode="clip"))
+
+
+def swept_summary(boxes, grid) -> tuple:
+    """The numpy summary's pass with the first round's flags at ``grid`` (a
+    :class:`~.first_round.FixedGrid`; every point finite), as the compiled sweep
+    (docs/resolution.md, "The sweep's shortcut"): (the boxes' summary, ((0, (flags,
+    flagged ranges i0, i1, their largest edge)), (their boxes lo, hi and cells))) —
+    :func:`~.lean.flag_pass`'s result and what it keeps. A row whose largest box edge
+    e is below (R − 1/4)·h and whose first vertex lies more than R cells from every
+    covered cell (R = 1, 2; a vertex within h·2^46 of the origin) is not flagged; the
+    others take ``cell_index`` of their box and the table's look-ups."""
+    from predicates.registration.plan.cellboxes import summarize, summarized
+    from predicates.registration.plan.lean import _gathered, _joined, _look
+
+    d, k, n = boxes.d, boxes.cells.shape[1], boxes.n
+    origin, h, G = np.asarray(grid.origin, dtype=np.float64), float(grid.h), grid.G
+    low, dist = _first_vertex_distances(boxes, origin, h, G, grid.table)
+    one, two = 0.75 * h, 1.75 * h  # exact: h is a power of two
+    near = np.zeros(n, dtype=bool)
+    mode = "clip" if boxes.checked else "raise"
+
+    def span(a: int, b: int):
+        out, r0, r1, ext, kept = summarize(*boxes.block(a, a)), [], [], 0.0, ([], [], [])
+        for s, t in boxes.blocks.each(a, b):
+            lo, hi = boxes.block(s, t)
+            part, e = summarized(lo, hi)
+            out = out.merge(part)
+            rest = np.arange(t - s)
+            if dist is not None:
+                q = np.take(dist, boxes.cells[s:t, 0] - low if low else boxes.cells[s:t, 0],
+                            mode=mode)
+                rest = np.flatnonzero(~(((q > 1) & (e < one)) | ((q > 2) & (e < two))))
+            if len(rest) == 0:
+                continue
+            i0, i1 = (cell_index(x[rest], origin, h, G) for x in (lo, hi))
+            hit = _look(grid.table, i0, i1, G)
+            if hit.any():
+                ids = rest[hit]
+                near[s + ids] = True
+                r0.append(i0[hit])
+                r1.append(i1[hit])
+                ext = max(ext, float(e[ids].max()))
+                for x, y in zip(kept, (lo[ids], hi[ids], boxes.cells[s + ids])):
+                    x.append(y)
+        return out, r0, r1, ext, kept
+
+    parts = boxes.blocks.map(span, n)
+    summary = parts[0][0]
+    for p in parts[1:]:
+        summary = summary.merge(p[0])
+    result = _gathered([(0,) + p[1:4] for p in parts], grid.table, near, d)
+    kept = tuple(_joined([x for p in parts for x in p[4][s]], empty) for s, empty in
+                 enumerate((np.zeros((0, d)), np.zeros((0, d)),
+                            np.zeros((0, k), dtype=boxes.cells.dtype))))
+    return summary, (result, kept)
+
+
+def _first_vertex_distances(boxes, origin, h: float, G, table):
+    """(least id, each point's :func:`cell_distances` value — 0 for a point farther
+    than h·2^46 from the origin on an axis, where fl(x − o) may round by more than
+    h/64) for the points between the cells' least and largest id, or (0, None) when
+    they are more than the cells' vertices (the shortcut is then not taken)."""
+    N, most = len(boxes.points), boxes.n * boxes.cells.shape[1]
+    low, top = 0, N - 1
+    if N > most or not boxes.checked:
+        low, top = int(boxes.cells.min()), int(boxes.cells.max())
+        if low < 0 or top >= N or top - low + 1 > most:
+            return 0, None
+    pts = boxes.points[low:top + 1]
+    dist = point_cells(pts, origin, h, G, table, Blocks()).dist
+    bound = h * 2.0 ** 46
+    with np.errstate(invalid="ignore", over="ignore"):
+        for ax in range(len(G)):
+            far = ~(np.abs(pts[:, ax].astype(np.float64) - origin[ax]) <= bound)
+            dist[far] = 0
+    return low, dist
