@@ -91,6 +91,8 @@ class CellBoxes:
     [a, b)), :meth:`rows` (a mask or ids; the last subset is kept), :meth:`summary`
     (one pass, cached); ``lo``, ``hi``: array-like views (module docstring)."""
 
+    summarized = staticmethod(summarized)  # (for quiet.swept_summary's blocks)
+
     def __init__(self, points: np.ndarray, cells: np.ndarray, blocks: Blocks = SERIAL,
                  summary: BoxSummary | None = None, checked: bool = False):
         self.points, self.cells, self.blocks = points, cells, blocks

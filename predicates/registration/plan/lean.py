@@ -15,8 +15,9 @@ import numpy as np
 from predicates.registration.spatial import blocks as blocks_module
 from predicates.registration.spatial.boxes import box_extent, fill_boxes
 from predicates.registration.spatial.boxgrid import cell_index, ncells
+from predicates.registration.plan.quiet import _gathered, _joined
 from predicates.registration.spatial.gridsums import (
-    _corners, _stride, any_in, coverage, occupancy)
+    _stride, any_in, coverage, covered_in as _look, occupancy)
 
 __all__ = ["cut_flags", "flag_pass", "looked_up"]
 
@@ -158,24 +159,6 @@ def _keep_flagged(boxes, parts, near, d) -> None:
     boxes.keep(None, lo, hi, cells, mask=near)
 
 
-def _gathered(parts, table, near, d):
-    """:func:`flag_pass`'s result from its spans' (count, r0, r1, ext)."""
-    count = sum(p[0] for p in parts)
-    if table is None:
-        return count, None
-    empty = np.zeros((0, d), dtype=np.int32)
-    r0, r1 = (_joined([x for p in parts for x in p[s]], empty) for s in (1, 2))
-    return count, (near, r0, r1, max(p[3] for p in parts))
-
-
-def _joined(pieces: list, empty: np.ndarray) -> np.ndarray:
-    """The pieces (row blocks) as one array: the piece itself when there is one (a
-    serial pass writes its flagged rows into one array: no copy), ``empty`` if none."""
-    if len(pieces) == 1:
-        return pieces[0]
-    return np.concatenate(pieces) if pieces else empty
-
-
 def _compiled_span(boxes, origin, h, G, table, near):
     """(:func:`flag_pass`'s span, whether the flagged rows' boxes and ids are kept):
     each block one call of the fused kernel (:func:`predicates.compiled.cells.
@@ -266,14 +249,3 @@ def _table(occ: np.ndarray) -> np.ndarray:
     for ax in range(S.ndim):
         np.cumsum(S, axis=ax, out=S)
     return S.ravel()
-
-
-def _look(S: np.ndarray, i0, i1, G) -> np.ndarray:
-    """Per box: does its cell range hold an occupied cell (2^d look-ups in ``S``)."""
-    count = np.zeros(len(i0), dtype=S.dtype)
-    for key, sign in _corners(i0, i1, G):
-        if sign > 0:
-            count += S.take(key)
-        else:
-            count -= S.take(key)
-    return count > 0

@@ -1,4 +1,4 @@
-"""The numpy flag pass's shortcut (docs/resolution.md, "The first round"; the pass:
+"""The numpy first round's shortcuts (docs/resolution.md, "The first round"; the pass:
 :func:`~.lean.flag_pass`): most simulation cells are far from the cut, and the pass
 decides them without the summed-area table's 2^d look-ups.
 
@@ -14,9 +14,15 @@ decides them without the summed-area table's 2^d look-ups.
   first vertex's cell (which lies in the range); if that vertex's distance exceeds w,
   no covered cell is in the range: not flagged. Only the other rows take the look-ups.
 
-The same flags, ranges and edges as the plain pass (integers; no rounding argument:
-unlike the compiled sweep's, which reads the boxes' float edges). Tested against the
-plain pass: ``tests/test_registration/test_quiet_pass.py``.
+The same flags, ranges and edges as the plain pass (integers; no rounding argument).
+
+:func:`swept_summary` is the numpy summary's pass with the flags at the speculative
+grid (as the compiled sweep, :func:`predicates.compiled.tetsums.swept_tetrahedra`): it
+has each row's box and largest edge e already, so it takes the sweep's float rule
+instead (docs/resolution.md, "The sweep's shortcut": e < (R − 1/4)·h and the first
+vertex more than R cells from every covered cell, R = 1, 2, within h·2^46 of the
+origin). Both tested against the plain pass:
+``tests/test_registration/test_quiet_pass.py``.
 """
 from __future__ import annotations
 
@@ -24,8 +30,9 @@ import numpy as np
 
 from predicates.registration.spatial.blocks import Blocks
 from predicates.registration.spatial.boxgrid import cell_index
+from predicates.registration.spatial.gridsums import covered_in
 
-__all__ = ["CAP", "PointCells", "cell_distances", "point_cells"]
+__all__ = ["CAP", "PointCells", "cell_distances", "point_cells", "swept_summary"]
 
 #: the distances kept: 0 .. CAP (CAP: CAP cells or more)
 CAP = 3
@@ -116,22 +123,19 @@ def swept_summary(boxes, grid) -> tuple:
     e is below (R − 1/4)·h and whose first vertex lies more than R cells from every
     covered cell (R = 1, 2; a vertex within h·2^46 of the origin) is not flagged; the
     others take ``cell_index`` of their box and the table's look-ups."""
-    from predicates.registration.plan.cellboxes import summarize, summarized
-    from predicates.registration.plan.lean import _gathered, _joined, _look
-
     d, k, n = boxes.d, boxes.cells.shape[1], boxes.n
     origin, h, G = np.asarray(grid.origin, dtype=np.float64), float(grid.h), grid.G
     low, dist = _first_vertex_distances(boxes, origin, h, G, grid.table)
-    one, two = 0.75 * h, 1.75 * h  # exact: h is a power of two
+    one, two = 0.75 * h, 1.75 * h  # exact: h is a power of two (q > 2: CAP ≥ 3)
     near = np.zeros(n, dtype=bool)
     mode = "clip" if boxes.checked else "raise"
 
     def span(a: int, b: int):
-        out, r0, r1, ext, kept = summarize(*boxes.block(a, a)), [], [], 0.0, ([], [], [])
+        out, r0, r1, ext, kept = None, [], [], 0.0, ([], [], [])
         for s, t in boxes.blocks.each(a, b):
             lo, hi = boxes.block(s, t)
-            part, e = summarized(lo, hi)
-            out = out.merge(part)
+            part, e = boxes.summarized(lo, hi)  # (CellBoxes' summarize: no import cycle)
+            out = part if out is None else out.merge(part)
             rest = np.arange(t - s)
             if dist is not None:
                 q = np.take(dist, boxes.cells[s:t, 0] - low if low else boxes.cells[s:t, 0],
@@ -140,7 +144,7 @@ def swept_summary(boxes, grid) -> tuple:
             if len(rest) == 0:
                 continue
             i0, i1 = (cell_index(x[rest], origin, h, G) for x in (lo, hi))
-            hit = _look(grid.table, i0, i1, G)
+            hit = covered_in(grid.table, i0, i1, G)
             if hit.any():
                 ids = rest[hit]
                 near[s + ids] = True
@@ -181,3 +185,21 @@ def _first_vertex_distances(boxes, origin, h: float, G, table):
             far = ~(np.abs(pts[:, ax].astype(np.float64) - origin[ax]) <= bound)
             dist[far] = 0
     return low, dist
+
+
+def _gathered(parts, table, near, d):
+    """:func:`~.lean.flag_pass`'s result from its spans' (count, r0, r1, ext)."""
+    count = sum(p[0] for p in parts)
+    if table is None:
+        return count, None
+    empty = np.zeros((0, d), dtype=np.int32)
+    r0, r1 = (_joined([x for p in parts for x in p[s]], empty) for s in (1, 2))
+    return count, (near, r0, r1, max(p[3] for p in parts))
+
+
+def _joined(pieces: list, empty: np.ndarray) -> np.ndarray:
+    """The pieces (row blocks) as one array: the piece itself when there is one (a
+    serial pass writes its flagged rows into one array: no copy), ``empty`` if none."""
+    if len(pieces) == 1:
+        return pieces[0]
+    return np.concatenate(pieces) if pieces else empty
