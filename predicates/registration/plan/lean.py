@@ -97,17 +97,12 @@ def _quiet_cells(boxes, origin, h, G, table):
     pass has a table and the cells' vertex ids span at most as many points as the cells
     have vertices (a worker's chunk: only the points between its least and largest
     id), as (their :class:`~.quiet.PointCells`, the least id); else None."""
-    from predicates.registration.plan.quiet import point_cells
+    from predicates.registration.plan.quiet import id_span, point_cells
 
-    n, N = len(boxes), len(boxes.points)
-    if table is None or n == 0 or boxes.cells.shape[1] < 2:
+    span = None if table is None or boxes.cells.shape[1] < 2 else id_span(boxes)
+    if span is None:
         return None
-    most = n * boxes.cells.shape[1]  # (points at most as many as the cells' vertices)
-    low, top = 0, N - 1
-    if N > most or not boxes.checked:  # (validated ids: every one is in range)
-        low, top = int(boxes.cells.min()), int(boxes.cells.max())
-        if low < 0 or top >= N or top - low + 1 > most:
-            return None
+    low, top = span
     pts = boxes.points[low:top + 1]
     return point_cells(pts, np.asarray(origin, dtype=np.float64), h, G, table,
                        boxes.blocks), low
@@ -126,15 +121,13 @@ def _quiet_span(boxes, quiet, table, G, near, a: int, b: int):
         R = R - low if low else R  # (a new array: R may be the caller's cells)
         i0, i1, skip = cells.ranges(R, mode)
         rest = np.flatnonzero(~skip)
-        f = near[s:t]
-        f[:] = False
         if len(rest) == 0:
             continue
         hit = _look(table, i0[:, rest].T, i1[:, rest].T, G)
         if not hit.any():
             continue
         ids = rest[hit]
-        f[ids] = True
+        near[s + ids] = True  # (near: zeros, each row written by its own span)
         r0.append(np.ascontiguousarray(i0[:, ids].T))
         r1.append(np.ascontiguousarray(i1[:, ids].T))
         flagged = boxes.cells[s + ids]

@@ -32,7 +32,8 @@ from predicates.registration.spatial.blocks import Blocks
 from predicates.registration.spatial.boxgrid import cell_index
 from predicates.registration.spatial.gridsums import covered_in
 
-__all__ = ["CAP", "PointCells", "cell_distances", "point_cells", "swept_summary"]
+__all__ = ["CAP", "PointCells", "cell_distances", "id_span", "point_cells",
+           "swept_summary"]
 
 #: the distances kept: 0 .. CAP (CAP: CAP cells or more)
 CAP = 3
@@ -91,6 +92,24 @@ class PointCells:
             np.maximum(wide, np.subtract(i1[ax], i0[ax], out=x), out=wide)
         quiet = np.take(self.dist, R[0], mode=mode) > wide
         return i0, i1, quiet
+
+
+def id_span(boxes) -> tuple[int, int] | None:
+    """(least, largest) vertex id of the cells ``boxes`` (a
+    :class:`~.cellboxes.CellBoxes`): every point when the points are at most as many as
+    the cells' vertices and the ids validated, else the cells' least and largest id
+    (a worker's chunk); None when that span holds more points than the cells have
+    vertices (the points' cells would cost more than they save) or is out of range."""
+    n, N = boxes.n, len(boxes.points)
+    most = n * boxes.cells.shape[1]
+    if n == 0:
+        return None
+    if N <= most and boxes.checked:  # (validated ids: every one is in range)
+        return 0, N - 1
+    low, top = int(boxes.cells.min()), int(boxes.cells.max())
+    if low < 0 or top >= N or top - low + 1 > most:
+        return None
+    return low, top
 
 
 def point_cells(points: np.ndarray, origin, h: float, G, table: np.ndarray,
@@ -171,12 +190,10 @@ def _first_vertex_distances(boxes, origin, h: float, G, table):
     than h·2^46 from the origin on an axis, where fl(x − o) may round by more than
     h/64) for the points between the cells' least and largest id, or (0, None) when
     they are more than the cells' vertices (the shortcut is then not taken)."""
-    N, most = len(boxes.points), boxes.n * boxes.cells.shape[1]
-    low, top = 0, N - 1
-    if N > most or not boxes.checked:
-        low, top = int(boxes.cells.min()), int(boxes.cells.max())
-        if low < 0 or top >= N or top - low + 1 > most:
-            return 0, None
+    span = id_span(boxes)
+    if span is None:
+        return 0, None
+    low, top = span
     pts = boxes.points[low:top + 1]
     dist = point_cells(pts, origin, h, G, table, Blocks()).dist
     bound = h * 2.0 ** 46
