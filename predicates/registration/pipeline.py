@@ -281,9 +281,9 @@ def _plan_with(work, args, dtype, tolerance_scale, progress, chunk, refine_cut, 
         timings["plan_remote"] = sim_box.stats
     else:
         dim, sim, cut = validate_pair(sp, sc, cp, cc, dtype, work.blocks,
-                                      first_round.from_cut(work.boxes, work.blocks))
-        # its boxes never stored: computed per block where needed, the run's kept once
+                                      grid := first_round.from_cut(work.boxes, work.blocks))
         sim_box = CellBoxes(sim.points, sim.cells, work.blocks, sim.summary, checked=True)
+        sim_box.sweep_grid = None if work.blocks.accelerate else grid(cut, len(sim.cells))
     clock("plan_validate")
     S, cut_box = sim_box.summary(), first_round.cut_boxes(sim_box, cut, work.boxes)
     check_extent("simulation", sim, sp, dtype, (S.lo_min, S.hi_max))

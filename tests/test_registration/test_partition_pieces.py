@@ -76,7 +76,8 @@ def test_pieces_read_by_the_workers_give_the_serial_result(tmp_path, case, seed,
     # a flag round of its own
     swept = res.timings["plan_remote"]["first_round"] == "check's sweep"
     assert res.timings["plan_remote"]["tasks"] >= (1 if swept else 2) * count
-    assert not swept or (res.timings["accelerated"] and sc.shape[1] == 4)
+    # (compiled: tetrahedra only; numpy: a flag pass after the check, any cells)
+    assert not swept or not res.timings["accelerated"] or sc.shape[1] == 4
     # on each piece's own points: the points were not sent back to the workers
     assert res.timings["plan_remote"]["points_sent"] == "pieces"
     # the result's cell queries scan the cells where they are, with the serial answers

@@ -21,11 +21,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from predicates.registration.plan.cellboxes import CellBoxes
-from predicates.registration.plan.edges import edge_from, edge_shift, edge_summary
+from predicates.registration.plan.edges import edge_from, edge_shift
 from predicates.registration.plan.inputs import (
     MeshInput, MeshTypeError, _array, _points, cell_error)
 from predicates.registration.partition.swept import (
-    check_chunk as _check, check_swept, covered, cut_flags_from, flagged_cover, narrow_ids)
+    check_chunk as _check, check_swept, chunk_flags, covered, cut_flags_from, narrow_ids)
 from predicates.registration.partition.points import RemotePoints
 from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.boxes import boxes_of
@@ -47,32 +47,12 @@ def is_remote(cells, scheduler) -> bool:
 
 
 def _flags(chunk, points, origin, h, G, table, accelerate: bool = False):
-    """A chunk's first-round flags (:func:`~predicates.registration.plan.lean.flag_pass`)
-    as (count, flagged rows (int32 below 2^31 rows), the grid cells their ranges cover
-    (:func:`~.swept.flagged_cover`: packed bits, or the ranges i0, i1), largest edge,
-    their vertex ids (the kernel's kept rows when it kept them: no gather), the flagged
-    cells' :func:`~predicates.registration.plan.edges.edge_summary` or None, None):
-    the report's shortest edge of the run's cells rides on this task, as those cells
-    are round one's flags unless a later round shrinks them. Their boxes are not sent:
-    the client computes them from its points as fast as it receives 48 bytes a cell
-    (docs/partitioned.md 5a, measured). ``accelerate``: the compiled pass, as the
-    plan's (the same values: :mod:`predicates.compiled`)."""
+    """A chunk's first-round flags (:func:`~.swept.chunk_flags`, its round of its own:
+    the speculative grid was not the round's, or the check did not flag)."""
     from predicates import compiled
 
     blocks = Blocks(accelerate=accelerate and compiled.available())
-    chunk = np.asarray(chunk)
-    boxes = CellBoxes(points, chunk, blocks)
-    count, got = boxes.flag_pass(origin, h, G, table)
-    if got is None:
-        return count, None
-    near, i0, i1, ext = got
-    ids = np.flatnonzero(near)
-    cells = boxes.cells_of(near)  # the kernel's kept rows when it kept them: no gather
-    edge = edge_summary(points, cells, blocks) if len(ids) else None
-    if len(chunk) < 2 ** 31:
-        ids = ids.astype(np.int32)  # (the client adds the chunk's int64 offset)
-    return count, (ids, flagged_cover(i0, i1, G, blocks), ext,
-                   narrow_ids(cells, len(points)), edge, None)
+    return chunk_flags(CellBoxes(points, np.asarray(chunk), blocks), origin, h, G, table)
 
 
 def _row_boxes(chunk, points, rows: np.ndarray):
@@ -430,9 +410,8 @@ def validate_pair_remote(sp, sc, cp, cc, dtype, scheduler, blocks: Blocks = SERI
     cut = error = grid_for = None
     try:  # first: its boxes fix the first round's grid (its error after the simulation's)
         cut = validate_mesh(cp, cc, "cutting", dim, dtype, allow_empty=True, blocks=blocks)
-        if blocks.accelerate:
-            make = first_round.from_cut(partial(boxes_of, blocks=blocks), blocks)
-            grid_for = (lambda n: make(cut, n))  # noqa: E731
+        make = first_round.from_cut(partial(boxes_of, blocks=blocks), blocks)
+        grid_for = (lambda n: make(cut, n))  # noqa: E731
     except Exception as e:
         error = e
     sim, remote = validate_remote(sp, sc, dim, dtype, scheduler, blocks, grid_for)

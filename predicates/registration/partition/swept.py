@@ -6,9 +6,11 @@ read, so a worker that checks a chunk of tetrahedra can flag them in the same co
 loop (:meth:`~predicates.registration.plan.cellboxes.CellBoxes.checked_summary` with a
 grid): the flag pass's round of tasks is not needed when the grid turns out to be the
 round's. The task returns what :func:`check_chunk` (validation and summary) and
-:func:`~.remote._flags` return (the same values: the same kernels' flags, tested
+:func:`chunk_flags` return (the same values: the same kernels' flags, tested
 serially), or falls back to ``check_chunk`` alone (and the flag round later) where the
-sweep does not apply.
+sweep does not apply. On the numpy path (no compiled sweep) the same task runs the flag
+pass after the check, over the same boxes (its quiet shortcut:
+:mod:`~predicates.registration.plan.quiet`).
 """
 from __future__ import annotations
 
@@ -17,10 +19,10 @@ import numpy as np
 from predicates.registration.plan.cellboxes import CellBoxes
 from predicates.registration.plan.edges import edge_summary
 from predicates.registration.plan.inputs import _checked_and_used, first_bad
-from predicates.registration.spatial.blocks import Blocks
+from predicates.registration.spatial.blocks import BLOCK, Blocks
 
-__all__ = ["check_chunk", "check_swept", "covered", "cut_flags_from", "flagged_cover",
-           "narrow_ids"]
+__all__ = ["check_chunk", "check_swept", "chunk_flags", "covered", "cut_flags_from",
+           "flagged_cover", "narrow_ids"]
 
 
 def flagged_cover(i0: np.ndarray, i1: np.ndarray, G, blocks: Blocks):
@@ -112,29 +114,36 @@ def _validated(chunk: np.ndarray, n_points: int, mark_used: bool, blocks: Blocks
         bad = _checked_and_used(chunk, n_points, blocks, used)
     else:
         bad = first_bad(chunk, chunk.shape[1], n_points)
-        if mark_used and all(b is None for b in bad):
-            for col in range(chunk.shape[1]):
-                used[chunk[:, col]] = True
+        if mark_used and all(b is None for b in bad):  # (blocks of rows, raveled: a
+            # third of the time of a strided column at a time, as inputs.py marks them)
+            for a in range(0, len(chunk), BLOCK):
+                used[chunk[a:a + BLOCK].ravel()] = True
     return bad, used if mark_used else used[:0]
 
 
 def check_swept(chunk, points, n_points: int, mark_used: bool, accelerate: bool, grid,
                 local=None):
-    """(:func:`check_chunk`'s result, ``_flags``' result or None) for one chunk;
-    ``grid`` = (origin, h, G, table) of the speculative first-round grid. The sweep applies to
-    compiled tetrahedra over finite points; elsewhere, or at a row validation refuses
-    (whose message the plain check then makes), the flags are None. ``local``: a
+    """(:func:`check_chunk`'s result, :func:`chunk_flags`' result or None) for one
+    chunk; ``grid`` = (origin, h, G, table) of the speculative first-round grid. The
+    sweep applies to compiled tetrahedra over finite points; on the numpy path the
+    flags are a pass after the check in the same task (:func:`_checked_then_flagged`);
+    elsewhere, or at a row validation refuses (whose message the plain check then
+    makes), the flags are None. ``local``: a
     piece's cells in the numbering of its own ``points`` (:mod:`.pieces`): ``chunk``
     (global ids) is validated as :func:`check_chunk` validates it, the sweep runs over
     ``local``, and the flagged cells come back in global ids with their boxes (the
     client has no points to compute them from)."""
     from predicates import compiled
-    from predicates.compiled.tetsums import all_finite
-    from predicates.registration.plan.first_round import FixedGrid
 
     blocks = Blocks(accelerate=accelerate and compiled.available())
     chunk = np.asarray(chunk)
     own = chunk if local is None else np.asarray(local)
+    if not blocks.accelerate and own.dtype.kind in "iu" and len(own):
+        return _checked_then_flagged(chunk, own, points, n_points, mark_used, grid,
+                                     local is not None, blocks)
+    from predicates.compiled.tetsums import all_finite
+    from predicates.registration.plan.first_round import FixedGrid
+
     if (blocks.accelerate and own.dtype.kind == "i" and own.shape[1] == 4
             and chunk.dtype.kind == "i" and points.shape[1] == 3 and len(own)
             and points.flags.c_contiguous and all_finite(points)):
@@ -152,6 +161,63 @@ def check_swept(chunk, points, n_points: int, mark_used: bool, accelerate: bool,
             return _swept_result(summary, points, chunk, local, n_points, used,
                                  mark_used, blocks, G)
     return check_chunk(chunk, points, n_points, mark_used, accelerate, local), None
+
+
+def _checked_then_flagged(chunk, own, points, n_points: int, mark_used: bool, grid,
+                          piece: bool, blocks: Blocks) -> tuple:
+    """:func:`check_swept` on the numpy path: :func:`check_chunk`'s validation, then,
+    when it passes and every point is finite (as the compiled sweep asks), the summary
+    and the flags at ``grid`` in one pass over the boxes
+    (:func:`~predicates.registration.plan.quiet.swept_summary`), given as
+    :func:`chunk_flags` gives them — one task instead of two rounds. ``piece``: ``own`` are a piece's local ids, ``chunk`` its
+    global ones."""
+    bad, used = _validated(chunk, n_points, mark_used, blocks)
+    if any(b is not None for b in bad):
+        return (bad, np.packbits(used[:0]), None), None
+    from predicates.registration.plan.first_round import FixedGrid
+
+    boxes = CellBoxes(points, own, blocks, checked=True)
+    with np.errstate(invalid="ignore"):
+        finite = bool(np.isfinite(points).all())
+    if finite:  # the flags in the summary's pass (quiet.swept_summary)
+        origin, h, G, table = grid
+        boxes.sweep_grid = FixedGrid(None, None, len(own), h, 0.0, origin, G, None, None,
+                                     table)
+    checked = (bad, np.packbits(used), boxes.summary())
+    if not finite:
+        return checked, None
+    return checked, chunk_flags(boxes, *grid, chunk if piece else None, n_points)
+
+
+def chunk_flags(boxes: CellBoxes, origin, h, G, table, chunk=None,
+                n_points: int | None = None) -> tuple:
+    """A chunk's first-round flags (:func:`~predicates.registration.plan.lean.flag_pass`
+    over ``boxes``) as (count, (flagged rows (int32 below 2^31 rows), the grid cells
+    their ranges cover (:func:`flagged_cover`: packed bits, or the ranges i0, i1),
+    largest edge, their vertex ids (the pass's kept rows when it kept them: no
+    gather), the flagged cells' :func:`~predicates.registration.plan.edges.
+    edge_summary` or None, their boxes or None)): the report's shortest edge of the
+    run's cells rides on this task, as those cells are round one's flags unless a later
+    round shrinks them. Their boxes are not sent: the client computes them from its
+    points as fast as it receives 48 bytes a cell (docs/partitioned.md 5a, measured) —
+    unless ``chunk`` (a piece's cells in global ids, ``boxes`` in its own numbering;
+    ``n_points``: the global count): the vertex ids are then global and the boxes
+    sent (the client has no points to compute them from)."""
+    count, got = boxes.flag_pass(origin, h, G, table)
+    if got is None:
+        return count, None
+    near, i0, i1, ext = got
+    ids = np.flatnonzero(near)
+    cells = boxes.cells_of(near)  # the pass's kept rows when it kept them: no gather
+    edge = edge_summary(boxes.points, cells, boxes.blocks) if len(ids) else None
+    flagged_boxes = None
+    if chunk is not None:
+        cells, flagged_boxes = np.take(chunk, ids, axis=0), boxes.rows(near)
+    if len(near) < 2 ** 31:
+        ids = ids.astype(np.int32)  # (the client adds the chunk's int64 offset)
+    return count, (ids, flagged_cover(i0, i1, G, boxes.blocks), ext,
+                   narrow_ids(cells, len(boxes.points) if n_points is None else n_points),
+                   edge, flagged_boxes)
 
 
 def _swept_result(summary, points, chunk, local, n_points: int, used, mark_used: bool,

@@ -64,9 +64,15 @@ class BoxSummary:
 
 def summarize(lo: np.ndarray, hi: np.ndarray) -> BoxSummary:
     """:class:`BoxSummary` of the boxes ``lo``, ``hi`` (n, d)."""
+    return summarized(lo, hi)[0]
+
+
+def summarized(lo: np.ndarray, hi: np.ndarray) -> tuple:
+    """(:func:`summarize`'s summary, the boxes' largest edges: ``box_extent``'s values,
+    −0.0 made +0.0)."""
     d = lo.shape[1]
     if len(lo) == 0:
-        return BoxSummary(0, np.full(d, np.inf), np.full(d, -np.inf), 0.0)
+        return BoxSummary(0, np.full(d, np.inf), np.full(d, -np.inf), 0.0), np.zeros(0)
     ext = [hi[:, ax] - lo[:, ax] for ax in range(d)]
     e = np.maximum(ext[0], ext[1])  # box_extent's values from the extents already made
     for x in ext[2:]:
@@ -76,13 +82,16 @@ def summarize(lo: np.ndarray, hi: np.ndarray) -> BoxSummary:
     hist = np.bincount(e.view(np.int64) >> 52, minlength=2048) \
         if np.isfinite(e_max) and e_min >= 0 else None
     return BoxSummary(len(lo), np.array([lo[:, ax].min() for ax in range(d)]),
-                      np.array([hi[:, ax].max() for ax in range(d)]), e_max, e_min, hist)
+                      np.array([hi[:, ax].max() for ax in range(d)]), e_max, e_min,
+                      hist), e
 
 
 class CellBoxes:
     """The boxes of ``cells`` over ``points``, computed when asked: :meth:`block` (rows
     [a, b)), :meth:`rows` (a mask or ids; the last subset is kept), :meth:`summary`
     (one pass, cached); ``lo``, ``hi``: array-like views (module docstring)."""
+
+    summarized = staticmethod(summarized)  # (for quiet.swept_summary's blocks)
 
     def __init__(self, points: np.ndarray, cells: np.ndarray, blocks: Blocks = SERIAL,
                  summary: BoxSummary | None = None, checked: bool = False):
@@ -101,6 +110,9 @@ class CellBoxes:
         # the first round's grid and flags when the summary's sweep made them
         # (checked_summary with a grid; first_round.py): (result, kept rows)
         self.first_grid, self._first = getattr(summary, "first", None) or (None, None)
+        #: a first-round grid whose flags the numpy summary's pass computes too
+        #: (:func:`~.quiet.swept_summary`), set before :meth:`summary` is asked
+        self.sweep_grid = None
         if summary is not None:
             summary.first = None  # held here only: not for as long as the summary
 
@@ -137,12 +149,16 @@ class CellBoxes:
 
             kernel(self._given(), self.cells[a:b], lo, hi)
         else:
-            if self.cols is None:  # (a race of two threads makes two equal copies)
-                self.cols = np.ascontiguousarray(self.points.T, dtype=np.float64)
-            fill_boxes(self.cols, np.ascontiguousarray(self.cells[a:b].T), lo, hi,
+            fill_boxes(self.columns(), np.ascontiguousarray(self.cells[a:b].T), lo, hi,
                        self.checked)
         self._local.last = (a, b, lo.T, hi.T)
         return lo.T, hi.T
+
+    def columns(self) -> np.ndarray:
+        """The points by axis in binary64 (d, N), made once (the numpy blocks read them)."""
+        if self.cols is None:  # (a race of two threads makes two equal copies)
+            self.cols = np.ascontiguousarray(self.points.T, dtype=np.float64)
+        return self.cols
 
     def _given(self) -> np.ndarray:
         """The points as given, C-contiguous (the compiled kernels read them)."""
@@ -233,6 +249,12 @@ class CellBoxes:
 
     def summary(self) -> BoxSummary:
         """The boxes' :class:`BoxSummary`, one pass in blocks (spans on the pool)."""
+        if self._summary is None and self.sweep_grid is not None \
+                and not self.blocks.accelerate and self.n:
+            from predicates.registration.plan.quiet import swept_summary
+
+            self._summary, self._first = swept_summary(self, self.sweep_grid)
+            self.first_grid = self.sweep_grid
         if self._summary is None:
             def span(a: int, b: int) -> BoxSummary:
                 if self.blocks.accelerate:

@@ -23,7 +23,8 @@ whose cell (floor((x − o)/h) clipped: non-decreasing in x) lies in both ranges
 
 Because the grid is known before the simulation cells are read, the flags can be
 computed in the same sweep as validation and the boxes' summary
-(:meth:`~.cellboxes.CellBoxes.checked_summary`): :func:`speculative` makes the grid with
+(:meth:`~.cellboxes.CellBoxes.checked_summary`; numpy: the summary's pass,
+:func:`~.quiet.swept_summary`): :func:`speculative` makes the grid with
 the margin h·2^-6 before the sweep; it is the round's grid when the pad then comes out
 ≤ that margin and the cutting boxes are the ones it was made from (no refinement).
 Otherwise the flags are a pass of their own at :func:`fixed_grid`'s grid — the same

@@ -13,10 +13,11 @@ from __future__ import annotations
 import numpy as np
 
 from predicates.registration.spatial import blocks as blocks_module
-from predicates.registration.spatial.boxes import box_extent
+from predicates.registration.spatial.boxes import box_extent, fill_boxes
 from predicates.registration.spatial.boxgrid import cell_index, ncells
+from predicates.registration.plan.quiet import _gathered, _joined
 from predicates.registration.spatial.gridsums import (
-    _corners, _stride, any_in, coverage, occupancy)
+    _stride, any_in, coverage, covered_in as _look, occupancy)
 
 __all__ = ["cut_flags", "flag_pass", "looked_up"]
 
@@ -45,7 +46,10 @@ def flag_pass(boxes, origin, h, G, table):
     """One pass over the cells' blocks at cell size h: (cells covered, (flags, the
     flagged cells' cell ranges i0, i1, their largest box edge)); the second item is
     None when ``table`` (the cutting occupancy's summed-area table) is None — a sparse
-    grid: only the count. ``boxes``: a :class:`~.cellboxes.CellBoxes`."""
+    grid: only the count. With a table the count is 0 (nothing reads it; the compiled
+    sweep's is 0 too, first_round.SweptFlags). ``boxes``: a
+    :class:`~.cellboxes.CellBoxes`. The numpy pass takes the shortcut of :mod:`.quiet`
+    when the points' cells are cheap to compute (:func:`_quiet_cells`)."""
     d = len(G)
     near = np.zeros(len(boxes), dtype=bool) if table is not None else None
     if boxes.blocks.accelerate:  # the same values, one compiled GIL-free loop per block
@@ -62,13 +66,20 @@ def flag_pass(boxes, origin, h, G, table):
             # so its rows are these; their ids found only if asked for)
         return _gathered(parts, table, near, d)
 
+    quiet = _quiet_cells(boxes, origin, h, G, table)
+    if quiet is not None:  # the same flags, ranges and edge: most rows by the shortcut
+        parts = boxes.blocks.map(
+            lambda a, b: _quiet_span(boxes, quiet, table, G, near, a, b), len(boxes))
+        _keep_flagged(boxes, parts, near, d)
+        return _gathered(parts, table, near, d)
+
     def span(a: int, b: int):
         count, ext, r0, r1 = 0, 0.0, [], []
         for s, t in boxes.blocks.each(a, b):
             lo, hi = boxes.block(s, t)
             i0, i1 = cell_index(lo, origin, h, G), cell_index(hi, origin, h, G)
-            count += int(ncells(i0, i1).sum())
             if table is None:
+                count += int(ncells(i0, i1).sum())
                 continue
             f = _look(table, i0, i1, G)
             near[s:t] = f
@@ -81,22 +92,64 @@ def flag_pass(boxes, origin, h, G, table):
     return _gathered(boxes.blocks.map(span, len(boxes)), table, near, d)
 
 
-def _gathered(parts, table, near, d):
-    """:func:`flag_pass`'s result from its spans' (count, r0, r1, ext)."""
-    count = sum(p[0] for p in parts)
-    if table is None:
-        return count, None
-    empty = np.zeros((0, d), dtype=np.int32)
-    r0, r1 = (_joined([x for p in parts for x in p[s]], empty) for s in (1, 2))
-    return count, (near, r0, r1, max(p[3] for p in parts))
+def _quiet_cells(boxes, origin, h, G, table):
+    """The points' cells for :func:`_quiet_span` (:func:`~.quiet.point_cells`) when the
+    pass has a table and the cells' vertex ids span at most as many points as the cells
+    have vertices (a worker's chunk: only the points between its least and largest
+    id), as (their :class:`~.quiet.PointCells`, the least id); else None."""
+    from predicates.registration.plan.quiet import id_span, point_cells
+
+    span = None if table is None or boxes.cells.shape[1] < 2 else id_span(boxes)
+    if span is None:
+        return None
+    low, top = span
+    pts = boxes.points[low:top + 1]
+    return point_cells(pts, np.asarray(origin, dtype=np.float64), h, G, table,
+                       boxes.blocks), low
 
 
-def _joined(pieces: list, empty: np.ndarray) -> np.ndarray:
-    """The pieces (row blocks) as one array: the piece itself when there is one (a
-    serial pass writes its flagged rows into one array: no copy), ``empty`` if none."""
-    if len(pieces) == 1:
-        return pieces[0]
-    return np.concatenate(pieces) if pieces else empty
+def _quiet_span(boxes, quiet, table, G, near, a: int, b: int):
+    """:func:`flag_pass`'s span over rows [a, b) with the shortcut (:mod:`.quiet`):
+    the ranges from the points' cells, the look-ups only on the rows it leaves; the
+    flagged rows' boxes (their largest edge), kept with their cells."""
+    cells, low = quiet
+    mode = "clip" if boxes.checked else "raise"
+    cols = boxes.columns()
+    r0, r1, ext, lo_k, hi_k, cells_k = [], [], 0.0, [], [], []
+    for s, t in boxes.blocks.each(a, b):
+        R = np.ascontiguousarray(boxes.cells[s:t].T)
+        R = R - low if low else R  # (a new array: R may be the caller's cells)
+        i0, i1, skip = cells.ranges(R, mode)
+        rest = np.flatnonzero(~skip)
+        if len(rest) == 0:
+            continue
+        hit = _look(table, i0[:, rest].T, i1[:, rest].T, G)
+        if not hit.any():
+            continue
+        ids = rest[hit]
+        near[s + ids] = True  # (near: zeros, each row written by its own span)
+        r0.append(np.ascontiguousarray(i0[:, ids].T))
+        r1.append(np.ascontiguousarray(i1[:, ids].T))
+        flagged = boxes.cells[s + ids]
+        lo, hi = np.empty((len(G), len(ids))), np.empty((len(G), len(ids)))
+        fill_boxes(cols, np.ascontiguousarray(flagged.T), lo, hi, boxes.checked)
+        lo, hi = lo.T, hi.T
+        ext = max(ext, float(box_extent(lo, hi).max()))
+        lo_k.append(lo)
+        hi_k.append(hi)
+        cells_k.append(flagged)
+    return 0, r0, r1, ext, (lo_k, hi_k, cells_k)
+
+
+def _keep_flagged(boxes, parts, near, d) -> None:
+    """Keep the flagged rows' boxes and cells (:meth:`~.cellboxes.CellBoxes.keep`) that
+    the spans of :func:`_quiet_span` computed: the plan's later ``rows(near)`` and
+    ``cells_of(near)`` then gather nothing."""
+    k = boxes.cells.shape[1]
+    lo, hi = (_joined([x for p in parts for x in p[4][s]], np.zeros((0, d))) for s in (0, 1))
+    cells = _joined([x for p in parts for x in p[4][2]],
+                    np.zeros((0, k), dtype=boxes.cells.dtype))
+    boxes.keep(None, lo, hi, cells, mask=near)
 
 
 def _compiled_span(boxes, origin, h, G, table, near):
@@ -145,7 +198,7 @@ def _compiled_span(boxes, origin, h, G, table, near):
                     chunks.append(tuple(x[:filled] for x in out))
                 out, filled = _outputs(max(t - s, (b - a) // 4 + step), indexed), 0
             n, e, nf = block(s, t, *(x[filled:] for x in out))
-            count += int(n)
+            count += int(n) if table is None else 0
             if nf:  # the kernel wrote the flagged rows compacted, from row ``filled``
                 filled += nf
                 ext = max(ext, float(e))
@@ -189,14 +242,3 @@ def _table(occ: np.ndarray) -> np.ndarray:
     for ax in range(S.ndim):
         np.cumsum(S, axis=ax, out=S)
     return S.ravel()
-
-
-def _look(S: np.ndarray, i0, i1, G) -> np.ndarray:
-    """Per box: does its cell range hold an occupied cell (2^d look-ups in ``S``)."""
-    count = np.zeros(len(i0), dtype=S.dtype)
-    for key, sign in _corners(i0, i1, G):
-        if sign > 0:
-            count += S.take(key)
-        else:
-            count -= S.take(key)
-    return count > 0

@@ -11,7 +11,7 @@ import numpy as np
 
 from predicates.registration.spatial.blocks import SERIAL, Blocks
 
-__all__ = ["any_in", "coverage", "occupancy"]
+__all__ = ["any_in", "coverage", "covered_in", "occupancy"]
 
 
 def _stride(G):
@@ -104,3 +104,15 @@ def any_in(occ, i0, i1, G, blocks: Blocks = SERIAL):
 
     blocks.rows(look, len(i0))
     return out
+
+
+def covered_in(S: np.ndarray, i0, i1, G) -> np.ndarray:
+    """Per box: does its cell range hold an occupied cell (2^d look-ups in the
+    summed-area table ``S``, raveled on the (G + 1)-grid)."""
+    count = np.zeros(len(i0), dtype=S.dtype)
+    for key, sign in _corners(i0, i1, G):
+        if sign > 0:
+            count += S.take(key)
+        else:
+            count -= S.take(key)
+    return count > 0
