@@ -18,7 +18,7 @@ from predicates.registration.plan.cellboxes import CellBoxes
 from predicates.registration.spatial.blocks import Blocks
 from predicates.registration.spatial.boxes import box_extent, boxes_of
 from predicates.registration.spatial.boxgrid import cell_index
-from predicates.registration.spatial.gridsums import occupancy
+from predicates.registration.spatial.gridsums import covered_in, occupancy
 
 
 @settings(max_examples=40, deadline=None)
@@ -67,7 +67,7 @@ def _plain(P, C, grid):
     """The pass's definition on every row: (flags, flagged ranges, largest edge)."""
     lo, hi = boxes_of(P, C)
     i0, i1 = (cell_index(x, grid.origin, grid.h, grid.G) for x in (lo, hi))
-    near = lean._look(grid.table, i0, i1, grid.G)
+    near = covered_in(grid.table, i0, i1, grid.G)
     ext = float(box_extent(lo[near], hi[near]).max()) if near.any() else 0.0
     return near, i0[near], i1[near], ext
 

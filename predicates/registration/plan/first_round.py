@@ -158,11 +158,11 @@ def _array_flags(boxes, grid: FixedGrid, blocks: Blocks):
     """The simulation side's flags of (lo, hi) arrays at ``grid``, as
     :func:`~.lean.flag_pass` gives them: (flags, the flagged rows' ranges, their
     largest box edge)."""
-    from predicates.registration.plan.lean import _look
+    from predicates.registration.spatial.gridsums import covered_in
 
     lo, hi = (np.asarray(x, dtype=np.float64) for x in boxes)
     i0, i1 = (cell_index(x, grid.origin, grid.h, grid.G, blocks) for x in (lo, hi))
-    near = _look(grid.table, i0, i1, grid.G)
+    near = covered_in(grid.table, i0, i1, grid.G)
     ext = float(box_extent(lo[near], hi[near]).max()) if near.any() else 0.0
     return near, i0[near], i1[near], ext
 
@@ -198,7 +198,7 @@ class SweptFlags:
     def result(self, spans: list) -> tuple:
         """((0, (flags, flagged ranges i0, i1, their largest edge)), (boxes lo, hi and
         ids of the flagged rows)): :func:`~.lean.flag_pass`'s result and what it keeps."""
-        from predicates.registration.plan.lean import _joined
+        from predicates.registration.plan.quiet import _joined
 
         for s in spans:
             s.close()

@@ -17,7 +17,7 @@ from predicates.registration.spatial.boxes import box_extent, fill_boxes
 from predicates.registration.spatial.boxgrid import cell_index, ncells
 from predicates.registration.plan.quiet import _gathered, _joined
 from predicates.registration.spatial.gridsums import (
-    _stride, any_in, coverage, covered_in as _look, occupancy)
+    _stride, any_in, coverage, covered_in, occupancy)
 
 __all__ = ["cut_flags", "flag_pass", "looked_up"]
 
@@ -81,7 +81,7 @@ def flag_pass(boxes, origin, h, G, table):
             if table is None:
                 count += int(ncells(i0, i1).sum())
                 continue
-            f = _look(table, i0, i1, G)
+            f = covered_in(table, i0, i1, G)
             near[s:t] = f
             if f.any():
                 r0.append(i0[f])
@@ -97,15 +97,11 @@ def _quiet_cells(boxes, origin, h, G, table):
     pass has a table and the cells' vertex ids span at most as many points as the cells
     have vertices (a worker's chunk: only the points between its least and largest
     id), as (their :class:`~.quiet.PointCells`, the least id); else None."""
-    from predicates.registration.plan.quiet import id_span, point_cells
+    from predicates.registration.plan.quiet import chunk_point_cells
 
-    span = None if table is None or boxes.cells.shape[1] < 2 else id_span(boxes)
-    if span is None:
+    if table is None or boxes.cells.shape[1] < 2:
         return None
-    low, top = span
-    pts = boxes.points[low:top + 1]
-    return point_cells(pts, np.asarray(origin, dtype=np.float64), h, G, table,
-                       boxes.blocks), low
+    return chunk_point_cells(boxes, origin, h, G, table, boxes.blocks)
 
 
 def _quiet_span(boxes, quiet, table, G, near, a: int, b: int):
@@ -123,7 +119,7 @@ def _quiet_span(boxes, quiet, table, G, near, a: int, b: int):
         rest = np.flatnonzero(~skip)
         if len(rest) == 0:
             continue
-        hit = _look(table, i0[:, rest].T, i1[:, rest].T, G)
+        hit = covered_in(table, i0[:, rest].T, i1[:, rest].T, G)
         if not hit.any():
             continue
         ids = rest[hit]

@@ -32,8 +32,8 @@ from predicates.registration.spatial.blocks import Blocks
 from predicates.registration.spatial.boxgrid import cell_index
 from predicates.registration.spatial.gridsums import covered_in
 
-__all__ = ["CAP", "PointCells", "cell_distances", "id_span", "point_cells",
-           "swept_summary"]
+__all__ = ["CAP", "PointCells", "cell_distances", "chunk_point_cells", "id_span",
+           "point_cells", "swept_summary"]
 
 #: the distances kept: 0 .. CAP (CAP: CAP cells or more)
 CAP = 3
@@ -133,6 +133,20 @@ def point_cells(points: np.ndarray, origin, h: float, G, table: np.ndarray,
     return PointCells(cols, cell_distances(table, G).take(key, mode="clip"))
 
 
+def chunk_point_cells(boxes, origin, h: float, G, table: np.ndarray,
+                      blocks: Blocks) -> tuple[PointCells, int] | None:
+    """(:func:`point_cells` of the points between the cells' least and largest vertex
+    id (:func:`id_span`: every point, or a worker's chunk's span), that least id), or
+    None when the span holds more points than the cells have vertices (the shortcut
+    would cost more than it saves)."""
+    span = id_span(boxes)
+    if span is None:
+        return None
+    low, top = span
+    return point_cells(boxes.points[low:top + 1], np.asarray(origin, dtype=np.float64), h,
+                       G, table, blocks), low
+
+
 def swept_summary(boxes, grid) -> tuple:
     """The numpy summary's pass with the first round's flags at ``grid`` (a
     :class:`~.first_round.FixedGrid`; every point finite), as the compiled sweep
@@ -190,12 +204,11 @@ def _first_vertex_distances(boxes, origin, h: float, G, table):
     than h·2^46 from the origin on an axis, where fl(x − o) may round by more than
     h/64) for the points between the cells' least and largest id, or (0, None) when
     they are more than the cells' vertices (the shortcut is then not taken)."""
-    span = id_span(boxes)
-    if span is None:
+    got = chunk_point_cells(boxes, origin, h, G, table, Blocks())
+    if got is None:
         return 0, None
-    low, top = span
-    pts = boxes.points[low:top + 1]
-    dist = point_cells(pts, origin, h, G, table, Blocks()).dist
+    dist, low = got[0].dist, got[1]
+    pts = boxes.points[low:low + len(dist)]
     bound = h * 2.0 ** 46
     with np.errstate(invalid="ignore", over="ignore"):
         for ax in range(len(G)):
