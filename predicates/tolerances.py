@@ -145,21 +145,42 @@ def tolerance_values(dim: int, L_power, ctx, table: dict | None = None) -> dict:
     (name → ToleranceSpec, default ``TABLES[dim]``) lets the proofs try other
     coefficients (``fperr verify --tolerances``); every ``mid`` must be rational.
     """
-    out = {}
-    for name, spec in (TABLES[dim] if table is None else table).items():
-        q = spec_fraction(spec.q)  # exact data, sympy (the proofs) or not
-        k = q.denominator  # 1, 2 or 4
-        power = int(q * k)
-        C = spec_fraction(spec.mid) ** k
-        x = ctx.eps_multiple(C, power)
-        if ctx.bits is not None and ctx.to_fraction(x) != C * Fraction(1, 2**ctx.bits) ** power:
-            raise ValueError(f"{name}: T's coefficient {spec.mid} is not admissible in "
-                             f"this format: its {k}th power {C} must be a dyadic that fits "
-                             f"{ctx.bits} bits (T is computed as root_{k}(C^{k}·ε^{power}))")
-        while k > 1:
-            x, k = ctx.sqrt(x), k // 2
-        out[name] = ctx.name(name, x * L_power(spec.p))
-    return out
+    specs = TABLES[dim] if table is None else table
+    key = (dim, type(ctx), ctx.format) if table is None and type(ctx) in _PLAIN else None
+    roots = _ROOTS.get(key) if key is not None else None
+    if roots is None:
+        roots = {name: _root(name, spec, ctx) for name, spec in specs.items()}
+        if key is not None:
+            _ROOTS[key] = roots
+    return {name: ctx.name(name, roots[name] * L_power(spec.p))
+            for name, spec in specs.items()}
+
+
+def _root(name: str, spec, ctx):
+    """T's coefficient root_k(C^k·ε^(qk)) in ``ctx`` (module docstring): the exact
+    constant, then k = 2: one sqrt, k = 4: two."""
+    q = spec_fraction(spec.q)  # exact data, sympy (the proofs) or not
+    k = q.denominator  # 1, 2 or 4
+    power = int(q * k)
+    C = spec_fraction(spec.mid) ** k
+    x = ctx.eps_multiple(C, power)
+    if ctx.bits is not None and ctx.to_fraction(x) != C * Fraction(1, 2**ctx.bits) ** power:
+        raise ValueError(f"{name}: T's coefficient {spec.mid} is not admissible in "
+                         f"this format: its {k}th power {C} must be a dyadic that fits "
+                         f"{ctx.bits} bits (T is computed as root_{k}(C^{k}·ε^{power}))")
+    while k > 1:
+        x, k = ctx.sqrt(x), k // 2
+    return x
+
+
+#: The coefficients of Figures 1/5 per (dim, plain float context, format): constants
+#: of the table and the format alone — CGAL's static filter constants, in effect — so
+#: a plan computes them once per process (~0.4 ms of Fractions a call), not per L. Only
+#: for the built-in tables and the plain float contexts, whose roots are IEEE sqrt of an
+#: exact constant (the same bits every time); a tracked, mpmath or exact context, or a
+#: user's table, computes them each call (the instrumented run derives R[T] from them).
+_ROOTS: dict = {}
+_PLAIN = (fperr.contexts.FloatContext, fperr.contexts.NumpyContext)
 
 
 def tolerances(dim: int, L_a, L_b, dtype=np.float64, table=None) -> Tolerances:

@@ -267,3 +267,27 @@ def test_unsupported_dimensions_and_missing_tolerances_say_so():
     with pytest.raises(ValueError, match=r"tolerance 'omega' is not in the paper's Figure 1"
                                          r".*near_line.instrumented\("):
         near_line.instrumented()
+
+
+@settings(max_examples=30, deadline=None)
+@given(L_a=st.floats(1e-3, 1e3), L_b=st.floats(0, 1e3), scale=st.floats(0.5, 2))
+def test_the_cached_coefficients_give_every_tolerance_bit_for_bit(L_a, L_b, scale):
+    """The plain float contexts keep Figure 1/5's coefficients per dimension and format
+    (``tolerances._ROOTS``): with them, every tolerance of both dimensions and every
+    float format has the bits and type of a computation from the same table given
+    explicitly (which is never cached), for the L that filled the cache and another."""
+    import sys
+
+    module = sys.modules["predicates.tolerances"]  # (the package's name is the function)
+    module._ROOTS.clear()
+    for a, b in ((L_a, L_b), (L_a * scale, L_b)):
+        for dim in (2, 3):
+            for dtype in (np.float64, np.float32, float):
+                got = predicates.tolerances(dim, a, b, dtype=dtype)
+                fresh = predicates.tolerances(dim, a, b, dtype=dtype, table=TABLES[dim])
+                assert got.L == fresh.L and got.values.keys() == fresh.values.keys()
+                for name, value in fresh.values.items():
+                    assert type(got.values[name]) is type(value)
+                    assert np.asarray(got.values[name]).tobytes() == \
+                        np.asarray(value).tobytes()
+    assert len(module._ROOTS) == 6, "each (dimension, format) keeps its coefficients"
