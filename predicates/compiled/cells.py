@@ -48,9 +48,8 @@ def fill_boxes(points, rows, lo, hi):
     (N, d) and ``rows`` (m, k) as given (no transposed or float64 copy: each coordinate
     is converted on reading, exactly); one pass over the rows, all axes per row; 3D
     triangles' ids (in range) once a row, unsigned (benchmarks/README.md s19-wplan)."""
-    tri = rows.shape[1] == 3 and points.shape[1] == 3
     for m in range(rows.shape[0]):
-        if tri:
+        if rows.shape[1] == 3 and points.shape[1] == 3:
             i, j, k = np.uint64(rows[m, 0]), np.uint64(rows[m, 1]), np.uint64(rows[m, 2])
             for ax in range(3):
                 x = np.float64(points[i, ax])
@@ -95,8 +94,9 @@ def _key(i0, i1, r, pick, stride):
 
 @njit(**INLINE_OPTIONS)
 def _terms(i0, i1, r, ax, stride):
-    """Axis ``ax``'s two key terms of box r's corners: i0·stride, (i1 + 1)·stride."""
-    return np.int64(i0[r, ax]) * stride[ax], (np.int64(i1[r, ax]) + 1) * stride[ax]
+    """Box r's key terms on ``ax``: i0·stride, (i1 + 1)·stride, unsigned (cells ≥ 0)."""
+    s = np.uint64(stride[ax])
+    return np.uint64(i0[r, ax]) * s, (np.uint64(i1[r, ax]) + np.uint64(1)) * s
 
 
 @njit(**JIT_OPTIONS)
