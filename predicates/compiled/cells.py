@@ -26,17 +26,19 @@ __all__ = ["add_corners", "cell_index", "fill_boxes", "flag_block", "flag_block_
 
 
 @njit(**INLINE_OPTIONS)
+def _fold(a, b, x):
+    """np.minimum(a, x), np.maximum(b, x): a only if a < x or a NaN; `|` and a conditional
+    expression (no short-circuit): a select, no branch to mispredict on random data."""
+    return (a if (a < x) | (a != a) else x), (b if (b > x) | (b != b) else x)
+
+
+@njit(**INLINE_OPTIONS)
 def _box_row(points, rows, m, ax):
     """lo, hi of row m on axis ax: numpy's ``minimum``/``maximum`` fold over the
     vertices (module docstring), each coordinate converted to binary64 exactly."""
-    a = np.float64(points[rows[m, 0], ax])
-    b = a
+    a = b = np.float64(points[rows[m, 0], ax])
     for v in range(1, rows.shape[1]):
-        x = np.float64(points[rows[m, v], ax])
-        # np.minimum(a, x): a only if a < x or a NaN; `|` and a conditional expression
-        # (no short-circuit): a select, no branch to mispredict on random data
-        a = a if (a < x) | (a != a) else x
-        b = b if (b > x) | (b != b) else x
+        a, b = _fold(a, b, np.float64(points[rows[m, v], ax]))
     return a, b
 
 
@@ -44,8 +46,16 @@ def _box_row(points, rows, m, ax):
 def fill_boxes(points, rows, lo, hi):
     """As :func:`predicates.registration.spatial.boxes.fill_boxes`, from the points
     (N, d) and ``rows`` (m, k) as given (no transposed or float64 copy: each coordinate
-    is converted on reading, exactly); one pass over the rows, all axes per row."""
+    is converted on reading, exactly); one pass over the rows, all axes per row; 3D
+    triangles' ids (in range) once a row, unsigned (benchmarks/README.md s19-wplan)."""
     for m in range(rows.shape[0]):
+        if rows.shape[1] == 3 and points.shape[1] == 3:
+            i, j, k = np.uint64(rows[m, 0]), np.uint64(rows[m, 1]), np.uint64(rows[m, 2])
+            for ax in range(3):
+                x = np.float64(points[i, ax])
+                a, b = _fold(x, x, np.float64(points[j, ax]))
+                lo[ax, m], hi[ax, m] = _fold(a, b, np.float64(points[k, ax]))
+            continue
         for ax in range(points.shape[1]):
             lo[ax, m], hi[ax, m] = _box_row(points, rows, m, ax)
 
@@ -84,8 +94,9 @@ def _key(i0, i1, r, pick, stride):
 
 @njit(**INLINE_OPTIONS)
 def _terms(i0, i1, r, ax, stride):
-    """Axis ``ax``'s two key terms of box r's corners: i0·stride, (i1 + 1)·stride."""
-    return np.int64(i0[r, ax]) * stride[ax], (np.int64(i1[r, ax]) + 1) * stride[ax]
+    """Box r's key terms on ``ax``: i0·stride, (i1 + 1)·stride, unsigned (cells ≥ 0)."""
+    s = np.uint64(stride[ax])
+    return np.uint64(i0[r, ax]) * s, (np.uint64(i1[r, ax]) + np.uint64(1)) * s
 
 
 @njit(**JIT_OPTIONS)

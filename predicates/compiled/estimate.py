@@ -45,9 +45,12 @@ def pad_total(lo, hi, h, origin, g):
 @njit(**INLINE_OPTIONS)
 def _keys(lo, hi, r, ax, h, origin, g, stride):
     """Box r's cell count on ``ax`` (a float, as :func:`pad_total` multiplies them) and
-    its range's key terms i0·stride, (i1 + 1)·stride (:func:`_cells`' floats as int64)."""
+    its range's key terms i0·stride, (i1 + 1)·stride (:func:`_cells`' floats as
+    integers), unsigned: origin is the padded boxes' least lo − h, so a ≥ 0 (every
+    rounding monotone) — no wraparound test an add (benchmarks/README.md s19-wplan)."""
     a, b = _cells(lo, hi, r, ax, h, origin, g)
-    return b - a + 1, np.int64(a) * stride[ax], (np.int64(b) + 1) * stride[ax]
+    s = np.uint64(stride[ax])
+    return b - a + 1, np.uint64(a) * s, (np.uint64(b) + np.uint64(1)) * s
 
 
 @njit(**JIT_OPTIONS)
@@ -77,7 +80,7 @@ def _pad_corners3(lo, hi, h, origin, g, stride, diff, v):
     neighbouring cells of a structured mesh) added once, ±run at its 8 corners: the
     same integers, ~1/3 less time on W1's report (benchmarks/README.md, "s17-plan")."""
     total = 0.0
-    p0 = p1 = q0 = q1 = w0 = w1 = -1
+    p0 = p1 = q0 = q1 = w0 = w1 = np.uint64(0)  # (a first box with these keys: run 1)
     run = 0
     for r in range(lo.shape[0]):
         c, x0, x1 = _keys(lo, hi, r, 0, h, origin, g, stride)

@@ -804,7 +804,9 @@ def test_occupied_table_is_the_cumulative_sums():
     from predicates.registration.plan.lean import _occupied, _table
 
     rng = np.random.default_rng(5)
-    for shape, p in (((2, 2, 2), 0.5), ((5, 7, 3), 0.1), ((9, 4, 6), 0.9), ((3, 8, 8), 0.0)):
+    for shape, p in (((2, 2, 2), 0.5), ((5, 7, 3), 0.1), ((9, 4, 6), 0.9), ((3, 8, 8), 0.0),
+                     ((1, 1, 1), 1.0), ((1, 3, 2), 0.5), ((4, 1, 5), 0.5), ((6, 5, 1), 0.5),
+                     ((40, 33, 52), 0.05)):
         cover = (rng.random(shape) < p) * rng.integers(1, 4, size=shape)
         cover = cover.astype(np.int32)
         S = np.empty(shape, np.int32)

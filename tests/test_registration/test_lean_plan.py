@@ -149,6 +149,36 @@ def test_refine_scan_from_the_summary_is_the_scan(longest):
     assert np.array_equal(got.near, ref.near)
 
 
+@pytest.mark.parametrize("size", [0.02, 0.1, 0.16, 0.3, 1.0])
+@pytest.mark.parametrize("accelerate", [False, True])
+def test_refine_with_the_summarys_stats_is_refine_without(size, accelerate):
+    """refine(sim_stats=the summary's) skips the reach boxes and the scan exactly when
+    no cutting box edge exceeds the least simulation box edge (refine_scan.none_longer),
+    and gives the refinement made without the statistics, bit for bit, either way."""
+    from predicates import compiled
+    from predicates.registration.examples import cube_grid
+    from predicates.registration.plan.refine import refine
+
+    if accelerate and not compiled.available():
+        pytest.skip("numba not installed")
+    sp, sc = cube_grid(6)  # box edges 1/6
+    rng = np.random.default_rng(int(size * 100))
+    corner = rng.random((40, 1, 3)) * 0.8
+    cp = (corner + size * rng.random((40, 3, 3))).reshape(-1, 3)
+    cc = np.arange(len(cp)).reshape(-1, 3)
+    cb = CellBoxes(sp, sc, B.Blocks(accelerate=accelerate))
+    stats, cut_box = cb.summary().scan_stats(), boxes_of(cp, cc)
+    lo, hi = boxes_of(sp, sc)
+    assert refine_scan.none_longer(cut_box, stats) == \
+        (box_extent(*cut_box).max() <= box_extent(lo, hi).min())
+    want = refine(cp, cc, lo, hi, accelerate=accelerate)
+    got = refine(cp, cc, cb.lo, cb.hi, sim_stats=stats, accelerate=accelerate, boxes=cut_box)
+    assert (got.rounds > 0) == (size > 0.16) and got.rounds == want.rounds
+    for name in ("points", "cells", "cut_origin", "bary"):
+        a, b = np.asarray(getattr(want, name)), np.asarray(getattr(got, name))
+        assert a.dtype == b.dtype and a.tobytes() == b.tobytes(), name
+
+
 def test_out_of_memory_in_the_plan_is_a_clear_refusal(monkeypatch):
     import predicates
     from predicates.registration import pipeline

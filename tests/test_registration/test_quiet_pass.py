@@ -41,6 +41,33 @@ def test_cell_distances_are_the_brute_force_ones(seed, d, fill):
         assert got[key] == min(int(far), quiet.CAP)
 
 
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2 ** 32 - 1), st.floats(0.0, 0.4))
+def test_compiled_cell_levels_are_the_brute_force_ones(seed, fill):
+    """The compiled sweep's levels (tetsums.quiet_cells, separable passes): 2 when no
+    covered cell is within Chebyshev distance 2, 1 when none is within 1, else 0 —
+    from the brute-force distances, on grids of 1 to 8 cells per axis."""
+    try:
+        from predicates.compiled.tetsums import quiet_cells
+    except ImportError:
+        pytest.skip("numba not installed")
+    from predicates.registration.spatial.gridsums import _stride
+
+    rng = np.random.default_rng(seed)
+    G = rng.integers(1, 9, size=3)
+    m = int(rng.integers(0, 2 + fill * 20))
+    i0 = np.stack([rng.integers(0, g, size=m) for g in G], axis=1).astype(np.int32)
+    i1 = np.minimum(i0 + rng.integers(0, 2, size=(m, 3)), G - 1).astype(np.int32)
+    levels = np.full(int(np.prod(G)), 7, np.uint8)
+    quiet_cells(lean._table(occupancy(i0, i1, G)), G.astype(np.int64), _stride(G), levels)
+    cov = occupancy(i0, i1, G)[:-1, :-1, :-1]
+    occupied = np.argwhere(cov)[:, ::-1]
+    for key in range(int(np.prod(G))):
+        c = np.array(np.unravel_index(key, tuple(G[::-1]))[::-1])
+        far = np.abs(occupied - c).max(axis=1).min() if len(occupied) else 9
+        assert levels[key] == (0 if far <= 1 else 1 if far == 2 else 2)
+
 def _mesh(seed: int, single: bool):
     """Tiny cutting triangles (a grid of cell size 2^-5), tetrahedra of edges 0.2 to 3.5
     cells around them, vertices on and one ulp off grid lines, a few far away."""

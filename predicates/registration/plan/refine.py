@@ -44,7 +44,7 @@ from predicates.registration.spatial.blocks import Blocks
 from predicates.registration.spatial.boxes import box_extent, boxes_of
 from predicates.registration.levels.complex import unique_rows
 from predicates.registration.plan.refine_index import LevelIndex
-from predicates.registration.plan.refine_scan import points_near, scan_cells
+from predicates.registration.plan.refine_scan import none_longer, points_near, scan_cells
 
 __all__ = ["MAX_CELLS", "Refinement", "refine"]
 
@@ -128,10 +128,10 @@ def refine(points: np.ndarray, cells: np.ndarray, sim_lo: np.ndarray, sim_hi: np
     if boxes is None and len(C):
         boxes = boxes_of(P, C, Blocks(accelerate=accelerate))
     sim = _SimScale(sim_lo, sim_hi, *_reach(P, C, boxes, accelerate), sim_stats) \
-        if len(C) else None
+        if len(C) and not none_longer(boxes, sim_stats) else None  # None: no round
     known = np.zeros(0, dtype=np.int64)  # keys of edges already tested (unmarked)
     rounds = 0
-    while len(C) and (rounds or _can_mark(sim)):
+    while sim is not None and (rounds or _can_mark(sim)):
         E, slot_edge = _edges(C, k, accelerate)
         keys = E[:, 0] * (1 << 31) + E[:, 1]
         marked = np.zeros(len(E), dtype=bool)
