@@ -175,7 +175,7 @@ def _root(name: str, spec, ctx):
 
 #: The coefficients of Figures 1/5 per (dim, plain float context, format): constants
 #: of the table and the format alone — CGAL's static filter constants, in effect — so
-#: a plan computes them once per process (~0.4 ms of Fractions a call), not per L. Only
+#: a plan computes them once per process (~0.3 ms of Fractions a call), not per L. Only
 #: for the built-in tables and the plain float contexts, whose roots are IEEE sqrt of an
 #: exact constant (the same bits every time); a tracked, mpmath or exact context, or a
 #: user's table, computes them each call (the instrumented run derives R[T] from them).
