@@ -68,19 +68,22 @@ def test_repeated_boxes_give_the_pairs_of_joining_each_alone(seed, d, pad):
     assert set(pairs) == want and len(pairs) == len(want)
 
 
-def test_a_short_output_counts_every_pair_and_writes_its_prefix():
+@pytest.mark.parametrize("ids", [np.int64, np.int32])
+def test_a_short_output_counts_every_pair_and_writes_its_prefix(ids):
     """Copies past the output's end are counted, not written; what is written is the
-    full join's prefix (grid_join then retries with the count)."""
+    full join's prefix (grid_join then retries with the count). Cell offsets and entry
+    ids int64 or int32 (grid_join's, when they fit): the same join."""
     rng = np.random.default_rng(7)
     lo_a, hi_a = _boxes(rng, 80, 3, runs=True)
     lo_b, hi_b = _boxes(rng, 60, 3, runs=False)
     same = np.all(lo_a[1:] == lo_a[:-1], axis=1) & np.all(hi_a[1:] == hi_a[:-1], axis=1)
     assert same.sum() > 20  # the repeat path runs, also near the output's end
     (ia0, ia1, ib0, ib1), G, cols = _setup(lo_a, hi_a, lo_b, hi_b, 0.05)
-    start = np.zeros(int(np.prod(G)) + 1, dtype=np.int64)
+    start = np.zeros(int(np.prod(G)) + 1, dtype=ids)
     n_entries = int((ib1.astype(np.int64) - ib0 + 1).prod(axis=1).sum())
-    ids, first = np.empty(n_entries, np.int64), np.empty(n_entries, np.uint8)
+    ids, first = np.empty(n_entries, ids), np.empty(n_entries, np.uint8)
     _bucket_b(ib0, ib1, G, start, ids, first)
+    assert start[-1] == n_entries and np.all(np.diff(start) >= 0)
     full = [np.empty(1 << 16, np.int64) for _ in range(2)]
     n, props = _grid_join(ia0, ia1, G, start, ids, first, 0.05, *cols, 1 << 40, *full)
     assert n > 40 and props >= n
@@ -109,3 +112,25 @@ def test_covered_cells_is_the_numpy_sum():
         want = covered(i0, i1)
         assert covered(i0, i1, Blocks(accelerate=True)) == want
         assert want == int((i1.astype(np.int64) - i0 + 1).prod(axis=1).sum())
+
+
+@_SLOW
+@given(seed=st.integers(0, 2 ** 32 - 1), d=st.sampled_from([2, 3]))
+def test_int32_offsets_and_ids_bucket_and_join_as_int64(seed, d):
+    """grid_join's int32 cell offsets and entry ids (when they fit) give the int64
+    arrays' buckets, start bits and pairs, in the same order."""
+    rng = np.random.default_rng(seed)
+    lo_a, hi_a = _boxes(rng, int(rng.integers(1, 60)), d, runs=True)
+    lo_b, hi_b = _boxes(rng, int(rng.integers(1, 40)), d, runs=False)
+    (ia0, ia1, ib0, ib1), G, cols = _setup(lo_a, hi_a, lo_b, hi_b, 0.05)
+    n_entries = int((ib1.astype(np.int64) - ib0 + 1).prod(axis=1).sum())
+    got = []
+    for ids in (np.int64, np.int32):
+        start = np.zeros(int(np.prod(G)) + 1, dtype=ids)
+        entries, first = np.empty(n_entries, ids), np.empty(n_entries, np.uint8)
+        _bucket_b(ib0, ib1, G, start, entries, first)
+        out = [np.empty(1 << 14, np.int64) for _ in range(2)]
+        n, props = _grid_join(ia0, ia1, G, start, entries, first, 0.05, *cols, 1 << 40, *out)
+        got.append((start.tolist(), entries.tolist(), first.tolist(), n, props,
+                    out[0][:n].tolist(), out[1][:n].tolist()))
+    assert got[0] == got[1]
