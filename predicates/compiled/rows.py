@@ -200,12 +200,16 @@ def _by_flags(rows, combos, n, seen, rank, ids, inv):
 
 @njit(**JIT_OPTIONS)
 def _gather(rows, combos, first, out):
+    # row numbers unsigned, divided by a constant for g = 1–4 (a multiply and shifts, not
+    # a 64-bit division a row: W1's gathers ~25 % faster; benchmarks/README.md)
     g = combos.shape[0]
     for u in range(out.shape[0]):
-        r = first[u] // g  # one division, not two (its remainder by a product)
-        p = first[u] - r * g
+        i = np.uint64(first[u])
+        r = (i if g == 1 else i // np.uint64(2) if g == 2 else i // np.uint64(3) if g == 3
+             else i // np.uint64(4) if g == 4 else i // np.uint64(g))
+        p = i - r * np.uint64(g)  # one division, not two (its remainder by a product)
         for c in range(out.shape[1]):
-            out[u, c] = rows[np.uint64(r), combos[p, c]]
+            out[u, c] = rows[r, combos[p, c]]
 
 
 def unique_faces(rows: np.ndarray, combos: np.ndarray, n: int):
@@ -213,11 +217,9 @@ def unique_faces(rows: np.ndarray, combos: np.ndarray, n: int):
     the columns combos[p] of rows[i]: a complex's faces of its simplices) without
     gathering them first: by :func:`_by_first` when the rest of a row packs into an
     int64 and no first id starts more than ``_RUN`` rows (W1's 176 k triangles 6.7 ->
-    3.7 ms hot), pairs of ids by :func:`_pairs_by_first` (W1's 300 k edges 8.0 -> 3.2
-    ms), single ids by flags, else by :func:`_lex_order` on the gathered rows — the
-    same rows and map either way."""
-    rows = np.ascontiguousarray(rows)
-    combos = np.ascontiguousarray(combos, dtype=np.int64)
+    3.7 ms), pairs of ids by :func:`_pairs_by_first` (300 k edges 8.0 -> 3.2 ms), single
+    ids by flags, else by :func:`_lex_order` — the same rows and map either way."""
+    rows, combos = np.ascontiguousarray(rows), np.ascontiguousarray(combos, dtype=np.int64)
     g, w = combos.shape
     m = len(rows) * g
     inv = np.empty(m, dtype=np.int64)
@@ -225,8 +227,7 @@ def unique_faces(rows: np.ndarray, combos: np.ndarray, n: int):
         ids = np.empty(n, dtype=rows.dtype)
         nu = _by_flags(rows, combos, n, np.zeros(n, bool), np.empty(n, np.int64), ids, inv)
         return ids[:nu].reshape(nu, 1).copy(), inv
-    first = np.empty(m, dtype=np.int64)
-    nu = -1
+    first, nu = np.empty(m, dtype=np.int64), -1
     if w == 2:
         ids = np.int32 if max(n, m) < 2 ** 31 else np.int64  # the scatter: fewer pages
         nu = _pairs_by_first(rows, combos, n, np.zeros(n + 1, np.int64), np.empty(m, ids),

@@ -38,6 +38,24 @@ def test_unique_faces_equal_numpy_unique(seed, k, n, m, dtype):
         assert np.array_equal(got_inv, inv.ravel())
 
 
+@settings(deadline=None)
+@given(seed=st.integers(0, 2 ** 32 - 1), g=st.integers(1, 6), w=st.integers(2, 4),
+       n=st.sampled_from([3, 40, 3000]), m=st.integers(0, 200))
+def test_unique_faces_any_number_of_faces_per_row(seed, g, w, n, m):
+    """unique_faces with g = 1–6 combinations per row (the gather's row number split
+    by a constant divisor for 1–4, by g else), columns in any order: np.unique's rows
+    and map of the gathered faces."""
+    rng = np.random.default_rng(seed)
+    rows = rng.integers(0, n, size=(m, 4)).astype(np.int64)
+    rows[rng.random(m) < 0.3] = rows[0] if m else 0
+    combos = np.array([rng.permutation(4)[:w] for _ in range(g)])
+    faces = rows[:, combos].reshape(-1, w)
+    want, inv = np.unique(faces, axis=0, return_inverse=True)
+    got, got_inv = compiled_rows.unique_faces(rows, combos, n)
+    assert got.shape == (len(want), w) and np.array_equal(got, want)
+    assert np.array_equal(got_inv, inv.ravel())
+
+
 def test_unique_faces_takes_both_routes():
     """The insertion route refuses a run longer than _RUN (and then the counting sort
     answers), takes short runs: the test above exercises both."""
