@@ -4,9 +4,11 @@ keys packed from each pair's sorted input ids
 order (:func:`~predicates.registration.levels.complex.distinct_lex_order`'s
 permutation: the rows are distinct, so any exact sort gives it), and the id rows
 gathered in that order. The order: the first key by stable least-significant-digit
-radix passes (a kind's hits: ~5 passes of 11 bits, no comparison sort), then each run
-of equal first keys (one simplex met by a few others) sorted in place by the others
-(benchmarks/README.md, "W1's kinds after the fused kernels").
+radix passes (a kind's hits: ~5 passes of 11 bits, no comparison sort) — over the
+heads of the runs of hits sharing their simulation simplex when they arrive in runs
+(stage 1's order), then expanded — then each run of equal first keys (one simplex met
+by a few others) sorted in place by the others (benchmarks/README.md, "W1's kinds
+after the fused kernels").
 """
 from __future__ import annotations
 
