@@ -1,6 +1,6 @@
 """Sorted unique rows of vertex ids (the simplicial complexes' faces,
-:func:`predicates.registration.levels.complex.unique_rows`) and the registered pairs'
-final order (:func:`~predicates.registration.levels.complex.distinct_lex_order`),
+:func:`predicates.registration.levels.complex.unique_rows`; the registered pairs'
+final order is :mod:`predicates.compiled.hitorder`),
 compiled. The unique rows: one counting pass on the first id (radix n, the number of
 vertices), each row inserted into its first id's run on the rest packed into an int64
 (a complex's runs are a few rows); pairs of ids by a stamp per second id, sorting
@@ -20,8 +20,7 @@ from numba import njit
 
 from .build import INLINE_OPTIONS, JIT_OPTIONS
 
-__all__ = ["any_flagged", "distinct_lex_order", "hits_in_order", "faces_via", "ranked_rows", "unique_faces",
-           "unique_rows", "used_flags"]
+__all__ = ["any_flagged", "faces_via", "ranked_rows", "unique_faces", "unique_rows", "used_flags"]
 
 
 @njit(**JIT_OPTIONS)
@@ -249,136 +248,6 @@ def unique_rows(rows: np.ndarray, n: int):
     (:func:`unique_faces` of the rows themselves)."""
     rows = np.ascontiguousarray(rows)
     return unique_faces(rows, np.arange(rows.shape[1])[None, :], n)
-
-
-@njit(**JIT_OPTIONS)
-def _before(keys, x, y):
-    """Row x's keys 1… lexicographically before row y's."""
-    ux, uy = np.uint64(x), np.uint64(y)  # unsigned: no wraparound test the reads
-    for k in range(1, keys.shape[0]):
-        if keys[k, ux] != keys[k, uy]:
-            return keys[k, ux] < keys[k, uy]
-    return False
-
-
-@njit(**JIT_OPTIONS)
-def _sort_runs(order, keys, ranked, long_runs):
-    """``order`` sorted by keys[0] (``ranked``: keys[0] in that order, read in sequence
-    to find the runs, not through ``order``): every run of equal keys[0] of up to 32
-    rows sorted by keys[1], … in place (insertion); longer runs' (start, end) written
-    to ``long_runs`` for the caller. Returns their number."""
-    n, nl, i = order.shape[0], 0, 0
-    while i < n:
-        j = i + 1
-        while j < n and ranked[np.uint64(j)] == ranked[np.uint64(i)]:  # (unsigned: no
-            j += 1  # wraparound tests, in this loop and the insertion's)
-        if j - i > 32:
-            long_runs[nl, 0] = i
-            long_runs[nl, 1] = j
-            nl += 1
-        else:
-            for u in range(np.uint64(i + 1), np.uint64(j)):
-                x = order[u]
-                v = u
-                while v > np.uint64(i) and _before(keys, x, order[v - np.uint64(1)]):
-                    order[v] = order[v - np.uint64(1)]
-                    v -= np.uint64(1)
-                order[v] = x
-        i = j
-    return nl
-
-
-def distinct_lex_order(keys: list) -> np.ndarray:
-    """:func:`predicates.registration.levels.complex.distinct_lex_order` (the order of
-    np.lexsort with the first key most significant, for distinct rows), compiled: one
-    argsort of the first key, then each run of equal first keys sorted in place by the
-    others — runs of a kind's hits are a few rows (one face met by a few others)."""
-    return _order_of(np.stack(keys))
-
-
-def _order_of(keys: np.ndarray) -> np.ndarray:
-    """:func:`distinct_lex_order` of the keys as rows of a (keys, n) array: short runs
-    compiled, the long ones (a face met by many others) by np.lexsort in place."""
-    order = np.argsort(keys[0])
-    if len(keys) > 1 and len(order) > 1:
-        long_runs = np.empty((len(order) // 33 + 1, 2), dtype=np.int64)
-        ranked = keys[0].take(order)
-        for i, j in long_runs[:_sort_runs(order, keys, ranked, long_runs)].tolist():
-            run = order[i:j]
-            run[:] = run.take(np.lexsort(keys[:0:-1].take(run, axis=1)))
-    return order
-
-
-@njit(**INLINE_OPTIONS)
-def _pack_row(S, ids, r, n, per, keys, k0, q, row):
-    """keys[k0…, q]: the input ids of simplex row r (``ids[S[r]]``), sorted (in the
-    scratch ``row``), packed as
-    :func:`~predicates.registration.levels.complex.packed_keys` packs them. Returns the
-    next key row."""
-    w = S.shape[1]
-    for p in range(w):  # insertion sort of a few ids
-        v = ids[np.uint64(S[r, p])]
-        u = p
-        while u > 0 and row[u - 1] > v:
-            row[u] = row[u - 1]
-            u -= 1
-        row[u] = v
-    k = k0
-    start = 0
-    while start < w:  # not range(0, w, per): its trip count divides by per, per row
-        stop = min(w, start + per)  # (W1's triangle_edge keys 5.9 -> 2.4 ms)
-        key = row[start]
-        for col in range(start + 1, stop):
-            key = key * n + row[col]
-        keys[k, np.uint64(q)] = key
-        k += 1
-        start = stop
-    return k
-
-
-@njit(**JIT_OPTIONS)
-def _hit_keys(S1, ids1, s, n1, per1, S2, ids2, c, n2, per2, keys):
-    row = np.empty(S1.shape[1] + S2.shape[1], dtype=np.int64)
-    for q in range(s.shape[0]):
-        k = _pack_row(S1, ids1, np.uint64(s[q]), n1, per1, keys, 0, q, row)
-        _pack_row(S2, ids2, np.uint64(c[q]), n2, per2, keys, k, q, row)
-
-
-@njit(**JIT_OPTIONS)
-def _ids_in_order(S, ids, s, order, out):
-    for q in range(order.shape[0]):
-        r = np.uint64(s[np.uint64(order[q])])  # unsigned: no wraparound test a gather
-        for p in range(S.shape[1]):
-            out[q, p] = ids[np.uint64(S[r, p])]
-
-
-def _per_key(n: int, w: int) -> int:
-    """Columns per int64 key (complex.packed_keys' rule: n^per < 2^62)."""
-    per = 1
-    while per < w and n ** (per + 1) < 2 ** 62:
-        per += 1
-    return per
-
-
-def hits_in_order(first: tuple, second: tuple) -> tuple:
-    """A kind's registered pairs in their final order (loop._output), compiled: per
-    side ``(S, ids, s, n)`` (the simplices' rank rows, rank -> input id, the pairs'
-    simplices, the input id bound). Returns (order, the first side's input id rows,
-    the second's) in that order — the keys of packed_keys(sorted rows) and
-    :func:`distinct_lex_order`'s permutation, without the unordered id rows, their
-    sorted copies or the key list (a large kind's hits: ~4x their size in fresh
-    memory less)."""
-    (S1, ids1, s, n1), (S2, ids2, c, n2) = first, second
-    per1, per2 = _per_key(n1, S1.shape[1]), _per_key(n2, S2.shape[1])
-    nk = -(-S1.shape[1] // per1) - (-S2.shape[1] // per2)
-    keys = np.empty((nk, len(s)), dtype=np.int64)
-    _hit_keys(S1, ids1, s, np.int64(n1), per1, S2, ids2, c, np.int64(n2), per2, keys)
-    order = _order_of(keys)
-    out1 = np.empty((len(s), S1.shape[1]), dtype=np.int64)
-    out2 = np.empty((len(s), S2.shape[1]), dtype=np.int64)
-    _ids_in_order(S1, ids1, s, order, out1)
-    _ids_in_order(S2, ids2, c, order, out2)
-    return order, out1, out2
 
 
 @njit(**JIT_OPTIONS)

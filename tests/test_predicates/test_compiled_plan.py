@@ -116,7 +116,7 @@ def test_distinct_order_is_lexsort(data, widths, n, long_runs):
     once): sorted_rows is np.sort per row, and distinct_lex_order — numpy's and the
     compiled one (short runs by insertion, runs over 32 rows by stable passes) — is
     np.lexsort's permutation over the 2 + i + j sorted id columns."""
-    from predicates.compiled.rows import distinct_lex_order as compiled_order
+    from predicates.compiled.hitorder import distinct_lex_order as compiled_order
     from predicates.registration.levels.complex import (
         distinct_lex_order, packed_keys, sorted_rows)
 
@@ -550,7 +550,7 @@ def test_hits_in_order_is_the_numpy_output(data, widths, n):
     """loop._output compiled (rows.hits_in_order: keys packed from each simplex's input
     ids, order, id rows gathered in order) is the numpy path's: ids through the rank
     map, sorted_rows, packed_keys, distinct_lex_order, take."""
-    from predicates.compiled.rows import hits_in_order
+    from predicates.compiled.hitorder import hits_in_order
     from predicates.registration.levels.complex import (
         distinct_lex_order, packed_keys, sorted_rows)
 

@@ -304,7 +304,7 @@ class Registration:
             return KindPairs(kind, np.zeros((0, i + 1), np.int64), np.zeros((0, j + 1), np.int64),
                              np.zeros((0, i + 1), self.dtype), np.zeros((0, j + 1), self.dtype))
         if self.accelerate and len(s):  # the same order and ids, compiled
-            from predicates.compiled.rows import hits_in_order
+            from predicates.compiled.hitorder import hits_in_order
 
             sim, cut = self.sim, self.cut
             order, sid, cid = hits_in_order((sim.cx.S[i], sim.order, s, sim.n_input),
