@@ -235,7 +235,8 @@ def unique_faces(rows: np.ndarray, combos: np.ndarray, n: int):
         key, idx = np.empty(m, np.int64), np.empty(m, np.int64)
         nu = _by_first(rows, combos, n, np.zeros(n + 1, np.int64), key, idx, first, inv)
     if nu < 0:
-        flat = rows[:, combos].reshape(m, w) if g > 1 or w < rows.shape[1] else rows
+        same = g == 1 and np.array_equal(combos[0], np.arange(rows.shape[1]))  # the rows
+        flat = rows if same else rows[:, combos].reshape(m, w)
         nu = _mark(flat, _lex_order(flat, n), first, inv)
     out = np.empty((nu, w), dtype=rows.dtype)
     _gather(rows, combos, first, out)
