@@ -547,7 +547,7 @@ def test_the_run_cells_are_gathered_once():
 @given(data=st.data(), widths=st.tuples(st.integers(1, 4), st.integers(1, 4)),
        n=st.sampled_from([41, 1000, 2 ** 20 + 1, 2 ** 40]))
 def test_hits_in_order_is_the_numpy_output(data, widths, n):
-    """loop._output compiled (rows.hits_in_order: keys packed from each simplex's input
+    """loop._output compiled (hitorder.hits_in_order: keys packed from each simplex's input
     ids, order, id rows gathered in order) is the numpy path's: ids through the rank
     map, sorted_rows, packed_keys, distinct_lex_order, take."""
     from predicates.compiled.hitorder import hits_in_order
