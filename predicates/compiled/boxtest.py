@@ -19,8 +19,8 @@ from numba import njit
 from .buffers import buffer
 from .build import INLINE_OPTIONS, JIT_OPTIONS
 
-__all__ = ["boxes", "join", "kept_ids", "owned_lists", "owned_lists_of", "owned_pairs",
-           "pair_test"]
+__all__ = ["boxes", "join", "owned_lists", "owned_lists_of", "owned_pairs", "pair_test",
+           "renumbered"]
 
 
 @njit(**INLINE_OPTIONS)
@@ -204,9 +204,26 @@ def join(sa, ca, sb, q_cell, masks, gbox_a, gbox_b, pad: float, cols: tuple):
 
 
 @njit(**JIT_OPTIONS)
-def _kept_ids(ids, keep, new):
-    """keep[x] for every x in ``ids``; then ``ids`` rewritten in place as the positions
-    of their values among the kept ones (``new``: scratch of len(keep))."""
+def _renumbered_ascending(ids, keep, out):
+    """When ``ids`` ascend: keep[x] for every value x, out[q] the number of distinct
+    values before ids[q] (its rank among the kept ones) — one pass, no table; returns
+    False at the first descent (keep then partly written)."""
+    count, prev = -1, -1  # ids ≥ 0
+    for q in range(ids.shape[0]):
+        x = ids[q]
+        if x != prev:
+            if x < prev:
+                return False
+            keep[np.uint64(x)] = True  # unsigned: no wraparound test a scatter
+            count, prev = count + 1, x
+        out[q] = count
+    return True
+
+
+@njit(**JIT_OPTIONS)
+def _renumbered(ids, keep, new, out):
+    """keep[x] for every x in ``ids``; then out[q] the position of ids[q]'s value among
+    the kept ones (``new``: scratch of len(keep))."""
     for q in range(ids.shape[0]):
         keep[np.uint64(ids[q])] = True  # unsigned: no wraparound test a scatter
     count = 0
@@ -214,14 +231,18 @@ def _kept_ids(ids, keep, new):
         new[x] = count
         count += keep[x]
     for q in range(ids.shape[0]):
-        ids[q] = new[np.uint64(ids[q])]
+        out[q] = new[np.uint64(ids[q])]
 
 
-def kept_ids(ids: np.ndarray, n: int) -> np.ndarray:
-    """The mask (n,) of the values in ``ids`` (< n), and ``ids`` overwritten with each
-    value's position among the kept ones — ``(np.cumsum(keep) - 1).take(ids)`` without
-    its temporaries or a second array the size of ``ids`` (W4: 4.5 M cell pairs)."""
-    keep = np.zeros(n, dtype=bool)
-    if len(ids):
-        _kept_ids(ids, keep, np.empty(n, dtype=ids.dtype))
-    return keep
+def renumbered(ids: np.ndarray, n: int) -> tuple:
+    """(keep, out): the mask (n,) of the values in ``ids`` (< n) and a fresh array of
+    their length and dtype holding each value's position among the kept ones —
+    ``(keep, (np.cumsum(keep) - 1).take(ids))`` without its temporaries; ascending ids
+    (the cell join's a side) in one pass with no table, and no copy after it (W1's
+    421 k cell pairs: benchmarks/README.md, "W1's broad phase, complexes and stage
+    1")."""
+    keep, out = np.zeros(n, dtype=bool), np.empty_like(ids)
+    if len(ids) and not _renumbered_ascending(ids, keep, out):
+        keep[:] = False
+        _renumbered(ids, keep, np.empty(n, dtype=ids.dtype), out)
+    return keep, out

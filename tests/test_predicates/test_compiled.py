@@ -293,24 +293,32 @@ def test_box_pairs_compiled_join_identical(seed):
 
 
 @pytest.mark.parametrize("dtype", [np.int32, np.int64])
-def test_kept_ids_is_cumsum_take(dtype):
-    """cell_pairs' compiled renumbering (boxtest.kept_ids, in place) gives the mask of
-    the values present and ``(np.cumsum(keep) - 1).take(ids)``: repeats, gaps, values
-    at both ends, no ids at all."""
-    from predicates.compiled.boxtest import kept_ids
+def test_renumbered_is_cumsum_take(dtype):
+    """cell_pairs' compiled renumbering (boxtest.renumbered) gives the mask of the
+    values present and ``(np.cumsum(keep) - 1).take(ids)`` in a fresh array, the ids
+    untouched: repeats, gaps, values at both ends, no ids at all; ascending ids (its
+    one-pass route), and ascending but for the last one (the general route after it)."""
+    from predicates.compiled.boxtest import renumbered
 
     rng = np.random.default_rng(5)
     for n, m in ((1, 3), (50, 400), (10_000, 2_000), (7, 0)):
-        ids = rng.integers(0, n, m).astype(dtype)
-        if m:
-            ids[:2] = 0, n - 1
-        keep = np.zeros(n, dtype=bool)
-        keep[ids] = True
-        want = (np.cumsum(keep) - 1).take(ids)
-        got = ids.copy()
-        assert np.array_equal(kept_ids(got, n), keep)
-        assert got.dtype == dtype and np.array_equal(got, want)
-        assert not m or got.max() == keep.sum() - 1  # the kept ones are dense
+        for order in ("random", "ascending", "last descends"):
+            ids = rng.integers(0, n, m).astype(dtype)
+            if m:
+                ids[:2] = 0, n - 1
+            if order != "random":
+                ids.sort()
+                if order == "last descends" and m > 2 and n > 1:
+                    ids[-1] = ids[-2] - 1 if ids[-2] else 1
+            keep = np.zeros(n, dtype=bool)
+            keep[ids] = True
+            want = (np.cumsum(keep) - 1).take(ids)
+            before = ids.copy()
+            got_keep, got = renumbered(ids, n)
+            assert np.array_equal(got_keep, keep) and np.array_equal(ids, before)
+            assert got.dtype == dtype and np.array_equal(got, want)
+            assert not m or got.max() == keep.sum() - 1  # the kept ones are dense
+
 
 def test_triangle_boxes_identical():
     """3D triangles' boxes, compiled (ids read once a row, unsigned) and by numpy: the same

@@ -52,13 +52,13 @@ def cell_pairs(P_sim, sim_cells, P_cut, cut_cells, pad: float, chunk: int,
     # too): half the memory the levels hold (W4: 4.5 M pairs, 34 MiB saved)
     ids = [np.int32 if len(x) < 2 ** 31 else np.int64 for x in (sim_cells, cut_cells)]
     if accelerate and T.dtype == ids[0] and C.dtype == ids[1]:
-        from predicates.compiled.boxtest import kept_ids
+        from predicates.compiled.boxtest import renumbered
 
-        # the join's arrays renumbered in place (keep, cumsum and take: W4 68 -> 12
-        # ms), then copied to their length as take did: the join's longer arrays
+        # the join's arrays renumbered compiled (keep, cumsum and take: W4 68 -> 12
+        # ms) into arrays of their length, as take did: the join's longer arrays
         # held instead raised W4's serial peak by ~8 MiB (glibc's mmap threshold)
-        keep_s, keep_c = kept_ids(T, len(sim_cells)), kept_ids(C, len(cut_cells))
-        return T.copy(), C.copy(), keep_s, keep_c
+        (keep_s, T), (keep_c, C) = renumbered(T, len(sim_cells)), renumbered(C, len(cut_cells))
+        return T, C, keep_s, keep_c
     keep_s, keep_c = np.zeros(len(sim_cells), bool), np.zeros(len(cut_cells), bool)
     keep_s[T] = True
     keep_c[C] = True
