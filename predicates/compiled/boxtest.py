@@ -6,8 +6,8 @@ The test is :func:`predicates.registration.spatial.broadphase.pair_test`'s, per 
 comparison, so the compiled loop keeps exactly the same pairs (a NaN fails both ways),
 and in the same order (cells in order, then their faces' columns, as ``_owned``
 enumerates them and the numpy test's compaction keeps them) — except stage 1
-(:func:`owned_levels`), which lists a cell's pairs face by face. No temporary the size
-of the proposals: only the kept pairs are written.
+(:func:`predicates.compiled.stage1.owned_levels`), which lists a cell's pairs face by
+face. No temporary the size of the proposals: only the kept pairs are written.
 """
 from __future__ import annotations
 
@@ -19,8 +19,8 @@ from numba import njit
 from .buffers import buffer
 from .build import INLINE_OPTIONS, JIT_OPTIONS
 
-__all__ = ["boxes", "join", "kept_ids", "owned_levels", "owned_lists", "owned_lists_of",
-           "owned_pairs", "pair_test"]
+__all__ = ["boxes", "join", "owned_lists", "owned_lists_of", "owned_pairs", "pair_test",
+           "renumbered"]
 
 
 @njit(**INLINE_OPTIONS)
@@ -89,176 +89,6 @@ def _owned(tab, A, B, faces_of_a, pad, lo_a, hi_a, lo_b, hi_b, out_a, out_b):
     return count
 
 
-_NO_FACES = np.zeros(1, dtype=np.int64)
-
-
-@njit(**INLINE_OPTIONS)
-def _hold_boxes(t, start, faces, P, R, held):
-    """The boxes of the faces cell t owns into ``held`` rows (lo on columns 0–2, hi on
-    3–5) from their vertices R[f] (rows of P) by boxes_of's minimum/maximum fold: exact,
-    the same boxes (up to a zero's sign, which no box test sees), none stored (W4: 1.08
-    M, 52 MB); once per run of cell pairs sharing t (T ascends), then a few cache lines."""
-    for u in range(start[t + np.uint64(1)] - start[t]):  # t unsigned (the caller's)
-        f = np.uint64(faces[start[t] + u])  # unsigned: no wraparound test a gather
-        for ax in range(P.shape[1]):
-            a = b = np.float64(P[np.uint64(R[f, 0]), ax])
-            for v in range(1, R.shape[1]):
-                x = np.float64(P[np.uint64(R[f, v]), ax])
-                a = a if (a < x) | (a != a) else x  # np.minimum: a NaN propagates
-                b = b if (b > x) | (b != b) else x
-            held[u, ax], held[u, 3 + ax] = a, b
-
-
-@njit(**INLINE_OPTIONS)
-def _owned_run(t, C, q0, q1, start, faces, pad, held, run, three, out_f, out_c, n):
-    """Append (f, C[q]) for each face f cell t owns (boxes in ``held``), then each pair
-    q0 ≤ q < q1 of the run sharing t, when f's box is within ``pad`` of cell C[q]'s
-    (``run`` row q − q0: lo on columns 0–2, hi on 3–5; axis 2 only if ``three``):
-    :func:`_near`'s subtractions and comparisons, in its order, written out (a loop
-    over the axes was ~40 % slower). Face by face: the fused kernels then fold each
-    face's box once per run, not once per pair (benchmarks/README.md, "Part 2,
-    eleventh pass")."""
-    e0 = start[t]  # t unsigned (the caller's): no wraparound test
-    for u in range(start[t + np.uint64(1)] - e0):
-        f = faces[e0 + u]
-        a0, a1, a2 = held[u, 0], held[u, 1], held[u, 2]
-        b0, b1, b2 = held[u, 3], held[u, 4], held[u, 5]
-        for q in range(q0, q1):
-            r = np.uint64(q - q0)  # unsigned: no wraparound test an index (W1 -1.1 ms)
-            ok = ((run[r, 0] - b0 <= pad) & (a0 - run[r, 3] <= pad)
-                  & (run[r, 1] - b1 <= pad) & (a1 - run[r, 4] <= pad))
-            if three:
-                ok &= (run[r, 2] - b2 <= pad) & (a2 - run[r, 5] <= pad)
-            # written always, kept when ok: no branch to mispredict (in bounds: n is at
-            # most the tests so far, and the outputs hold one slot per test)
-            un = np.uint64(n)
-            out_f[un] = f
-            out_c[un] = C[np.uint64(q)]
-            n += ok
-    return n
-
-
-@njit(**INLINE_OPTIONS)
-def _widest(start):
-    most = 1
-    for t in range(start.shape[0] - 1):
-        most = max(most, start[t + 1] - start[t])
-    return most
-
-
-@njit(**JIT_OPTIONS)
-def _owned_levels(T, C, lo_c, hi_c, levels, s0, f0, pad0, P0, R0, o0, p0, s1, f1, pad1,
-                  P1, R1, o1, p1, s2, f2, pad2, P2, R2, o2, p2, counts):
-    """Stage 1 of the first ``levels`` (1–3) levels given, per run of cell pairs
-    (T[q], C[q]) sharing T[q]: the faces' boxes computed once into small arrays (W4:
-    the kernel ~25 % faster than reading the face columns per pair), the run's cell
-    boxes copied unless the previous run listed the same cells (:func:`_same_cells`),
-    then :func:`_owned_run` per level."""
-    three = lo_c.shape[0] == 3
-    h0 = np.zeros((_widest(s0), 6))
-    h1 = np.zeros((_widest(s1) if levels > 1 else 1, 6))
-    h2 = np.zeros((_widest(s2) if levels > 2 else 1, 6))
-    n0 = n1 = n2 = 0
-    d = lo_c.shape[0]
-    run = np.empty((64, 6))  # the run's cell boxes, rows read in sequence
-    q0 = r0 = r1 = 0  # [r0, r1): the previous run, whose boxes ``run`` holds
-    while q0 < T.shape[0]:
-        t, q1 = np.uint64(T[q0]), _run_end(T, q0)  # unsigned: no wraparound test
-        if q1 - q0 > run.shape[0]:  # (then longer than the previous run)
-            run = np.empty((2 * (q1 - q0), 6))
-        if not _same_cells(C, r0, r1, q0, q1):
-            for q in range(q0, q1):
-                c = np.uint64(C[q])  # unsigned: no wraparound test a gather
-                for ax in range(d):
-                    run[q - q0, ax], run[q - q0, 3 + ax] = lo_c[ax, c], hi_c[ax, c]
-        r0, r1 = q0, q1
-        _hold_boxes(t, s0, f0, P0, R0, h0)
-        n0 = _owned_run(t, C, q0, q1, s0, f0, pad0, h0, run, three, o0, p0, n0)
-        if levels > 1:
-            _hold_boxes(t, s1, f1, P1, R1, h1)
-            n1 = _owned_run(t, C, q0, q1, s1, f1, pad1, h1, run, three, o1, p1, n1)
-        if levels > 2:
-            _hold_boxes(t, s2, f2, P2, R2, h2)
-            n2 = _owned_run(t, C, q0, q1, s2, f2, pad2, h2, run, three, o2, p2, n2)
-        q0 = q1
-    counts[0], counts[1], counts[2] = n0, n1, n2
-
-
-@njit(**INLINE_OPTIONS)
-def _same_cells(C, p0, p1, q0, q1):
-    """Do the runs [p0, p1) and [q0, q1) list the same cutting cells in the same order?
-    (A structured mesh's cells sharing a box get the same run from the join — W1:
-    36,680 of 44,016 runs — whose boxes are then not copied again.)"""
-    if p1 - p0 != q1 - q0:
-        return False
-    for r in range(q1 - q0):
-        if C[p0 + r] != C[q0 + r]:
-            return False
-    return True
-
-
-@njit(**INLINE_OPTIONS)
-def _run_end(T, q0):
-    """The end of the run of cell pairs sharing T[q0] (T ascends)."""
-    q1 = q0 + 1
-    while q1 < T.shape[0] and T[np.uint64(q1)] == T[np.uint64(q0)]:  # unsigned: no
-        q1 += 1  # wraparound test
-    return q1
-
-
-@njit(**JIT_OPTIONS)
-def _owned_counts(T, levels, s0, s1, s2, out):
-    """out[k] = the faces the cells T[q] own at level k, summed over q (stage 1's most
-    pairs), for the first ``levels`` levels in one pass over the runs of equal T[q]."""
-    q0 = 0
-    while q0 < T.shape[0]:
-        q1 = _run_end(T, q0)
-        t = np.uint64(T[q0])  # unsigned: no wraparound test the look-ups (ids ≥ 0)
-        u = t + np.uint64(1)
-        out[0] += (q1 - q0) * (s0[u] - s0[t])
-        if levels > 1:
-            out[1] += (q1 - q0) * (s1[u] - s1[t])
-        if levels > 2:
-            out[2] += (q1 - q0) * (s2[u] - s2[t])
-        q0 = q1
-
-
-def owned_levels(T: np.ndarray, C: np.ndarray, boxes_c: tuple, levels: list) -> list:
-    """Stage 1 of :mod:`predicates.registration.levels.facepairs` for up to three
-    simulation levels in one pass over the cell pairs (T[q], C[q]): per level
-    ``(start, faces, pad, (P, R))`` (the cells' owned-face lists, the level's reach,
-    the points (N, d) and the faces' vertex ids (n, k), whose boxes it computes), the
-    pairs (f, C[q]) of every face f that T[q] owns whose box is within pad of C[q]'s
-    (``boxes_c``) — the pairs of :func:`owned_pairs` ("a") on the owned table, in
-    another order: per run of pairs sharing T[q], face by face, each face with the
-    run's cells in order (every kind's registered pairs are sorted before they are
-    kept or returned: the same results). Returns [(f, C)] per level."""
-    if not 1 <= len(levels) <= 3 or boxes_c[0].shape[0] not in (2, 3):
-        raise ValueError(f"owned_levels takes 1 to 3 levels in 2 or 3 dimensions, got "
-                         f"{len(levels)} in {boxes_c[0].shape[0]}")
-    args, outs = [], []
-    most = np.zeros(3, dtype=np.int64)  # per level at most these pairs (one pass, no
-    starts = [levels[min(k, len(levels) - 1)][0] for k in range(3)]  # temporaries)
-    _owned_counts(T, len(levels), *starts, most)
-    for k in range(3):  # the slots past len(levels) are never read
-        if k < len(levels):
-            start, faces, pad, (P, R) = levels[k]
-            n = int(most[k])
-        else:  # level 0's points and rows: the same argument types
-            start, faces, pad, (P, R), n = _NO_FACES, _NO_FACES, 0.0, levels[0][3], 0
-        # int32 ids when they fit (every face has one owner: ids < len(faces)): half
-        # the fresh memory of the run's largest arrays (W4: 5.6 M pairs at level 2)
-        ids = np.int32 if len(faces) < 2 ** 31 else np.int64
-        out = (np.empty(max(n, 1), dtype=ids), np.empty(max(n, 1), dtype=C.dtype))
-        outs.append(out)
-        args += [start, faces, float(pad), P, R, *out]
-    counts = np.zeros(3, dtype=np.int64)
-    if len(T):
-        _owned_levels(T, C, *boxes_c, len(levels), *args, counts)
-    # views: the pages past the count were never written (np.empty touches none)
-    return [(f[:m], c[:m]) for (f, c), m in zip(outs[:len(levels)], counts)]
-
-
 _OWNED: dict = {}  # id(owned table) -> (weak reference to it, start, faces)
 
 
@@ -280,9 +110,10 @@ def owned_lists(tab: np.ndarray) -> tuple:
 
 
 @njit(**JIT_OPTIONS)
-def _owned_lists_of(F, owner, start, faces):
+def _owned_lists_of(F, owner, start, faces, cols):
     """owner[g]: the last cell (in row order) holding face g; then each cell's faces
-    it owns, in column order. Returns the number of faces written."""
+    it owns, in column order, and their columns when ``cols`` is not empty. Returns
+    the number of faces written."""
     n, m = F.shape
     for r in range(n):
         for k in range(m):
@@ -292,23 +123,30 @@ def _owned_lists_of(F, owner, start, faces):
         for k in range(m):
             if owner[np.uint64(F[r, k])] == r:
                 faces[count] = F[r, k]
+                if cols.shape[0]:
+                    cols[count] = k
                 count += 1
         start[r + 1] = count
     return count
 
 
-def owned_lists_of(F: np.ndarray, n_faces: int) -> tuple:
+def owned_lists_of(F: np.ndarray, n_faces: int, columns: bool = False) -> tuple:
     """``owned_lists(owned_table(F, n_faces))`` in two compiled passes over ``F``
     (n_cells, m; the face ids of each cell), without the table or its temporaries: the
     same owner (the last cell holding the face in row order, numpy's fancy assignment)
-    and the same lists. Returns (start, faces, the most faces one cell owns)."""
+    and the same lists. Returns (start, faces, the most faces one cell owns), and
+    ``columns``: each listed face's column in ``F`` (uint8, m ≤ 256; stage 1 folds a
+    face's box from its cell's vertices, :mod:`.stage1`)."""
     F = np.ascontiguousarray(F)
+    if columns and F.shape[1] > 256:
+        raise ValueError(f"owned_lists_of lists the columns of at most 256, got {F.shape[1]}")
     owner = np.empty(n_faces, dtype=np.int64)
     start = np.zeros(len(F) + 1, dtype=np.int64)
     faces = np.empty(F.size, dtype=np.int64)  # pages past the count never touched
-    n = _owned_lists_of(F, owner, start, faces) if F.size else 0
+    cols = np.empty(F.size if columns else 0, dtype=np.uint8)
+    n = _owned_lists_of(F, owner, start, faces, cols) if F.size else 0
     widest = int(np.diff(start).max()) if len(F) else 0
-    return start, faces[:n], widest
+    return (start, faces[:n], widest) + ((cols[:n],) if columns else ())
 
 
 def pair_test(pad: float, lo_a, hi_a, lo_b, hi_b, ia: np.ndarray, ib: np.ndarray):
@@ -366,9 +204,26 @@ def join(sa, ca, sb, q_cell, masks, gbox_a, gbox_b, pad: float, cols: tuple):
 
 
 @njit(**JIT_OPTIONS)
-def _kept_ids(ids, keep, new):
-    """keep[x] for every x in ``ids``; then ``ids`` rewritten in place as the positions
-    of their values among the kept ones (``new``: scratch of len(keep))."""
+def _renumbered_ascending(ids, keep, out):
+    """When ``ids`` ascend: keep[x] for every value x, out[q] the number of distinct
+    values before ids[q] (its rank among the kept ones) — one pass, no table; returns
+    False at the first descent (keep then partly written)."""
+    count, prev = -1, -1  # ids ≥ 0
+    for q in range(ids.shape[0]):
+        x = ids[q]
+        if x != prev:
+            if x < prev:
+                return False
+            keep[np.uint64(x)] = True  # unsigned: no wraparound test a scatter
+            count, prev = count + 1, x
+        out[q] = count
+    return True
+
+
+@njit(**JIT_OPTIONS)
+def _renumbered(ids, keep, new, out):
+    """keep[x] for every x in ``ids``; then out[q] the position of ids[q]'s value among
+    the kept ones (``new``: scratch of len(keep))."""
     for q in range(ids.shape[0]):
         keep[np.uint64(ids[q])] = True  # unsigned: no wraparound test a scatter
     count = 0
@@ -376,14 +231,18 @@ def _kept_ids(ids, keep, new):
         new[x] = count
         count += keep[x]
     for q in range(ids.shape[0]):
-        ids[q] = new[np.uint64(ids[q])]
+        out[q] = new[np.uint64(ids[q])]
 
 
-def kept_ids(ids: np.ndarray, n: int) -> np.ndarray:
-    """The mask (n,) of the values in ``ids`` (< n), and ``ids`` overwritten with each
-    value's position among the kept ones — ``(np.cumsum(keep) - 1).take(ids)`` without
-    its temporaries or a second array the size of ``ids`` (W4: 4.5 M cell pairs)."""
-    keep = np.zeros(n, dtype=bool)
-    if len(ids):
-        _kept_ids(ids, keep, np.empty(n, dtype=ids.dtype))
-    return keep
+def renumbered(ids: np.ndarray, n: int) -> tuple:
+    """(keep, out): the mask (n,) of the values in ``ids`` (< n) and a fresh array of
+    their length and dtype holding each value's position among the kept ones —
+    ``(keep, (np.cumsum(keep) - 1).take(ids))`` without its temporaries; ascending ids
+    (the cell join's a side) in one pass with no table, and no copy after it (W1's
+    421 k cell pairs: benchmarks/README.md, "W1's broad phase, complexes and stage
+    1")."""
+    keep, out = np.zeros(n, dtype=bool), np.empty_like(ids)
+    if len(ids) and not _renumbered_ascending(ids, keep, out):
+        keep[:] = False
+        _renumbered(ids, keep, np.empty(n, dtype=ids.dtype), out)
+    return keep, out

@@ -293,24 +293,32 @@ def test_box_pairs_compiled_join_identical(seed):
 
 
 @pytest.mark.parametrize("dtype", [np.int32, np.int64])
-def test_kept_ids_is_cumsum_take(dtype):
-    """cell_pairs' compiled renumbering (boxtest.kept_ids, in place) gives the mask of
-    the values present and ``(np.cumsum(keep) - 1).take(ids)``: repeats, gaps, values
-    at both ends, no ids at all."""
-    from predicates.compiled.boxtest import kept_ids
+def test_renumbered_is_cumsum_take(dtype):
+    """cell_pairs' compiled renumbering (boxtest.renumbered) gives the mask of the
+    values present and ``(np.cumsum(keep) - 1).take(ids)`` in a fresh array, the ids
+    untouched: repeats, gaps, values at both ends, no ids at all; ascending ids (its
+    one-pass route), and ascending but for the last one (the general route after it)."""
+    from predicates.compiled.boxtest import renumbered
 
     rng = np.random.default_rng(5)
     for n, m in ((1, 3), (50, 400), (10_000, 2_000), (7, 0)):
-        ids = rng.integers(0, n, m).astype(dtype)
-        if m:
-            ids[:2] = 0, n - 1
-        keep = np.zeros(n, dtype=bool)
-        keep[ids] = True
-        want = (np.cumsum(keep) - 1).take(ids)
-        got = ids.copy()
-        assert np.array_equal(kept_ids(got, n), keep)
-        assert got.dtype == dtype and np.array_equal(got, want)
-        assert not m or got.max() == keep.sum() - 1  # the kept ones are dense
+        for order in ("random", "ascending", "last descends"):
+            ids = rng.integers(0, n, m).astype(dtype)
+            if m:
+                ids[:2] = 0, n - 1
+            if order != "random":
+                ids.sort()
+                if order == "last descends" and m > 2 and n > 1:
+                    ids[-1] = ids[-2] - 1 if ids[-2] else 1
+            keep = np.zeros(n, dtype=bool)
+            keep[ids] = True
+            want = (np.cumsum(keep) - 1).take(ids)
+            before = ids.copy()
+            got_keep, got = renumbered(ids, n)
+            assert np.array_equal(got_keep, keep) and np.array_equal(ids, before)
+            assert got.dtype == dtype and np.array_equal(got, want)
+            assert not m or got.max() == keep.sum() - 1  # the kept ones are dense
+
 
 def test_triangle_boxes_identical():
     """3D triangles' boxes, compiled (ids read once a row, unsigned) and by numpy: the same
@@ -460,14 +468,17 @@ def _runs_like_the_join(rng):
 @pytest.mark.parametrize("runs", ["random", "repeated"])
 @pytest.mark.parametrize("seed", [0, 1, 2])
 @pytest.mark.parametrize("d", [2, 3])
-def test_stage1_boxes_from_vertices_keep_the_stored_boxes_pairs(seed, d, runs):
-    """Stage 1 (boxtest.owned_levels) computes the faces' boxes from their vertices: on
-    points with ties, signed zeros and a NaN, its pairs are exactly those of the numpy
-    owned-table expansion and box test on boxes_of's stored boxes, level by level (in
-    its order: per run of pairs sharing a cell, face by face, each with the run's
-    cutting cells in order), in 2D and 3D; also when runs repeat the previous run's
-    cutting cells (whose copied boxes it reuses)."""
-    from predicates.compiled.boxtest import owned_levels, owned_lists_of
+def test_stage1_boxes_from_the_cells_keep_the_stored_boxes_pairs(seed, d, runs):
+    """Stage 1 (stage1.owned_levels) folds each face's box from its cell's vertices at
+    the face's column: on points with ties, signed zeros and NaNs, its pairs are
+    exactly those of the numpy owned-table expansion and box test on boxes_of's stored
+    boxes of the complex's faces, level by level (in its order: per run of pairs
+    sharing a cell, face by face, each with the run's cutting cells in order), in 2D
+    and 3D; also when runs repeat the previous run's cutting cells (whose copied boxes
+    it reuses)."""
+    from predicates.compiled.boxtest import owned_lists_of
+    from predicates.compiled.stage1 import owned_levels
+    from predicates.registration.levels.complex import Complex
     from predicates.registration.levels.facepairs import _owned, owned_table
     from predicates.registration.spatial.boxes import boxes_of
     from predicates.registration.spatial.broadphase import pair_test
@@ -475,28 +486,46 @@ def test_stage1_boxes_from_vertices_keep_the_stored_boxes_pairs(seed, d, runs):
     rng = np.random.default_rng(seed)
     P = rng.integers(-2, 3, size=(30, d)) * 0.5  # coarse: equal coordinates, touching
     P[rng.random(P.shape) < 0.2] = -0.0
-    P[7, 1] = np.nan
+    P[7, 1] = P[12, 0] = np.nan
+    cx = Complex(np.array([rng.choice(30, d + 1, replace=False) for _ in range(40)]), 30)
+    cells = cx.S[d]
+    assert len(cells) >= 20
     lo_c = rng.integers(-3, 3, size=(d, 25)) * 0.5
     boxes_c = (lo_c, lo_c + rng.integers(0, 3, size=(d, 25)) * 0.5)
-    T = np.sort(rng.integers(0, 20, 200))
+    T = np.sort(rng.integers(0, len(cells), 200))
     C = rng.integers(0, 25, 200)
     if runs == "repeated":
         T, C = _runs_like_the_join(rng)
     spec, want = [], []
-    for k, pad in zip((1, 2, 3), (0.0, 0.25, 0.5)):  # vertices, edges, triangles
-        R = rng.integers(0, 30, size=(50, k))
-        F = rng.integers(0, 50, size=(20, 4))
-        spec.append(owned_lists_of(F, 50)[:2] + (pad, (P, R)))
+    for i, pad in zip(range(d), (0.0, 0.25, 0.5)):  # vertices, edges (, triangles)
+        F, R = cx.face(d, i), cx.S[i]
+        start, faces, _, cols = owned_lists_of(F, len(R), columns=True)
+        spec.append((i, start, faces, cols, pad))
         lo, hi = boxes_of(P, R)
-        f, rows = _owned(owned_table(F, 50), T)
+        f, rows = _owned(owned_table(F, len(R)), T)
         keep = pair_test(pad, lo.T, hi.T, *boxes_c, f, C.take(rows))
         # the numpy order is (pair, face column); owned_levels' (run of T, face
-        # column, pair) — T ascends (a random row may hold a face twice: both kept)
-        tab = owned_table(F, 50).take(T, axis=0)
+        # column, pair) — T ascends
+        tab = owned_table(F, len(R)).take(T, axis=0)
         col = np.flatnonzero(tab >= 0) % tab.shape[1]
         by_run = np.lexsort((rows[keep], col[keep], T.take(rows)[keep]))
         want.append((f[keep][by_run], C.take(rows)[keep][by_run]))
-    got = owned_levels(T, C, boxes_c, spec)
-    assert sum(len(f) for f, _ in want) > 0
+    got = owned_levels(T, C, boxes_c, P, cells, spec)
+    assert len(got) == d and sum(len(f) for f, _ in want) > 0
     for (f, c), (wf, wc) in zip(got, want):
         assert f.tolist() == wf.tolist() and c.tolist() == wc.tolist()
+
+
+def test_owned_lists_columns_are_the_faces_columns():
+    """owned_lists_of's ``columns``: each listed face is its cell's entry at that
+    column of the face map (what stage 1 folds its box from), the lists unchanged."""
+    from predicates.compiled.boxtest import owned_lists_of
+
+    rng = np.random.default_rng(3)
+    F = rng.integers(0, 40, size=(60, 6))
+    start, faces, widest, cols = owned_lists_of(F, 40, columns=True)
+    assert cols.dtype == np.uint8 and len(cols) == len(faces)
+    assert all(np.array_equal(a, b) for a, b in zip(owned_lists_of(F, 40), (start, faces)))
+    cell = np.repeat(np.arange(len(F)), np.diff(start))
+    assert np.array_equal(F[cell, cols], faces)
+    assert len(owned_lists_of(F[:0], 40, columns=True)[3]) == 0

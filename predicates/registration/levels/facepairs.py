@@ -52,13 +52,13 @@ def cell_pairs(P_sim, sim_cells, P_cut, cut_cells, pad: float, chunk: int,
     # too): half the memory the levels hold (W4: 4.5 M pairs, 34 MiB saved)
     ids = [np.int32 if len(x) < 2 ** 31 else np.int64 for x in (sim_cells, cut_cells)]
     if accelerate and T.dtype == ids[0] and C.dtype == ids[1]:
-        from predicates.compiled.boxtest import kept_ids
+        from predicates.compiled.boxtest import renumbered
 
-        # the join's arrays renumbered in place (keep, cumsum and take: W4 68 -> 12
-        # ms), then copied to their length as take did: the join's longer arrays
+        # the join's arrays renumbered compiled (keep, cumsum and take: W4 68 -> 12
+        # ms) into arrays of their length, as take did: the join's longer arrays
         # held instead raised W4's serial peak by ~8 MiB (glibc's mmap threshold)
-        keep_s, keep_c = kept_ids(T, len(sim_cells)), kept_ids(C, len(cut_cells))
-        return T.copy(), C.copy(), keep_s, keep_c
+        (keep_s, T), (keep_c, C) = renumbered(T, len(sim_cells)), renumbered(C, len(cut_cells))
+        return T, C, keep_s, keep_c
     keep_s, keep_c = np.zeros(len(sim_cells), bool), np.zeros(len(cut_cells), bool)
     keep_s[T] = True
     keep_c[C] = True
@@ -202,16 +202,17 @@ class FacePairs:
             self._tables[side, k] = owned_table(s.cx.face(s.cx.top, k), s.count(k))
         return self._tables[side, k]
 
-    def _lists(self, side, k):
+    def _lists(self, side, k, columns: bool = False):
         """The compiled kernels' form of :meth:`_table`: (start, faces, widest)
-        (:func:`predicates.compiled.boxtest.owned_lists_of`, the same owners)."""
-        if (side, k, "lists") not in self._tables:
+        (:func:`predicates.compiled.boxtest.owned_lists_of`, the same owners); with
+        ``columns`` also each face's column in the face map (stage 1's)."""
+        if (side, k, "lists", columns) not in self._tables:
             from predicates.compiled.boxtest import owned_lists_of
 
             s = self.sim if side == "sim" else self.cut
-            self._tables[side, k, "lists"] = owned_lists_of(s.cx.face(s.cx.top, k),
-                                                            s.count(k))
-        return self._tables[side, k, "lists"]
+            self._tables[side, k, "lists", columns] = owned_lists_of(
+                s.cx.face(s.cx.top, k), s.count(k), columns)
+        return self._tables[side, k, "lists", columns]
 
     def _test(self, pad, i, j_box, f, g):
         """(f, g) pairs kept by the box test at ``pad``: simulation i-faces ``f`` against
@@ -256,17 +257,20 @@ class FacePairs:
 
     def _first_levels(self, levels: list) -> dict:
         """Stage 1 of the simulation ``levels`` in one compiled pass over the cell pairs
-        (:func:`predicates.compiled.boxtest.owned_levels`: the same pairs as the blocks
+        (:func:`predicates.compiled.stage1.owned_levels`: the same pairs as the blocks
         of :meth:`_first`, no concatenation; face by face per cell, so the fused kernels
         fold each face's box once per run of its pairs): {level: (f, C)}."""
-        from predicates.compiled.boxtest import owned_levels
+        from predicates.compiled.stage1 import owned_levels
 
-        # the faces' vertex ids, not their boxes: the kernel computes each box (the
-        # same values, min and max exact; W4: 1.08 M boxes, 52 MB never built)
-        spec = [self._lists("sim", i)[:2] + (self._level_reach[i],
-                                              (self.sim.P, self.sim.cx.S[i]))
-                for i in levels]
-        got = owned_levels(self.T, self.C, self._box("cut", self.top_c), spec)
+        # the faces' owned lists and columns, not their boxes: the kernel folds each
+        # box from its cell's vertices (the same values, min and max exact; W4: 1.08 M
+        # boxes, 52 MB never built)
+        spec = []
+        for i in levels:
+            start, faces, _, cols = self._lists("sim", i, True)
+            spec.append((i, start, faces, cols, self._level_reach[i]))
+        got = owned_levels(self.T, self.C, self._box("cut", self.top_c), self.sim.P,
+                           self.sim.cx.S[self.top_s], spec)
         return {level: ([f], [C]) for level, (f, C) in zip(levels, got)}
 
     def blocks(self, kind: str, i: int, j: int, lists: bool = False):
