@@ -38,6 +38,11 @@ __all__ = ["LANES", "chain_lines", "fused_lines"]
 #: Candidates per predicate loop of the fused kernels (module docstring): W1's
 #: triangle_edge kernels 35.6 → 25.3 ms at 256 lanes, 26 ms at 64, 52 ms at 1024.
 LANES = 256
+#: The lane buffers' row length: LANES + 8, an odd number of cache lines, so that a
+#: lane's slots (one per row) fall in distinct sets of the L1 cache (2 KiB rows put a
+#: lane's 15 slots in 2 sets of Zen 3's 8-way L1: W1's triangle_edge kernels 17.6 →
+#: 16.5 ms; benchmarks/README.md, "W1's fused kernels and kinds (s21-kinds)").
+STRIDE = LANES + 8
 
 def gather(var: str, rows: str, points: str, first: int, count: int, dim: int,
            into: str = "x{k}") -> list[str]:
@@ -158,8 +163,8 @@ def fused_lines(prog: Program, n1: int, dt: str, opts: str, inline: str) -> list
             "             flag_s, flag_c, use_flags, swapped, P1, R1, P2, R2, tol, out_s,",
             "             out_c, out_w, maybe_s, maybe_c, counts):",
             f'    """{prog.name}: stage-1 pairs (F[q], Cs[q]) to registered pairs."""',
-            f"    X = np.empty(({prog.n_points * prog.dim}, {LANES}), dtype=np.{dt})",
-            f"    W = np.empty(({nw}, {LANES}), dtype=np.{dt})",
+            f"    X = np.empty(({prog.n_points * prog.dim}, {STRIDE}), dtype=np.{dt})",
+            f"    W = np.empty(({nw}, {STRIDE}), dtype=np.{dt})",
             f"    ok = np.empty({LANES}, dtype=np.bool_)",
             f"    lf = np.empty({LANES}, dtype=np.int64)  # the lanes' pairs (f, g)",
             f"    lg = np.empty({LANES}, dtype=np.int64)",
