@@ -88,6 +88,7 @@ class Registration:
         self.later = None  # the kinds still to come (i, j), set by run(); None: all
         self.sim_involved = {}  # i -> bool per sim i-simplex: in some registered pair
         self.cut_involved = {}
+        self.box_rows = {}  # j -> the cutting j-simplices' boxes as rows (fused chain)
         self.empty = True
 
     # -- broad phase ------------------------------------------------------------------
@@ -216,6 +217,7 @@ class Registration:
             # the complexes, boxes and registered keys: not held past the run
             self.faces = self.sim = self.cut = None
             self.registered, self.sim_involved, self.cut_involved = {}, {}, {}
+            self.box_rows = {}
         return pairs
 
     def _level(self, k) -> KindPairs:
@@ -252,11 +254,16 @@ class Registration:
         appends the registered pairs to the lists ``out`` (s, c, sim and cut weights);
         the pairs the suppression pre-filter flags are looked up exactly here, the
         others evaluated. Returns (candidates, suppressed), as the numpy path counts."""
-        from predicates.compiled.chain import fused
+        from predicates.compiled.chain import box_rows, fused
 
         suspects = self._suspects(k.i, k.j)
         flags = None if suspects is None else suspects[1:]
-        boxes = self.faces.boxes(k.i, k.j)
+        P, R, lo, hi = self.faces.boxes(k.i, k.j)
+        if k.j not in self.box_rows:  # once per cutting level, while a kind reads it
+            self.box_rows[k.j] = box_rows(lo, hi)
+        boxes = P, R, self.box_rows[k.j]
+        if self.later is not None and not any(j == k.j for _, j in self.later):
+            del self.box_rows[k.j]
         ncand = nsup = 0
         for f, C, owned, pad in self.faces.blocks(k.name, k.i, k.j, lists=True):
             n, hits, (ms, mc) = fused(k, self.sim, self.cut, f, C, owned, pad, boxes, flags,
