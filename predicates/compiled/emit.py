@@ -25,7 +25,10 @@ F[lo_b − hi_a] ≤ pad and F[lo_a − hi_b] ≤ pad per axis, a NaN failing, w
 computed from its vertices (min and max exact: the same box) once per run of stage-1
 pairs sharing f, and only for a cell C that owns a j-face (benchmarks/README.md, "Part
 2, eighth pass"); f's coordinates read for its box fill its candidates' lanes (no
-second gather; stage 1 lists a cell's pairs face by face, so the runs are long).
+second gather; stage 1 lists a cell's pairs face by face, so the runs are long). The
+cutting faces' boxes come as rows B[g] = (lo, hi) (:func:`predicates.compiled.chain.box_rows`):
+one or two cache lines a test instead of 2d rows (benchmarks/README.md, "W1's fused
+kernels and kinds (s21-kinds)").
 """
 from __future__ import annotations
 
@@ -38,6 +41,11 @@ __all__ = ["LANES", "chain_lines", "fused_lines"]
 #: Candidates per predicate loop of the fused kernels (module docstring): W1's
 #: triangle_edge kernels 35.6 → 25.3 ms at 256 lanes, 26 ms at 64, 52 ms at 1024.
 LANES = 256
+#: The lane buffers' row length: LANES + 8, an odd number of cache lines, so that a
+#: lane's slots (one per row) fall in distinct sets of the L1 cache (2 KiB rows put a
+#: lane's 15 slots in 2 sets of Zen 3's 8-way L1: W1's triangle_edge kernels 17.6 →
+#: 16.5 ms; benchmarks/README.md, "W1's fused kernels and kinds (s21-kinds)").
+STRIDE = LANES + 8
 
 def gather(var: str, rows: str, points: str, first: int, count: int, dim: int,
            into: str = "x{k}") -> list[str]:
@@ -145,7 +153,7 @@ def _flush_lines(prog: Program, dt: str, inline: str) -> list[str]:
 
 
 def fused_lines(prog: Program, n1: int, dt: str, opts: str, inline: str) -> list[str]:
-    """``fused_<dt>(F, Cs, start, owned, has_tab, pad, Ps, Rs, lo_b, hi_b, flags, use_flags, swapped,
+    """``fused_<dt>(F, Cs, start, owned, has_tab, pad, Ps, Rs, B, flags, use_flags, swapped,
     P1, R1, P2, R2, tol, out_s, out_c, out_w, maybe_s, maybe_c, counts)`` (module
     docstring), after its helpers ``lanes_<dt>`` and ``flush_<dt>`` (compiled with
     ``inline``: in numba's IR of the kernel): cell C's owned j-faces are
@@ -154,12 +162,12 @@ def fused_lines(prog: Program, n1: int, dt: str, opts: str, inline: str) -> list
     suppression look-up)."""
     nw = max(1, len(prog.weights))
     head = [f"@njit(**{opts})",
-            f"def fused_{dt}(F, Cs, start, owned, has_tab, pad, Ps, Rs, lo_b, hi_b,",
+            f"def fused_{dt}(F, Cs, start, owned, has_tab, pad, Ps, Rs, B,",
             "             flag_s, flag_c, use_flags, swapped, P1, R1, P2, R2, tol, out_s,",
             "             out_c, out_w, maybe_s, maybe_c, counts):",
             f'    """{prog.name}: stage-1 pairs (F[q], Cs[q]) to registered pairs."""',
-            f"    X = np.empty(({prog.n_points * prog.dim}, {LANES}), dtype=np.{dt})",
-            f"    W = np.empty(({nw}, {LANES}), dtype=np.{dt})",
+            f"    X = np.empty(({prog.n_points * prog.dim}, {STRIDE}), dtype=np.{dt})",
+            f"    W = np.empty(({nw}, {STRIDE}), dtype=np.{dt})",
             f"    ok = np.empty({LANES}, dtype=np.bool_)",
             f"    lf = np.empty({LANES}, dtype=np.int64)  # the lanes' pairs (f, g)",
             f"    lg = np.empty({LANES}, dtype=np.int64)",
@@ -191,7 +199,7 @@ def fused_lines(prog: Program, n1: int, dt: str, opts: str, inline: str) -> list
         head += ["            if swapped:"] + ["                " + b for b in _sim_box(n2, prog.dim)]
         head += ["            else:"] + ["                " + b for b in _sim_box(n1, prog.dim)]
     head += ["        for e in range(np.uint64(e0), np.uint64(e1)):  # unsigned: owned[e]"]
-    test = " and ".join(f"lo_b[{a}, ug] - fh{a} <= pad and fl{a} - hi_b[{a}, ug] <= pad"
+    test = " and ".join(f"B[ug, {a}] - fh{a} <= pad and fl{a} - B[ug, {prog.dim + a}] <= pad"
                         for a in range(prog.dim))
     inner = ["g = owned[e] if has_tab else c",
              "ug = np.uint64(g)  # unsigned: no wraparound test a gather (ids in range)",

@@ -95,9 +95,10 @@ def _fused_hits(pred, sides, tol, dtype, times):
     n = len(F)
     out_s, out_c, maybe_s, maybe_c = (np.empty(n, np.int64) for _ in range(4))
     out_w = np.empty((n, max(1, len(pred.weight_names))), dtype)
-    counts, box, no = np.zeros(3, np.int64), np.zeros((pred.dim, len(R2))), np.zeros(1, bool)
+    counts, no = np.zeros(3, np.int64), np.zeros(1, bool)
+    box = np.zeros((len(R2), 2 * pred.dim))  # the cutting faces' boxes as rows
     run(F, C, np.zeros(2, np.int64), np.zeros(2, np.int64), False, np.inf, P1, R1, box,
-        box, no, no, False, False, P1, R1, P2, R2, tv, out_s, out_c, out_w, maybe_s,
+        no, no, False, False, P1, R1, P2, R2, tv, out_s, out_c, out_w, maybe_s,
         maybe_c, counts)
     assert counts[0] == n and counts[2] == 0
     return out_s[:counts[1]], out_w[:counts[1], :len(pred.weight_names)]
@@ -161,8 +162,8 @@ def test_no_fma_no_fast_math(pred):
         # the fused chain too, with its box test written out in it (emit.fused_lines)
         fu = ns[f"fused_{np.dtype(dt).name}"]
         one, no, w = np.zeros(1, np.int64), np.zeros(1, bool), len(pred.weight_names)
-        box = np.zeros((d, 1))
-        fu(one, one, np.zeros(2, np.int64), one, False, 0.0, P, R1, box, box, no, no,
+        box = np.zeros((1, 2 * d))  # the cutting faces' boxes as rows
+        fu(one, one, np.zeros(2, np.int64), one, False, 0.0, P, R1, box, no, no,
            False, False, P, R1, P, R2, np.zeros(8, dt), one, one,
            np.zeros((1, max(1, w)), dt), one, one, np.zeros(3, np.int64))
         for f in (fn, fu):

@@ -88,6 +88,7 @@ class Registration:
         self.later = None  # the kinds still to come (i, j), set by run(); None: all
         self.sim_involved = {}  # i -> bool per sim i-simplex: in some registered pair
         self.cut_involved = {}
+        self.box_rows = {}  # j -> the cutting j-simplices' boxes as rows (fused chain)
         self.empty = True
 
     # -- broad phase ------------------------------------------------------------------
@@ -151,25 +152,25 @@ class Registration:
             flag_c |= _any_face(self.cut.cx, j, b, self.cut_involved[b], fast)
         return lower, flag_s, flag_c
 
-    def _blocked(self, i, j, s, c, suspects):
+    def _blocked(self, i, j, s, c, suspects, flagged: bool = False):
         """Per candidate (s, c): is a pair of its sub-simplices (the pair itself
-        excluded) registered? ``suspects`` from :meth:`_suspects`."""
+        excluded) registered? ``suspects`` from :meth:`_suspects`; ``flagged``: every
+        pair has both flags set (the fused kernels' pairs left to the look-up), so
+        no pre-filter."""
         blocked = np.zeros(len(s), dtype=bool)
         if suspects is None:
             return blocked
         lower, flag_s, flag_c = suspects
+        if flagged and self.accelerate:  # the look-ups straight into blocked
+            self._registered_any(i, j, s, c, lower, blocked)
+            return blocked
         maybe = np.flatnonzero(flag_s.take(s) & flag_c.take(c))
         if maybe.size == 0:
             return blocked
         s, c = s.take(maybe), c.take(maybe)
         hit = np.zeros(len(maybe), dtype=bool)
         if self.accelerate:  # the same look-ups, compiled: no (pairs, faces²) keys
-            from predicates.compiled.chain import registered_any
-
-            for a, b in lower:
-                registered_any(s, c, None if a == i else self.sim.cx.face(i, a),
-                               None if b == j else self.cut.cx.face(j, b),
-                               self.cut.count(b), self.registered[a, b], hit)
+            self._registered_any(i, j, s, c, lower, hit)
             blocked[maybe] = hit
             return blocked
         for a, b in lower:
@@ -182,6 +183,16 @@ class Registration:
             hit |= (R.take(pos) == keys).any(axis=1)
         blocked[maybe] = hit
         return blocked
+
+    def _registered_any(self, i, j, s, c, lower, hit):
+        """hit[q] |= a pair of sub-simplices of (s[q], c[q]) of a ``lower`` kind is
+        registered (predicates.compiled.chain.registered_any, per lower kind)."""
+        from predicates.compiled.chain import registered_any
+
+        for a, b in lower:
+            registered_any(s, c, None if a == i else self.sim.cx.face(i, a),
+                           None if b == j else self.cut.cx.face(j, b),
+                           self.cut.count(b), self.registered[a, b], hit)
 
     # -- levels ---------------------------------------------------------------------------
     def run(self, progress: bool, timings: dict, give_back: bool = False) -> dict:
@@ -216,6 +227,7 @@ class Registration:
             # the complexes, boxes and registered keys: not held past the run
             self.faces = self.sim = self.cut = None
             self.registered, self.sim_involved, self.cut_involved = {}, {}, {}
+            self.box_rows = {}
         return pairs
 
     def _level(self, k) -> KindPairs:
@@ -252,18 +264,23 @@ class Registration:
         appends the registered pairs to the lists ``out`` (s, c, sim and cut weights);
         the pairs the suppression pre-filter flags are looked up exactly here, the
         others evaluated. Returns (candidates, suppressed), as the numpy path counts."""
-        from predicates.compiled.chain import fused
+        from predicates.compiled.chain import box_rows, fused
 
         suspects = self._suspects(k.i, k.j)
         flags = None if suspects is None else suspects[1:]
-        boxes = self.faces.boxes(k.i, k.j)
+        P, R, lo, hi = self.faces.boxes(k.i, k.j)
+        if k.j not in self.box_rows:  # once per cutting level, while a kind reads it
+            self.box_rows[k.j] = box_rows(lo, hi)
+        boxes = P, R, self.box_rows[k.j]
+        if self.later is not None and not any(j == k.j for _, j in self.later):
+            del self.box_rows[k.j]
         ncand = nsup = 0
         for f, C, owned, pad in self.faces.blocks(k.name, k.i, k.j, lists=True):
             n, hits, (ms, mc) = fused(k, self.sim, self.cut, f, C, owned, pad, boxes, flags,
                                       self.tol)
             ncand += n
             if len(ms):
-                blocked = self._blocked(k.i, k.j, ms, mc, suspects)
+                blocked = self._blocked(k.i, k.j, ms, mc, suspects, flagged=True)
                 nsup += int(blocked.sum())
                 more = self._evaluate(k, ms[~blocked], mc[~blocked])
                 for lst, a in zip(out, more):
