@@ -3,6 +3,7 @@
 candidate chain's target is stated in (W1 ≤ 10× the compiled floor).
 
     cd TREE && FPERR_ACCELERATE=1 python benchmarks/floor_ratio.py [--rounds 10] [--calls 4]
+        [--n 48] [--subdivisions 5]
 
 Each round times the floor (:func:`accelerate_bench.floors`' compiled naive triangle–edge
 test over 2^20 random pairs, process CPU, best of ``--calls``) and then W1
@@ -26,13 +27,13 @@ sys.path[:0] = [os.getcwd(), str(Path(__file__).resolve().parent)]
 import numpy as np  # noqa: E402
 
 
-def _w1():
+def _w1(n: int = 48, subdivisions: int = 5):
     """A call of W1 (its meshes built once) and its ``res.timings['accelerated']``."""
     import predicates
     from predicates.registration.examples import cube_grid, icosphere
 
-    sp, sc = cube_grid(48)
-    cp, cc = icosphere(5)
+    sp, sc = cube_grid(n)
+    cp, cc = icosphere(subdivisions)
 
     def call():
         return predicates.intersect(sp, sc, cp, cc, memory_limit=20 << 30)
@@ -55,8 +56,10 @@ def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--rounds", type=int, default=10)
     ap.add_argument("--calls", type=int, default=4)
+    ap.add_argument("--n", type=int, default=48, help="the cube's cells per axis (W1: 48)")
+    ap.add_argument("--subdivisions", type=int, default=5, help="the icosphere's (W1: 5)")
     a = ap.parse_args(argv)
-    call, accelerated = _w1()
+    call, accelerated = _w1(a.n, a.subdivisions)
     best, med = [], []
     for r in range(a.rounds):
         floor = floors(a.calls)["compiled"]
@@ -66,7 +69,7 @@ def main(argv: list[str] | None = None) -> None:
         print(f"round {r + 1}: floor {1e3 * floor:.1f} ms, W1 best {1e3 * min(w1):.1f} "
               f"median {1e3 * np.median(w1):.1f} ms: {best[-1]:.1f}× (median "
               f"{med[-1]:.1f}×), load {os.getloadavg()[0]:.1f}", flush=True)
-    print(f"W1 / compiled floor (accelerated {accelerated}), {a.rounds} rounds of "
+    print(f"W1 (n = {a.n}, subdivisions {a.subdivisions}) / compiled floor (accelerated {accelerated}), {a.rounds} rounds of "
           f"{a.calls} calls: best {np.median(best):.1f}× median of rounds (range "
           f"{min(best):.1f}–{max(best):.1f}×, {sum(b <= 10 for b in best)} rounds ≤ 10×); "
           f"median call {np.median(med):.1f}× (range {min(med):.1f}–{max(med):.1f}×)")

@@ -51,6 +51,8 @@ TINY: dict[str, tuple[list[str], str]] = {
     "plan_memory.py": (["--n", "8", "--subdivisions", "2"], r"^digest [0-9a-f]{64}$"),
     "cell_pairs_bench.py": (["--n", "4", "--subdivisions", "1", "--reps", "1"],
                             r"^cell_pairs n=4 s=1: \d+ pairs, hash [0-9a-f]{16}, CPU best "),
+    "floor_ratio.py": (["--rounds", "1", "--calls", "1", "--n", "4", "--subdivisions", "1"],
+                       r"^W1 \(n = 4, subdivisions 1\) / compiled floor .* 1 rounds of 1 calls"),
     "run_share.py": (["tiny", "2"], r"^tiny .* best [\d.]+ median [\d.]+ plan best "),
     "sweep_flags.py": (["6", "2", "1"], r"^sweep n=6 s=2: 1296 cells, \d+ flagged; CPU best "),
     "plan_time.py": (["tiny", "2"], r"^tiny plan CPU best [\d.]+ s, median [\d.]+ s \(2 calls"),

@@ -7,7 +7,7 @@ The whole file takes ~30 s on the shared 2-core machine at load 6 (CI's budget: 
 Not run here (each takes 10 s to minutes even at its tiny size: Dask clusters, numba's
 cold compile, the conforming cut, a subprocess per case): synth_compare.py,
 analysis_scale.py, cut_cells_scaling.py, conform_cases_bench.py, speed_bench.py,
-accelerate_bench.py, parallel_ceiling.py, partition_floor.py, partition_bench.py and
+accelerate_bench.py, floor_ratio.py, parallel_ceiling.py, partition_floor.py, partition_bench.py and
 partition_remote_bench.py (about 4.5 min together).
 Smoke-run them all with
 
