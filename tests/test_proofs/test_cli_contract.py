@@ -19,6 +19,7 @@ import tomllib
 import meshio
 import numpy as np
 import pytest
+from capped_registration import CAPPED, capped_env
 
 from predicates.registration.examples import circle_polygon, cube_grid, grid_plane, square_grid
 
@@ -121,16 +122,7 @@ def test_run_errors_are_bad_input_only_when_the_input_is_bad(tmp_path, cube_plan
     assert not out.exists()
 
 
-_LIMITED_REGISTRATION = (
-    "import resource, sys, unicodedata\n"  # tqdm's lazy import, mapped before the cap
-    "from predicates.registration import pipeline\n"
-    "real = pipeline.Registration\n"
-    "def limited(*a, **k):\n"
-    "    with open('/proc/self/status') as f:\n"
-    "        vm = next(int(l.split()[1]) * 1024 for l in f if l.startswith('VmSize:'))\n"
-    "    resource.setrlimit(resource.RLIMIT_AS, (vm + (2 << 20), resource.RLIM_INFINITY))\n"
-    "    return real(*a, **k)\n"
-    "pipeline.Registration = limited\n"
+_LIMITED_REGISTRATION = CAPPED + (
     "from proofs.cli import main\n"
     "sys.exit(main(sys.argv[1:]))\n")
 
@@ -147,10 +139,7 @@ def test_out_of_memory_in_the_registration_exits_1_and_writes_nothing(tmp_path):
     out = tmp_path / "hits.vtu"
     r = subprocess.run([sys.executable, "-c", _LIMITED_REGISTRATION, "intersect", sim, cut,
                         "-o", str(out), "--quiet"], cwd=ROOT,
-                       # glibc's fixed mmap threshold: a large block the plan frees is
-                       # unmapped, not kept in the heap, where the registration could
-                       # reuse it under the cap (which then depended on the plan's sizes)
-                       env={**ENV, "FPERR_ACCELERATE": "0", "MALLOC_MMAP_THRESHOLD_": "131072"},
+                       env=capped_env(ROOT),  # the capped process's lean malloc
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 1, r.stderr
     assert re.search(r"^fperr intersect: error: not enough memory for the registration "

@@ -3,7 +3,6 @@ levels, after :func:`predicates.registration.pipeline._ranked`) is a clear refus
 the stage and what to do, not a bare MemoryError (docs/partitioned.md, section 2)."""
 from __future__ import annotations
 
-import os
 import pathlib
 import re
 import subprocess
@@ -11,23 +10,11 @@ import sys
 
 import numpy as np
 import pytest
+from capped_registration import CAPPED, capped_env
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
-#: a process whose address space is capped, at the registration's entrance (the plan
-#: done), to what it maps then plus a little: the registration's arrays cannot fit
-LIMITED = """\
-import resource, sys, unicodedata  # tqdm imports unicodedata lazily: mapped before
-from predicates.registration import pipeline
-real = pipeline.Registration
-def limited(*a, **k):
-    with open("/proc/self/status") as f:
-        vm = next(int(l.split()[1]) * 1024 for l in f if l.startswith("VmSize:"))
-    resource.setrlimit(resource.RLIMIT_AS, (vm + (2 << 20), resource.RLIM_INFINITY))
-    return real(*a, **k)
-pipeline.Registration = limited
-"""
-LIBRARY = LIMITED + """\
+LIBRARY = CAPPED + """\
 import predicates
 from predicates.registration.examples import cube_grid, icosphere
 try:
@@ -47,9 +34,9 @@ def test_an_address_space_limit_in_the_registration_is_a_clear_refusal():
     """With the address space capped once the plan is done, the run ends in
     RegistrationMemoryError (a MemoryError) naming a stage of the registration, the
     cells near the cut and what to do — measured: the registration of cube 30 ×
-    icosphere 3 needs tens of MiB beyond the 2 MiB left."""
-    env = {**os.environ, "PYTHONPATH": str(ROOT), "FPERR_ACCELERATE": "0"}
-    r = subprocess.run([sys.executable, "-c", LIBRARY], cwd=ROOT, env=env,
+    icosphere 3 needs tens of MiB beyond the 2 MiB left, with glibc's freed blocks
+    unmapped (tests/support/capped_registration.py)."""
+    r = subprocess.run([sys.executable, "-c", LIBRARY], cwd=ROOT, env=capped_env(ROOT),
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     assert re.fullmatch(
