@@ -777,7 +777,9 @@ def test_plan_float_kernels_have_no_fma():
                                     np.empty((m, 3)), np.zeros(0, np.uint8),
                                     np.empty_like(C))),
         (estimate.pad_total, (P, P + 1, 0.1, np.zeros(3), 0.25)),
-        (estimate.pad_corners, (P, P + 1, 0.1, np.zeros(3), 0.25,
+        # (origin: the padded boxes' least lo − h, the kernel's premise — below it a
+        # corner's unsigned key wraps and the write lands outside ``diff``)
+        (estimate.pad_corners, (P, P + 1, 0.1, P.min(axis=0) - 0.1, 0.25,
                                 np.array([1, 11, 121], np.int64), np.zeros(1331, np.int64),
                                 1)),
         (flagpack.pack_index, (P, o, 0.25, G, np.empty(8, np.int64))),
