@@ -109,7 +109,7 @@ class _Timers:
         # the cell-level broad phase (``cell_pairs``; the per-kind candidates come from
         # FacePairs inside ``_candidates``)
         orig_bp, orig_blocked, orig_eval = I.cell_pairs, I.Registration._blocked, Kind.evaluate
-        orig_cand = I.Registration._candidates
+        orig_level = I.Registration._level
 
         def box_pairs(*a, **k):
             t = time.perf_counter()
@@ -119,13 +119,13 @@ class _Timers:
                 return timers._wrap_gen(out)
             return out
 
-        def _candidates(self, kind, i, j):
-            timers.kind = kind
-            return orig_cand(self, kind, i, j)
+        def _level(self, k):  # the kind's name, on the numpy and the fused path alike
+            timers.kind = k.name
+            return orig_level(self, k)
 
-        def _blocked(self, *a):
+        def _blocked(self, *a, **k):
             t = time.perf_counter()
-            out = orig_blocked(self, *a)
+            out = orig_blocked(self, *a, **k)
             timers.t[timers.kind]["suppression"] += time.perf_counter() - t
             return out
 
@@ -136,7 +136,7 @@ class _Timers:
             return out
 
         I.cell_pairs = box_pairs
-        I.Registration._candidates = _candidates
+        I.Registration._level = _level
         I.Registration._blocked = _blocked
         Kind.evaluate = evaluate
 

@@ -47,6 +47,17 @@ def test_cheap_benchmark_runs(script):
     assert ok, f"benchmarks/{script} at its tiny size: {info}"
 
 
+@pytest.mark.timeout(300)
+def test_w1_cube_runs_on_the_compiled_chain(monkeypatch):
+    """The benchmarks' timers wrap the registration's methods; with the compiled chain
+    (FPERR_ACCELERATE=1) they wrap what the fused path calls too (its cold compile
+    allowed for: the kernels' disk cache may be empty)."""
+    pytest.importorskip("numba")
+    monkeypatch.setenv("FPERR_ACCELERATE", "1")
+    ok, info, _ = SMOKE.run("w1_cube.py", timeout=280.0)
+    assert ok, f"benchmarks/w1_cube.py at its tiny size, compiled chain: {info}"
+
+
 def test_smoke_reports_a_failure(tmp_path):
     """The runner is not vacuous: a script that exits 1, and one whose report lacks the
     expected line, both fail."""
