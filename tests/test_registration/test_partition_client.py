@@ -1,6 +1,6 @@
 """The client's share of a partitioned plan with the cells on the workers
-(benchmarks/README.md "The 2-worker W4 client, fifth pass"): the flagged cells' boxes
-and the used vertices, against their definitions."""
+(benchmarks/README.md "The 2-worker W4 client, fifth pass"): the flagged cells' boxes,
+the used vertices and the split's Morton box, against their definitions."""
 from __future__ import annotations
 
 import re
@@ -11,6 +11,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from predicates.registration.partition.remote import _used, flagged_boxes
+from predicates.registration.partition.run_arrays import DeferredRun
+from predicates.registration.partition.split_keys import chunk_run, first_hull
+from predicates.registration.partition.split_remote import run_hull
 from predicates.registration.spatial.blocks import SERIAL, Blocks
 from predicates.registration.spatial.boxes import boxes_of
 
@@ -79,3 +82,36 @@ def test_tetrahedra_boxes_have_no_fma():
         ir, asm = f.inspect_llvm(sig), f.inspect_asm(sig)
         assert "define " in ir and ".globl" in asm
         assert not fma_ir.search(ir) and not fma_asm.search(asm)
+
+
+@settings(max_examples=80, deadline=None)
+@given(seed=st.integers(0, 2 ** 32 - 1), dim=st.sampled_from([2, 3]),
+       dtype=st.sampled_from([np.float64, np.float32]), n_chunks=st.integers(1, 5),
+       e=st.integers(-4, 4))
+def test_run_hull_is_the_chunks_first_hulls(seed, dim, dtype, n_chunks, e):
+    """:func:`run_hull` on the client: the box and count the chunks' ``first_hull``
+    give (min, max over their hulls), for random run masks and chunkings, float32
+    points and scalings; None without run cells."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(dim + 1, 40))
+    P = (rng.normal(size=(n, dim)) * 2.0 ** rng.integers(-3, 4)).astype(dtype)
+    P[rng.integers(0, n, 2)] = rng.choice([0.0, -0.0], (2, dim))
+    m_all = int(rng.integers(1, 60))
+    C = np.argsort(rng.random((m_all, n)), axis=1)[:, :dim + 1]
+    ms = rng.random(m_all) < rng.uniform(0.0, 1.0)
+    cuts = np.linspace(0, m_all, n_chunks + 1).astype(int)
+    runs = [chunk_run(C[a:b], P, np.packbits(ms[a:b]), int(a), e, P.dtype, False)
+            for a, b in zip(cuts[:-1], cuts[1:])]
+    hulls = [first_hull(r) for r in runs]
+    got = run_hull(DeferredRun(P, C[ms], e, False))
+    if not ms.any():
+        assert got is None
+        return
+    lo, hi, m = got
+    assert m == sum(h[1] for h in hulls) == ms.sum()
+    want_lo = np.min([h[0][0] for h in hulls if h[1]], axis=0)
+    want_hi = np.max([h[0][1] for h in hulls if h[1]], axis=0)
+    # equal values (a zero's sign may differ: the same Morton codes)
+    assert lo.dtype == hi.dtype == np.float64
+    assert np.array_equal(lo, want_lo) and np.array_equal(hi, want_hi)
+    assert run_hull(None) is None

@@ -163,7 +163,7 @@ def test_processes_and_a_cluster_send_no_part(monkeypatch):
             assert_identical(ref, res)
             split = res.timings["split"]
             mask_bytes = sum(-(-c // 8) for c in cells.chunks[0])
-            assert split["where"] == "workers"
+            assert split["where"] == "workers" and split["hull"] == "client"
             assert split["sent_bytes"] <= mask_bytes + 16 * k + 64 * (split["chunks"] + 1)
 
 
