@@ -115,37 +115,3 @@ def test_run_hull_is_the_chunks_first_hulls(seed, dim, dtype, n_chunks, e):
     assert lo.dtype == hi.dtype == np.float64
     assert np.array_equal(lo, want_lo) and np.array_equal(hi, want_hi)
     assert run_hull(None) is None
-
-
-@settings(max_examples=40, deadline=None)
-@given(seed=st.integers(0, 2 ** 32 - 1), dtype=st.sampled_from([np.float64, np.float32]),
-       accelerate=st.booleans())
-def test_numpy_flags_send_the_flagged_cells_boxes(seed, dtype, accelerate):
-    """A chunk's first-round flags on the numpy path come with their cells' boxes —
-    ``boxes_of``'s, bit for bit, in the flagged rows' order — which the client then
-    takes instead of computing them; compiled, none are sent (the client computes them:
-    :func:`flagged_boxes`)."""
-    from predicates.registration.partition.swept import chunk_flags
-    from predicates.registration.plan.cellboxes import CellBoxes
-    from predicates.registration.plan.first_round import fixed_grid
-
-    if accelerate:
-        pytest.importorskip("numba")
-    rng = np.random.default_rng(seed)
-    n, m = int(rng.integers(5, 60)), int(rng.integers(1, 80))
-    P = rng.normal(size=(n, 3)).astype(dtype)
-    C = np.argsort(rng.random((m, n)), axis=1)[:, :4]
-    lo_b = rng.normal(size=(int(rng.integers(1, 20)), 3)) * 0.7
-    hi_b = lo_b + rng.random(lo_b.shape) * 0.5
-    blocks = Blocks(accelerate=accelerate, block=int(rng.integers(1, 9)))
-    grid = fixed_grid(lo_b, hi_b, m, float(rng.random()) * 0.2, blocks)
-    count, got = chunk_flags(CellBoxes(P, C, blocks), grid.origin, grid.h, grid.G,
-                             grid.table)
-    ids, boxes = got[0].astype(np.int64), got[5]
-    if accelerate:
-        assert boxes is None
-        return
-    want = boxes_of(P, C[ids], SERIAL)
-    for g, w in zip(boxes, want):
-        assert g.shape == w.shape and g.dtype == w.dtype
-        assert np.array_equal(g.view(np.uint64), w.view(np.uint64))

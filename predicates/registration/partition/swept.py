@@ -198,13 +198,11 @@ def chunk_flags(boxes: CellBoxes, origin, h, G, table, chunk=None,
     gather), the flagged cells' :func:`~predicates.registration.plan.edges.
     edge_summary` or None, their boxes or None)): the report's shortest edge of the
     run's cells rides on this task, as those cells are round one's flags unless a later
-    round shrinks them. Compiled, their boxes are not sent: the client computes them
-    from its points as fast as it receives 48 bytes a cell (docs/partitioned.md 5a,
-    measured); on the numpy path they are (the pass kept them; the client's numpy boxes
-    cost ~3x the receiving: benchmarks/README.md "The 2-worker W4 client, fifth
-    pass"), and with ``chunk`` (a piece's cells in global ids, ``boxes`` in its own
-    numbering; ``n_points``: the global count): the vertex ids are then global and the
-    boxes sent (the client has no points to compute them from)."""
+    round shrinks them. Their boxes are not sent: the client computes them from its
+    points as fast as it receives 48 bytes a cell (docs/partitioned.md 5a, measured) —
+    unless ``chunk`` (a piece's cells in global ids, ``boxes`` in its own numbering;
+    ``n_points``: the global count): the vertex ids are then global and the boxes
+    sent (the client has no points to compute them from)."""
     count, got = boxes.flag_pass(origin, h, G, table)
     if got is None:
         return count, None
@@ -215,8 +213,6 @@ def chunk_flags(boxes: CellBoxes, origin, h, G, table, chunk=None,
     flagged_boxes = None
     if chunk is not None:
         cells, flagged_boxes = np.take(chunk, ids, axis=0), boxes.rows(near)
-    elif not boxes.blocks.accelerate:  # the numpy pass kept them: sent, not recomputed
-        flagged_boxes = boxes.rows(near)
     if len(near) < 2 ** 31:
         ids = ids.astype(np.int32)  # (the client adds the chunk's int64 offset)
     return count, (ids, flagged_cover(i0, i1, G, boxes.blocks), ext,
