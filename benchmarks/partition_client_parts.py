@@ -11,7 +11,7 @@ count in each of their callers; "cut_and_flag_boxes" is every ``remote.boxes_of`
 cells' boxes).
 
     cd TREE && FPERR_ACCELERATE=1 PYTHONPATH=TREE:TREE/benchmarks \\
-        python benchmarks/partition_client_parts.py 3
+        python benchmarks/partition_client_parts.py 3 [--n 120 --subdivisions 7]
 
 (the spawned workers import ``cube_cells`` from this folder: it must be on the path).
 """
@@ -73,7 +73,7 @@ def wrap(modname: str, attr: str, label: str | None = None) -> None:
     setattr(obj, name, timed)
 
 
-def main(calls: int = 3) -> None:
+def main(calls: int = 3, n: int = 120, subdivisions: int = 7) -> None:
     import dask
     import dask.array as da
 
@@ -83,8 +83,8 @@ def main(calls: int = 3) -> None:
 
     for target in TARGETS:
         wrap(*target)
-    cp, cc = icosphere(7)
-    n, k = 120, 2
+    cp, cc = icosphere(subdivisions)
+    k = 2
     x = grid_coordinates(n)
     Z, Y, X = np.meshgrid(x, x, x, indexing="ij")
     sp = np.stack([X.ravel(), Y.ravel(), Z.ravel()], axis=1)
@@ -111,4 +111,12 @@ def main(calls: int = 3) -> None:
 
 
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 3)
+    import argparse
+
+    ap = argparse.ArgumentParser(description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("calls", type=int, nargs="?", default=3)
+    ap.add_argument("--n", type=int, default=120)
+    ap.add_argument("--subdivisions", type=int, default=7)
+    a = ap.parse_args()
+    main(a.calls, a.n, a.subdivisions)
