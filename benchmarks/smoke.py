@@ -76,6 +76,8 @@ TINY: dict[str, tuple[list[str], str]] = {
                                   r"identical results: True"),
     "partition_client_cpu.py": (["--n", "8", "--subdivisions", "2", "--calls", "1"],
                                 r"^median: client [\d.]+ \(plan [\d.]+\) .* digest [0-9a-f]{16}"),
+    "partition_client_parts.py": (["1", "--n", "8", "--subdivisions", "2"],
+                                  r"^client [\d.]+ \| .*_plan \d+"),
     "intersect_bench.py": (["-c", "import intersect_bench as b; "
                             "print('runner', callable(b.child), callable(b.run_cases))"],
                            r"^runner True True$"),

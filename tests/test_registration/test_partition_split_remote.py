@@ -163,7 +163,7 @@ def test_processes_and_a_cluster_send_no_part(monkeypatch):
             assert_identical(ref, res)
             split = res.timings["split"]
             mask_bytes = sum(-(-c // 8) for c in cells.chunks[0])
-            assert split["where"] == "workers"
+            assert split["where"] == "workers" and split["hull"] == "client"
             assert split["sent_bytes"] <= mask_bytes + 16 * k + 64 * (split["chunks"] + 1)
 
 
@@ -212,8 +212,10 @@ def test_pieces_on_a_cluster_split_on_the_workers(tmp_path, monkeypatch):
 
 def test_timeout_covers_the_split_on_the_workers(monkeypatch):
     """A split whose selection rounds outlast ``timeout`` (its first round held up on
-    the workers): PartitionError naming the split, raised at the timeout, not when the
-    round ends; the same cluster then runs normally, identical to the serial run."""
+    the workers: since the Morton box comes from the client, ``split_remote.run_hull``,
+    the first round is a selection round's answers): PartitionError naming the split,
+    raised at the timeout, not when the round ends; the same cluster then runs
+    normally, identical to the serial run."""
     import time
 
     distributed = pytest.importorskip("distributed")
@@ -223,23 +225,23 @@ def test_timeout_covers_the_split_on_the_workers(monkeypatch):
     sp, sc, cp, cc = _case("sphere", 6, angle=3, subdivisions=2)
     ref = predicates.intersect(sp, sc, cp, cc)
     cells = _chunked(sc, np.random.default_rng(2), 3)
-    first_hull = split_remote.first_hull
+    answer = split_remote.answer
 
-    def slow(run):
+    def slow(run, *args):
         time.sleep(5)
-        return first_hull(run)
+        return answer(run, *args)
 
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
                                   dashboard_address=None) as cluster, \
             distributed.Client(cluster) as client:
-        monkeypatch.setattr(split_remote, "first_hull", slow)
+        monkeypatch.setattr(split_remote, "answer", slow)
         t = time.perf_counter()
         with pytest.raises(PartitionError, match=r"the split on the workers did not finish "
                                                  r"within the timeout of 0.5 s"):
             predicates.intersect(sp, cells, cp, cc, partitions=2, scheduler=client,
                                  timeout=0.5)
         assert time.perf_counter() - t < 4.5
-        monkeypatch.setattr(split_remote, "first_hull", first_hull)
+        monkeypatch.setattr(split_remote, "answer", answer)
         res = predicates.intersect(sp, cells, cp, cc, partitions=2, scheduler=client,
                                    timeout=60)
         assert_identical(ref, res)

@@ -55,6 +55,31 @@ def _flags(chunk, points, origin, h, G, table, accelerate: bool = False):
     return chunk_flags(CellBoxes(points, np.asarray(chunk), blocks), origin, h, G, table)
 
 
+def _used(n_points: int, bits: list) -> np.ndarray:
+    """The vertices any chunk uses (bool): the chunks' packed bits ORed, unpacked once
+    (a chunk that failed a check sent none: it adds nothing)."""
+    bits = [b for b in bits if len(b)]
+    if not bits:
+        return np.zeros(n_points, dtype=bool)
+    return np.unpackbits(np.bitwise_or.reduce(bits), count=n_points).view(bool)
+
+
+def flagged_boxes(points: np.ndarray, cells: np.ndarray, blocks: Blocks = SERIAL):
+    """``boxes_of(points, cells, blocks)``; compiled tetrahedra (the flagged cells of
+    :meth:`RemoteCells.flag_pass`, valid ids) with each row's ids read once
+    (:func:`predicates.compiled.flagboxes.tetrahedra_boxes`: the same values)."""
+    if not (blocks.accelerate and cells.ndim == 2 and cells.shape[1] == 4
+            and points.ndim == 2 and points.shape[1] == 3):
+        return boxes_of(points, cells, blocks)
+    from predicates.compiled.flagboxes import tetrahedra_boxes
+
+    lo, hi = np.empty((3, len(cells))), np.empty((3, len(cells)))
+    P = np.ascontiguousarray(points)
+    blocks.rows(lambda a, b: tetrahedra_boxes(P, cells[a:b], lo[:, a:b], hi[:, a:b]),
+                len(cells))
+    return lo.T, hi.T
+
+
 def _row_boxes(chunk, points, rows: np.ndarray):
     """The boxes (lo, hi) of a chunk's ``rows`` (chunk-local, ascending)."""
     return boxes_of(points, np.asarray(chunk)[rows])
@@ -207,9 +232,7 @@ class RemoteCells(CellBoxes):
                 self.points_finite = self.pieces is None
         bad = [min((int(o) + b[t] for o, (b, _, _) in zip(self.offsets, got)
                     if b[t] is not None), default=None) for t in range(3)]
-        used = None if self.far else np.zeros(n_points, dtype=bool)
-        for _, u, _ in ([] if self.far else got):
-            used |= np.unpackbits(u, count=n_points).astype(bool)
+        used = None if self.far else _used(n_points, [g[1] for g in got])
         if all(b is None for b in bad):
             out = got[0][2]
             for _, _, s in got[1:]:
@@ -248,7 +271,7 @@ class RemoteCells(CellBoxes):
             lo = np.concatenate([g[1][5][0] for g in got])
             hi = np.concatenate([g[1][5][1] for g in got])
         else:
-            lo, hi = boxes_of(self.points, cells, self.blocks)  # compiled when the plan is
+            lo, hi = flagged_boxes(self.points, cells, self.blocks)
         self._kept, self._kept_cells = (ids, lo, hi), cells
         self._edges = (ids, [g[1][4] for g in got if g[1][4] is not None])
         # the cutting flags' input: the chunks' ranges, or the grid cells they cover

@@ -31,13 +31,16 @@ import numpy as np
 
 from predicates import compiled
 from predicates.registration.partition.assign import CutSide, Part, cut_slice
+from predicates.registration.partition.run_arrays import DeferredRun
 from predicates.registration.partition.slices import _grouped
 from predicates.registration.partition.split_keys import (
     answer, chunk_run, first_hull, partition_of, select_boundaries, with_codes)
 from predicates.registration.partition.task import run_part
+from predicates.registration.plan.scaling import times_pow2
 from predicates.registration.spatial.blocks import Blocks
+from predicates.registration.spatial.boxgrid import colmax, colmin
 
-__all__ = ["on_workers", "settled_side", "split_on_workers", "warm_side"]
+__all__ = ["on_workers", "run_hull", "settled_side", "split_on_workers", "warm_side"]
 
 
 def on_workers(plan) -> bool:
@@ -195,7 +198,9 @@ def split_on_workers(plan, k: int, pad: float, args: tuple, client, scheduler,
     runs = [d(chunk_run, pure=False)(s, points, b, int(o), plan.scale.e, plan.dtype,
                                      pieces is not None)
             for s, b, o in zip(sources, bits, offsets)]
-    runs = _persist(runs, client, scheduler)
+    hull = run_hull(plan.sim_vertex_ids)  # the points here: no round for the box
+    if hull is None:
+        runs = _persist(runs, client, scheduler)
     # the cutting side, sent once to each worker; its wide boxes computed there by a
     # task of its own while the worker waits for the selection's rounds (warm_side)
     side = CutSide(plan.P_cut, plan.cut_cells, pad)
@@ -210,11 +215,14 @@ def split_on_workers(plan, k: int, pad: float, args: tuple, client, scheduler,
     def results(objs):
         return _compute(objs, client, scheduler, deadline, runs + warm)
 
-    hulls = results([d(first_hull)(r) for r in runs])
-    boxes = [h[0] for h in hulls if h[1]]
-    m = sum(h[1] for h in hulls)
-    lo = np.min([b[0] for b in boxes], axis=0)
-    hi = np.max([b[1] for b in boxes], axis=0)
+    if hull is None:
+        hulls = results([d(first_hull)(r) for r in runs])
+        boxes = [h[0] for h in hulls if h[1]]
+        m = sum(h[1] for h in hulls)
+        lo = np.min([b[0] for b in boxes], axis=0)
+        hi = np.max([b[1] for b in boxes], axis=0)
+    else:
+        lo, hi, m = hull
     runs = _persist([d(with_codes)(r, lo, hi) for r in runs], client, scheduler)
     n_bits, rounds = (63 if plan.dim == 3 else 62), [0]
 
@@ -234,9 +242,28 @@ def split_on_workers(plan, k: int, pad: float, args: tuple, client, scheduler,
     tasks = [d(_assembled_run, pure=False)(r, args, side, *[g[r] for g in routes])
              for r in range(k)]
     timings["split"] = {"where": "workers", "rounds": rounds[0], "chunks": C,
+                        "hull": "workers" if hull is None else "client",
                         "sent_bytes": sum(b.nbytes for b in bits) + 16 * (k - 1)
                         + lo.nbytes + hi.nbytes + bounds.nbytes, "side_boxes": warm}
     return client.compute(tasks) if client is not None else tasks
+
+
+def run_hull(deferred) -> tuple | None:
+    """(lo, hi, m): the box of the run cells' first vertices scaled by 2^-e (float64,
+    one value per axis) and the run cell count, from the plan's :class:`~.run_arrays.
+    DeferredRun` (the run cells and every point on the client) — the values the chunks'
+    :func:`~.split_keys.first_hull` give, combined: ``times_pow2`` is element-wise and
+    exact here (the plan checked every point's scaling), so min and max commute with it
+    and with the float64 conversion (equal values; a signed zero may come out as the
+    other, which gives the same Morton codes). A gather of one vertex per run cell on
+    the client instead of a round of tasks (benchmarks/README.md "The 2-worker W4
+    client, fifth pass"). None without a DeferredRun (pieces: their points are on the
+    workers) or run cells."""
+    if not isinstance(deferred, DeferredRun) or len(deferred.run) == 0:
+        return None
+    first = times_pow2(np.take(deferred.points, deferred.run[:, 0], axis=0), -deferred.e)
+    first = first.astype(np.float64, copy=False)
+    return colmin(first), colmax(first), len(deferred.run)
 
 
 def _side_boxes(side: CutSide, accelerate: bool) -> float:
