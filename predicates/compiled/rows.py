@@ -232,7 +232,11 @@ def unique_faces(rows: np.ndarray, combos: np.ndarray, n: int):
         nu = _pairs_by_first(rows, combos, n, np.zeros(n + 1, np.int64), np.empty(m, ids),
                              np.empty(m, ids), np.full(n, -1, np.int64), first, inv)
     elif int(n) ** (w - 1) < 2 ** 62:
-        key, idx = np.empty(m, np.int64), np.empty(m, np.int64)
+        # int32 keys and row numbers when they fit: the runs' scatter touches half the
+        # bytes (the same comparisons: the packed rest is exact either way)
+        small = int(n) ** (w - 1) < 2 ** 31 and m < 2 ** 31
+        key = np.empty(m, np.int32 if small else np.int64)
+        idx = np.empty(m, np.int32 if small else np.int64)
         nu = _by_first(rows, combos, n, np.zeros(n + 1, np.int64), key, idx, first, inv)
     if nu < 0:
         same = g == 1 and np.array_equal(combos[0], np.arange(rows.shape[1]))  # the rows
