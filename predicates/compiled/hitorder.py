@@ -61,25 +61,13 @@ def _sort_runs(order, keys, ranked, long_runs):
     return nl
 
 
-@njit(**JIT_OPTIONS)
-def _radix_first(keys, order, ranked, scratch):
-    """``order`` (filled): the rows stably sorted by keys[:, 0], least significant
-    digit first over the key's range (key - min: as many passes of up to _DIGIT bits
-    as its bit length needs, all the passes' counts in one read); ``ranked`` (filled):
-    keys[:, 0] in that order. The passes alternate between (order, ranked) and the two
-    rows of ``scratch``, starting so that they end in (order, ranked): no fresh
-    memory (first touches cost as much as the passes here). Exact integer passes: the
-    permutation of a stable sort."""
+@njit(**INLINE_OPTIONS)
+def _passes(keys, order, ranked, scratch, lo, bits, shift):
+    """The stable LSD radix passes of :func:`_radix_first` over bits [shift, bits) of
+    key − lo (``bits`` its bit length), ending in (order, ranked)."""
     n = keys.shape[0]
-    lo, hi = keys[0, 0], keys[0, 0]
-    for q in range(n):
-        lo = min(lo, keys[q, 0])
-        hi = max(hi, keys[q, 0])
-    bits = 0
-    while ((hi - lo) >> bits) > 0:  # packed keys < 2^62: no overflow
-        bits += 1
-    npass = (bits + _DIGIT - 1) // _DIGIT
-    b = (bits + npass - 1) // npass if npass else 0
+    npass = (bits - shift + _DIGIT - 1) // _DIGIT
+    b = (bits - shift + npass - 1) // npass if npass else 0
     mask = (1 << b) - 1
     count = np.zeros((max(npass, 1), 1 << b), dtype=np.int64)
     o1, val, o2, tv = order, ranked, scratch[0], scratch[1]
@@ -89,7 +77,7 @@ def _radix_first(keys, order, ranked, scratch):
         o1[q] = q
         val[q] = keys[q, 0] - lo
         for p in range(npass):
-            count[p, np.uint64((val[q] >> (p * b)) & mask)] += 1
+            count[p, np.uint64(((val[q] >> shift) >> (p * b)) & mask)] += 1
     for p in range(npass):
         acc = 0
         for d in range(1 << b):  # starts of the digits' slots
@@ -97,15 +85,64 @@ def _radix_first(keys, order, ranked, scratch):
             count[p, d] = acc
             acc += t
         for q in range(n):  # stable scatter, carrying the value with the row
-            d = np.uint64((val[q] >> (p * b)) & mask)
+            d = np.uint64(((val[q] >> shift) >> (p * b)) & mask)
             at = np.uint64(count[p, d])
             count[p, d] += 1
             tv[at] = val[q]
             o2[at] = o1[q]
         val, tv = tv, val
         o1, o2 = o2, o1
-    for q in range(n):  # o1 is order, val is ranked
-        val[q] += lo
+
+
+@njit(**INLINE_OPTIONS)
+def _low_bits(order, ranked, shift, most):
+    """Finish a stable order by the bits above ``shift`` of ``ranked`` (key − lo, in
+    that order) into a stable order by the whole value: each run of equal high bits
+    sorted by insertion (strict: equal values keep their order). False (the arrays part
+    sorted) at a run longer than ``most``: then the passes are redone over every bit."""
+    n, i = order.shape[0], 0
+    for q in range(1, n):
+        if (ranked[q] >> shift) != (ranked[q - 1] >> shift):
+            i = q
+            continue
+        if q - i >= most:
+            return False
+        x, o, v = ranked[q], order[q], np.uint64(q)
+        while v > np.uint64(i) and ranked[v - np.uint64(1)] > x:  # unsigned: no
+            ranked[v] = ranked[v - np.uint64(1)]  # wraparound tests
+            order[v] = order[v - np.uint64(1)]
+            v -= np.uint64(1)
+        ranked[v] = x
+        order[v] = o
+    return True
+
+
+@njit(**JIT_OPTIONS)
+def _radix_first(keys, order, ranked, scratch):
+    """``order`` (filled): the rows stably sorted by keys[:, 0], least significant
+    digit first over the key's range (key - min), as many passes of up to _DIGIT bits
+    as its bit length needs, all the passes' counts in one read; ``ranked`` (filled):
+    keys[:, 0] in that order. A key over more than two digits: the passes over its two
+    highest only, then each run of equal high bits by insertion on the rest (a kind's
+    keys spread: W1's triangle_edge heads 5 passes -> 2; benchmarks/README.md "s22-w1"),
+    or, at a run over 2·_SHORT rows, every digit's pass after all. The passes alternate
+    between (order, ranked) and the two rows of ``scratch``, ending in (order, ranked):
+    no fresh memory (first touches cost as much as the passes here). Exact integer
+    passes: the permutation of a stable sort."""
+    n = keys.shape[0]
+    lo, hi = keys[0, 0], keys[0, 0]
+    for q in range(n):
+        lo = min(lo, keys[q, 0])
+        hi = max(hi, keys[q, 0])
+    bits = 0
+    while ((hi - lo) >> bits) > 0:  # packed keys < 2^62: no overflow
+        bits += 1
+    shift = max(bits - 2 * _DIGIT, 0)
+    _passes(keys, order, ranked, scratch, lo, bits, shift)
+    if shift and not _low_bits(order, ranked, shift, 2 * _SHORT):
+        _passes(keys, order, ranked, scratch, lo, bits, 0)
+    for q in range(n):
+        ranked[q] += lo
 
 
 @njit(**JIT_OPTIONS)
