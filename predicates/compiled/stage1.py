@@ -38,11 +38,33 @@ def _hold_boxes(t, start, cols, combos, V, held):
     rows of the cell's columns), folded by boxes_of's minimum/maximum in that order —
     exact, the same boxes (up to a zero's sign, which no box test sees)."""
     e0 = start[t]  # t unsigned (the caller's): no wraparound test
+    w = combos.shape[1]
     for u in range(start[t + np.uint64(1)] - e0):
         k = np.uint64(cols[e0 + u])
+        if w == 3:  # (a triangle's, an edge's fold written out: no inner trip count)
+            i, j, m = np.uint64(combos[k, 0]), np.uint64(combos[k, 1]), np.uint64(combos[k, 2])
+            for ax in range(V.shape[1]):
+                a = b = V[i, ax]
+                x = V[j, ax]
+                a = a if (a < x) | (a != a) else x  # np.minimum: a NaN propagates
+                b = b if (b > x) | (b != b) else x
+                x = V[m, ax]
+                a = a if (a < x) | (a != a) else x
+                b = b if (b > x) | (b != b) else x
+                held[u, ax], held[u, 3 + ax] = a, b
+            continue
+        if w == 2:
+            i, j = np.uint64(combos[k, 0]), np.uint64(combos[k, 1])
+            for ax in range(V.shape[1]):
+                a = b = V[i, ax]
+                x = V[j, ax]
+                a = a if (a < x) | (a != a) else x
+                b = b if (b > x) | (b != b) else x
+                held[u, ax], held[u, 3 + ax] = a, b
+            continue
         for ax in range(V.shape[1]):
             a = b = V[np.uint64(combos[k, 0]), ax]
-            for v in range(1, combos.shape[1]):
+            for v in range(1, w):
                 x = V[np.uint64(combos[k, v]), ax]
                 a = a if (a < x) | (a != a) else x  # np.minimum: a NaN propagates
                 b = b if (b > x) | (b != b) else x
