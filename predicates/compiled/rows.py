@@ -105,9 +105,12 @@ def _by_first(rows, combos, n, start, key, idx, first, inv):
             v = np.uint64(rows[r, combos[p, 0]])
             q = np.uint64(end[v])  # unsigned: no wraparound test an index
             end[v] = q + np.uint64(1)
-            k = 0
-            for c in range(1, w):
-                k = k * n + rows[r, combos[p, c]]
+            if w == 3:  # a triangle's rest written out: no inner trip count (w = 4
+                k = rows[r, combos[p, 1]] * n + rows[r, combos[p, 2]]  # too: slower)
+            else:
+                k = 0
+                for c in range(1, w):
+                    k = k * n + rows[r, combos[p, c]]
             s = np.uint64(start[v])
             while q > s and key[q - np.uint64(1)] > k:  # strict: equal rows keep order
                 key[q] = key[q - np.uint64(1)]
