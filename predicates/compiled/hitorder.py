@@ -8,7 +8,9 @@ radix passes (a kind's hits: ~5 passes of 11 bits, no comparison sort) — over 
 heads of the runs of hits sharing their simulation simplex when they arrive in runs
 (stage 1's order), then expanded — then each run of equal first keys (one simplex met
 by a few others) sorted in place by the others (benchmarks/README.md, "W1's kinds
-after the fused kernels").
+after the fused kernels"). Simplices of 1–3 ids packing into one key a side: each key's
+sort and packing written out (benchmarks/README.md, "W1's validation, complexes, stage 1
+and hits' order").
 """
 from __future__ import annotations
 
@@ -232,9 +234,36 @@ def _pack_row(S, ids, r, n, per, keys, k0, q, row):
     return k
 
 
+@njit(**INLINE_OPTIONS)
+def _pack_one(S, ids, r, n, w):
+    """The one key of simplex row r of 1–3 ids (n^w < 2^62: :func:`_pack_row`'s
+    packing), its sorted input ids written out: compare-exchanges in the insertion's
+    outcome (the same sorted values), no loops with runtime trip counts."""
+    a = ids[np.uint64(S[r, 0])]
+    if w == 1:
+        return a
+    b = ids[np.uint64(S[r, 1])]
+    if a > b:
+        a, b = b, a
+    if w == 2:
+        return a * n + b
+    x = ids[np.uint64(S[r, 2])]
+    if b > x:
+        b, x = x, b
+        if a > b:
+            a, b = b, a
+    return (a * n + b) * n + x
+
+
 @njit(**JIT_OPTIONS)
 def _hit_keys(S1, ids1, s, n1, per1, S2, ids2, c, n2, per2, keys):
     row = np.empty(S1.shape[1] + S2.shape[1], dtype=np.int64)
+    w1, w2 = S1.shape[1], S2.shape[1]
+    if w1 <= 3 and w2 <= 3 and per1 >= w1 and per2 >= w2:  # one key a side
+        for q in range(s.shape[0]):
+            keys[q, 0] = _pack_one(S1, ids1, np.uint64(s[q]), n1, w1)
+            keys[q, 1] = _pack_one(S2, ids2, np.uint64(c[q]), n2, w2)
+        return
     for q in range(s.shape[0]):
         k = _pack_row(S1, ids1, np.uint64(s[q]), n1, per1, keys, 0, q, row)
         _pack_row(S2, ids2, np.uint64(c[q]), n2, per2, keys, k, q, row)
