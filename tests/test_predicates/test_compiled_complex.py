@@ -112,6 +112,19 @@ def test_unique_pairs_take_both_routes():
 
 
 @settings(deadline=None)
+@given(seed=st.integers(0, 2 ** 32 - 1), w=st.integers(1, 5), n=st.sampled_from([3, 50]),
+       m=st.integers(0, 100), dtype=st.sampled_from([np.int32, np.int64]))
+def test_ranked_rows_are_sorted_ranks(seed, w, n, m, dtype):
+    """ranked_rows (rows of 3 and 4 by written-out compare-exchanges, others by
+    insertion) = np.sort(rank.take(cells), axis=1): repeated ids and ranks (ties)."""
+    rng = np.random.default_rng(seed)
+    rank = rng.integers(0, n, size=n).astype(dtype)  # (not a permutation: ties)
+    cells = rng.integers(0, n, size=(m, w))
+    got = compiled_rows.ranked_rows(rank, cells)
+    assert got.dtype == rank.dtype and np.array_equal(got, np.sort(rank.take(cells), axis=1))
+
+
+@settings(deadline=None)
 @given(seed=st.integers(0, 2 ** 32 - 1), d=st.sampled_from([2, 3]),
        n=st.sampled_from([6, 60, 2000]), m=st.integers(1, 200))
 def test_compiled_sides_and_complexes_are_numpys(seed, d, n, m):
