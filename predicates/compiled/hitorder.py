@@ -126,7 +126,8 @@ def _radix_first(keys, order, ranked, scratch):
     as its bit length needs, all the passes' counts in one read; ``ranked`` (filled):
     keys[:, 0] in that order. A key over more than two digits: the passes over its two
     highest only, then each run of equal high bits by insertion on the rest (a kind's
-    keys spread: W1's triangle_edge heads 5 passes -> 2; benchmarks/README.md "s22-w1"),
+    keys spread: W1's triangle_edge heads 5 passes -> 2; benchmarks/README.md, "W1's
+    validation, complexes, stage 1 and hits' order"),
     or, at a run over 2·_SHORT rows, every digit's pass after all. The passes alternate
     between (order, ranked) and the two rows of ``scratch``, ending in (order, ranked):
     no fresh memory (first touches cost as much as the passes here). Exact integer
