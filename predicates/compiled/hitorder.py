@@ -8,7 +8,9 @@ radix passes (a kind's hits: ~5 passes of 11 bits, no comparison sort) — over 
 heads of the runs of hits sharing their simulation simplex when they arrive in runs
 (stage 1's order), then expanded — then each run of equal first keys (one simplex met
 by a few others) sorted in place by the others (benchmarks/README.md, "W1's kinds
-after the fused kernels").
+after the fused kernels"). Simplices of 1–3 ids packing into one key a side: each key's
+sort and packing written out (benchmarks/README.md, "W1's validation, complexes, stage 1
+and hits' order").
 """
 from __future__ import annotations
 
@@ -61,25 +63,13 @@ def _sort_runs(order, keys, ranked, long_runs):
     return nl
 
 
-@njit(**JIT_OPTIONS)
-def _radix_first(keys, order, ranked, scratch):
-    """``order`` (filled): the rows stably sorted by keys[:, 0], least significant
-    digit first over the key's range (key - min: as many passes of up to _DIGIT bits
-    as its bit length needs, all the passes' counts in one read); ``ranked`` (filled):
-    keys[:, 0] in that order. The passes alternate between (order, ranked) and the two
-    rows of ``scratch``, starting so that they end in (order, ranked): no fresh
-    memory (first touches cost as much as the passes here). Exact integer passes: the
-    permutation of a stable sort."""
+@njit(**INLINE_OPTIONS)
+def _passes(keys, order, ranked, scratch, lo, bits, shift):
+    """The stable LSD radix passes of :func:`_radix_first` over bits [shift, bits) of
+    key − lo (``bits`` its bit length), ending in (order, ranked)."""
     n = keys.shape[0]
-    lo, hi = keys[0, 0], keys[0, 0]
-    for q in range(n):
-        lo = min(lo, keys[q, 0])
-        hi = max(hi, keys[q, 0])
-    bits = 0
-    while ((hi - lo) >> bits) > 0:  # packed keys < 2^62: no overflow
-        bits += 1
-    npass = (bits + _DIGIT - 1) // _DIGIT
-    b = (bits + npass - 1) // npass if npass else 0
+    npass = (bits - shift + _DIGIT - 1) // _DIGIT
+    b = (bits - shift + npass - 1) // npass if npass else 0
     mask = (1 << b) - 1
     count = np.zeros((max(npass, 1), 1 << b), dtype=np.int64)
     o1, val, o2, tv = order, ranked, scratch[0], scratch[1]
@@ -89,7 +79,7 @@ def _radix_first(keys, order, ranked, scratch):
         o1[q] = q
         val[q] = keys[q, 0] - lo
         for p in range(npass):
-            count[p, np.uint64((val[q] >> (p * b)) & mask)] += 1
+            count[p, np.uint64(((val[q] >> shift) >> (p * b)) & mask)] += 1
     for p in range(npass):
         acc = 0
         for d in range(1 << b):  # starts of the digits' slots
@@ -97,15 +87,65 @@ def _radix_first(keys, order, ranked, scratch):
             count[p, d] = acc
             acc += t
         for q in range(n):  # stable scatter, carrying the value with the row
-            d = np.uint64((val[q] >> (p * b)) & mask)
+            d = np.uint64(((val[q] >> shift) >> (p * b)) & mask)
             at = np.uint64(count[p, d])
             count[p, d] += 1
             tv[at] = val[q]
             o2[at] = o1[q]
         val, tv = tv, val
         o1, o2 = o2, o1
-    for q in range(n):  # o1 is order, val is ranked
-        val[q] += lo
+
+
+@njit(**INLINE_OPTIONS)
+def _low_bits(order, ranked, shift, most):
+    """Finish a stable order by the bits above ``shift`` of ``ranked`` (key − lo, in
+    that order) into a stable order by the whole value: each run of equal high bits
+    sorted by insertion (strict: equal values keep their order). False (the arrays part
+    sorted) at a run longer than ``most``: then the passes are redone over every bit."""
+    n, i = order.shape[0], 0
+    for q in range(1, n):
+        if (ranked[q] >> shift) != (ranked[q - 1] >> shift):
+            i = q
+            continue
+        if q - i >= most:
+            return False
+        x, o, v = ranked[q], order[q], np.uint64(q)
+        while v > np.uint64(i) and ranked[v - np.uint64(1)] > x:  # unsigned: no
+            ranked[v] = ranked[v - np.uint64(1)]  # wraparound tests
+            order[v] = order[v - np.uint64(1)]
+            v -= np.uint64(1)
+        ranked[v] = x
+        order[v] = o
+    return True
+
+
+@njit(**JIT_OPTIONS)
+def _radix_first(keys, order, ranked, scratch):
+    """``order`` (filled): the rows stably sorted by keys[:, 0], least significant
+    digit first over the key's range (key - min), as many passes of up to _DIGIT bits
+    as its bit length needs, all the passes' counts in one read; ``ranked`` (filled):
+    keys[:, 0] in that order. A key over more than two digits: the passes over its two
+    highest only, then each run of equal high bits by insertion on the rest (a kind's
+    keys spread: W1's triangle_edge heads 5 passes -> 2; benchmarks/README.md, "W1's
+    validation, complexes, stage 1 and hits' order"),
+    or, at a run over 2·_SHORT rows, every digit's pass after all. The passes alternate
+    between (order, ranked) and the two rows of ``scratch``, ending in (order, ranked):
+    no fresh memory (first touches cost as much as the passes here). Exact integer
+    passes: the permutation of a stable sort."""
+    n = keys.shape[0]
+    lo, hi = keys[0, 0], keys[0, 0]
+    for q in range(n):
+        lo = min(lo, keys[q, 0])
+        hi = max(hi, keys[q, 0])
+    bits = 0
+    while ((hi - lo) >> bits) > 0:  # packed keys < 2^62: no overflow
+        bits += 1
+    shift = max(bits - 2 * _DIGIT, 0)
+    _passes(keys, order, ranked, scratch, lo, bits, shift)
+    if shift and not _low_bits(order, ranked, shift, 2 * _SHORT):
+        _passes(keys, order, ranked, scratch, lo, bits, 0)
+    for q in range(n):
+        ranked[q] += lo
 
 
 @njit(**JIT_OPTIONS)
@@ -195,9 +235,36 @@ def _pack_row(S, ids, r, n, per, keys, k0, q, row):
     return k
 
 
+@njit(**INLINE_OPTIONS)
+def _pack_one(S, ids, r, n, w):
+    """The one key of simplex row r of 1–3 ids (n^w < 2^62: :func:`_pack_row`'s
+    packing), its sorted input ids written out: compare-exchanges in the insertion's
+    outcome (the same sorted values), no loops with runtime trip counts."""
+    a = ids[np.uint64(S[r, 0])]
+    if w == 1:
+        return a
+    b = ids[np.uint64(S[r, 1])]
+    if a > b:
+        a, b = b, a
+    if w == 2:
+        return a * n + b
+    x = ids[np.uint64(S[r, 2])]
+    if b > x:
+        b, x = x, b
+        if a > b:
+            a, b = b, a
+    return (a * n + b) * n + x
+
+
 @njit(**JIT_OPTIONS)
 def _hit_keys(S1, ids1, s, n1, per1, S2, ids2, c, n2, per2, keys):
     row = np.empty(S1.shape[1] + S2.shape[1], dtype=np.int64)
+    w1, w2 = S1.shape[1], S2.shape[1]
+    if w1 <= 3 and w2 <= 3 and per1 >= w1 and per2 >= w2:  # one key a side
+        for q in range(s.shape[0]):
+            keys[q, 0] = _pack_one(S1, ids1, np.uint64(s[q]), n1, w1)
+            keys[q, 1] = _pack_one(S2, ids2, np.uint64(c[q]), n2, w2)
+        return
     for q in range(s.shape[0]):
         k = _pack_row(S1, ids1, np.uint64(s[q]), n1, per1, keys, 0, q, row)
         _pack_row(S2, ids2, np.uint64(c[q]), n2, per2, keys, k, q, row)

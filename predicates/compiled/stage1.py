@@ -12,6 +12,9 @@ for every level: a face owned by T is T's vertices at one combination of its col
 row of the level's simplices, in the same order, and the minimum/maximum fold is the
 same — without a gather of the face's row and of its vertices per face (W1: 182 k faces,
 ~3 ms of gathers; benchmarks/README.md, "W1's broad phase, complexes and stage 1").
+A face whose box the run's envelope shows within reach of every cell of the run, or of
+none, skips the tests (the same answers: x − b and a − y are monotone; benchmarks/
+README.md, "W1's validation, complexes, stage 1 and hits' order").
 """
 from __future__ import annotations
 
@@ -35,11 +38,33 @@ def _hold_boxes(t, start, cols, combos, V, held):
     rows of the cell's columns), folded by boxes_of's minimum/maximum in that order —
     exact, the same boxes (up to a zero's sign, which no box test sees)."""
     e0 = start[t]  # t unsigned (the caller's): no wraparound test
+    w = combos.shape[1]
     for u in range(start[t + np.uint64(1)] - e0):
         k = np.uint64(cols[e0 + u])
+        if w == 3:  # (a triangle's, an edge's fold written out: no inner trip count)
+            i, j, m = np.uint64(combos[k, 0]), np.uint64(combos[k, 1]), np.uint64(combos[k, 2])
+            for ax in range(V.shape[1]):
+                a = b = V[i, ax]
+                x = V[j, ax]
+                a = a if (a < x) | (a != a) else x  # np.minimum: a NaN propagates
+                b = b if (b > x) | (b != b) else x
+                x = V[m, ax]
+                a = a if (a < x) | (a != a) else x
+                b = b if (b > x) | (b != b) else x
+                held[u, ax], held[u, 3 + ax] = a, b
+            continue
+        if w == 2:
+            i, j = np.uint64(combos[k, 0]), np.uint64(combos[k, 1])
+            for ax in range(V.shape[1]):
+                a = b = V[i, ax]
+                x = V[j, ax]
+                a = a if (a < x) | (a != a) else x
+                b = b if (b > x) | (b != b) else x
+                held[u, ax], held[u, 3 + ax] = a, b
+            continue
         for ax in range(V.shape[1]):
             a = b = V[np.uint64(combos[k, 0]), ax]
-            for v in range(1, combos.shape[1]):
+            for v in range(1, w):
                 x = V[np.uint64(combos[k, v]), ax]
                 a = a if (a < x) | (a != a) else x  # np.minimum: a NaN propagates
                 b = b if (b > x) | (b != b) else x
@@ -47,7 +72,7 @@ def _hold_boxes(t, start, cols, combos, V, held):
 
 
 @njit(**INLINE_OPTIONS)
-def _owned_run(t, C, q0, q1, start, faces, pad, held, run, three, out_f, out_c, n):
+def _owned_run(t, C, q0, q1, start, faces, pad, held, run, env, three, out_f, out_c, n):
     """Append (f, C[q]) for each face f cell t owns (boxes in ``held``), then each pair
     q0 ≤ q < q1 of the run sharing t, when f's box is within ``pad`` of cell C[q]'s
     (``run`` row q − q0: lo on columns 0–2, hi on 3–5; axis 2 only if ``three``):
@@ -60,6 +85,25 @@ def _owned_run(t, C, q0, q1, start, faces, pad, held, run, three, out_f, out_c, 
         f = faces[e0 + u]
         a0, a1, a2 = held[u, 0], held[u, 1], held[u, 2]
         b0, b1, b2 = held[u, 3], held[u, 4], held[u, 5]
+        # every cell of the run passes, or none does, decided from the run's envelope
+        # (``env``): x − b and a − y are monotone in x and y, so these are the tests'
+        # own answers (a NaN bound makes both False: the tests below decide)
+        every = ((env[0] - b0 <= pad) & (a0 - env[3] <= pad)
+                 & (env[1] - b1 <= pad) & (a1 - env[4] <= pad))
+        none = ((env[6] - b0 > pad) | (a0 - env[9] > pad)
+                | (env[7] - b1 > pad) | (a1 - env[10] > pad))
+        if three:
+            every &= (env[2] - b2 <= pad) & (a2 - env[5] <= pad)
+            none |= (env[8] - b2 > pad) | (a2 - env[11] > pad)
+        if none:
+            continue
+        if every:
+            for q in range(q0, q1):
+                un = np.uint64(n + q - q0)
+                out_f[un] = f
+                out_c[un] = C[np.uint64(q)]
+            n += q1 - q0
+            continue
         for q in range(q0, q1):
             r = np.uint64(q - q0)  # unsigned: no wraparound test an index (W1 -1.1 ms)
             ok = ((run[r, 0] - b0 <= pad) & (a0 - run[r, 3] <= pad)
@@ -73,6 +117,22 @@ def _owned_run(t, C, q0, q1, start, faces, pad, held, run, three, out_f, out_c, 
             out_c[un] = C[np.uint64(q)]
             n += ok
     return n
+
+
+@njit(**INLINE_OPTIONS)
+def _envelope(run, m, d, env):
+    """The envelope of the run's m cell boxes: per axis the largest lower bound
+    (env[ax]), least upper (env[3 + ax]), least lower (env[6 + ax]) and largest upper
+    (env[9 + ax]), numpy's NaN-propagating minimum/maximum (a NaN bound: NaN)."""
+    for ax in range(d):
+        x, y, lo, hi = run[0, ax], run[0, 3 + ax], run[0, ax], run[0, 3 + ax]
+        for r in range(1, m):
+            a, b = run[r, ax], run[r, 3 + ax]
+            x = x if (x > a) | (x != x) else a
+            y = y if (y < b) | (y != y) else b
+            lo = lo if (lo < a) | (lo != lo) else a
+            hi = hi if (hi > b) | (hi != hi) else b
+        env[ax], env[3 + ax], env[6 + ax], env[9 + ax] = x, y, lo, hi
 
 
 @njit(**INLINE_OPTIONS)
@@ -98,6 +158,7 @@ def _owned_levels(T, C, lo_c, hi_c, P, cells, levels, s0, f0, k0, m0, pad0, o0, 
     n0 = n1 = n2 = 0
     d = lo_c.shape[0]
     run = np.empty((64, 6))  # the run's cell boxes, rows read in sequence
+    env = np.zeros(12)  # their envelope (_envelope)
     q0 = r0 = r1 = 0  # [r0, r1): the previous run, whose boxes ``run`` holds
     while q0 < T.shape[0]:
         t, q1 = np.uint64(T[q0]), _run_end(T, q0)  # unsigned: no wraparound test
@@ -108,19 +169,20 @@ def _owned_levels(T, C, lo_c, hi_c, P, cells, levels, s0, f0, k0, m0, pad0, o0, 
                 c = np.uint64(C[q])  # unsigned: no wraparound test a gather
                 for ax in range(d):
                     run[q - q0, ax], run[q - q0, 3 + ax] = lo_c[ax, c], hi_c[ax, c]
+            _envelope(run, q1 - q0, d, env)
         r0, r1 = q0, q1
         for v in range(cells.shape[1]):  # each coordinate converted to binary64 exactly
             p = np.uint64(cells[t, v])
             for ax in range(P.shape[1]):
                 V[v, ax] = np.float64(P[p, ax])
         _hold_boxes(t, s0, k0, m0, V, h0)
-        n0 = _owned_run(t, C, q0, q1, s0, f0, pad0, h0, run, three, o0, p0, n0)
+        n0 = _owned_run(t, C, q0, q1, s0, f0, pad0, h0, run, env, three, o0, p0, n0)
         if levels > 1:
             _hold_boxes(t, s1, k1, m1, V, h1)
-            n1 = _owned_run(t, C, q0, q1, s1, f1, pad1, h1, run, three, o1, p1, n1)
+            n1 = _owned_run(t, C, q0, q1, s1, f1, pad1, h1, run, env, three, o1, p1, n1)
         if levels > 2:
             _hold_boxes(t, s2, k2, m2, V, h2)
-            n2 = _owned_run(t, C, q0, q1, s2, f2, pad2, h2, run, three, o2, p2, n2)
+            n2 = _owned_run(t, C, q0, q1, s2, f2, pad2, h2, run, env, three, o2, p2, n2)
         q0 = q1
     counts[0], counts[1], counts[2] = n0, n1, n2
 

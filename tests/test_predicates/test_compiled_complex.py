@@ -56,6 +56,25 @@ def test_unique_faces_any_number_of_faces_per_row(seed, g, w, n, m):
     assert np.array_equal(got_inv, inv.ravel())
 
 
+@settings(deadline=None)
+@given(seed=st.integers(0, 2 ** 32 - 1), n=st.sampled_from([46340, 46341]),
+       m=st.integers(1, 200), dtype=st.sampled_from([np.int32, np.int64]))
+def test_unique_faces_key_widths(seed, n, m, dtype):
+    """Rows of three ids packed into int32 keys while n^2 < 2^31 (n = 46,340: keys up
+    to 2^31 − 1 − 92,680), int64 beyond (n = 46,341: keys past 2^31): ids near n, ties
+    and repeated rows — np.unique's rows and map either way (an int32 key at n =
+    46,341 wraps and misorders)."""
+    rng = np.random.default_rng(seed)
+    rows = (n - 1 - rng.integers(0, 6, size=(m, 4))).astype(dtype)
+    rows[rng.random(m) < 0.3] = rows[0]
+    rows[rng.random(m) < 0.2, 1:] = rng.integers(0, 3, 3)  # small rests: both ends
+    combos = np.array(list(itertools.combinations(range(4), 3)))
+    want, inv = np.unique(rows[:, combos].reshape(-1, 3), axis=0, return_inverse=True)
+    got, got_inv = compiled_rows.unique_faces(rows, combos, n)
+    assert got.dtype == rows.dtype and np.array_equal(got, want)
+    assert np.array_equal(got_inv, inv.ravel())
+
+
 def test_unique_faces_takes_both_routes():
     """The insertion route refuses a run longer than _RUN (and then the counting sort
     answers), takes short runs: the test above exercises both."""
@@ -90,6 +109,19 @@ def test_unique_pairs_take_both_routes():
         want, inv = np.unique(rows, axis=0, return_inverse=True)
         got, got_inv = compiled_rows.unique_rows(rows, n)
         assert np.array_equal(got, want) and np.array_equal(got_inv, inv.ravel())
+
+
+@settings(deadline=None)
+@given(seed=st.integers(0, 2 ** 32 - 1), w=st.integers(1, 5), n=st.sampled_from([3, 50]),
+       m=st.integers(0, 100), dtype=st.sampled_from([np.int32, np.int64]))
+def test_ranked_rows_are_sorted_ranks(seed, w, n, m, dtype):
+    """ranked_rows (rows of 3 and 4 by written-out compare-exchanges, others by
+    insertion) = np.sort(rank.take(cells), axis=1): repeated ids and ranks (ties)."""
+    rng = np.random.default_rng(seed)
+    rank = rng.integers(0, n, size=n).astype(dtype)  # (not a permutation: ties)
+    cells = rng.integers(0, n, size=(m, w))
+    got = compiled_rows.ranked_rows(rank, cells)
+    assert got.dtype == rank.dtype and np.array_equal(got, np.sort(rank.take(cells), axis=1))
 
 
 @settings(deadline=None)

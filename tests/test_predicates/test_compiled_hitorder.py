@@ -110,3 +110,26 @@ def test_hits_in_runs_are_the_numpy_output(data, widths, n):
     got, got1, got2 = hits_in_order((S1, ids1, s, n), (S2, ids2, c, n))
     assert np.array_equal(got, want)
     assert np.array_equal(got1, sid[want]) and np.array_equal(got2, cid[want])
+
+
+def test_radix_first_takes_both_routes():
+    """Keys over more than two digits: the passes over the two highest, then runs of
+    equal high bits by insertion (``_low_bits`` True) — or, at a run over 2·_SHORT rows
+    (many keys below 2^19 beside one at 2^40), every digit's pass after all (False):
+    a stable argsort either way, ties and equal high bits included."""
+    from predicates.compiled.hitorder import _SHORT, _low_bits, _radix_first
+
+    rng = np.random.default_rng(3)
+    spread = rng.integers(0, 2 ** 40, 3000, dtype=np.int64)
+    spread[:300:7] = spread[0]  # ties (43 rows): their order kept
+    spread[1:300:7] = spread[1] + rng.integers(0, 8, 43)  # equal high bits, ties
+    crowded = np.r_[rng.integers(0, 2 ** 10, 4 * _SHORT), 2 ** 40].astype(np.int64)
+    for keys, route in ((spread, True), (crowded, False)):
+        n, shift = len(keys), (int(keys.max() - keys.min()).bit_length() - 22)
+        order = np.argsort(keys >> shift, kind="stable")
+        ranked = keys[order] - keys.min()
+        assert _low_bits(order, ranked, shift, 2 * _SHORT) == route
+        got, vals = np.empty(n, np.int64), np.empty(n, np.int64)
+        _radix_first(keys[:, None], got, vals, np.empty((2, n), np.int64))
+        want = np.argsort(keys, kind="stable")
+        assert np.array_equal(got, want) and np.array_equal(vals, keys[want])
