@@ -1,6 +1,6 @@
 """The least squared edge of 3D tetrahedra or triangles read straight from the points
 and the cells as given (:func:`least_square_rows`): the values of
-:func:`predicates.compiled.cells.least_square_tetrahedra` on the renumbered, scaled
+:func:`predicates.compiled.edgesquares.least_square_tetrahedra` on the renumbered, scaled
 copy :func:`predicates.registration.plan.edges.edge_summary` makes, without making it.
 
 Why (benchmarks/README.md, "s17-plan"): a minimum needs neither unique vertices nor

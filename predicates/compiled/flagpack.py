@@ -4,7 +4,7 @@ three grid indices in one int64 (:func:`pack_index`, 21 bits an axis: every inde
 at most 2^20, :data:`~predicates.registration.spatial.boxgrid.BITS`), so a cell's
 ranges take four loads, one per vertex, instead of twelve
 (:func:`flag_tetrahedra_packed`; the values of
-:func:`predicates.compiled.cells.flag_block_indexed`, whose module holds the rest).
+:func:`predicates.compiled.flagpass.flag_block_indexed`, whose module holds the rest).
 """
 from __future__ import annotations
 
@@ -51,7 +51,7 @@ def _range(packed, v0, v1, v2, v3, shift):
 def _box_into(points, v0, v1, v2, v3, flo, fhi, r, ext):
     """A flagged tetrahedron's box into row ``r`` of ``flo``, ``fhi`` (``fill_boxes``'
     values: :func:`~predicates.compiled.cellsums._side4`, the ids already read) and its
-    largest edge into ``ext`` as :func:`~predicates.compiled.cells._flagged` does."""
+    largest edge into ``ext`` as :func:`~predicates.compiled.flagpass._flagged` does."""
     a0, b0 = _side4(points, v0, v1, v2, v3, 0)
     a1, b1 = _side4(points, v0, v1, v2, v3, 1)
     a2, b2 = _side4(points, v0, v1, v2, v3, 2)
@@ -68,7 +68,7 @@ def _box_into(points, v0, v1, v2, v3, flo, fhi, r, ext):
 @njit(**JIT_OPTIONS)
 def flag_tetrahedra_packed(points, packed, rows, stride, S, has_table, i0, i1, near, flo,
                            fhi, bits, fcells):
-    """:func:`~predicates.compiled.cells.flag_block_indexed` for tetrahedra in 3D from
+    """:func:`~predicates.compiled.flagpass.flag_block_indexed` for tetrahedra in 3D from
     :func:`pack_index`'s ``packed`` indices: the same arguments otherwise, the same
     values and writes (flags, the flagged rows' ranges, boxes and ids compacted into
     the first rows, the cells covered, the flagged rows' largest box edge); returns

@@ -1,4 +1,4 @@
-"""The plan's compiled flag pass (predicates.compiled.cells) and the hits' final order
+"""The plan's compiled flag pass (predicates.compiled.flagpass, .cells) and the hits' final order
 (packed keys) are bit-identical to their numpy twins
 (docs/design.md, "Compiled candidate chain"), on adversarial inputs drawn by hypothesis:
 signed zeros, repeated coordinates, binades far apart, float32 points, boxes on grid
@@ -443,8 +443,8 @@ def test_indexed_flag_block_is_the_per_row_block(data, d, h):
     flag_block's counts, flags, ranges and largest edge, on points drawn on and next to
     grid lines (the floor's boundary cases), grids clipped on both sides; the flagged
     rows' boxes it keeps are fill_boxes' boxes of those rows."""
-    from predicates.compiled.cells import (
-        fill_boxes, flag_block, flag_block_indexed, pair_bits, point_index)
+    from predicates.compiled.cells import fill_boxes, point_index
+    from predicates.compiled.flagpass import flag_block, flag_block_indexed, pair_bits
     from predicates.registration.spatial.gridsums import _stride
 
     P, cells, rng = _mesh(data, d)
@@ -678,10 +678,10 @@ def test_pad_corners_runs_are_each_box(seed, flip):
 
 @pytest.mark.parametrize("d", [2, 3])
 def test_pair_bits_are_the_blocks_occupancy(d):
-    """cells.pair_bits (d = 3 written out, d = 2 the generic loop): the bit of cell c is
+    """flagpass.pair_bits (d = 3 written out, d = 2 the generic loop): the bit of cell c is
     set exactly when a cell of the 2^d block [c, c + 1] (inside the grid) is occupied —
     brute force over every cell of random grids, the grid's last rows included."""
-    from predicates.compiled.cells import pair_bits
+    from predicates.compiled.flagpass import pair_bits
     from predicates.registration.spatial.gridsums import _stride
 
     rng = np.random.default_rng(d)
@@ -717,11 +717,9 @@ def test_plan_float_kernels_have_no_fma():
     from numba import njit
 
     from predicates.compiled import cellsums as K
-    from predicates.compiled import estimate, flagpack
+    from predicates.compiled import cells, edgesquares, estimate, flagpack, flagpass
     from predicates.compiled import tetsums as T
     from predicates.compiled.build import JIT_OPTIONS
-    from predicates.compiled import cells
-    from predicates.compiled.cells import least_square_edge
     from predicates.compiled.edgerows import least_square_rows
     from predicates.registration.spatial import exactsum as xs
     from predicates.registration.spatial.gridsums import _stride
@@ -739,9 +737,9 @@ def test_plan_float_kernels_have_no_fma():
                          np.full(3, -np.inf))),
         (K.pad_index, (P, P + 1, 0.1, np.zeros(3), 0.25, np.empty((8, 3)),
                        np.empty((8, 3)))),
-        (least_square_edge, (P, C.T.copy(), 0, 2)),
-        (cells.least_square_tetrahedra, (P, C.T.copy(), 0, 2)),
-        (cells.least_square_triangles, (P, C[:, :3].T.copy(), 0, 2)),
+        (edgesquares.least_square_edge, (P, C.T.copy(), 0, 2)),
+        (edgesquares.least_square_tetrahedra, (P, C.T.copy(), 0, 2)),
+        (edgesquares.least_square_triangles, (P, C[:, :3].T.copy(), 0, 2)),
         (least_square_rows, (P, C, 0.5)),
         (least_square_rows, (P, C[:, :3].copy(), 0.5)),
         (T.summary_tetrahedra, (P, C, np.full(3, np.inf), np.full(3, -np.inf),
@@ -762,8 +760,9 @@ def test_plan_float_kernels_have_no_fma():
         (K.widened, (P, P + 1, np.full(8, 0.5), 2.0 ** -1000, np.empty_like(P),
                      np.empty_like(P))),
     ]
-    # the boxes, grid indices and the first round's flags (cells.py): their floats
-    # decide which cells can meet, as numpy's floor((x − o)/h) and min/max do
+    # the boxes (every branch of fill_boxes: one function), grid indices and the first
+    # round's flags (cells.py, flagpass.py): their floats decide which cells can meet,
+    # as numpy's floor((x − o)/h) and min/max do
     G = np.array([4, 4, 4], np.int64)
     stride, S, o = _stride(G), np.zeros(125, np.int32), np.zeros(3)
     index, m = np.empty((8, 3), np.int32), len(C)
@@ -772,10 +771,10 @@ def test_plan_float_kernels_have_no_fma():
         (cells.fill_boxes, (P, C, np.empty((3, m)), np.empty((3, m)))),
         (cells.cell_index, (P, o, 0.25, G, np.empty((8, 3), np.int32))),
         (cells.point_index, (P, o, 0.25, G, index)),
-        (cells.flag_block, (P, C, o, 0.25, G, stride, S, True, *ranges)),
-        (cells.flag_block_indexed, (P, index, C, stride, S, True, *ranges, np.empty((m, 3)),
-                                    np.empty((m, 3)), np.zeros(0, np.uint8),
-                                    np.empty_like(C))),
+        (flagpass.flag_block, (P, C, o, 0.25, G, stride, S, True, *ranges)),
+        (flagpass.flag_block_indexed, (P, index, C, stride, S, True, *ranges,
+                                       np.empty((m, 3)), np.empty((m, 3)),
+                                       np.zeros(0, np.uint8), np.empty_like(C))),
         (estimate.pad_total, (P, P + 1, 0.1, np.zeros(3), 0.25)),
         # (origin: the padded boxes' least lo − h, the kernel's premise — below it a
         # corner's unsigned key wraps and the write lands outside ``diff``)
@@ -920,11 +919,11 @@ def test_compiled_edge_summary_is_numpys_and_the_definition(data, d):
 @_SLOW
 @given(st.data(), st.sampled_from([3, 4]))
 def test_unrolled_least_square_is_the_general_kernel(data, k):
-    """cells.least_square_tetrahedra and least_square_triangles (3D, each vertex read
+    """edgesquares.least_square_tetrahedra and least_square_triangles (3D, each vertex read
     once) give least_square_edge's value on adversarial coordinates (signed zeros,
     infinities, NaN, ties, repeated vertices) for every span [a, b) of cells, and
     least_square_kernel picks them exactly for 3D cells of 4 and 3 vertices."""
-    from predicates.compiled.cells import (
+    from predicates.compiled.edgesquares import (
         least_square_edge, least_square_kernel, least_square_tetrahedra,
         least_square_triangles)
 

@@ -3,14 +3,12 @@
 the used vertices and the split's Morton box, against their definitions."""
 from __future__ import annotations
 
-import re
-
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from predicates.registration.partition.remote import _used, flagged_boxes
+from predicates.registration.partition.remote import _used
 from predicates.registration.partition.run_arrays import DeferredRun
 from predicates.registration.partition.split_keys import chunk_run, first_hull
 from predicates.registration.partition.split_remote import run_hull
@@ -25,10 +23,14 @@ _VALUES = st.sampled_from([0.0, -0.0, 1.0, -1.0, 0.5, 3.25, 1e300, -1e-300, np.n
 @given(n=st.integers(1, 12), m=st.integers(0, 40), seed=st.integers(0, 2 ** 32 - 1),
        special=st.lists(_VALUES, max_size=8), dtype=st.sampled_from(["f8", "f4"]),
        ids=st.sampled_from(["i4", "i8", "u4"]), block=st.integers(1, 9))
-def test_flagged_boxes_are_boxes_of(n, m, seed, special, dtype, ids, block):
-    """Every box bit for bit numpy's (:func:`boxes_of` on the numpy path): NaN, signed
-    zeros, infinities and subnormals among the points, float32 points, any id dtype,
-    blocks of a few rows — compiled tetrahedra and the fallbacks (triangles, 2D)."""
+def test_flagged_boxes_are_numpy_boxes(n, m, seed, special, dtype, ids, block):
+    """The flagged cells' boxes the compiled client computes
+    (:meth:`~predicates.registration.partition.remote.RemoteCells.flag_pass`:
+    :func:`boxes_of` with the accelerator, each tetrahedron's ids read once by
+    ``compiled.cells.fill_boxes``) are bit for bit numpy's (:func:`boxes_of` on the
+    numpy path): NaN, signed zeros, infinities and subnormals among the points, float32
+    points, any id dtype, blocks of a few rows — tetrahedra and the other branches
+    (triangles, 2D)."""
     pytest.importorskip("numba")
     rng = np.random.default_rng(seed)
     P = rng.integers(-3, 4, (n, 3)) * 0.5
@@ -39,7 +41,7 @@ def test_flagged_boxes_are_boxes_of(n, m, seed, special, dtype, ids, block):
     for width, pts in ((4, P), (3, P), (3, np.ascontiguousarray(P[:, :2]))):
         cells = rng.integers(0, n, (m, width)).astype(ids)
         want = boxes_of(pts, cells, SERIAL)
-        got = flagged_boxes(pts, cells, Blocks(accelerate=True, block=block))
+        got = boxes_of(pts, cells, Blocks(accelerate=True, block=block))
         for g, w in zip(got, want):
             assert g.shape == w.shape and g.dtype == w.dtype
             assert np.array_equal(g.view(np.uint64), w.view(np.uint64))
@@ -58,30 +60,6 @@ def test_used_is_the_or_of_the_chunks_masks(n, chunks):
     want = np.logical_or.reduce(masks)
     got = _used(n, bits)
     assert got.dtype == bool and got.shape == (n,) and np.array_equal(got, want)
-
-
-def test_tetrahedra_boxes_have_no_fma():
-    """The kernel's floats are min and max (no arithmetic): still no fma, fmuladd or
-    fast-math flag in its IR nor FMA instruction in its code, compiled again from
-    source without the disk cache (a cached kernel shows no code: the check would pass
-    on anything), as test_compiled_plan's kernels."""
-    pytest.importorskip("numba")
-    from numba import njit
-
-    from predicates.compiled.build import JIT_OPTIONS
-    from predicates.compiled.flagboxes import tetrahedra_boxes
-
-    assert tetrahedra_boxes.targetoptions.get("fastmath") in (False, None)
-    f = njit(**dict(JIT_OPTIONS, cache=False))(tetrahedra_boxes.py_func)
-    P, C = np.random.default_rng(0).random((8, 3)), np.array([[0, 1, 2, 3], [4, 5, 6, 7]])
-    f(P, C, np.empty((3, 2)), np.empty((3, 2)))
-    fma_asm = re.compile(r"\bv?f(n)?m(add|sub)\d|\bvfmaddsub|\bvfmsubadd", re.I)
-    fma_ir = re.compile(r"@llvm\.(fma|fmuladd)|\bf(add|sub|mul|div|neg|cmp)\s+(fast|"
-                        r"contract|reassoc|afn|arcp|nnan|ninf|nsz)\b")
-    for sig in f.signatures:
-        ir, asm = f.inspect_llvm(sig), f.inspect_asm(sig)
-        assert "define " in ir and ".globl" in asm
-        assert not fma_ir.search(ir) and not fma_asm.search(asm)
 
 
 @settings(max_examples=80, deadline=None)

@@ -64,22 +64,6 @@ def _used(n_points: int, bits: list) -> np.ndarray:
     return np.unpackbits(np.bitwise_or.reduce(bits), count=n_points).view(bool)
 
 
-def flagged_boxes(points: np.ndarray, cells: np.ndarray, blocks: Blocks = SERIAL):
-    """``boxes_of(points, cells, blocks)``; compiled tetrahedra (the flagged cells of
-    :meth:`RemoteCells.flag_pass`, valid ids) with each row's ids read once
-    (:func:`predicates.compiled.flagboxes.tetrahedra_boxes`: the same values)."""
-    if not (blocks.accelerate and cells.ndim == 2 and cells.shape[1] == 4
-            and points.ndim == 2 and points.shape[1] == 3):
-        return boxes_of(points, cells, blocks)
-    from predicates.compiled.flagboxes import tetrahedra_boxes
-
-    lo, hi = np.empty((3, len(cells))), np.empty((3, len(cells)))
-    P = np.ascontiguousarray(points)
-    blocks.rows(lambda a, b: tetrahedra_boxes(P, cells[a:b], lo[:, a:b], hi[:, a:b]),
-                len(cells))
-    return lo.T, hi.T
-
-
 def _row_boxes(chunk, points, rows: np.ndarray):
     """The boxes (lo, hi) of a chunk's ``rows`` (chunk-local, ascending)."""
     return boxes_of(points, np.asarray(chunk)[rows])
@@ -271,7 +255,7 @@ class RemoteCells(CellBoxes):
             lo = np.concatenate([g[1][5][0] for g in got])
             hi = np.concatenate([g[1][5][1] for g in got])
         else:
-            lo, hi = flagged_boxes(self.points, cells, self.blocks)
+            lo, hi = boxes_of(self.points, cells, self.blocks)
         self._kept, self._kept_cells = (ids, lo, hi), cells
         self._edges = (ids, [g[1][4] for g in got if g[1][4] is not None])
         # the cutting flags' input: the chunks' ranges, or the grid cells they cover

@@ -110,8 +110,8 @@ def _least_square(coords: np.ndarray, C: np.ndarray, blocks: Blocks) -> float:
     k, dim = C.shape[0], coords.shape[0]  # (dim: the numpy path's)
 
     def span(a: int, b: int) -> float:
-        if blocks.accelerate:  # the same sums, compiled (GIL-free; 3D tetrahedra and
-            from predicates.compiled.cells import least_square_kernel  # triangles unrolled)
+        if blocks.accelerate:  # the same sums, compiled (GIL-free; 3D tetrahedra
+            from predicates.compiled.edgesquares import least_square_kernel  # unrolled)
 
             return float(least_square_kernel(coords.shape[1], k)(coords, C, a, b))
         best = np.inf

@@ -150,14 +150,14 @@ def _keep_flagged(boxes, parts, near, d) -> None:
 
 def _compiled_span(boxes, origin, h, G, table, near):
     """(:func:`flag_pass`'s span, whether the flagged rows' boxes and ids are kept):
-    each block one call of the fused kernel (:func:`predicates.compiled.cells.
+    each block one call of the fused kernel (:func:`predicates.compiled.flagpass.
     flag_block`), which writes the flagged rows' cell ranges (and boxes, ids)
     compacted straight into the span's output arrays (no copies). With at least as many
     cells as points, the points' grid cells are computed first, once (N·d divisions
     instead of 2·d per cell; ``flag_block_indexed``: the same values), for tetrahedra
     packed into one int64 a point (:mod:`predicates.compiled.flagpack`)."""
-    from predicates.compiled.cells import (
-        flag_block, flag_block_indexed, pair_bits, point_index)
+    from predicates.compiled.cells import point_index
+    from predicates.compiled.flagpass import flag_block, flag_block_indexed, pair_bits
     from predicates.compiled.flagpack import flag_tetrahedra_packed, pack_index
 
     P = np.ascontiguousarray(boxes.points)
