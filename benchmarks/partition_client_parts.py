@@ -7,8 +7,8 @@ the points on the client, k = 2. After one warm call, each call prints the clien
 process's CPU seconds and, per wrapped function, the process CPU (every thread: the
 plan's pool and Dask's event loop included) spent while it ran, in ms. Nested functions
 count in each of their callers; "cut_and_flag_boxes" is every ``remote.boxes_of`` call
-(the cutting boxes for the first round's grid and, before the fifth pass, the flagged
-cells' boxes).
+(the cutting boxes for the first round's grid and the flagged cells' boxes — from the
+fifth pass to s23-cells those came from a kernel of their own, not counted here).
 
     cd TREE && FPERR_ACCELERATE=1 PYTHONPATH=TREE:TREE/benchmarks \\
         python benchmarks/partition_client_parts.py 3 [--n 120 --subdivisions 7]
