@@ -59,24 +59,28 @@ def test_compiled_boxes_are_numpy_boxes(seed, d, k, n, m, share, dtype, ids, lay
 
 def test_the_comparison_tells_a_wrong_fold():
     """Rows where numpy's fold (the vertices in column order, the second operand among
-    equal values, NaN kept) differs from a fold in another order, from the first
-    operand among equals and from a NaN-ignoring min: the compiled tetrahedra and
-    triangles give numpy's, so the comparisons above fail on such a kernel."""
+    equal values, NaN kept) differs from a fold in reverse order, with the middle
+    vertices swapped, from the first operand among equals and from a NaN-ignoring min:
+    the compiled tetrahedra and triangles give numpy's, so this test and the one above
+    fail on such a kernel (a kernel folding j and k swapped failed both, 29 Nov)."""
     P = np.array([[0.0, -0.0, np.nan], [-0.0, 0.0, 1.0], [0.0, -0.0, 2.0],
-                  [-0.0, 0.0, 3.0]])
-    for rows in (np.array([[0, 1, 2, 3], [3, 2, 1, 0], [0, 0, 1, 1]]),
-                 np.array([[0, 1, 2], [2, 1, 0], [1, 1, 0]])):
+                  [-0.0, 0.0, 3.0], [1.0, 1.0, 1.0]])
+    # (row [4, 0, 1, 4]: x = 1, 0, −0, 1 — lo is −0.0 only if 0 is folded before −0)
+    for rows, swap in ((np.array([[0, 1, 2, 3], [3, 2, 1, 0], [0, 0, 1, 1], [4, 0, 1, 4]]),
+                        [0, 2, 1, 3]),
+                       (np.array([[0, 1, 2], [2, 1, 0], [1, 1, 0], [4, 0, 1]]), [0, 2, 1])):
         want = boxes_of(P, rows, SERIAL)
         _same(boxes_of(P, rows, Blocks(accelerate=True)), want)
         _same(boxes_of(P.astype(np.float32), rows, Blocks(accelerate=True)),
               boxes_of(P.astype(np.float32), rows, SERIAL))
         X = P[rows]  # (m, k, d)
         reversed_ = boxes_of(P, rows[:, ::-1].copy(), SERIAL)
+        swapped = boxes_of(P, rows[:, swap], SERIAL)  # the middle vertices swapped
         first = [X[:, 0].copy(), X[:, 0].copy()]
         fmin = [X[:, 0].copy(), X[:, 0].copy()]
         for v in range(1, rows.shape[1]):
             first = [np.where(X[:, v] < first[0], X[:, v], first[0]),
                      np.where(X[:, v] > first[1], X[:, v], first[1])]
             fmin = [np.fmin(fmin[0], X[:, v]), np.fmax(fmin[1], X[:, v])]
-        for wrong in (reversed_, first, fmin):
+        for wrong in (reversed_, swapped, first, fmin):
             assert any(a.tobytes() != b.tobytes() for a, b in zip(wrong, want))
