@@ -272,10 +272,19 @@ def _hit_keys(S1, ids1, s, n1, per1, S2, ids2, c, n2, per2, keys):
 
 @njit(**JIT_OPTIONS)
 def _ids_in_order(S, ids, s, order, out):
+    w = S.shape[1]
     for q in range(order.shape[0]):
         r = np.uint64(s[np.uint64(order[q])])  # unsigned: no wraparound test a gather
-        for p in range(S.shape[1]):
-            out[q, p] = ids[np.uint64(S[r, p])]
+        if w == 1:  # 1–3 ids written out: no inner trip count (W1 ~0.8 -> 0.64 ms, s23-w1)
+            out[q, 0] = ids[np.uint64(S[r, 0])]
+        elif w == 2:
+            out[q, 0], out[q, 1] = ids[np.uint64(S[r, 0])], ids[np.uint64(S[r, 1])]
+        elif w == 3:
+            out[q, 0], out[q, 1], out[q, 2] = (ids[np.uint64(S[r, 0])], ids[np.uint64(S[r, 1])],
+                                               ids[np.uint64(S[r, 2])])
+        else:
+            for p in range(w):
+                out[q, p] = ids[np.uint64(S[r, p])]
 
 
 def _per_key(n: int, w: int) -> int:
