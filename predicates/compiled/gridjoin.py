@@ -224,7 +224,8 @@ def grid_join(ranges: tuple, G: np.ndarray, pad: float, cols: tuple, limit: int)
     columns. Returns (ia, ib), a ascending, or None past ``limit`` proposals."""
     ia0, ia1, ib0, ib1 = ranges
     G = np.asarray(G, dtype=np.int64)
-    n_entries = int((ib1.astype(np.int64) - ib0 + 1).prod(axis=1).sum()) if len(ib0) else 0
+    # the entries: covered_cells' exact sum (numpy's product along rows of 3: ~10x)
+    n_entries = covered_cells(ib0, ib1)
     # int32 offsets and ids when they fit: the bucketing scatters into them and the
     # join reads them at random, so half the bytes keep more of them in cache (W1's
     # 55 k cells and 70 k entries: 1 MB -> 0.5 MB; benchmarks/README.md, "W1's cell
@@ -255,10 +256,16 @@ _SATURATED = 1 << 62
 @njit(**JIT_OPTIONS)
 def _covered(i0, i1):
     total = 0
+    three = i0.shape[1] == 3
     for r in range(i0.shape[0]):
-        n = 1
-        for ax in range(i0.shape[1]):
-            n *= np.int64(i1[r, ax]) - np.int64(i0[r, ax]) + 1
+        if three:  # written out: no inner trip count (W1's two sides 0.31 -> 0.18 ms)
+            n = ((np.int64(i1[r, 0]) - np.int64(i0[r, 0]) + 1)
+                 * (np.int64(i1[r, 1]) - np.int64(i0[r, 1]) + 1)
+                 * (np.int64(i1[r, 2]) - np.int64(i0[r, 2]) + 1))
+        else:
+            n = 1
+            for ax in range(i0.shape[1]):
+                n *= np.int64(i1[r, ax]) - np.int64(i0[r, ax]) + 1
         total = min(total + n, _SATURATED)  # a box covers < 2^61 cells (BITS = 20)
     return total
 
