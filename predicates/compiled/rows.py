@@ -302,11 +302,19 @@ def unique_rows(rows: np.ndarray, n: int, inverse: bool = True):
 
 @njit(**JIT_OPTIONS)
 def _any_flagged(flags, rows, out):
-    for r in range(rows.shape[0]):
-        hit = False
-        for c in range(rows.shape[1]):
-            hit |= flags[np.uint64(rows[r, c])]  # unsigned: no wraparound test
-        out[r] = hit
+    w = rows.shape[1]
+    for r in range(rows.shape[0]):  # ids unsigned: no wraparound test
+        if w == 3:  # rows of 3 and 4 written out: no inner trip count (W1's six face
+            out[r] = (flags[np.uint64(rows[r, 0])] | flags[np.uint64(rows[r, 1])]  # tables
+                      | flags[np.uint64(rows[r, 2])])  # ~0.9 -> 0.6 ms, s23-w1)
+        elif w == 4:
+            out[r] = (flags[np.uint64(rows[r, 0])] | flags[np.uint64(rows[r, 1])]
+                      | flags[np.uint64(rows[r, 2])] | flags[np.uint64(rows[r, 3])])
+        else:
+            hit = False
+            for c in range(w):
+                hit |= flags[np.uint64(rows[r, c])]
+            out[r] = hit
 
 
 def any_flagged(flags: np.ndarray, rows: np.ndarray) -> np.ndarray:
