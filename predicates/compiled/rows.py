@@ -6,7 +6,10 @@ vertices), each row inserted into its first id's run on the rest packed into an 
 (a complex's runs are a few rows); pairs of ids by a stamp per second id, sorting
 only each run's distinct ones; single ids by flags, with no sort; a stable
 least-significant-column counting sort when a run is long or the rest does not pack.
-Then one pass marking each row that differs from the previous. The unique rows come
+Then one pass marking each row that differs from the previous — which, when a whole
+row packs by shifts into an int64 (ids < 2^sh, sh·w ≤ 63), keeps each distinct row
+packed, unpacked in sequence after: no gather through the rows (benchmarks/README.md,
+"W1's complexes, stage 1 and the plan's sweep, new angles"). The unique rows come
 out sorted lexicographically with the same inverse map as numpy's argsort of the packed
 keys — one answer, whatever the sort — so the complexes are identical. A complex's
 faces are read from its simplices' rows in the kernel (no gathered copy), and its face
