@@ -19,7 +19,7 @@ from numba import njit
 
 from .build import INLINE_OPTIONS, JIT_OPTIONS
 
-__all__ = ["distinct_lex_order", "hits_in_order"]
+__all__ = ["distinct_lex_order", "hits_in_order", "rows_in_order"]
 
 #: a run of equal first keys longer than this is sorted by np.lexsort (a face met by many)
 _SHORT = 32
@@ -272,10 +272,19 @@ def _hit_keys(S1, ids1, s, n1, per1, S2, ids2, c, n2, per2, keys):
 
 @njit(**JIT_OPTIONS)
 def _ids_in_order(S, ids, s, order, out):
+    w = S.shape[1]
     for q in range(order.shape[0]):
         r = np.uint64(s[np.uint64(order[q])])  # unsigned: no wraparound test a gather
-        for p in range(S.shape[1]):
-            out[q, p] = ids[np.uint64(S[r, p])]
+        if w == 1:  # 1–3 ids written out: no inner trip count (W1 ~0.8 -> 0.64 ms, s23-w1)
+            out[q, 0] = ids[np.uint64(S[r, 0])]
+        elif w == 2:
+            out[q, 0], out[q, 1] = ids[np.uint64(S[r, 0])], ids[np.uint64(S[r, 1])]
+        elif w == 3:
+            out[q, 0], out[q, 1], out[q, 2] = (ids[np.uint64(S[r, 0])], ids[np.uint64(S[r, 1])],
+                                               ids[np.uint64(S[r, 2])])
+        else:
+            for p in range(w):
+                out[q, p] = ids[np.uint64(S[r, p])]
 
 
 def _per_key(n: int, w: int) -> int:
@@ -310,3 +319,29 @@ def hits_in_order(first: tuple, second: tuple) -> tuple:
     _ids_in_order(S1, ids1, s, order, out1)
     _ids_in_order(S2, ids2, c, order, out2)
     return order, out1, out2
+
+
+@njit(**JIT_OPTIONS)
+def _rows_in_order(W, order, out):
+    w = W.shape[1]
+    for q in range(order.shape[0]):
+        r = np.uint64(order[q])  # unsigned: no wraparound test a gather
+        if w == 2:  # a simplex's weights written out: no inner trip count
+            out[q, 0], out[q, 1] = W[r, 0], W[r, 1]
+        elif w == 3:
+            out[q, 0], out[q, 1], out[q, 2] = W[r, 0], W[r, 1], W[r, 2]
+        else:
+            for p in range(w):
+                out[q, p] = W[r, p]
+
+
+def rows_in_order(W: np.ndarray, order: np.ndarray) -> np.ndarray:
+    """``W.take(order, axis=0)`` (a kind's weights in the pairs' final order, loop._output;
+    ``order`` a permutation of W's rows: in range), copied compiled — numpy's take
+    copies a short row per call (W1's six kinds ~0.5 -> 0.3 ms; benchmarks/README.md,
+    "s23-w1")."""
+    W = np.ascontiguousarray(W)
+    out = np.empty((len(order),) + W.shape[1:], dtype=W.dtype)
+    if len(order):
+        _rows_in_order(W.reshape(len(W), -1), order, out.reshape(len(order), -1))
+    return out

@@ -6,7 +6,10 @@ vertices), each row inserted into its first id's run on the rest packed into an 
 (a complex's runs are a few rows); pairs of ids by a stamp per second id, sorting
 only each run's distinct ones; single ids by flags, with no sort; a stable
 least-significant-column counting sort when a run is long or the rest does not pack.
-Then one pass marking each row that differs from the previous. The unique rows come
+Then one pass marking each row that differs from the previous — which, when a whole
+row packs by shifts into an int64 (ids < 2^sh, sh·w ≤ 63), keeps each distinct row
+packed, unpacked in sequence after: no gather through the rows (benchmarks/README.md,
+"W1's complexes, stage 1 and the plan's sweep, new angles"). The unique rows come
 out sorted lexicographically with the same inverse map as numpy's argsort of the packed
 keys — one answer, whatever the sort — so the complexes are identical. A complex's
 faces are read from its simplices' rows in the kernel (no gathered copy), and its face
@@ -20,7 +23,8 @@ from numba import njit
 
 from .build import INLINE_OPTIONS, JIT_OPTIONS
 
-__all__ = ["any_flagged", "faces_via", "ranked_rows", "unique_faces", "unique_rows", "used_flags"]
+__all__ = ["any_flagged", "faces_via", "looked_up", "ranked_rows", "unique_faces", "unique_rows",
+           "used_flags"]
 
 
 @njit(**JIT_OPTIONS)
@@ -87,14 +91,16 @@ def _run_starts(rows, combos, n, start):
 
 
 @njit(**JIT_OPTIONS)
-def _by_first(rows, combos, n, start, key, idx, first, inv):
+def _by_first(rows, combos, n, sh, start, key, idx, first, inv):
     """Unique rows in one counting pass on the first column: each row placed in its
     first id's run by insertion on the packed rest (``key``: columns 1… as one int64,
     read in sequence) — the run's rows stay a few cache lines, where every column's
     pass of :func:`_lex_order` reads the rows through the order. Row i·g + p is
     rows[i, combos[p]] (g = len(combos): a simplex's faces, not gathered first). Then
-    ``first`` and ``inv`` as :func:`_mark` writes them. Returns the number of distinct
-    rows, or −1 (nothing written) when a run is longer than ``_RUN``."""
+    ``first`` and ``inv`` as :func:`_mark` writes them (``inv`` empty: not written) —
+    or, ``sh`` > 0 (ids < 2^sh, sh·w ≤ 63), the rest packed by shifts (the same order)
+    and ``first`` each distinct row packed whole, for :func:`_unpack`. Returns the
+    number of distinct rows, or −1 (nothing written) when a run is longer than ``_RUN``."""
     g, w = combos.shape
     if _run_starts(rows, combos, n, start) > _RUN:
         return -1
@@ -105,12 +111,14 @@ def _by_first(rows, combos, n, start, key, idx, first, inv):
             v = np.uint64(rows[r, combos[p, 0]])
             q = np.uint64(end[v])  # unsigned: no wraparound test an index
             end[v] = q + np.uint64(1)
-            if w == 3:  # a triangle's rest written out: no inner trip count (w = 4
-                k = rows[r, combos[p, 1]] * n + rows[r, combos[p, 2]]  # too: slower)
+            if w == 3 and sh:  # a triangle's rest written out: no inner trip count
+                k = (np.int64(rows[r, combos[p, 1]]) << sh) | rows[r, combos[p, 2]]
+            elif w == 3:  # (w = 4 written out too: slower)
+                k = rows[r, combos[p, 1]] * n + rows[r, combos[p, 2]]
             else:
                 k = 0
                 for c in range(1, w):
-                    k = k * n + rows[r, combos[p, c]]
+                    k = ((k << sh) | rows[r, combos[p, c]]) if sh else k * n + rows[r, combos[p, c]]
             s = np.uint64(start[v])
             while q > s and key[q - np.uint64(1)] > k:  # strict: equal rows keep order
                 key[q] = key[q - np.uint64(1)]
@@ -127,18 +135,39 @@ def _by_first(rows, combos, n, start, key, idx, first, inv):
         while q >= start[v + 1]:  # q's run: its first id (no read of rows)
             v += 1
         if q == start[v] or key[q] != key[q - 1]:
-            first[nu] = r
+            # the row itself when it packs: no gather of its columns afterwards
+            first[nu] = (np.int64(v) << (sh * (w - 1))) | key[q] if sh else np.int64(r)
             nu += 1
-        inv[r] = nu - 1
+        if inv.shape[0]:
+            inv[r] = nu - 1
     return nu
 
 
 @njit(**JIT_OPTIONS)
-def _pairs_by_first(rows, combos, n, start, second, idx, stamp, first, inv):
+def _unpack(first, sh, out):
+    """Row u of ``out`` (nu, w): first[u]'s w fields of ``sh`` bits, the first the
+    highest (:func:`_by_first`'s and :func:`_pairs_by_first`'s packed rows)."""
+    w, mask = out.shape[1], (np.int64(1) << sh) - 1
+    for u in range(out.shape[0]):
+        x = first[u]
+        if w == 2:  # written out: no inner trip count
+            out[u, 0], out[u, 1] = x >> sh, x & mask
+        elif w == 3:
+            out[u, 0], out[u, 1], out[u, 2] = x >> (2 * sh), (x >> sh) & mask, x & mask
+        else:
+            for c in range(w - 1, -1, -1):
+                out[u, c] = x & mask
+                x >>= sh
+
+
+@njit(**JIT_OPTIONS)
+def _pairs_by_first(rows, combos, n, sh, start, second, idx, stamp, first, inv):
     """:func:`_by_first` for rows of two ids (a complex's edges): rows put in their first
     id's run unsorted, then per run only its distinct second ids (``stamp[x] == v``: seen
     in run v) sorted by insertion (W1: runs of ≤ ~40 rows, ~7 distinct); ids unsigned (no
-    wraparound test). ``first``, ``inv`` as :func:`_mark`; −1: a run > 4·``_RUN``."""
+    wraparound test). ``first``, ``inv`` as :func:`_mark` (``inv`` empty: not written),
+    or, ``sh`` > 0, ``first`` the distinct rows packed (v << sh | x, for
+    :func:`_unpack`); −1: a run > 4·``_RUN``."""
     g = combos.shape[0]
     most = _run_starts(rows, combos, n, start)
     if most > 4 * _RUN:  # a hub vertex: its distinct ids' insertion would be quadratic
@@ -164,15 +193,20 @@ def _pairs_by_first(rows, combos, n, start, second, idx, stamp, first, inv):
                 u = d
                 while u > 0 and ids[u - 1] > x:
                     ids[u] = ids[u - 1]
-                    first[nu + u] = first[nu + u - 1]
+                    if not sh:
+                        first[nu + u] = first[nu + u - 1]
                     u -= 1
                 ids[u] = x
-                first[nu + u] = idx[q]
+                if not sh:
+                    first[nu + u] = idx[q]
                 d += 1
         for u in range(d):  # each distinct id's rank, through its stamp
             stamp[ids[u]] = -2 - nu - u  # (v ≥ 0 never equals it; reset by the next run)
-        for q in range(np.uint64(start[v]), np.uint64(start[v + 1])):
-            inv[np.uint64(idx[q])] = -2 - stamp[np.uint64(second[q])]
+            if sh:  # the row itself: no gather of its columns afterwards
+                first[nu + u] = (np.int64(v) << sh) | ids[u]
+        if inv.shape[0]:
+            for q in range(np.uint64(start[v]), np.uint64(start[v + 1])):
+                inv[np.uint64(idx[q])] = -2 - stamp[np.uint64(second[q])]
         nu += d
     return nu
 
@@ -193,7 +227,7 @@ def _by_flags(rows, combos, n, seen, rank, ids, inv):
             ids[nu] = v
             nu += 1
     i = 0
-    for r in range(rows.shape[0]):
+    for r in range(rows.shape[0] if inv.shape[0] else 0):
         for p in range(g):
             inv[i] = rank[np.uint64(rows[r, combos[p, 0]])]
             i += 1
@@ -214,57 +248,76 @@ def _gather(rows, combos, first, out):
             out[u, c] = rows[r, combos[p, c]]
 
 
-def unique_faces(rows: np.ndarray, combos: np.ndarray, n: int):
+def unique_faces(rows: np.ndarray, combos: np.ndarray, n: int, inverse: bool = True):
     """:func:`unique_rows` of ``rows[:, combos].reshape(-1, w)`` (ids < n; row i·g + p
     the columns combos[p] of rows[i]: a complex's faces of its simplices) without
     gathering them first: by :func:`_by_first` when the rest of a row packs into an
     int64 and no first id starts more than ``_RUN`` rows (W1's 176 k triangles 6.7 ->
     3.7 ms), pairs of ids by :func:`_pairs_by_first` (300 k edges 8.0 -> 3.2 ms), single
-    ids by flags, else by :func:`_lex_order` — the same rows and map either way."""
+    ids by flags, else by :func:`_lex_order` — the same rows and map either way. When a
+    whole row packs into an int64 by shifts, the kernels write each distinct row packed
+    and :func:`_unpack` writes the rows in sequence: no gather through the rows (W1's
+    complexes ~1.2 ms; benchmarks/README.md, "s23-w1"). ``inverse`` False: the map is
+    not made (None; the simulation's distinct cells)."""
     rows, combos = np.ascontiguousarray(rows), np.ascontiguousarray(combos, dtype=np.int64)
     g, w = combos.shape
     m = len(rows) * g
-    inv = np.empty(m, dtype=np.int64)
+    inv = np.empty(m if inverse else 0, dtype=np.int64)
     if w == 1:
         ids = np.empty(n, dtype=rows.dtype)
         nu = _by_flags(rows, combos, n, np.zeros(n, bool), np.empty(n, np.int64), ids, inv)
-        return ids[:nu].reshape(nu, 1).copy(), inv
+        return ids[:nu].reshape(nu, 1).copy(), (inv if inverse else None)
+    sh = max(1, int(n - 1).bit_length())  # ids < 2^sh
+    sh = sh if sh * w <= 63 else 0  # a whole row by shifts in an int64, else as before
     first, nu = np.empty(m, dtype=np.int64), -1
     if w == 2:
         ids = np.int32 if max(n, m) < 2 ** 31 else np.int64  # the scatter: fewer pages
-        nu = _pairs_by_first(rows, combos, n, np.zeros(n + 1, np.int64), np.empty(m, ids),
+        nu = _pairs_by_first(rows, combos, n, sh, np.zeros(n + 1, np.int64), np.empty(m, ids),
                              np.empty(m, ids), np.full(n, -1, np.int64), first, inv)
-    elif int(n) ** (w - 1) < 2 ** 62:
+    elif sh or int(n) ** (w - 1) < 2 ** 62:
         # int32 keys and row numbers when they fit: the runs' scatter touches half the
         # bytes (the same comparisons: the packed rest is exact either way)
-        small = int(n) ** (w - 1) < 2 ** 31 and m < 2 ** 31
+        small = (sh * (w - 1) <= 31 if sh else int(n) ** (w - 1) < 2 ** 31) and m < 2 ** 31
         key = np.empty(m, np.int32 if small else np.int64)
         idx = np.empty(m, np.int32 if small else np.int64)
-        nu = _by_first(rows, combos, n, np.zeros(n + 1, np.int64), key, idx, first, inv)
+        nu = _by_first(rows, combos, n, sh, np.zeros(n + 1, np.int64), key, idx, first, inv)
+    out = np.empty((max(nu, 0), w), dtype=rows.dtype)
+    if nu >= 0 and sh:
+        _unpack(first, sh, out)
+        return out, (inv if inverse else None)
     if nu < 0:
         same = g == 1 and np.array_equal(combos[0], np.arange(rows.shape[1]))  # the rows
         flat = rows if same else rows[:, combos].reshape(m, w)
+        inv = inv if inverse else np.empty(m, dtype=np.int64)
         nu = _mark(flat, _lex_order(flat, n), first, inv)
-    out = np.empty((nu, w), dtype=rows.dtype)
+        out = np.empty((nu, w), dtype=rows.dtype)
     _gather(rows, combos, first, out)
-    return out, inv
+    return out, (inv if inverse else None)
 
 
-def unique_rows(rows: np.ndarray, n: int):
+def unique_rows(rows: np.ndarray, n: int, inverse: bool = True):
     """(unique rows sorted lexicographically, inverse map) of ``rows`` (ids < n), as
     :func:`predicates.registration.levels.complex.unique_rows` returns them
-    (:func:`unique_faces` of the rows themselves)."""
+    (:func:`unique_faces` of the rows themselves; ``inverse`` False: the map None)."""
     rows = np.ascontiguousarray(rows)
-    return unique_faces(rows, np.arange(rows.shape[1])[None, :], n)
+    return unique_faces(rows, np.arange(rows.shape[1])[None, :], n, inverse)
 
 
 @njit(**JIT_OPTIONS)
 def _any_flagged(flags, rows, out):
-    for r in range(rows.shape[0]):
-        hit = False
-        for c in range(rows.shape[1]):
-            hit |= flags[np.uint64(rows[r, c])]  # unsigned: no wraparound test
-        out[r] = hit
+    w = rows.shape[1]
+    for r in range(rows.shape[0]):  # ids unsigned: no wraparound test
+        if w == 3:  # rows of 3 and 4 written out: no inner trip count (W1's six face
+            out[r] = (flags[np.uint64(rows[r, 0])] | flags[np.uint64(rows[r, 1])]  # tables
+                      | flags[np.uint64(rows[r, 2])])  # ~0.9 -> 0.6 ms, s23-w1)
+        elif w == 4:
+            out[r] = (flags[np.uint64(rows[r, 0])] | flags[np.uint64(rows[r, 1])]
+                      | flags[np.uint64(rows[r, 2])] | flags[np.uint64(rows[r, 3])])
+        else:
+            hit = False
+            for c in range(w):
+                hit |= flags[np.uint64(rows[r, c])]
+            out[r] = hit
 
 
 def any_flagged(flags: np.ndarray, rows: np.ndarray) -> np.ndarray:
@@ -346,4 +399,21 @@ def faces_via(upper: np.ndarray, lower: np.ndarray, via: list, local: list) -> n
     one pass: no column temporaries, no stack — integers, the same table."""
     out = np.empty((len(upper), len(via)), dtype=np.result_type(lower, np.int64))
     _faces_via(upper, lower, np.asarray(via, np.int64), np.asarray(local, np.int64), out)
+    return out
+
+
+@njit(**JIT_OPTIONS)
+def _looked_up(table, ids, out):
+    for i in range(ids.shape[0]):
+        out[i] = table[np.uint64(ids[i])]  # unsigned: no wraparound test a gather
+
+
+def looked_up(table: np.ndarray, ids: np.ndarray) -> np.ndarray:
+    """``table.take(ids)`` (ids ≥ 0, any shape; the same values and dtype) in one
+    compiled pass over the flat ids: numpy's take tests every index's sign and bound
+    (the complexes' vertex tables F[k, 0], W1's 476 k ids 0.44 -> 0.22 ms;
+    benchmarks/README.md, "s23-w1")."""
+    ids = np.ascontiguousarray(ids)
+    out = np.empty(ids.shape, dtype=table.dtype)
+    _looked_up(table, ids.reshape(-1), out.reshape(-1))
     return out

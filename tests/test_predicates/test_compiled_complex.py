@@ -85,7 +85,7 @@ def test_unique_faces_takes_both_routes():
     for rows, route in ((short, True), (long_, False)):
         m = len(rows)
         out = [np.empty(m, np.int64) for _ in range(4)]
-        nu = compiled_rows._by_first(rows, np.arange(2)[None, :], n,
+        nu = compiled_rows._by_first(rows, np.arange(2)[None, :], n, 0,
                                      np.zeros(n + 1, np.int64), *out)
         assert (nu >= 0) == route
         assert np.array_equal(compiled_rows.unique_rows(rows, n)[0], np.unique(rows, axis=0))
@@ -104,11 +104,63 @@ def test_unique_pairs_take_both_routes():
         m = len(rows)
         out = [np.zeros(n + 1, np.int64), np.empty(m, np.int32), np.empty(m, np.int32),
                np.full(n, -1, np.int64), np.empty(m, np.int64), np.empty(m, np.int64)]
-        nu = compiled_rows._pairs_by_first(rows, np.arange(2)[None, :], n, *out)
+        nu = compiled_rows._pairs_by_first(rows, np.arange(2)[None, :], n, 0, *out)
         assert (nu >= 0) == route
         want, inv = np.unique(rows, axis=0, return_inverse=True)
         got, got_inv = compiled_rows.unique_rows(rows, n)
         assert np.array_equal(got, want) and np.array_equal(got_inv, inv.ravel())
+
+
+@settings(deadline=None)
+@given(seed=st.integers(0, 2 ** 32 - 1), w=st.integers(2, 4),
+       n=st.sampled_from([1, 2, 1024, 1025, 2 ** 15, 2 ** 15 + 1, 2 ** 21, 2 ** 21 + 1]),
+       m=st.integers(0, 120), dtype=st.sampled_from([np.int32, np.int64]),
+       inverse=st.booleans())
+def test_unique_rows_packed_whole_or_gathered(seed, w, n, m, dtype, inverse):
+    """Rows packed whole by shifts (ids < 2^sh, sh·w ≤ 63: 4 ids to n = 2^15, 3 to
+    2^21) and unpacked, or gathered past that (n = 2^15 + 1, 2^21 + 1), int32 or int64
+    keys (n = 1024, 1025): ids near n and near 0, ties, repeats, no rows — np.unique's
+    rows and map, and no map when ``inverse`` is False (the distinct cells)."""
+    rng = np.random.default_rng(seed)
+    rows = (n - 1 - rng.integers(0, min(n, 6), size=(m, 4))).astype(dtype)
+    rows[rng.random(m) < 0.3] = rows[0] if m else 0
+    rows[rng.random(m) < 0.2, 1:] = rng.integers(0, min(n, 3), 3)
+    for g in (1, 4):
+        combos = (np.arange(w)[None, :] if g == 1
+                  else np.array(list(itertools.combinations(range(4), w))))
+        faces = rows[:, combos].reshape(-1, w)
+        want, inv = np.unique(faces, axis=0, return_inverse=True)
+        got, got_inv = compiled_rows.unique_faces(rows, combos, n, inverse)
+        assert got.dtype == rows.dtype and got.shape == (len(want), w)
+        assert np.array_equal(got, want)
+        assert np.array_equal(got_inv, inv.ravel()) if inverse else got_inv is None
+
+
+@settings(deadline=None)
+@given(seed=st.integers(0, 2 ** 32 - 1), n=st.integers(1, 3000), shape=st.sampled_from(
+    [(0, 3), (1, 1), (50, 3), (40, 4), (7,)]), dtype=st.sampled_from([np.int32, np.int64]))
+def test_looked_up_is_take(seed, n, shape, dtype):
+    """looked_up(table, ids) = table.take(ids) (the complexes' F[k, 0]): values, shape,
+    dtype; ids at both ends of the table, repeated, none."""
+    rng = np.random.default_rng(seed)
+    table = rng.integers(-(2 ** 40), 2 ** 40, n)
+    ids = rng.integers(0, n, size=shape).astype(dtype)
+    if ids.size:
+        ids.reshape(-1)[0], ids.reshape(-1)[-1] = 0, n - 1
+    got, want = compiled_rows.looked_up(table, ids), table.take(ids)
+    assert got.dtype == want.dtype and got.shape == want.shape and np.array_equal(got, want)
+
+
+def test_unpack_reads_every_field():
+    """_unpack's written-out widths and its loop: each field at its shift."""
+    for w in (2, 3, 4):
+        rows = np.array([[5, 0, 7, 1][:w], [1, 2, 3, 4][:w]], dtype=np.int64)
+        packed = np.zeros(2, np.int64)
+        for c in range(w):
+            packed = (packed << 3) | rows[:, c]
+        out = np.empty((2, w), np.int64)
+        compiled_rows._unpack(packed, 3, out)
+        assert np.array_equal(out, rows)
 
 
 @settings(deadline=None)

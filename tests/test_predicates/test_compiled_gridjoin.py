@@ -5,6 +5,8 @@ equal boxes (signed zeros included), and the same count and written prefix when 
 output is too short (the caller's retry)."""
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -12,7 +14,7 @@ from hypothesis import strategies as st
 
 pytest.importorskip("numba")
 
-from predicates.compiled.gridjoin import _bucket_b, _grid_join, grid_join  # noqa: E402
+from predicates.compiled.gridjoin import _bucket_b, _bucket_b3, _grid_join, grid_join  # noqa: E402
 from predicates.registration.spatial.boxgrid import grid  # noqa: E402
 from predicates.registration.spatial.broadphase import box_pairs_bruteforce  # noqa: E402
 
@@ -134,3 +136,56 @@ def test_int32_offsets_and_ids_bucket_and_join_as_int64(seed, d):
         got.append((start.tolist(), entries.tolist(), first.tolist(), n, props,
                     out[0][:n].tolist(), out[1][:n].tolist()))
     assert got[0] == got[1]
+
+
+def _odometer_join(ranges, G, pad, cols):
+    """The join in plain Python: b boxes bucketed in order, each a's cells walked axis 0
+    fastest, each cell's entries in bucket order, kept in the lower overlap corner and
+    by the test — the pairs and their order as the general (odometer) route makes them."""
+    ia0, ia1, ib0, ib1 = ranges
+    lo_a, hi_a, lo_b, hi_b = cols
+    d = ia0.shape[1]
+
+    def cells(r0, r1):
+        return itertools.product(*(range(int(r0[ax]), int(r1[ax]) + 1)
+                                   for ax in reversed(range(d))))
+
+    bucket = {}
+    for b in range(len(ib0)):
+        for c in cells(ib0[b], ib1[b]):
+            bucket.setdefault(c[::-1], []).append(b)
+    pairs = []
+    for a in range(len(ia0)):
+        for c in cells(ia0[a], ia1[a]):
+            cell = c[::-1]
+            for b in bucket.get(cell, []):
+                if any(max(ia0[a, ax], ib0[b, ax]) != cell[ax] for ax in range(d)):
+                    continue
+                if all(lo_b[ax, b] - hi_a[ax, a] <= pad and lo_a[ax, a] - hi_b[ax, b] <= pad
+                       for ax in range(d)):
+                    pairs.append((a, b))
+    return pairs
+
+
+@_SLOW
+@given(seed=st.integers(0, 2 ** 32 - 1), d=st.sampled_from([2, 3]),
+       ids=st.sampled_from([np.int64, np.int32]))
+def test_written_out_3d_walks_are_the_odometer_walks(seed, d, ids):
+    """In 3D the bucketing (_bucket_b3) and the join's cell walk are three written-out
+    loops: the same offsets, entries and start bits as the odometer's _bucket_b, and the
+    join's pairs in the order of a plain Python odometer join (2D: the odometer itself)."""
+    rng = np.random.default_rng(seed)
+    lo_a, hi_a = _boxes(rng, int(rng.integers(1, 50)), d, runs=True)
+    lo_b, hi_b = _boxes(rng, int(rng.integers(1, 30)), d, runs=False)
+    ranges, G, cols = _setup(lo_a, hi_a, lo_b, hi_b, 0.05)
+    ia0, ia1, ib0, ib1 = ranges
+    n_entries = int((ib1.astype(np.int64) - ib0 + 1).prod(axis=1).sum())
+    got = []
+    for bucket in ((_bucket_b, _bucket_b3) if d == 3 else (_bucket_b,)):
+        start = np.zeros(int(np.prod(G)) + 1, dtype=ids)
+        entries, first = np.empty(n_entries, ids), np.empty(n_entries, np.uint8)
+        bucket(ib0, ib1, G, start, entries, first)
+        got.append((start.tolist(), entries.tolist(), first.tolist()))
+    assert all(g == got[0] for g in got)
+    pairs = grid_join(ranges, G, 0.05, cols, 1 << 40)
+    assert [(int(a), int(b)) for a, b in zip(*pairs)] == _odometer_join(ranges, G, 0.05, cols)

@@ -97,14 +97,15 @@ def sorted_rows(rows: np.ndarray) -> np.ndarray:
     return out
 
 
-def unique_rows(rows: np.ndarray, n: int, accelerate: bool = False):
+def unique_rows(rows: np.ndarray, n: int, accelerate: bool = False, inverse: bool = True):
     """Unique rows (sorted lexicographically) and the inverse map, for ids < n.
     ``accelerate``: by the compiled counting sort (:mod:`predicates.compiled.rows`; the
-    same rows and map) when the id range is not much larger than the rows."""
+    same rows and map) when the id range is not much larger than the rows; there
+    ``inverse`` False makes no map (None)."""
     if accelerate and len(rows) and n <= 4 * len(rows) + (1 << 16):
         from predicates.compiled.rows import unique_rows as compiled_unique
 
-        return compiled_unique(rows, n)
+        return compiled_unique(rows, n, inverse)
     return _unique_keys(packed_keys(rows, n), rows)
 
 
@@ -160,7 +161,12 @@ class Complex:
         vid = np.zeros(n, dtype=np.int64)
         vid[self.S[0][:, 0]] = np.arange(len(self.S[0]))
         for k in range(2, top + 1):
-            self.F[k, 0] = vid.take(self.S[k])
+            if accelerate:  # the same table, compiled (no per-id bound test)
+                from predicates.compiled.rows import looked_up
+
+                self.F[k, 0] = looked_up(vid, self.S[k])
+            else:
+                self.F[k, 0] = vid.take(self.S[k])
             for j in range(k - 2, 0, -1):
                 self.F[k, j] = self._faces_via(k, j)
                 assert self.F[k, j].shape[1] == comb(k + 1, j + 1)
@@ -232,7 +238,7 @@ class Side:
     def unique_cells(self, mask: np.ndarray | None = None):
         """The distinct cells selected by ``mask`` (None: all), sorted (rows of ranks)."""
         cells = self.cells if mask is None else self.cells[mask]
-        return unique_rows(cells, len(self.P), self.accelerate)[0]
+        return unique_rows(cells, len(self.P), self.accelerate, inverse=False)[0]
 
     def build_unique(self, cells):
         """The complex of ``cells``, rows of :meth:`unique_cells` (the top simplices

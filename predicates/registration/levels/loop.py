@@ -123,8 +123,10 @@ class Registration:
                                           self.accelerate)
         if len(T) == 0:
             return
-        sim.build_unique(tops_s[keep_s])
-        cut.build_unique(tops_c[keep_c])
+        # compress: the same rows as boolean indexing, which numpy does row by row
+        # here (W1's two tables ~2 -> 0.25 ms; benchmarks/README.md, "s23-w1")
+        sim.build_unique(tops_s.compress(keep_s, axis=0))
+        cut.build_unique(tops_c.compress(keep_c, axis=0))
         sim.cells = cut.cells = None  # the complexes hold what the levels read
         self.faces = FacePairs(sim, cut, T, C, self.reach, catalogue_kinds(self.dim),
                                2 * self.chunk, self.accelerate)
@@ -321,11 +323,13 @@ class Registration:
             return KindPairs(kind, np.zeros((0, i + 1), np.int64), np.zeros((0, j + 1), np.int64),
                              np.zeros((0, i + 1), self.dtype), np.zeros((0, j + 1), self.dtype))
         if self.accelerate and len(s):  # the same order and ids, compiled
-            from predicates.compiled.hitorder import hits_in_order
+            from predicates.compiled.hitorder import hits_in_order, rows_in_order
 
             sim, cut = self.sim, self.cut
             order, sid, cid = hits_in_order((sim.cx.S[i], sim.order, s, sim.n_input),
                                             (cut.cx.S[j], cut.order, c, cut.n_input))
+            return KindPairs(kind, sid, cid, rows_in_order(sw, order), rows_in_order(cw, order),
+                             candidates=ncand, suppressed=nsup)
         else:
             sid = self.sim.ids(i, s).reshape(len(s), i + 1)
             cid = self.cut.ids(j, c).reshape(len(c), j + 1)
