@@ -48,6 +48,8 @@ TARGETS = [
     ("predicates.registration.partition.run", "split_on_workers", None),
     ("predicates.registration.partition.run", "_gather", None),
     ("predicates.registration.partition.run", "_merged", None),
+    ("predicates.registration.partition.run", "merge", "assign_merge"),
+    ("predicates.registration.partition.split_remote", "run_hull", None),
     ("predicates.registration.partition.split_remote", "_compute", None),
     ("predicates.registration.partition.split_remote", "select_boundaries", None),
 ]

@@ -65,11 +65,14 @@ def test_used_is_the_or_of_the_chunks_masks(n, chunks):
 @settings(max_examples=80, deadline=None)
 @given(seed=st.integers(0, 2 ** 32 - 1), dim=st.sampled_from([2, 3]),
        dtype=st.sampled_from([np.float64, np.float32]), n_chunks=st.integers(1, 5),
-       e=st.integers(-4, 4))
-def test_run_hull_is_the_chunks_first_hulls(seed, dim, dtype, n_chunks, e):
+       e=st.integers(-4, 4), fast=st.booleans())
+def test_run_hull_is_the_chunks_first_hulls(seed, dim, dtype, n_chunks, e, fast):
     """:func:`run_hull` on the client: the box and count the chunks' ``first_hull``
     give (min, max over their hulls), for random run masks and chunkings, float32
-    points and scalings; None without run cells."""
+    points and scalings, numpy and compiled (``fast``: min and max, then the scaling);
+    None without run cells."""
+    if fast:
+        pytest.importorskip("numba")
     rng = np.random.default_rng(seed)
     n = int(rng.integers(dim + 1, 40))
     P = (rng.normal(size=(n, dim)) * 2.0 ** rng.integers(-3, 4)).astype(dtype)
@@ -81,7 +84,7 @@ def test_run_hull_is_the_chunks_first_hulls(seed, dim, dtype, n_chunks, e):
     runs = [chunk_run(C[a:b], P, np.packbits(ms[a:b]), int(a), e, P.dtype, False)
             for a, b in zip(cuts[:-1], cuts[1:])]
     hulls = [first_hull(r) for r in runs]
-    got = run_hull(DeferredRun(P, C[ms], e, False))
+    got = run_hull(DeferredRun(P, C[ms], e, fast))
     if not ms.any():
         assert got is None
         return
@@ -93,3 +96,27 @@ def test_run_hull_is_the_chunks_first_hulls(seed, dim, dtype, n_chunks, e):
     assert lo.dtype == hi.dtype == np.float64
     assert np.array_equal(lo, want_lo) and np.array_equal(hi, want_hi)
     assert run_hull(None) is None
+
+
+@settings(max_examples=80, deadline=None)
+@given(seed=st.integers(0, 2 ** 32 - 1), n=st.integers(1, 30), m=st.integers(1, 50),
+       dim=st.sampled_from([2, 3]), k=st.integers(1, 4),
+       dtype=st.sampled_from(["f8", "f4"]), ids=st.sampled_from(["i4", "i8", "u4"]),
+       special=st.lists(st.sampled_from([0.0, -0.0, 1e300, -1e300, 2.0 ** -1074]),
+                        max_size=4))
+def test_first_vertex_hull_is_numpys_min_and_max(seed, n, m, dim, k, dtype, ids, special):
+    """:func:`predicates.compiled.runhull.first_vertex_hull`: the min and max per axis
+    of the first column's vertices, as numpy reduces their gather (equal values, the
+    points' dtype; extremes and subnormals among them; any id dtype; one row)."""
+    pytest.importorskip("numba")
+    from predicates.compiled.runhull import first_vertex_hull
+
+    rng = np.random.default_rng(seed)
+    P = (rng.integers(-5, 6, (n, dim)) * 0.25).astype(dtype)
+    flat = P.ravel()
+    flat[rng.integers(0, flat.size, len(special))] = np.array(special, dtype=float).astype(dtype)
+    run = rng.integers(0, n, (m, k)).astype(ids)
+    lo, hi = np.empty(dim, P.dtype), np.empty(dim, P.dtype)
+    first_vertex_hull(P, run, lo, hi)
+    first = P[run[:, 0]]
+    assert np.array_equal(lo, first.min(axis=0)) and np.array_equal(hi, first.max(axis=0))

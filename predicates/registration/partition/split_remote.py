@@ -257,11 +257,23 @@ def run_hull(deferred) -> tuple | None:
     and with the float64 conversion (equal values; a signed zero may come out as the
     other, which gives the same Morton codes). A gather of one vertex per run cell on
     the client instead of a round of tasks (benchmarks/README.md "The 2-worker W4
-    client, fifth pass"). None without a DeferredRun (pieces: their points are on the
+    client, fifth pass"); compiled (``deferred.fast``): the min and max read in place,
+    then scaled ("… sixth pass"). None without a DeferredRun (pieces: their points are on the
     workers) or run cells."""
     if not isinstance(deferred, DeferredRun) or len(deferred.run) == 0:
         return None
-    first = times_pow2(np.take(deferred.points, deferred.run[:, 0], axis=0), -deferred.e)
+    points = deferred.points
+    if deferred.fast and points.ndim == 2 and points.dtype.kind == "f":
+        # min and max before the scaling: it is non-decreasing (and exact here), so it
+        # commutes with them — two values scaled instead of m (the same values), read
+        # in place (predicates.compiled.runhull; sixth pass)
+        from predicates.compiled.runhull import first_vertex_hull
+
+        lo, hi = np.empty(points.shape[1], points.dtype), np.empty(points.shape[1], points.dtype)
+        first_vertex_hull(points, deferred.run, lo, hi)
+        lo, hi = (times_pow2(x, -deferred.e).astype(np.float64) for x in (lo, hi))
+        return lo, hi, len(deferred.run)
+    first = times_pow2(np.take(points, deferred.run[:, 0], axis=0), -deferred.e)
     first = first.astype(np.float64, copy=False)
     return colmin(first), colmax(first), len(deferred.run)
 
