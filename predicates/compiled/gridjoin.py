@@ -41,6 +41,21 @@ def _next(off, ext):
     return False
 
 
+@njit(**INLINE_OPTIONS)
+def _prefix_sum(start):
+    """The counts of the first pass turned into each cell's first offset (in place)."""
+    for k in range(1, start.shape[0]):
+        start[k] += start[k - 1]
+
+
+@njit(**INLINE_OPTIONS)
+def _unshift(start):
+    """Placing advanced every cell's offset to the next cell's: shift them back."""
+    for k in range(start.shape[0] - 1, 0, -1):
+        start[k] = start[k - 1]
+    start[0] = 0
+
+
 @njit(**JIT_OPTIONS)
 def _bucket_b(ib0, ib1, G, start, ids, first):
     """Counting sort of the b boxes into the dense grid's cells: ``start`` (cells + 1)
@@ -69,11 +84,8 @@ def _bucket_b(ib0, ib1, G, start, ids, first):
                 if not _next(off, ext):
                     break
         if not fill:
-            for k in range(1, start.shape[0]):
-                start[k] += start[k - 1]
-    for k in range(start.shape[0] - 1, 0, -1):  # placing shifted every offset by one cell
-        start[k] = start[k - 1]
-    start[0] = 0
+            _prefix_sum(start)
+    _unshift(start)
 
 
 @njit(**INLINE_OPTIONS)
@@ -208,11 +220,8 @@ def _bucket_b3(ib0, ib1, G, start, ids, first):
                         else:
                             start[key + np.uint64(1)] += 1
         if not fill:
-            for k in range(1, start.shape[0]):
-                start[k] += start[k - 1]
-    for k in range(start.shape[0] - 1, 0, -1):  # placing shifted every offset by one cell
-        start[k] = start[k - 1]
-    start[0] = 0
+            _prefix_sum(start)
+    _unshift(start)
 
 
 def grid_join(ranges: tuple, G: np.ndarray, pad: float, cols: tuple, limit: int):
