@@ -26,22 +26,33 @@ def _line(axis: int, c: float):
 
 
 
+def _rows_of(keys) -> dict:
+    """{key: [indices of its rows]} (one pass: the helpers below stay linear in the
+    meshes' sizes)."""
+    out: dict = {}
+    for i, key in enumerate(keys):
+        out.setdefault(key, []).append(i)
+    return out
+
+
 def _vertex_piece(cm, n: int) -> dict:
     """{original vertex: its piece} for the vertices all of whose simplices are in one
     piece (off every cut)."""
-    out = {}
-    for v in range(n):
-        p = set(cm.piece[(cm.cells == v).any(axis=1)].tolist())
-        if len(p) == 1:
-            out[v] = p.pop()
-    return out
+    pieces: dict = {}
+    for row, p in zip(cm.cells.tolist(), cm.piece.tolist()):
+        for v in row:
+            if v < n:
+                pieces.setdefault(v, set()).add(p)
+    return {v: next(iter(ps)) for v, ps in sorted(pieces.items()) if len(ps) == 1}
 
 
 def _materials_conforming(cm, cells, vp) -> dict:
     """{original cell: {(piece, frozenset of its material corners)}}."""
+    by_cell = _rows_of(cm.cell_origin.tolist())
+    piece = cm.piece.tolist()
     out = {}
     for c in range(len(cells)):
-        ps = set(cm.piece[cm.cell_origin == c].tolist())
+        ps = {piece[i] for i in by_cell.get(c, ())}
         out[c] = {(p, frozenset(v for v in cells[c].tolist() if vp.get(v) == p))
                   for p in ps}
     return out
@@ -73,8 +84,9 @@ def _assert_equals_one_shot(P, C, c1, c2, one, exempt=frozenset()):
     name2 = {p: min(v for v, q in vp2.items() if q == p) for p in set(vp2.values())}
     name1 = {p: min(v for v, q in vp1.items() if q == p) for p in set(vp1.values())}
     m2 = _materials_conforming(c2, C, vp2)
+    frags_of = _rows_of(one.cell_origin.tolist())
     for c in range(len(C)):
-        frags = np.flatnonzero(one.cell_origin == c)
+        frags = frags_of.get(c, [])
         want = {(name1[int(one.piece[f])],
                  frozenset(int(one.node_origin[one.cells[f, j]]) for j in range(k)
                            if one.material[f, j] and not one.on_cut[one.node_origin[one.cells[f, j]]]
@@ -85,11 +97,14 @@ def _assert_equals_one_shot(P, C, c1, c2, one, exempt=frozenset()):
     # no corner turned back from virtual to material: each piece's corners in a cell
     # are among those of the piece it came from
     m1 = _materials_conforming(c1, C, _vertex_piece(c1, len(P)))
+    parents_of: dict = {}
+    for c, p, q in zip(c2.cell_origin.tolist(), c2.piece.tolist(), c2.previous_piece.tolist()):
+        parents_of.setdefault((c, p), set()).add(q)
     turned = 0
     for c in range(len(C)):
         before = dict(m1[c])
         for p, m in m2[c]:
-            parents = set(c2.previous_piece[(c2.cell_origin == c) & (c2.piece == p)].tolist())
+            parents = parents_of.get((c, p), set())
             turned += sum(len(m - before.get(q, frozenset())) for q in parents)
     assert turned == 0
     assert np.all(orientation_signs(c2.points, c2.cells) > 0)
