@@ -283,11 +283,12 @@ def test_written_files_have_the_users_umask(tmp_path, umask, square_circle, cube
     r = fperr("cut", *cube_plane, "-o", "p.vtu", "--png", "p.png", "--quiet", cwd=tmp_path,
               umask=umask)
     assert r.returncode == 0, r.stderr
-    r = fperr("demo", "--n", "4", "--out", "demo", "--quiet", cwd=tmp_path, umask=umask)
-    assert r.returncode == 0, r.stderr
     files = [tmp_path / f for f in ("h.vtu", "s.vtu", "h.png", "p.vtu", "p.png")]
-    files += sorted((tmp_path / "demo").iterdir())
-    assert len(files) > 10
+    if umask == 0o077:  # the demo's dozen files once (~8 s), under the stricter mask
+        r = fperr("demo", "--n", "4", "--out", "demo", "--quiet", cwd=tmp_path, umask=umask)
+        assert r.returncode == 0, r.stderr
+        files += sorted((tmp_path / "demo").iterdir())
+        assert len(files) > 10
     for f in files:
         assert stat.S_IMODE(f.stat().st_mode) == 0o666 & ~umask, f
 
