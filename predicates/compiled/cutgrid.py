@@ -7,6 +7,7 @@
   ``cells.cell_index``'s (one subtraction, one division, clipped, truncated) on each
   value, the operations of ``boxgrid.enlarge`` followed by ``boxgrid.cell_index`` in
   their order — without the enlarged boxes (two (n, d) float64 arrays) in memory.
+
 Comparisons and a conversion only after the roundings named above: the same values.
 """
 from __future__ import annotations
