@@ -41,23 +41,37 @@ def _spread2(v):
     return (v | (v << np.uint64(1))) & np.uint64(0x5555555555555555)
 
 
+@njit(**INLINE_OPTIONS)
+def _quantum(points, i, ax, factor, lo, span, topf):
+    """morton_codes' integer coordinate: (c − lo) / span · topf clipped to [0, topf],
+    truncated (through int64: exact, the value is below 2^31; the direct uint64
+    conversion is a slower instruction sequence without AVX-512)."""
+    c = np.float64(points[i, ax] * factor)
+    q = (c - lo[ax]) / span[ax] * topf
+    q = 0.0 if q < 0.0 else q
+    q = topf if q > topf else q
+    return np.uint64(np.int64(q))
+
+
 @njit(**JIT_OPTIONS)
 def first_codes(points, run, factor, lo, span, out):
     """``out`` (m,) uint64: ``morton_codes(times_pow2(points[run[:, 0]], −e) as
     binary64, transposed, lo, hi)`` with ``factor`` = 2^-e in the points' dtype (a
     normal number there), ``span`` = where(hi > lo, hi − lo, 1) (d,); ``points``
-    (N, d), d = 2 or 3, finite; ``run`` (m, k) ids in range."""
-    d = points.shape[1]
-    top = (1 << 21) - 1 if d == 3 else (1 << 31) - 1
-    topf = np.float64(top)
+    (N, d), d = 2 or 3, finite; ``run`` (m, k) ids in range. One loop per d (the
+    spread chosen outside the rows)."""
+    if points.shape[1] == 3:
+        topf = np.float64((1 << 21) - 1)
+        for m in range(run.shape[0]):
+            i = np.uint64(run[m, 0])
+            code = _spread3(_quantum(points, i, 0, factor, lo, span, topf))
+            code |= _spread3(_quantum(points, i, 1, factor, lo, span, topf)) << np.uint64(1)
+            code |= _spread3(_quantum(points, i, 2, factor, lo, span, topf)) << np.uint64(2)
+            out[m] = code
+        return
+    topf = np.float64((1 << 31) - 1)
     for m in range(run.shape[0]):
         i = np.uint64(run[m, 0])
-        code = np.uint64(0)
-        for ax in range(d):
-            c = np.float64(points[i, ax] * factor)
-            q = (c - lo[ax]) / span[ax] * topf
-            q = 0.0 if q < 0.0 else q
-            q = topf if q > topf else q
-            v = np.uint64(q)
-            code |= (_spread3(v) if d == 3 else _spread2(v)) << np.uint64(ax)
-        out[m] = code
+        code = _spread2(_quantum(points, i, 0, factor, lo, span, topf))
+        out[m] = code | (_spread2(_quantum(points, i, 1, factor, lo, span, topf))
+                         << np.uint64(1))
