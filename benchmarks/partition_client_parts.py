@@ -53,7 +53,6 @@ TARGETS = [
     ("predicates.registration.partition.split_remote", "run_hull", None),
     ("predicates.registration.partition.split_remote", "_compute", None),
     ("predicates.registration.partition.split_remote", "select_boundaries", None),
-    ("predicates.registration.partition.split_remote", "local_boundaries", None),
     ("predicates.registration.partition.assign", "merge_runs", None),
 ]
 

@@ -213,8 +213,7 @@ def test_pieces_on_a_cluster_split_on_the_workers(tmp_path, monkeypatch):
 def test_timeout_covers_the_split_on_the_workers(monkeypatch):
     """A split whose selection rounds outlast ``timeout`` (its first round held up on
     the workers: since the Morton box comes from the client, ``split_remote.run_hull``,
-    the first round is a selection round's answers; the compiled client's own
-    selection, ``local_boundaries``, is turned off so that the rounds run): PartitionError naming the split,
+    the first round is a selection round's answers): PartitionError naming the split,
     raised at the timeout, not when the round ends; the same cluster then runs
     normally, identical to the serial run."""
     import time
@@ -236,7 +235,6 @@ def test_timeout_covers_the_split_on_the_workers(monkeypatch):
                                   dashboard_address=None) as cluster, \
             distributed.Client(cluster) as client:
         monkeypatch.setattr(split_remote, "answer", slow)
-        monkeypatch.setattr(split_remote, "local_boundaries", lambda *a: None)
         t = time.perf_counter()
         with pytest.raises(PartitionError, match=r"the split on the workers did not finish "
                                                  r"within the timeout of 0.5 s"):

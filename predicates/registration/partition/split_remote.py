@@ -40,8 +40,7 @@ from predicates.registration.plan.scaling import times_pow2
 from predicates.registration.spatial.blocks import Blocks
 from predicates.registration.spatial.boxgrid import colmax, colmin
 
-__all__ = ["local_boundaries", "on_workers", "run_hull", "settled_side", "split_on_workers",
-           "warm_side"]
+__all__ = ["on_workers", "run_hull", "settled_side", "split_on_workers", "warm_side"]
 
 
 def on_workers(plan) -> bool:
@@ -231,9 +230,7 @@ def split_on_workers(plan, k: int, pad: float, args: tuple, client, scheduler,
         rounds[0] += 1
         return results([d(answer)(r, n_bits, queries) for r in runs])
 
-    boundaries, chosen = local_boundaries(plan.sim_vertex_ids, ms, lo, hi, k), "client"
-    if boundaries is None:  # the chunks' codes: rounds of tasks
-        boundaries, chosen = select_boundaries(ask, m, k, n_bits), "workers"
+    boundaries = select_boundaries(ask, m, k, n_bits)
     C = len(runs)
     n = len(plan.sim.points)
     bounds = np.array([n * j // C for j in range(C + 1)], dtype=np.int64)
@@ -246,7 +243,6 @@ def split_on_workers(plan, k: int, pad: float, args: tuple, client, scheduler,
              for r in range(k)]
     timings["split"] = {"where": "workers", "rounds": rounds[0], "chunks": C,
                         "hull": "workers" if hull is None else "client",
-                        "boundaries": chosen,
                         "sent_bytes": sum(b.nbytes for b in bits) + 16 * (k - 1)
                         + lo.nbytes + hi.nbytes + bounds.nbytes, "side_boxes": warm}
     return client.compute(tasks) if client is not None else tasks
@@ -280,52 +276,6 @@ def run_hull(deferred) -> tuple | None:
     first = times_pow2(np.take(points, deferred.run[:, 0], axis=0), -deferred.e)
     first = first.astype(np.float64, copy=False)
     return colmin(first), colmax(first), len(deferred.run)
-
-
-def local_boundaries(deferred, mask: np.ndarray, lo, hi, k: int) -> list | None:
-    """:func:`~.split_keys.select_boundaries`' keys (code, global cell index) at the
-    positions ⌈r·m/k⌉ of the run cells' stable Morton order, found on the client from
-    the plan's :class:`~.run_arrays.DeferredRun` (compiled: each run cell's code read
-    in place, :func:`predicates.compiled.mortoncodes.first_codes` — the chunks'
-    ``with_codes`` integers for the box [lo, hi]) and its run mask ``mask`` (the run
-    cells, ascending: their global indices); None where it cannot (no DeferredRun,
-    the numpy path, a power 2^-e not normal in the points' dtype): the rounds of
-    tasks then select them (benchmarks/README.md "The 2-worker W4 client, seventh
-    pass": two rounds' client CPU against one compiled pass and a selection)."""
-    if not (isinstance(deferred, DeferredRun) and deferred.fast and len(deferred.run)):
-        return None
-    points = deferred.points
-    fi = np.finfo(points.dtype)
-    if not (fi.minexp < -deferred.e < fi.maxexp) or points.shape[1] not in (2, 3):
-        return None
-    from predicates.compiled.mortoncodes import first_codes
-
-    m = len(deferred.run)
-    codes = np.empty(m, dtype=np.uint64)
-    span = np.where(hi > lo, hi - lo, 1.0)  # (morton_codes' span)
-    first_codes(points, deferred.run, points.dtype.type(2.0 ** -deferred.e),
-                np.asarray(lo, dtype=np.float64), span, codes)
-    want = {r: -(-r * m // k) for r in range(1, k)}
-    at = sorted({p for p in want.values() if p < m})
-    found = {}
-    if at:
-        picked = np.partition(codes, at)
-        for p in at:  # ties: equal codes in the order of their cells (ascending rows)
-            code = picked[p]
-            j = p - int(np.count_nonzero(codes < code))
-            found[p] = (int(code), _nth_set(mask, int(np.flatnonzero(codes == code)[j])))
-    return [found.get(want[r]) for r in range(1, k)]
-
-
-def _nth_set(mask: np.ndarray, j: int, step: int = 1 << 20) -> int:
-    """The index of the (j + 1)-th True of ``mask`` (counted block by block: no index
-    array of every run cell)."""
-    for a in range(0, len(mask), step):
-        n = int(np.count_nonzero(mask[a:a + step]))
-        if j < n:
-            return a + int(np.flatnonzero(mask[a:a + step])[j])
-        j -= n
-    raise IndexError("fewer set values than asked for")
 
 
 def _side_boxes(side: CutSide, accelerate: bool) -> float:
