@@ -329,7 +329,7 @@ def owned(part: Part, pairs: dict) -> dict:
     return out
 
 
-def merge(kinds, results: list[dict], dtype) -> dict:
+def merge(kinds, results: list[dict], dtype, fast: bool = False) -> dict:
     """{kind: KindPairs}: the partitions' owned pairs in the serial run's order (by
     sorted sim ids, then sorted cut ids). Each partition's pairs come in that order
     already (its run sorts by local ids, and local order is global order) and all pairs
@@ -339,13 +339,14 @@ def merge(kinds, results: list[dict], dtype) -> dict:
     is found run by run (:func:`merge_runs`) and copied slice by slice into the result's
     arrays, no reorder of every row (docs/partitioned.md 5). ``candidates`` and
     ``suppressed`` are summed: per-run work statistics (halo pairs are counted by every
-    partition that proposed them), not part of the result."""
+    partition that proposed them), not part of the result. ``fast``: the runs found by
+    a compiled loop (:func:`predicates.compiled.mergeruns.merge_runs`: the same runs)."""
     out = {}
     for k in kinds:
         got = [r[k.name] for r in results if k.name in r]
         keys = [rowwise(np.minimum, g.sim) if len(g.sim) else np.zeros(0, np.int64)
                 for g in got]
-        how = merge_runs(keys, MERGE_RUNS + sum(map(len, keys)) // 256, k.name)
+        how = merge_runs(keys, MERGE_RUNS + sum(map(len, keys)) // 256, k.name, fast)
         if how is None:  # partitions interleaved row by row: one sort, then a gather
             how = _merge_order(keys, k.name)
         arrays = []  # the serial run's int64 ids (the partitions send int32 when they fit)
@@ -372,7 +373,7 @@ def _shared(kind: str) -> RuntimeError:
                         "ownership bug; please report it)")
 
 
-def merge_runs(keys: list[np.ndarray], limit: int, kind: str = "pairs"):
+def merge_runs(keys: list[np.ndarray], limit: int, kind: str = "pairs", fast: bool = False):
     """The stable merge of the ascending arrays ``keys`` (one per partition) as runs
     ``(partition, start, stop)`` of consecutive rows of one partition, in merged order;
     None when it needs more than ``limit`` runs. Each step takes the partition whose
@@ -382,6 +383,16 @@ def merge_runs(keys: list[np.ndarray], limit: int, kind: str = "pairs"):
     # one dtype, and the needle in it: a Python int against int32 keys casts the whole
     # array per search (~60 µs a run at W4's 370 k pairs instead of O(log n))
     common = np.result_type(np.int32, *keys)
+    if fast and common.kind == "i":  # the same loop compiled, over the keys joined
+        from predicates.compiled.mergeruns import merge_runs as kernel
+
+        starts = np.cumsum([0] + [len(key) for key in keys], dtype=np.int64)
+        runs = np.empty((limit, 3), dtype=np.int64)
+        n = kernel(np.concatenate(keys + [np.zeros(0, common)], dtype=common), starts,
+                   limit, runs)
+        if n == -2:
+            raise _shared(kind)
+        return None if n < 0 else [tuple(r) for r in runs[:n].tolist()]
     keys = [np.asarray(key, dtype=common) for key in keys]
     heads = [0] * len(keys)
     runs = []

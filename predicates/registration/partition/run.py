@@ -352,7 +352,7 @@ def _merged(plan, out: list, timings: dict, clock) -> dict:
     statistics in ``timings["partitions"]``."""
     clock("dask")
     settled_side(timings)  # the side's boxes tasks (split on the workers): their CPU
-    pairs = merge(plan.kinds, [o[0] for o in out], plan.dtype)
+    pairs = merge(plan.kinds, [o[0] for o in out], plan.dtype, plan.accelerate)
     clock("merge")
     timings["partitions"] = [o[1] for o in out]
     return pairs

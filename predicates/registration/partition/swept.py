@@ -54,7 +54,8 @@ def cut_flags_from(occ: np.ndarray, ib0, ib1, G, blocks: Blocks) -> np.ndarray:
         return any_in(occ, ib0, ib1, G, blocks)
     from predicates.compiled.cellsums import occupied_table
 
-    cover = occ.astype(np.int32)  # (the counts' dtype the table is compiled for)
+    # 0/1 counts as they are: no int32 copy (seventh pass)
+    cover = occ.view(np.uint8) if occ.dtype == bool else occ
     S = np.empty(cover.shape, dtype=np.int32 if cover.size < 2 ** 31 else np.int64)
     occupied_table(cover, S)
     return looked_up(S.ravel(), ib0, ib1, G, blocks)

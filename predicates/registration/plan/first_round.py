@@ -96,7 +96,10 @@ def fixed_grid(lo_b, hi_b, n_sim: int, pad: float, blocks: Blocks) -> FixedGrid:
 
     h0, lo, hi = _base_size(lo_b, hi_b, blocks)
     margin = max(h0 * MARGIN, float(pad))
-    lo_bx, hi_bx = enlarge(lo_b, hi_b, margin, blocks.accelerate)
+    # compiled: the enlarged boxes' ranges in one pass, no enlarged boxes in memory
+    fused = blocks.accelerate and lo_b.ndim == 2 and lo_b.dtype == hi_b.dtype == np.float64
+    if not fused:
+        lo_bx, hi_bx = enlarge(lo_b, hi_b, margin, blocks.accelerate)
     # the enlarged boxes' hull is the hull enlarged: enlarge is non-decreasing in each
     # value (x ∓ pad rounded, then nextafter), so it commutes with min and max — the
     # same values without a pass over the enlarged boxes
@@ -112,7 +115,14 @@ def fixed_grid(lo_b, hi_b, n_sim: int, pad: float, blocks: Blocks) -> FixedGrid:
         if int(np.prod(G + 1)) <= budget or np.all(G == 1):
             break
         h *= 2
-    ib0, ib1 = (cell_index(x, origin, h, G, blocks) for x in (lo_bx, hi_bx))
+    if fused:  # (compiled/cutgrid.py: enlarge's then cell_index's roundings, in order)
+        from predicates.compiled.cutgrid import enlarged_ranges
+
+        ib0, ib1 = np.empty(lo_b.shape, np.int32), np.empty(lo_b.shape, np.int32)
+        enlarged_ranges(lo_b, hi_b, margin, np.asarray(origin, dtype=np.float64), float(h),
+                        np.asarray(G, dtype=np.int64), ib0, ib1)
+    else:
+        ib0, ib1 = (cell_index(x, origin, h, G, blocks) for x in (lo_bx, hi_bx))
     table = _occupied(ib0, ib1, G, blocks)
     return FixedGrid(lo_b, hi_b, n_sim, h, margin, origin, G, ib0, ib1, table, _h0=h0)
 
