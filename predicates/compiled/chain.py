@@ -123,9 +123,10 @@ def box_rows(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
 
 
 @njit(**JIT_OPTIONS)
-def _registered_any(s, c, A, a_self, B, b_self, nb, R, hit):
+def _registered_any(s, c, A, a_self, B, b_self, nb, R, in_a, in_b, hit):
     """hit[q] |= some face pair (A's faces of s[q], B's of c[q]; the simplex itself
-    when ``*_self``) has its key fa·nb + fb in the sorted keys ``R``."""
+    when ``*_self``) has its key fa·nb + fb in the sorted keys ``R`` — searched only
+    when in_a[fa] and in_b[fb] (every registered key's faces are flagged)."""
     ka = 1 if a_self else A.shape[1]
     kb = 1 if b_self else B.shape[1]
     for q in range(s.shape[0]):
@@ -133,8 +134,13 @@ def _registered_any(s, c, A, a_self, B, b_self, nb, R, hit):
             continue
         for u in range(ka):
             fa = s[q] if a_self else A[s[q], u]
+            if not in_a[fa]:  # no registered pair has this face: no key to search
+                continue
             for v in range(kb):
-                key = fa * nb + (c[q] if b_self else B[c[q], v])
+                fb = c[q] if b_self else B[c[q], v]
+                if not in_b[fb]:
+                    continue
+                key = fa * nb + fb
                 lo, hi = 0, R.shape[0]
                 while lo < hi:  # np.searchsorted(R, key), left
                     mid = (lo + hi) >> 1
@@ -150,12 +156,18 @@ def _registered_any(s, c, A, a_self, B, b_self, nb, R, hit):
 
 
 def registered_any(s: np.ndarray, c: np.ndarray, faces_a, faces_b, nb: int,
-                   keys: np.ndarray, hit: np.ndarray) -> None:
+                   keys: np.ndarray, hit: np.ndarray, in_a: np.ndarray,
+                   in_b: np.ndarray) -> None:
     """:meth:`predicates.registration.levels.loop.Registration._blocked`'s look-up of
     one lower kind, compiled: ``hit[q]`` set when a pair of the faces (tables
     ``faces_a``, ``faces_b``, None: the simplex itself) of (s[q], c[q]) is among the
-    registered ``keys`` (sorted fa·nb + fb) — exact integers, the same answer."""
+    registered ``keys`` (sorted fa·nb + fb) — exact integers, the same answer.
+    ``in_a``, ``in_b``: per a-face and b-face, True at least for the faces of every
+    registered key (the registration's involved flags): a face pair with a face not
+    flagged has no key, so it is not searched (W1's triangle_edge: 11,532 pairs, 11
+    face pairs each against three lower kinds; benchmarks/README.md, "W1's fused chain
+    and validation, new angles (s24-w1)")."""
     none = np.zeros((1, 1), dtype=np.int64)
     _registered_any(s, c, none if faces_a is None else faces_a, faces_a is None,
                     none if faces_b is None else faces_b, faces_b is None, np.int64(nb),
-                    keys, hit)
+                    keys, in_a, in_b, hit)

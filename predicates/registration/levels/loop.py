@@ -194,7 +194,8 @@ class Registration:
         for a, b in lower:
             registered_any(s, c, None if a == i else self.sim.cx.face(i, a),
                            None if b == j else self.cut.cx.face(j, b),
-                           self.cut.count(b), self.registered[a, b], hit)
+                           self.cut.count(b), self.registered[a, b], hit,
+                           self.sim_involved[a], self.cut_involved[b])
 
     # -- levels ---------------------------------------------------------------------------
     def run(self, progress: bool, timings: dict, give_back: bool = False) -> dict:
