@@ -16,7 +16,8 @@ from predicates.catalogue import _split_weights
 from .buffers import buffer as _buffer
 from .build import JIT_OPTIONS, kernel
 
-__all__ = ["box_rows", "evaluate", "fused", "registered_any", "run_predicate"]
+__all__ = ["box_rows", "evaluate", "fused", "point_box_rows", "registered_any",
+           "run_predicate"]
 
 _TOL_CACHE: dict = {}
 
@@ -119,6 +120,33 @@ def box_rows(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     "W1's fused kernels and kinds (s21-kinds)")."""
     out = np.empty((lo.shape[1], 2 * lo.shape[0]), dtype=np.float64)
     _box_rows(lo, hi, out)
+    return out
+
+
+@njit(**JIT_OPTIONS)
+def _point_box_rows(P, R, out):
+    d = P.shape[1]
+    for m in range(R.shape[0]):
+        for ax in range(d):  # boxtest._fill_boxes' fold, written to a row
+            a = np.float64(P[np.uint64(R[m, 0]), ax])
+            b = a
+            for v in range(1, R.shape[1]):
+                x = np.float64(P[np.uint64(R[m, v]), ax])
+                a = a if (a < x) | (a != a) else x
+                b = b if (b > x) | (b != b) else x
+            out[m, ax] = a
+            out[m, d + ax] = b
+
+
+def point_box_rows(P: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """:func:`box_rows` of :func:`predicates.compiled.boxtest.boxes` (P, R) in one pass,
+    no (d, n) columns between: the same fold, the same bits (the cutting levels whose
+    columns nothing else reads; benchmarks/README.md, "W1's fused chain and validation,
+    new angles (s24-w1)")."""
+    R = np.ascontiguousarray(R)
+    out = np.empty((len(R), 2 * P.shape[1]), dtype=np.float64)
+    if len(R):
+        _point_box_rows(np.ascontiguousarray(P), R, out)
     return out
 
 

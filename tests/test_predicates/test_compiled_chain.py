@@ -95,3 +95,26 @@ def test_registered_any_reads_the_flags():
         hit = np.zeros(2, bool)
         registered_any(s, c, None, None, 4, keys, hit, fa, fb)
         assert hit.tolist() == [False, False]
+
+
+@settings(max_examples=60, deadline=None)
+@given(d=st.integers(1, 3), k=st.integers(1, 4), n=st.integers(0, 30),
+       dt=st.sampled_from([np.float64, np.float32]), it=st.sampled_from([np.int32, np.int64]),
+       data=st.data())
+def test_point_box_rows_are_the_boxes_as_rows(d, k, n, dt, it, data):
+    """``point_box_rows`` (one pass from the points) gives ``box_rows`` of
+    ``boxtest.boxes``' columns bit for bit: NaN (propagated, its payload), ±0.0 and
+    ±inf coordinates, repeated vertices, binary32 points, any count (none included)."""
+    from predicates.compiled.boxtest import boxes
+    from predicates.compiled.chain import point_box_rows
+
+    npts = data.draw(st.integers(1, 12))
+    elems = st.floats(allow_nan=True, allow_infinity=True, width=32) | st.sampled_from(
+        [0.0, -0.0, 1.0, -1.0])
+    P = data.draw(hnp.arrays(dt, (npts, d), elements=elems))
+    R = data.draw(hnp.arrays(it, (n, k), elements=st.integers(0, npts - 1)))
+    lo, hi = boxes(P, R)
+    want = box_rows(lo.T, hi.T)
+    got = point_box_rows(P, R)
+    assert got.shape == (n, 2 * d) and got.dtype == np.float64
+    assert np.array_equal(got.view(np.uint64), want.view(np.uint64))
