@@ -77,8 +77,9 @@ def fused(kind, sim, cut, F, C, owned, pad: float, boxes: tuple, flags, tol):
     (start, faces, the most one cell owns) (:func:`~.boxtest.owned_lists_of`; None: the
     cells themselves), ``boxes`` = (P, R, B): the simulation points and
     i-simplices' vertex ids (the kernel computes their boxes), the cutting
-    j-simplices' boxes as rows (:func:`box_rows`), ``flags`` = (flag_s, flag_c) of the suppression
-    pre-filter or None. Returns (candidates, (s, c, sim weights, cut weights) of the
+    j-simplices' boxes as rows (:func:`box_rows`, :func:`point_box_rows`; a vertex's lane
+    reads its point there, :func:`predicates.compiled.emit._cut_points`), ``flags`` =
+    (flag_s, flag_c) of the suppression pre-filter or None. Returns (candidates, (s, c, sim weights, cut weights) of the
     registered pairs, (s, c) of the pairs to look up before evaluating them)."""
     pred = kind.predicate
     dtype = sim.P.dtype
