@@ -16,7 +16,8 @@ from predicates.catalogue import _split_weights
 from .buffers import buffer as _buffer
 from .build import JIT_OPTIONS, kernel
 
-__all__ = ["box_rows", "evaluate", "fused", "registered_any", "run_predicate"]
+__all__ = ["box_rows", "evaluate", "fused", "point_box_rows", "registered_any",
+           "run_predicate"]
 
 _TOL_CACHE: dict = {}
 
@@ -76,8 +77,9 @@ def fused(kind, sim, cut, F, C, owned, pad: float, boxes: tuple, flags, tol):
     (start, faces, the most one cell owns) (:func:`~.boxtest.owned_lists_of`; None: the
     cells themselves), ``boxes`` = (P, R, B): the simulation points and
     i-simplices' vertex ids (the kernel computes their boxes), the cutting
-    j-simplices' boxes as rows (:func:`box_rows`), ``flags`` = (flag_s, flag_c) of the suppression
-    pre-filter or None. Returns (candidates, (s, c, sim weights, cut weights) of the
+    j-simplices' boxes as rows (:func:`box_rows`, :func:`point_box_rows`; a vertex's lane
+    reads its point there, :func:`predicates.compiled.emit._cut_points`), ``flags`` =
+    (flag_s, flag_c) of the suppression pre-filter or None. Returns (candidates, (s, c, sim weights, cut weights) of the
     registered pairs, (s, c) of the pairs to look up before evaluating them)."""
     pred = kind.predicate
     dtype = sim.P.dtype
@@ -123,9 +125,37 @@ def box_rows(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
 
 
 @njit(**JIT_OPTIONS)
-def _registered_any(s, c, A, a_self, B, b_self, nb, R, hit):
+def _point_box_rows(P, R, out):
+    d = P.shape[1]
+    for m in range(R.shape[0]):
+        for ax in range(d):  # boxtest._fill_boxes' fold, written to a row
+            a = np.float64(P[np.uint64(R[m, 0]), ax])
+            b = a
+            for v in range(1, R.shape[1]):
+                x = np.float64(P[np.uint64(R[m, v]), ax])
+                a = a if (a < x) | (a != a) else x
+                b = b if (b > x) | (b != b) else x
+            out[m, ax] = a
+            out[m, d + ax] = b
+
+
+def point_box_rows(P: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """:func:`box_rows` of :func:`predicates.compiled.boxtest.boxes` (P, R) in one pass,
+    no (d, n) columns between: the same fold, the same bits (the cutting levels whose
+    columns nothing else reads; benchmarks/README.md, "W1's fused chain and validation,
+    new angles (s24-w1)")."""
+    R = np.ascontiguousarray(R)
+    out = np.empty((len(R), 2 * P.shape[1]), dtype=np.float64)
+    if len(R):
+        _point_box_rows(np.ascontiguousarray(P), R, out)
+    return out
+
+
+@njit(**JIT_OPTIONS)
+def _registered_any(s, c, A, a_self, B, b_self, nb, R, in_a, in_b, hit):
     """hit[q] |= some face pair (A's faces of s[q], B's of c[q]; the simplex itself
-    when ``*_self``) has its key fa·nb + fb in the sorted keys ``R``."""
+    when ``*_self``) has its key fa·nb + fb in the sorted keys ``R`` — searched only
+    when in_a[fa] and in_b[fb] (every registered key's faces are flagged)."""
     ka = 1 if a_self else A.shape[1]
     kb = 1 if b_self else B.shape[1]
     for q in range(s.shape[0]):
@@ -133,8 +163,13 @@ def _registered_any(s, c, A, a_self, B, b_self, nb, R, hit):
             continue
         for u in range(ka):
             fa = s[q] if a_self else A[s[q], u]
+            if not in_a[fa]:  # no registered pair has this face: no key to search
+                continue
             for v in range(kb):
-                key = fa * nb + (c[q] if b_self else B[c[q], v])
+                fb = c[q] if b_self else B[c[q], v]
+                if not in_b[fb]:
+                    continue
+                key = fa * nb + fb
                 lo, hi = 0, R.shape[0]
                 while lo < hi:  # np.searchsorted(R, key), left
                     mid = (lo + hi) >> 1
@@ -150,12 +185,18 @@ def _registered_any(s, c, A, a_self, B, b_self, nb, R, hit):
 
 
 def registered_any(s: np.ndarray, c: np.ndarray, faces_a, faces_b, nb: int,
-                   keys: np.ndarray, hit: np.ndarray) -> None:
+                   keys: np.ndarray, hit: np.ndarray, in_a: np.ndarray,
+                   in_b: np.ndarray) -> None:
     """:meth:`predicates.registration.levels.loop.Registration._blocked`'s look-up of
     one lower kind, compiled: ``hit[q]`` set when a pair of the faces (tables
     ``faces_a``, ``faces_b``, None: the simplex itself) of (s[q], c[q]) is among the
-    registered ``keys`` (sorted fa·nb + fb) — exact integers, the same answer."""
+    registered ``keys`` (sorted fa·nb + fb) — exact integers, the same answer.
+    ``in_a``, ``in_b``: per a-face and b-face, True at least for the faces of every
+    registered key (the registration's involved flags): a face pair with a face not
+    flagged has no key, so it is not searched (W1's triangle_edge: 11,532 pairs, 11
+    face pairs each against three lower kinds; benchmarks/README.md, "W1's fused chain
+    and validation, new angles (s24-w1)")."""
     none = np.zeros((1, 1), dtype=np.int64)
     _registered_any(s, c, none if faces_a is None else faces_a, faces_a is None,
                     none if faces_b is None else faces_b, faces_b is None, np.int64(nb),
-                    keys, hit)
+                    keys, in_a, in_b, hit)

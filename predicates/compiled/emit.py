@@ -115,6 +115,20 @@ def _sim_box(count: int, dim: int) -> list[str]:
     return out
 
 
+def _cut_points(rows: str, points: str, first: int, count: int, dim: int,
+                dt: str) -> list[str]:
+    """Statements loading the cutting face g's ``count`` points into its lane's slots: a
+    vertex (one point) in binary64 from its box row, whose low corner is the point itself
+    (:func:`predicates.compiled.boxtest.boxes` of one point: the coordinates converted
+    exactly, nothing folded) — the row the box test has just read, no dependent loads
+    of g's vertex id and point (benchmarks/README.md, "W1's fused chain and validation,
+    new angles (s24-w1)"); else gathered through ``rows`` (a binary32 kernel too:
+    a conversion back from binary64 would quiet a signalling NaN's bits)."""
+    if count == 1 and dt == "float64":
+        return [f"X[{first * dim + a}, unl] = B[ug, {a}]" for a in range(dim)]
+    return gather("ug", rows, points, first, count, dim, "X[{k}, unl]")
+
+
 def _lanes_lines(prog: Program, dt: str, inline: str) -> list[str]:
     """``lanes_<dt>(X, n, tol, W, ok)``: the predicate on lanes 0…n−1 of ``X`` (a row
     per coordinate), every statement on every lane in source order (a rejected lane's
@@ -216,10 +230,10 @@ def fused_lines(prog: Program, n1: int, dt: str, opts: str, inline: str) -> list
     # the lane's slot unsigned: no wraparound test a store (benchmarks/README.md, "Part
     # 2, fourteenth pass": all fused kernels of W1 -0.7 to -1.3 ms)
     inner += (["unl = np.uint64(nl)", "if swapped:"]
-              + ["    " + b for b in gather("ug", "R1", "P1", 0, n1, d, "X[{k}, unl]")]
+              + ["    " + b for b in _cut_points("R1", "P1", 0, n1, d, dt)]
               + [f"    X[{n1 * d + k}, unl] = s{k}" for k in range(n2 * d)]
               + ["else:"] + [f"    X[{k}, unl] = s{k}" for k in range(n1 * d)]
-              + ["    " + b for b in gather("ug", "R2", "P2", n1, n2, d, "X[{k}, unl]")])
+              + ["    " + b for b in _cut_points("R2", "P2", n1, n2, d, dt)])
     flush = f"flush_{dt}(X, lf, lg, nl, tol, W, ok, out_s, out_c, out_w, nh)"
     inner += ["lf[unl] = f", "lg[unl] = g", "nl += 1",
               f"if nl == {LANES}:  # a full set of lanes: the predicate on them",

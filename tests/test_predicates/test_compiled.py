@@ -96,7 +96,13 @@ def _fused_hits(pred, sides, tol, dtype, times):
     out_s, out_c, maybe_s, maybe_c = (np.empty(n, np.int64) for _ in range(4))
     out_w = np.empty((n, max(1, len(pred.weight_names))), dtype)
     counts, no = np.zeros(3, np.int64), np.zeros(1, bool)
-    box = np.zeros((len(R2), 2 * pred.dim))  # the cutting faces' boxes as rows
+    # the cutting faces' boxes as rows, as the registration makes them: a vertex's
+    # lane reads its point from its row (emit._cut_points)
+    from predicates.compiled.boxtest import boxes
+    from predicates.compiled.chain import box_rows
+
+    lo, hi = boxes(P2, R2)
+    box = box_rows(lo.T, hi.T)
     run(F, C, np.zeros(2, np.int64), np.zeros(2, np.int64), False, np.inf, P1, R1, box,
         no, no, False, False, P1, R1, P2, R2, tv, out_s, out_c, out_w, maybe_s,
         maybe_c, counts)

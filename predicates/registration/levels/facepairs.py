@@ -297,11 +297,16 @@ class FacePairs:
         self._left.remove((i, j))  # this kind is done: what no later kind reads goes
         self._release()
 
-    def boxes(self, i: int, j: int) -> tuple:
-        """(P, R, lo_b, hi_b) for the fused chain: the simulation points and
-        i-simplices' vertex ids (it computes their boxes, as stage 1), the cutting
-        j-simplices' boxes as (d, n) columns."""
-        return (self.sim.P, self.sim.cx.S[i]) + self._box("cut", j)
+    def box_rows(self, j: int) -> np.ndarray:
+        """The cutting j-simplices' boxes as (n, 2d) rows for the fused chain: copied
+        from the columns when stage 1 made them, else folded from the points in one
+        pass (:func:`predicates.compiled.chain.point_box_rows`): the same values."""
+        from predicates.compiled.chain import box_rows, point_box_rows
+
+        cols = self._boxes.get(("cut", j))
+        if cols is not None:
+            return box_rows(*cols)
+        return point_box_rows(self.cut.P, self.cut.cx.S[j])
 
     def candidates(self, kind: str, i: int, j: int):
         """Yield (s, c) index arrays (into the complexes' i- and j-simplices): together

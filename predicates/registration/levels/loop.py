@@ -194,7 +194,8 @@ class Registration:
         for a, b in lower:
             registered_any(s, c, None if a == i else self.sim.cx.face(i, a),
                            None if b == j else self.cut.cx.face(j, b),
-                           self.cut.count(b), self.registered[a, b], hit)
+                           self.cut.count(b), self.registered[a, b], hit,
+                           self.sim_involved[a], self.cut_involved[b])
 
     # -- levels ---------------------------------------------------------------------------
     def run(self, progress: bool, timings: dict, give_back: bool = False) -> dict:
@@ -266,14 +267,13 @@ class Registration:
         appends the registered pairs to the lists ``out`` (s, c, sim and cut weights);
         the pairs the suppression pre-filter flags are looked up exactly here, the
         others evaluated. Returns (candidates, suppressed), as the numpy path counts."""
-        from predicates.compiled.chain import box_rows, fused
+        from predicates.compiled.chain import fused
 
         suspects = self._suspects(k.i, k.j)
         flags = None if suspects is None else suspects[1:]
-        P, R, lo, hi = self.faces.boxes(k.i, k.j)
         if k.j not in self.box_rows:  # once per cutting level, while a kind reads it
-            self.box_rows[k.j] = box_rows(lo, hi)
-        boxes = P, R, self.box_rows[k.j]
+            self.box_rows[k.j] = self.faces.box_rows(k.j)
+        boxes = self.sim.P, self.sim.cx.S[k.i], self.box_rows[k.j]
         if self.later is not None and not any(j == k.j for _, j in self.later):
             del self.box_rows[k.j]
         ncand = nsup = 0
