@@ -717,7 +717,7 @@ def test_plan_float_kernels_have_no_fma():
     from numba import njit
 
     from predicates.compiled import cellsums as K
-    from predicates.compiled import cells, edgesquares, estimate, flagpack, flagpass
+    from predicates.compiled import cells, cutgrid, edgesquares, estimate, flagpack, flagpass
     from predicates.compiled import tetsums as T
     from predicates.compiled.build import JIT_OPTIONS
     from predicates.compiled.edgerows import least_square_rows
@@ -785,6 +785,9 @@ def test_plan_float_kernels_have_no_fma():
         (flagpack.flag_tetrahedra_packed, (P, np.zeros(8, np.int64), C, stride, S, True,
                                            *ranges, np.empty((m, 3)), np.empty((m, 3)),
                                            np.zeros(0, np.uint8), np.empty_like(C))),
+        # the first round's cutting grid: enlarge's roundings, then the cell index's
+        (cutgrid.enlarged_ranges, (P, P + 1, 0.1, o, 0.25, G, np.empty((8, 3), np.int32),
+                                   np.empty((8, 3), np.int32))),
     ]
     for kernel, args in calls:
         assert kernel.targetoptions.get("fastmath") in (False, None)
