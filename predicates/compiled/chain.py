@@ -14,6 +14,7 @@ from numba import njit
 from predicates.catalogue import _split_weights
 
 from .buffers import buffer as _buffer
+from .boxtest import _fill_boxes
 from .build import JIT_OPTIONS, kernel
 
 __all__ = ["box_rows", "evaluate", "fused", "point_box_rows", "registered_any",
@@ -124,30 +125,15 @@ def box_rows(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     return out
 
 
-@njit(**JIT_OPTIONS)
-def _point_box_rows(P, R, out):
-    d = P.shape[1]
-    for m in range(R.shape[0]):
-        for ax in range(d):  # boxtest._fill_boxes' fold, written to a row
-            a = np.float64(P[np.uint64(R[m, 0]), ax])
-            b = a
-            for v in range(1, R.shape[1]):
-                x = np.float64(P[np.uint64(R[m, v]), ax])
-                a = a if (a < x) | (a != a) else x
-                b = b if (b > x) | (b != b) else x
-            out[m, ax] = a
-            out[m, d + ax] = b
-
-
 def point_box_rows(P: np.ndarray, R: np.ndarray) -> np.ndarray:
     """:func:`box_rows` of :func:`predicates.compiled.boxtest.boxes` (P, R) in one pass,
     no (d, n) columns between: the same fold, the same bits (the cutting levels whose
     columns nothing else reads; benchmarks/README.md, "W1's fused chain and validation,
     new angles (s24-w1)")."""
-    R = np.ascontiguousarray(R)
-    out = np.empty((len(R), 2 * P.shape[1]), dtype=np.float64)
-    if len(R):
-        _point_box_rows(np.ascontiguousarray(P), R, out)
+    R, d = np.ascontiguousarray(R), P.shape[1]
+    out = np.empty((len(R), 2 * d), dtype=np.float64)
+    if len(R):  # boxtest's fold itself, writing lo and hi through (d, n) views of the rows
+        _fill_boxes(np.ascontiguousarray(P), R, out[:, :d].T, out[:, d:].T)
     return out
 
 
