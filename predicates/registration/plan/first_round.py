@@ -98,8 +98,6 @@ def fixed_grid(lo_b, hi_b, n_sim: int, pad: float, blocks: Blocks) -> FixedGrid:
     margin = max(h0 * MARGIN, float(pad))
     # compiled: the enlarged boxes' ranges in one pass, no enlarged boxes in memory
     fused = blocks.accelerate and lo_b.ndim == 2 and lo_b.dtype == hi_b.dtype == np.float64
-    if not fused:
-        lo_bx, hi_bx = enlarge(lo_b, hi_b, margin, blocks.accelerate)
     # the enlarged boxes' hull is the hull enlarged: enlarge is non-decreasing in each
     # value (x ∓ pad rounded, then nextafter), so it commutes with min and max — the
     # same values without a pass over the enlarged boxes
@@ -122,6 +120,7 @@ def fixed_grid(lo_b, hi_b, n_sim: int, pad: float, blocks: Blocks) -> FixedGrid:
         enlarged_ranges(lo_b, hi_b, margin, np.asarray(origin, dtype=np.float64), float(h),
                         np.asarray(G, dtype=np.int64), ib0, ib1)
     else:
+        lo_bx, hi_bx = enlarge(lo_b, hi_b, margin, blocks.accelerate)
         ib0, ib1 = (cell_index(x, origin, h, G, blocks) for x in (lo_bx, hi_bx))
     table = _occupied(ib0, ib1, G, blocks)
     return FixedGrid(lo_b, hi_b, n_sim, h, margin, origin, G, ib0, ib1, table, _h0=h0)
