@@ -26,6 +26,7 @@ import math
 import numpy as np
 
 from predicates.portable import cos_sin, unit_rows
+from predicates.registration.levels.complex import unique_rows
 
 __all__ = ["EXAMPLES", "circle_polygon", "cube_grid", "diagonal_cut", "example",
            "grid_coordinates", "grid_plane", "icosphere", "square_grid", "zigzag_cut"]
@@ -184,7 +185,7 @@ def icosphere(subdivisions: int = 2, center=(0.5, 0.5, 0.5), radius: float = 0.3
     for _ in range(s):
         e = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
         e.sort(axis=1)
-        ue, inv = np.unique(e, axis=0, return_inverse=True)
+        ue, inv = unique_rows(e, len(v))  # np.unique(e, axis=0, ...)'s rows and map
         mid = v[ue[:, 0]] + v[ue[:, 1]]
         mid = unit_rows(mid)
         m = len(v) + inv.reshape(3, -1)  # midpoints of edges 01, 12, 20 per face

@@ -17,42 +17,49 @@ import numpy as np
 __all__ = ["recut"]
 
 
-def _prims(cm2, cs2, n_prev: int) -> list:
-    """The earlier mesh's vertex ids under every point of the new mesh (its registered
-    simulation primitive; an earlier point is its own)."""
-    out = []
-    for p, (k, h) in enumerate(zip(cm2.point_kind.tolist(), cm2.point_hit.tolist())):
-        if k == 0:
-            out.append(frozenset((p,)))
-        elif k == 1:
-            out.append(frozenset(i for i in cs2.sim[h].tolist() if i >= 0))
-        else:
-            out.append(frozenset((-1 - p,)))  # an interior point: in no earlier face
-    return out
+def _prim_rows(cm2, cs2) -> np.ndarray:
+    """(P, w) per point of the new mesh: the earlier mesh's vertex ids under it (its
+    registered simulation primitive; an earlier point is its own), padded with −1; −2
+    throughout for an interior point (in no earlier face)."""
+    kind, hit = cm2.point_kind, cm2.point_hit
+    sim = np.asarray(cs2.sim, dtype=np.int64).reshape(len(cs2.sim), -1)
+    w = max(sim.shape[1], 1)
+    U = np.full((len(kind), w), -1, dtype=np.int64)
+    at = np.flatnonzero(kind == 0)
+    U[at, 0] = at
+    at = np.flatnonzero(kind == 1)
+    U[at] = np.maximum(sim[hit[at]], -1)
+    U[kind == 2] = -2
+    return U
 
 
 def _earlier_faces(cm2, cs2, prev) -> tuple:
     """The faces of the new simplices inside an earlier cut face, oriented like it, and
-    the earlier cut face each lies in."""
-    from predicates.registration.split.conform_parts import _oriented_faces
+    the earlier cut face each lies in: a face whose points' earlier ids together are
+    exactly the d ids of an earlier cut face (the last one listed with them), each
+    face once, in the order of the new simplices' faces."""
+    from predicates.registration.split.conform_parts import _oriented_faces, row_ids
 
     d = cm2.dim
-    old = {tuple(sorted(f)): i for i, f in enumerate(prev.cut_faces.tolist())}
-    prim = _prims(cm2, cs2, len(prev.points))
     F = _oriented_faces(cm2.cells).reshape(-1, d)
-    seen, faces, where = set(), [], []
-    for f in F.tolist():
-        key = tuple(sorted(f))
-        if key in seen:
-            continue
-        u = frozenset().union(*(prim[p] for p in f))
-        j = old.get(tuple(sorted(u))) if len(u) == d else None
-        if j is None:
-            continue
-        seen.add(key)
-        faces.append(_like(f, prev.cut_faces[j], cm2.points, prev.points))
-        where.append(j)
-    return faces, where
+    G = np.sort(np.asarray(prev.cut_faces, dtype=np.int64).reshape(-1, d), axis=1)
+    if len(F) == 0 or len(G) == 0:
+        return [], []
+    V = np.sort(_prim_rows(cm2, cs2)[F].reshape(len(F), -1), axis=1)
+    new = V >= 0  # the distinct earlier ids of each face's points, ascending
+    new[:, 1:] &= V[:, 1:] != V[:, :-1]
+    cand = np.flatnonzero((new.sum(axis=1) == d) & (V[:, 0] != -2))
+    Q = V[cand][new[cand]].reshape(-1, d)
+    inv = row_ids(np.concatenate([G, Q]))
+    last = np.full(int(inv.max()) + 1, -1, dtype=np.int64)
+    np.maximum.at(last, inv[:len(G)], np.arange(len(G)))
+    j = last[inv[len(G):]]
+    cand, j = cand[j >= 0], j[j >= 0]
+    _, first = np.unique(row_ids(np.sort(F[cand], axis=1)), return_index=True)
+    first.sort()
+    faces = [_like(f, prev.cut_faces[g], cm2.points, prev.points)
+             for f, g in zip(F[cand[first]].tolist(), j[first].tolist())]
+    return faces, j[first].tolist()
 
 
 def _like(f, g, X, Xp):
