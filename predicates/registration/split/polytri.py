@@ -22,9 +22,7 @@ two fragments sharing a cut polygon) get the same triangles.
 """
 from __future__ import annotations
 
-from fractions import Fraction
-
-__all__ = ["NoEar", "det_sign", "triangulate"]
+__all__ = ["NoEar", "det_sign", "dyadic_integers", "triangulate"]
 
 #: |fl(det) − det| ≤ 5u·(1 + u)² · perm for the expansion below (u = 2⁻⁵³: two products
 #: and a difference per minor, a product and a sum of three): 2⁻⁵⁰·perm is a safe filter
@@ -38,8 +36,8 @@ class NoEar(Exception):
 
 def det_sign(a, b, c) -> int:
     """The exact sign of det[a; b; c] for rows of three floats (homogeneous weights):
-    floating point when |det| exceeds the error bound of its expansion, else in
-    ``Fraction``."""
+    floating point when |det| exceeds the error bound of its expansion, else in exact
+    integers (:func:`dyadic_integers`)."""
     m0 = b[1] * c[2] - b[2] * c[1]
     m1 = b[0] * c[2] - b[2] * c[0]
     m2 = b[0] * c[1] - b[1] * c[0]
@@ -49,10 +47,20 @@ def det_sign(a, b, c) -> int:
             + abs(a[2]) * (abs(b[0] * c[1]) + abs(b[1] * c[0])))
     if abs(d) > _FILTER * perm:
         return 1 if d > 0 else -1
-    A, B, C = ([Fraction(x) for x in r] for r in (a, b, c))
+    A, B, C = (dyadic_integers(r) for r in (a, b, c))
     e = (A[0] * (B[1] * C[2] - B[2] * C[1]) - A[1] * (B[0] * C[2] - B[2] * C[0])
          + A[2] * (B[0] * C[1] - B[1] * C[0]))
     return (e > 0) - (e < 0)
+
+
+def dyadic_integers(values) -> list:
+    """Floats as integers: all of them times the one power of two that clears every
+    denominator (``as_integer_ratio``'s are powers of two). A positive factor per row of
+    a determinant keeps its sign, and Python integers skip Fraction's gcd per operation
+    (~10x faster; collinear points, whose determinant is exactly 0, always come here)."""
+    ratios = [float(x).as_integer_ratio() for x in values]
+    den = max(q for _, q in ratios)
+    return [p * (den // q) for p, q in ratios]
 
 
 def _inside(p, a, b, c) -> bool:

@@ -14,7 +14,8 @@ tetrahedron again with ``predicates.classic``'s filtered orient3d
 
 Signs here come from a float determinant with a static error bound far above its rounding
 error (Shewchuk's orient3d bound is 7.8e-16 × the permanent; 1e-14 is used), and from
-``Fraction`` arithmetic below it: exact, and cheap on the few dozen points of a region.
+exact integer arithmetic below it (the coordinates scaled by one power of two): exact,
+and cheap on the few dozen points of a region.
 
 :func:`folded_triangle` names why a region cannot be filled at all: a boundary triangle
 with no point of the region strictly on its inner side and the boundary winding 0 on both
@@ -25,7 +26,6 @@ and no set of positive tetrahedra has such a boundary, whatever points are added
 from __future__ import annotations
 
 from collections import Counter
-from fractions import Fraction
 
 import numpy as np
 
@@ -39,7 +39,7 @@ _BOUND = 1e-14
 
 def orient_signs(P: np.ndarray) -> np.ndarray:
     """(k,) exact signs of ((B − A) × (C − A))·(D − A) for tetrahedra P (k, 4, 3): float
-    with a static filter, ``Fraction`` where the filter cannot decide."""
+    with a static filter, exact integers where the filter cannot decide."""
     v, perm = _filtered(P)
     out = np.sign(v).astype(np.int64)
     for k in np.flatnonzero(np.abs(v) <= _BOUND * perm).tolist():
@@ -48,7 +48,7 @@ def orient_signs(P: np.ndarray) -> np.ndarray:
 
 
 def _all_positive(P: np.ndarray) -> bool:
-    """Every exact sign of :func:`orient_signs` positive; the exact ``Fraction`` signs
+    """Every exact sign of :func:`orient_signs` positive; the exact signs
     are computed only when the filter finds no certainly negative or flat one (a boundary
     point in the plane of many boundary triangles: most of a fan's candidates)."""
     v, perm = _filtered(P)
@@ -59,8 +59,13 @@ def _all_positive(P: np.ndarray) -> bool:
 
 
 def _exact_sign(T: np.ndarray) -> int:
-    """The exact orientation sign of one tetrahedron (4, 3), in ``Fraction``."""
-    Q = [[Fraction(float(x)) for x in p] for p in T]
+    """The exact orientation sign of one tetrahedron (4, 3): its coordinates as integers
+    scaled by one power of two (:func:`~.polytri.dyadic_integers`), which keeps the
+    sign."""
+    from predicates.registration.split.polytri import dyadic_integers
+
+    z = dyadic_integers(np.asarray(T, dtype=np.float64).ravel().tolist())
+    Q = [z[0:3], z[3:6], z[6:9], z[9:12]]
     e = [[a - b for a, b in zip(p, Q[0])] for p in Q[1:]]
     det = (e[0][0] * (e[1][1] * e[2][2] - e[1][2] * e[2][1])
            - e[0][1] * (e[1][0] * e[2][2] - e[1][2] * e[2][0])
