@@ -22,9 +22,10 @@ def _prim_rows(cm2, cs2) -> np.ndarray:
     registered simulation primitive; an earlier point is its own), padded with −1; −2
     throughout for an interior point (in no earlier face)."""
     kind, hit = cm2.point_kind, cm2.point_hit
-    sim = np.asarray(cs2.sim, dtype=np.int64).reshape(len(cs2.sim), -1)
-    w = max(sim.shape[1], 1)
-    U = np.full((len(kind), w), -1, dtype=np.int64)
+    sim = np.asarray(cs2.sim, dtype=np.int64)
+    if sim.ndim != 2:  # (no registered point: an empty list)
+        sim = sim.reshape(-1, cm2.dim + 1)
+    U = np.full((len(kind), sim.shape[1]), -1, dtype=np.int64)
     at = np.flatnonzero(kind == 0)
     U[at, 0] = at
     at = np.flatnonzero(kind == 1)
