@@ -1,7 +1,8 @@
 """The cut's exact signs and row ids against independent references: ``polytri.det_sign``
 and ``search._exact_sign`` (floats as power-of-two-scaled integers) against ``Fraction``
 determinants, on near-degenerate and exactly degenerate inputs spanning many binades;
-``conform_parts.row_ids`` against ``np.unique(axis=0)``'s inverse map."""
+``levels.complex.row_ids`` and ``single_rows`` against ``np.unique(axis=0)``'s inverse map
+and counts."""
 from __future__ import annotations
 
 from fractions import Fraction
@@ -10,7 +11,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from predicates.registration.split.conform_parts import row_ids
+from predicates.registration.levels.complex import row_ids, single_rows
 from predicates.registration.split.polytri import det_sign, dyadic_integers
 from predicates.registration.split.search import _exact_sign
 
@@ -97,4 +98,7 @@ def test_row_ids_is_numpys_unique_inverse():
         rows = rng.integers(0, n, size=(m, w))
         want = np.unique(rows, axis=0, return_inverse=True)[1].ravel()
         assert np.array_equal(row_ids(rows), want)
+        cnt = np.unique(rows, axis=0, return_inverse=True, return_counts=True)[2]
+        assert np.array_equal(single_rows(rows), cnt[want] == 1)
     assert row_ids(np.zeros((0, 3), dtype=np.int64)).shape == (0,)
+    assert single_rows(np.zeros((0, 3), dtype=np.int64)).shape == (0,)

@@ -13,6 +13,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from predicates.registration.levels.complex import single_rows
+
 __all__ = ["Converted", "as_meshio", "common_plane", "convert_cut", "convert_pair", "plane_of",
            "convert_sim", "select_region"]
 
@@ -187,9 +189,7 @@ def plane_of(points, role: str):
 def _boundary(tets: np.ndarray) -> np.ndarray:
     """The triangles that belong to exactly one tetrahedron."""
     faces = tets[:, [[0, 1, 2], [0, 1, 3], [0, 2, 3], [1, 2, 3]]].reshape(-1, 3)
-    key = np.sort(faces, axis=1)
-    u, inv, cnt = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-    return faces[cnt[inv.ravel()] == 1]
+    return faces[single_rows(np.sort(faces, axis=1))]
 
 
 def _sim(mesh, role: str, notes: list):

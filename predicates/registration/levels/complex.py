@@ -14,7 +14,7 @@ from math import comb
 import numpy as np
 
 __all__ = ["Complex", "Side", "any_flagged", "distinct_lex_order", "lex_order", "packed_keys",
-           "sorted_rows", "unique_rows"]
+           "row_ids", "single_rows", "sorted_rows", "unique_rows"]
 
 
 def any_flagged(flags: np.ndarray, rows: np.ndarray) -> np.ndarray:
@@ -107,6 +107,23 @@ def unique_rows(rows: np.ndarray, n: int, accelerate: bool = False, inverse: boo
 
         return compiled_unique(rows, n, inverse)
     return _unique_keys(packed_keys(rows, n), rows)
+
+
+def row_ids(rows: np.ndarray) -> np.ndarray:
+    """``np.unique(rows, axis=0, return_inverse=True)[1]`` for rows of non-negative ids:
+    each row's rank among the distinct rows in lexicographic order, by packed int64 keys
+    (:func:`unique_rows`; np.unique's structured view of the rows sorts ~10x slower)."""
+    rows = np.asarray(rows, dtype=np.int64)
+    if len(rows) == 0:
+        return np.zeros(0, dtype=np.int64)
+    return unique_rows(rows, int(rows.max()) + 1)[1]
+
+
+def single_rows(rows: np.ndarray) -> np.ndarray:
+    """(n,) bool: the rows of non-negative ids that occur exactly once (np.unique's
+    counts of 1: a mesh's boundary faces among all its cells' faces, sorted)."""
+    ids = row_ids(rows)
+    return np.bincount(ids)[ids] == 1 if len(ids) else np.zeros(0, dtype=bool)
 
 
 def _unique_faces(rows: np.ndarray, combos: list, n: int, accelerate: bool):

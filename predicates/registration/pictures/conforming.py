@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from predicates.portable import unit_rows
+from predicates.registration.levels.complex import single_rows
 from predicates.registration.split.plot import PIECE_COLOURS, _figure
 
 __all__ = ["crack_faces", "crack_sides", "draw_conforming", "plot_conforming",
@@ -62,9 +63,7 @@ def _hiding(cm, off: np.ndarray) -> np.ndarray:
 def _piece_boundary(cells: np.ndarray):
     faces = np.concatenate([cells[:, [1, 2, 3]], cells[:, [0, 3, 2]], cells[:, [0, 1, 3]],
                             cells[:, [0, 2, 1]]])
-    _, inv, cnt = np.unique(np.sort(faces, axis=1), axis=0, return_inverse=True,
-                            return_counts=True)
-    return faces[cnt[inv.ravel()] == 1]
+    return faces[single_rows(np.sort(faces, axis=1))]
 
 
 def draw_conforming(ax, cm, explode: float = 0.3, clip=None, light=(-0.4, -0.8, 0.6),

@@ -12,6 +12,8 @@ import os
 
 import numpy as np
 
+from predicates.registration.levels.complex import single_rows
+
 __all__ = ["COLOURS", "MARKERS", "plot_2d", "plot_3d_cells", "plot_robust_naive"]
 
 #: one colour per kind (matplotlib tab10), by registration order in 2D and 3D
@@ -134,9 +136,7 @@ def plot_3d_cells(res, path: str | os.PathLike, title: str = "", max_cells: int 
     cut_x = centre[keep].max() if len(keep) else 0.0
     cells = cells[keep]
     tri = cells[:, [[0, 1, 2], [0, 1, 3], [0, 2, 3], [1, 2, 3]]].reshape(-1, 3)
-    _, inv, cnt = np.unique(np.sort(tri, axis=1), axis=0, return_inverse=True,
-                            return_counts=True)
-    faces = P[tri[cnt[inv.ravel()] == 1]]  # the outer faces of the shown cells
+    faces = P[tri[single_rows(np.sort(tri, axis=1))]]  # the outer faces of the shown cells
     colours = np.zeros((0, 4))
     if len(faces):
         z = faces[:, :, 2].mean(axis=1)

@@ -6,23 +6,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from predicates.registration.levels.complex import row_ids
 from predicates.registration.split.tetra_faces import OUTWARD, positive
 
-__all__ = ["assemble", "face_table", "row_ids"]
-
-
-def row_ids(rows: np.ndarray) -> np.ndarray:
-    """``np.unique(rows, axis=0, return_inverse=True)[1]`` for rows of non-negative ids:
-    each row's rank among the distinct rows in lexicographic order, by packed int64 keys
-    (:func:`~predicates.registration.levels.complex.unique_rows`; np.unique's structured
-    view of the rows sorts ~10x slower: the conforming tetrahedralization's face
-    tables)."""
-    from predicates.registration.levels.complex import unique_rows
-
-    rows = np.asarray(rows, dtype=np.int64)
-    if len(rows) == 0:
-        return np.zeros(0, dtype=np.int64)
-    return unique_rows(rows, int(rows.max()) + 1)[1]
+__all__ = ["assemble", "face_table"]
 
 
 def _oriented_faces(S: np.ndarray) -> np.ndarray:

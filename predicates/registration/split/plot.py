@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from predicates.registration.levels.complex import single_rows
+
 __all__ = ["draw_pieces", "plot_split", "surface_pieces"]
 
 #: face colours of the pieces (cycled)
@@ -36,9 +38,7 @@ def _boundary_faces(cells: np.ndarray, frag: np.ndarray):
     """Faces (triangles, by node ids) of a set of tetrahedra that belong to one only,
     and whether that tetrahedron is a fragment of a cut cell."""
     faces = np.concatenate([np.delete(cells, k, axis=1) for k in range(4)])
-    key = np.sort(faces, axis=1)
-    _, inv, cnt = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-    once = cnt[inv.ravel()] == 1
+    once = single_rows(np.sort(faces, axis=1))
     return faces[once], np.tile(frag, 4)[once]
 
 

@@ -39,7 +39,8 @@ def _earlier_faces(cm2, cs2, prev) -> tuple:
     the earlier cut face each lies in: a face whose points' earlier ids together are
     exactly the d ids of an earlier cut face (the last one listed with them), each
     face once, in the order of the new simplices' faces."""
-    from predicates.registration.split.conform_parts import _oriented_faces, row_ids
+    from predicates.registration.levels.complex import row_ids
+    from predicates.registration.split.conform_parts import _oriented_faces
 
     d = cm2.dim
     F = _oriented_faces(cm2.cells).reshape(-1, d)
