@@ -76,12 +76,17 @@ def _compiled_floor():
     return run
 
 
+def floor_inputs() -> tuple[np.ndarray, np.ndarray]:
+    """The floors' 2^20 random triangles T (3, 3, n) and edges E (2, 3, n), seed 0."""
+    rng = np.random.default_rng(0)
+    return (rng.uniform(-0.5, 0.5, size=(3, 3, N_FLOOR)),
+            rng.uniform(-0.5, 0.5, size=(2, 3, N_FLOOR)))
+
+
 def floors(repeat: int = 5) -> dict:
     """Process CPU seconds (best of ``repeat``) of the naive test over 2^20 pairs:
     numpy whole-array, numpy in 32k-lane blocks, numba one thread; and their hits."""
-    rng = np.random.default_rng(0)
-    T = rng.uniform(-0.5, 0.5, size=(3, 3, N_FLOOR))
-    E = rng.uniform(-0.5, 0.5, size=(2, 3, N_FLOOR))
+    T, E = floor_inputs()
     run = _compiled_floor()
     out = np.empty(N_FLOOR, dtype=bool)
     run(T[:, :, :8], E[:, :, :8], out[:8])  # compile

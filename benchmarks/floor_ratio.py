@@ -12,9 +12,9 @@ of ``--calls``), so that both see the same load; the machine is shared, and a fl
 minutes apart from the run it divides moves the ratio by ±30 % (benchmarks/README.md,
 "after the s20 passes"). Prints each round's figures and the ratios' median and range.
 
-``--paired N``: after the rounds (``--rounds 0``: none), N pairs timed call by call — the floor (best of two
-calls) right before one W1 call, each pair's ratio taken — so that both see the same
-seconds of the machine: W1 here runs in a fast and a slow state lasting seconds
+``--paired N``: after the rounds (``--rounds 0``: none), N pairs timed call by call —
+the floor (best of two calls) right before one W1 call, each pair's ratio taken — so
+that both see the same seconds of the machine: W1 here runs in a fast and a slow state lasting seconds
 (benchmarks/README.md, "after the s24 passes"), which rounds of four calls each can
 straddle. Prints the pairs' ratio median, quartiles and the share ≤ 10×.
 """
@@ -59,11 +59,9 @@ def _cpu(f, calls: int) -> list[float]:
 def _paired(call, pairs: int) -> None:
     """``--paired``: the floor (its inputs built once, best of two calls) and one W1 call,
     alternating; the ratio of each pair."""
-    from accelerate_bench import N_FLOOR, _compiled_floor
+    from accelerate_bench import N_FLOOR, _compiled_floor, floor_inputs
 
-    rng = np.random.default_rng(0)  # accelerate_bench.floors' inputs
-    T = rng.uniform(-0.5, 0.5, size=(3, 3, N_FLOOR))
-    E = rng.uniform(-0.5, 0.5, size=(2, 3, N_FLOOR))
+    T, E = floor_inputs()
     run, out = _compiled_floor(), np.empty(N_FLOOR, dtype=bool)
     run(T, E, out)  # compiled and warm
     floor, w1 = [], []
